@@ -1,0 +1,125 @@
+"""Modal analysis and the modal assurance criterion (MAC)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg
+
+__all__ = ["Modes", "modal_analysis", "mac", "pair_modes"]
+
+
+@dataclass(frozen=True)
+class Modes:
+    """Undamped normal modes.
+
+    Attributes
+    ----------
+    frequencies_hz : ndarray, shape (m,) [Hz]
+        Natural frequencies in ascending order (0 for rigid-body/mechanism modes).
+    shapes : ndarray, shape (n, m) [-]
+        Mass-normalised mode shapes as columns (phi^T M phi = I).
+    """
+
+    frequencies_hz: np.ndarray
+    shapes: np.ndarray
+
+    @property
+    def omega(self) -> np.ndarray:
+        """Angular frequencies [rad/s], shape (m,)."""
+        return 2 * np.pi * self.frequencies_hz
+
+
+def modal_analysis(M, K, *, n_modes: int | None = None, sparse: bool | None = None) -> Modes:
+    """Natural frequencies and mass-normalised mode shapes of (K, M).
+
+    Parameters
+    ----------
+    M, K : ndarray or scipy.sparse matrix, shape (n, n)
+    n_modes : int, optional
+        Number of lowest modes (all if None).
+    sparse : bool, optional
+        Use the shift-invert Lanczos solver (default: when M, K are sparse and n_modes is small).
+    """
+    import scipy.sparse as sp
+
+    n = M.shape[0]
+    if n_modes is not None and not (1 <= n_modes <= n):
+        raise ValueError(f"`n_modes` must be in [1, {n}], got {n_modes!r}")
+    if sparse is None:
+        sparse = sp.issparse(K) and n_modes is not None and n_modes < n // 4
+    if sparse:
+        import scipy.sparse.linalg as spla
+
+        # shift slightly below zero so a mechanism (singular K) does not break the factorisation
+        Ks, Ms = sp.csc_matrix(K), sp.csc_matrix(M)
+        scale = abs(Ks.diagonal()).max() / abs(Ms.diagonal()).max()
+        lam, phi = spla.eigsh(Ks, k=n_modes, M=Ms, sigma=-1e-6 * scale, which="LM")
+        order = np.argsort(lam)
+        lam, phi = lam[order], phi[:, order]
+        # mass-normalise (eigsh returns M-orthonormal vectors, but be explicit)
+        phi = phi / np.sqrt(np.einsum("im,im->m", phi, Ms @ phi))
+    else:
+        Md = M.toarray() if sp.issparse(M) else np.asarray(M, float)
+        Kd = K.toarray() if sp.issparse(K) else np.asarray(K, float)
+        sub = None if n_modes is None else (0, n_modes - 1)
+        lam, phi = scipy.linalg.eigh(Kd, Md, subset_by_index=sub)
+    # sign convention: largest-magnitude component positive, so shapes compare across models
+    idx = np.argmax(np.abs(phi), axis=0)
+    phi = phi * np.sign(phi[idx, np.arange(phi.shape[1])])
+    f = np.sqrt(np.clip(lam, 0.0, None)) / (2 * np.pi)
+    return Modes(frequencies_hz=f, shapes=phi)
+
+
+def mac(phi_a, phi_b) -> np.ndarray:
+    """Modal assurance criterion between two mode sets.
+
+    MAC_ij = |phi_a,i^H phi_b,j|^2 / ((phi_a,i^H phi_a,i)(phi_b,j^H phi_b,j))
+
+    Parameters
+    ----------
+    phi_a : ndarray, shape (n, ma)
+    phi_b : ndarray, shape (n, mb)
+        Same DOFs (rows) in the same order.
+
+    Returns
+    -------
+    ndarray, shape (ma, mb), values in [0, 1]
+    """
+    a = np.asarray(phi_a)
+    b = np.asarray(phi_b)
+    if a.ndim == 1:
+        a = a[:, None]
+    if b.ndim == 1:
+        b = b[:, None]
+    if a.shape[0] != b.shape[0]:
+        raise ValueError(
+            f"mode sets must share their DOFs (rows), got {a.shape[0]} and {b.shape[0]} rows"
+        )
+    num = np.abs(a.conj().T @ b) ** 2
+    den = np.outer(np.sum(np.abs(a) ** 2, axis=0), np.sum(np.abs(b) ** 2, axis=0))
+    return num / den
+
+
+def pair_modes(phi_ref, phi, *, min_mac: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """Pair each reference mode with the model mode of highest MAC (one-to-one, greedy).
+
+    Returns
+    -------
+    index : ndarray, shape (m_ref,) of int
+        Model mode paired with each reference mode (-1 if none reaches ``min_mac``).
+    mac_value : ndarray, shape (m_ref,)
+    """
+    m = mac(phi_ref, phi)
+    index = np.full(m.shape[0], -1)
+    value = np.zeros(m.shape[0])
+    work = m.copy()
+    for _ in range(min(m.shape)):
+        i, j = np.unravel_index(np.argmax(work), work.shape)
+        if work[i, j] < min_mac or work[i, j] < 0:
+            break
+        index[i], value[i] = j, m[i, j]
+        work[i, :] = -1
+        work[:, j] = -1
+    return index, value
