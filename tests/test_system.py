@@ -145,3 +145,24 @@ def test_damping_helpers_give_requested_ratios():
     np.testing.assert_allclose(zeta_m, np.diag([0.01, 0.05]), atol=1e-12)
     with pytest.raises(ValueError, match="f1 < f2"):
         rayleigh_damping(s.M, K, f1=10.0, f2=5.0, zeta=0.02)
+
+
+def test_open_hinge_mechanism_is_allowed_but_indefinite_k_is_not():
+    # outboard DOF held only by the freeplay spring: K is singular, which is legal
+    s = FreeplaySystem(
+        M=np.eye(2), K=[[1.0, 0.0], [0.0, 0.0]], dof_names=("a", "b"), hinge_pairs=(("b", "a"),)
+    )
+    assert modal_analysis(s.M, s.K).frequencies_hz[0] == pytest.approx(0.0, abs=1e-9)
+    assert modal_analysis(s.M, s.closed_stiffness(1.0)).frequencies_hz[0] > 0
+    with pytest.raises(ValueError, match="positive semidefinite"):
+        FreeplaySystem(M=np.eye(2), K=-np.eye(2), dof_names=("a", "b"), hinge_pairs=())
+
+
+def test_replace_and_unknown_dof():
+    s = _system()
+    t = s.replace(C=None)
+    assert t.C is None and s.C is not None
+    with pytest.raises(TypeError, match="unknown FreeplaySystem fields"):
+        s.replace(mass=1)
+    with pytest.raises(KeyError, match="unknown DOF 'zz'"):
+        s.dof_index("zz")

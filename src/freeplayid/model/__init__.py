@@ -6,6 +6,7 @@ from .freeplay import describing_function, freeplay_force, gap_ratio, kappa_of_r
 from .modal import Modes, mac, modal_analysis, pair_modes
 from .small import sdof_system, two_dof_system
 from .system import FreeplaySystem, SystemFileError, load_system, save_system
+from .update import UpdateResult, mode_table, update_model
 
 __all__ = [
     "FreeplaySystem",
@@ -25,4 +26,7 @@ __all__ = [
     "pair_modes",
     "sdof_system",
     "two_dof_system",
+    "UpdateResult",
+    "update_model",
+    "mode_table",
 ]

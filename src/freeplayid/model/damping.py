@@ -31,7 +31,9 @@ def rayleigh_coefficients(f1: float, f2: float, zeta: float) -> tuple[float, flo
     return 2 * zeta * w1 * w2 / (w1 + w2), 2 * zeta / (w1 + w2)
 
 
-def rayleigh_damping(M: np.ndarray, K: np.ndarray, *, f1: float, f2: float, zeta: float) -> np.ndarray:
+def rayleigh_damping(
+    M: np.ndarray, K: np.ndarray, *, f1: float, f2: float, zeta: float
+) -> np.ndarray:
     """Rayleigh damping C = a M + b K with ratio ``zeta`` at f1 and f2 [Hz]; shape (n, n)."""
     a, b = rayleigh_coefficients(f1, f2, zeta)
     return a * np.asarray(M, float) + b * np.asarray(K, float)

@@ -13,7 +13,9 @@ from .system import FreeplaySystem
 __all__ = ["sdof_system", "two_dof_system"]
 
 
-def sdof_system(*, mass: float = 1.0, stiffness: float = 0.0, damping: float = 0.0) -> FreeplaySystem:
+def sdof_system(
+    *, mass: float = 1.0, stiffness: float = 0.0, damping: float = 0.0
+) -> FreeplaySystem:
     """Single-DOF freeplay oscillator on a moving base.
 
     ``m y'' + c y' + k y + f(y) = -m a_g`` with the freeplay spring f from the mass to the base
@@ -49,7 +51,7 @@ def two_dof_system(
     k_in: float = 4.0e4,
     zeta: float = 0.02,
 ) -> FreeplaySystem:
-    """Two-DOF lumped folding fin: inboard mass on a root spring, outboard mass on the freeplay hinge.
+    """Two-DOF lumped folding fin: inboard mass on a root spring, outboard mass on the hinge.
 
     DOFs ``uz_in`` (inboard fin, spring ``k_in`` to the base) and ``uz_out`` (outboard fin); the
     freeplay spring acts on ``uz_out - uz_in``. Damping is stiffness-proportional on the root

@@ -97,7 +97,9 @@ class FreeplaySystem:
             ) from None
         kmin = float(np.linalg.eigvalsh(K)[0])
         if kmin < -1e-8 * max(float(np.max(np.abs(np.diag(K)))), 1.0):
-            raise ValueError(f"`K` must be positive semidefinite, smallest eigenvalue is {kmin:.3g}")
+            raise ValueError(
+                f"`K` must be positive semidefinite, smallest eigenvalue is {kmin:.3g}"
+            )
 
         index = {s: i for i, s in enumerate(names)}
         pairs_in = np.asarray(self.hinge_pairs, dtype=object)

@@ -1,0 +1,74 @@
+import numpy as np
+import pytest
+
+from freeplayid.model import modal_analysis
+from freeplayid.model.update import mode_table, update_model
+
+
+def _chain(params):
+    """Two-part spring-mass chain: part A (springs 0-3) and part B (springs 4-7).
+
+    ``E_a``/``E_b`` scale the springs of each part, ``rho_b`` the masses of part B.
+    """
+    n = 8
+    k = np.r_[np.full(4, params["E_a"]), np.full(4, params["E_b"])] * 1e4
+    m = np.r_[np.full(4, 1.0), np.full(4, params.get("rho_b", 1.0))]
+    K = np.zeros((n, n))
+    for i in range(n):  # spring i connects node i-1 (ground for i=0) to node i
+        K[i, i] += k[i]
+        if i > 0:
+            K[i - 1, i - 1] += k[i]
+            K[i - 1, i] -= k[i]
+            K[i, i - 1] -= k[i]
+    return np.diag(m), K
+
+
+def test_update_recovers_young_modulus_perturbation():
+    truth = {"E_a": 1.05, "E_b": 0.97}
+    M, K = _chain(truth)
+    ref = modal_analysis(M, K, n_modes=5)
+    res = update_model(_chain, {"E_a": 1.0, "E_b": 1.0}, ref.frequencies_hz)
+    assert res.success
+    for key, val in truth.items():
+        assert res.parameters[key] == pytest.approx(val, rel=5e-3)
+    assert np.max(np.abs(res.relative_error)) < 1e-8
+    assert "measured [Hz]" in mode_table(res)
+
+
+def test_update_pairs_by_mac_when_shapes_given():
+    truth = {"E_a": 1.0, "E_b": 1.05}
+    M, K = _chain(truth)
+    ref = modal_analysis(M, K, n_modes=4)
+    dofs = [1, 3, 5, 7]
+    # give the measured modes out of order: MAC pairing must sort them out
+    order = [2, 0, 3, 1]
+    res = update_model(
+        _chain,
+        {"E_a": 1.0, "E_b": 1.0},
+        ref.frequencies_hz[order],
+        measured_shapes=ref.shapes[dofs][:, order],
+        shape_dofs=dofs,
+    )
+    np.testing.assert_array_equal(res.pairing, order)
+    assert np.all(res.mac > 0.999)
+    assert res.parameters["E_b"] == pytest.approx(1.05, rel=5e-3)
+
+
+def test_update_warns_when_parameters_are_not_separable():
+    def build(p):  # E and rho of one part enter only as their ratio
+        M, K = _chain({"E_a": p["E"], "E_b": p["E"]})
+        return M * p["rho"], K
+
+    M, K = build({"E": 1.0, "rho": 1.0})
+    f = modal_analysis(M, K, n_modes=4).frequencies_hz
+    with pytest.warns(UserWarning, match="not separately identifiable"):
+        update_model(build, {"E": 1.1, "rho": 1.0}, f)
+
+
+def test_update_input_errors():
+    with pytest.raises(ValueError, match="initial"):
+        update_model(_chain, {"E_a": -1.0}, [1.0])
+    with pytest.raises(ValueError, match="measured_hz"):
+        update_model(_chain, {"E_a": 1.0}, [])
+    with pytest.raises(ValueError, match="shape_dofs"):
+        update_model(_chain, {"E_a": 1.0}, [1.0], measured_shapes=np.ones((2, 1)))
