@@ -152,10 +152,14 @@ def craig_bampton(M, K, boundary, *, n_modes: int) -> Reduction:
             )
         else:
             op = spla.LinearOperator((ni, ni), matvec=lu.solve, dtype=float)
-            lam, Phi = spla.eigsh(Kii, k=n_modes, M=Mii, sigma=0.0, which="LM", OPinv=op)
+            v0 = np.ones(ni)  # deterministic start: same basis on every call
+            lam, Phi = spla.eigsh(Kii, k=n_modes, M=Mii, sigma=0.0, which="LM", OPinv=op, v0=v0)
             order = np.argsort(lam)
             lam, Phi = lam[order], Phi[:, order]
         Phi = Phi / np.sqrt(np.einsum("im,im->m", Phi, Mii @ Phi))
+        # sign convention: largest-magnitude component positive (reproducible reduced matrices)
+        big = np.argmax(np.abs(Phi), axis=0)
+        Phi = Phi * np.sign(Phi[big, np.arange(n_modes)])
         f_fi = np.sqrt(np.clip(lam, 0.0, None)) / (2 * np.pi)
     else:
         Phi = np.zeros((ni, 0))
