@@ -34,7 +34,8 @@ import scipy.sparse as sp
 
 from .damping import modal_damping, rayleigh_damping
 from .fin_config import HINGES, PARTS, FinConfig, load_fin_config
-from .plate import DOFS_PER_NODE, PlateMesh, assemble_plate, flexural_rigidity, rectangular_mesh
+from .hinge import knuckle_map
+from .plate import DOFS_PER_NODE, assemble_plate, flexural_rigidity, rectangular_mesh
 from .reduce import Reduction, craig_bampton, guyan
 from .system import FreeplaySystem
 
@@ -179,15 +180,6 @@ def _meshes(cfg: FinConfig) -> dict:
     }
 
 
-def _knuckle_nodes(mesh: PlateMesh, edge: str, x_k: float, width: float) -> np.ndarray:
-    nodes = mesh.edge_nodes(edge)
-    x = mesh.nodes[nodes, 0]
-    sel = nodes[np.abs(x - x_k) <= 0.5 * width + 1e-9 * mesh.dx]
-    if sel.size == 0:  # knuckle narrower than an element: the nearest node carries the hinge
-        sel = nodes[[np.argmin(np.abs(x - x_k))]]
-    return sel
-
-
 def build_fin_fe(config) -> FinFE:
     """Assemble the full plate FE model of the fin (base clamped, hinges open).
 
@@ -203,48 +195,11 @@ def build_fin_fe(config) -> FinFE:
     cfg = config if isinstance(config, FinConfig) else FinConfig.from_mapping(config)
     meshes = _meshes(cfg)
     offset = {"inboard": 0, "outboard": meshes["inboard"].n_dof}
-    n_plate = offset["outboard"] + meshes["outboard"].n_dof
 
-    # ---- constraint map: plate DOFs = Tc @ independent DOFs
-    slaved = {}  # plate node (global) -> (hinge k, side)
-    for k, x_k in enumerate(cfg.hinge_x):
-        for side, edge in (("in", "top"), ("out", "bottom")):
-            part = "inboard" if side == "in" else "outboard"
-            mesh = meshes[part]
-            for node in _knuckle_nodes(mesh, edge, x_k, cfg.knuckle_width):
-                slaved[offset[part] // DOFS_PER_NODE + int(node)] = (k, side)
-    n_nodes = n_plate // DOFS_PER_NODE
-    free_nodes = np.array([i for i in range(n_nodes) if i not in slaved])
-    n_own = free_nodes.size * DOFS_PER_NODE
-    # hinge DOFs after the plate DOFs: per hinge k: w_k, theta_y_k, theta_x_in_k, theta_x_out_k
-    hinge_dof = {
-        (k, name): n_own + 4 * k + j
-        for k in range(3)
-        for j, name in enumerate(("w", "ty", "tx_in", "tx_out"))
-    }
-    n_ind = n_own + 12
-    rows, cols, vals = [], [], []
-    own = (DOFS_PER_NODE * free_nodes[:, None] + np.arange(DOFS_PER_NODE)).ravel()
-    rows.append(own)
-    cols.append(np.arange(n_own))
-    vals.append(np.ones(n_own))
-    xy = np.vstack([meshes["inboard"].nodes, meshes["outboard"].nodes])
-    for node, (k, side) in slaved.items():
-        dx = xy[node, 0] - cfg.hinge_x[k]
-        r0 = DOFS_PER_NODE * node
-        entries = [
-            (r0, hinge_dof[k, "w"], 1.0),
-            (r0, hinge_dof[k, "ty"], -dx),
-            (r0 + 1, hinge_dof[k, "tx_" + side], 1.0),
-            (r0 + 2, hinge_dof[k, "ty"], 1.0),
-        ]
-        r, c, v = zip(*entries, strict=True)
-        rows.append(np.array(r))
-        cols.append(np.array(c))
-        vals.append(np.array(v))
-    Tc = sp.coo_matrix(
-        (np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(n_plate, n_ind)
-    ).tocsr()
+    # ---- constraint map: plate DOFs = Tc @ independent DOFs (knuckles, ties)
+    kmap = knuckle_map(meshes, hinge_x=cfg.hinge_x, knuckle_width=cfg.knuckle_width)
+    Tc, hinge_dof, slaved, free_nodes = kmap.T, kmap.hinge_dof, kmap.slaved, kmap.free_nodes
+    n_own, n_ind = kmap.n_own, Tc.shape[1]
 
     # ---- base (clamped root) and free partition of the independent DOFs
     root = meshes["inboard"].edge_nodes("bottom")
