@@ -110,14 +110,18 @@ def test_harmonic_response_matches_full_model(cfg):
         assert y_red[j] == pytest.approx(y_full[fe.dofs[name]], rel=5e-3), name
 
 
-def test_base_vector_option_makes_influence_nearly_rigid(cfg):
+def test_base_vector_option_makes_influence_rigid(cfg):
     fe = build_fin_fe(cfg)
     s = reduce_fin(fe, base_vector=True)
     assert s.dof_names[-1] == "q_base" and s.n_dof == 13
-    np.testing.assert_allclose(s.base_influence[:2], 1.0, atol=0.05)
-    # the load itself is unchanged by the choice of basis: M r = T^T p in both
+    np.testing.assert_allclose(s.base_influence[:6], [1, 1, 0, 0, 0, 0], atol=1e-9)
+    # modal participation factors of the base load agree with the exact-load 12-DOF model
     s12 = reduce_fin(fe)
-    np.testing.assert_allclose((s.M @ s.base_influence)[:6], (s12.M @ s12.influence)[:6], rtol=1e-9)
+    gam = []
+    for sys_ in (s, s12):
+        modes = modal_analysis(sys_.M, sys_.closed_stiffness(cfg.kn))
+        gam.append(modes.shapes[:, :3].T @ sys_.M @ sys_.base_influence)
+    np.testing.assert_allclose(np.abs(gam[0]), np.abs(gam[1]), rtol=2e-3)
 
 
 def test_with_parts_rescales_like_a_rebuild(cfg):
