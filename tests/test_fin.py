@@ -18,6 +18,7 @@ from freeplayid.model import (
     load_fin_config,
     load_system,
     modal_analysis,
+    part_matrices,
     reduce_fin,
     save_system,
 )
@@ -135,6 +136,28 @@ def test_with_parts_rescales_like_a_rebuild(cfg):
     assert abs(fast.K - slow.K).max() <= 1e-10 * abs(slow.K).max()
     assert abs(fast.M - slow.M).max() <= 1e-12 * abs(slow.M).max()
     np.testing.assert_allclose(fast.base_load, slow.base_load, rtol=1e-12, atol=1e-15)
+
+
+def test_part_matrices_free_free_plate_matches_leissa(cfg):
+    """Free-free square outboard plate, nu = 0.3: lambda = omega a^2 sqrt(rho h / D) of the first
+    elastic modes, Leissa, J. Sound Vib. 31(3) (1973) (also Code_Aster SDLS01, free plate)."""
+    from freeplayid.model.plate import flexural_rigidity
+
+    sq = cfg.replace(outboard_span=0.2, top_left=(0.0, 0.28)).with_part("outboard", nu=0.3)
+    M, K = part_matrices(sq, "outboard")
+    modes = modal_analysis(M, K, n_modes=6, sparse=True)
+    p = sq.parts["outboard"]
+    lam = (
+        modes.omega
+        * 0.2**2
+        * np.sqrt(p.rho * p.thickness / flexural_rigidity(p.E, p.thickness, 0.3))
+    )
+    assert np.all(lam[:3] < 1e-3)  # three rigid-body modes
+    np.testing.assert_allclose(lam[3:], [13.49, 19.79, 24.43], rtol=0.02)
+    Mc, Kc = part_matrices(cfg, "inboard", clamped=True)
+    assert Mc.shape[0] == 3 * 21 * 8  # 21 x 9 nodes, root row removed
+    with pytest.raises(ValueError, match="clamped"):
+        part_matrices(cfg, "outboard", clamped=True)
 
 
 @pytest.mark.parametrize(

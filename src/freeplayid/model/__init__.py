@@ -10,6 +10,7 @@ from .fin import (
     default_fin,
     fin_from_config,
     fin_reduction,
+    part_matrices,
     reduce_fin,
 )
 from .fin_config import (
@@ -49,6 +50,7 @@ __all__ = [
     "build_fin_fe",
     "reduce_fin",
     "fin_reduction",
+    "part_matrices",
     "FinFE",
     "FinConfig",
     "PartProperties",

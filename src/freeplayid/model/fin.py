@@ -46,6 +46,7 @@ __all__ = [
     "reduce_fin",
     "fin_from_config",
     "default_fin",
+    "part_matrices",
     "REDUCED_DOF_NAMES",
     "FIN_HINGE_PAIRS",
 ]
@@ -379,3 +380,37 @@ def fin_from_config(mapping) -> FreeplaySystem:
 def default_fin() -> FreeplaySystem:
     """The reduced default fin of ``conf/model/fin.yaml`` (12 DOFs, base fixed, damped)."""
     return reduce_fin(build_fin_fe(load_fin_config()))
+
+
+def part_matrices(config, part: str, *, clamped: bool = False):
+    """Stand-alone plate model of one part, for modal tests and per-part model updating.
+
+    The paper tests the inboard and outboard fins free-free, and the inboard fin clamped, before
+    assembly. This gives the same plate mesh as in the fin without knuckles, hinges or springs.
+
+    Parameters
+    ----------
+    config : FinConfig or mapping
+    part : {"inboard", "outboard"}
+    clamped : bool
+        Clamp the root edge y = 0 (inboard only); otherwise free-free (3 rigid-body modes).
+
+    Returns
+    -------
+    M, K : scipy.sparse.csr_matrix, shape (n, n)
+        Nodal DOFs (w, theta_x, theta_y) of ``_meshes(cfg)[part]``, root DOFs removed if clamped.
+    """
+    cfg = config if isinstance(config, FinConfig) else FinConfig.from_mapping(config)
+    if part not in PARTS:
+        raise ValueError(f"`part` must be one of {list(PARTS)}, got {part!r}")
+    if clamped and part != "inboard":
+        raise ValueError("`clamped=True` is only defined for the inboard part (its root edge)")
+    mesh = _meshes(cfg)[part]
+    p = cfg.parts[part]
+    K, M = assemble_plate(mesh, E=p.E, nu=p.nu, rho=p.rho, thickness=p.thickness)
+    if clamped:
+        root = mesh.edge_nodes("bottom")
+        fixed = (DOFS_PER_NODE * root[:, None] + np.arange(DOFS_PER_NODE)).ravel()
+        keep = np.setdiff1d(np.arange(mesh.n_dof), fixed)
+        M, K = M[keep][:, keep], K[keep][:, keep]
+    return M.tocsr(), K.tocsr()
