@@ -27,13 +27,14 @@ rescales; changing nu rebuilds.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
 
 from .damping import modal_damping, rayleigh_damping
-from .fin_config import HINGES, PARTS, FinConfig, load_fin_config
+from .fin_config import HINGES, PARTS, FinConfig, PartProperties, load_fin_config
 from .hinge import knuckle_map
 from .plate import DOFS_PER_NODE, assemble_plate, flexural_rigidity, rectangular_mesh
 from .reduce import Reduction, craig_bampton, guyan
@@ -111,6 +112,8 @@ class FinFE:
         """
         cfg = self.config
         for part, props in parts.items():
+            if isinstance(props, PartProperties):
+                props = dataclasses.asdict(props)
             cfg = cfg.with_part(part, **dict(props))
         if any(cfg.parts[p].nu != self.config.parts[p].nu for p in PARTS):
             return build_fin_fe(cfg)
