@@ -2,8 +2,28 @@
 small test models and the default folding fin (plate FE + Craig-Bampton reduction)."""
 
 from .damping import modal_damping, rayleigh_coefficients, rayleigh_damping
+from .fin import (
+    FIN_HINGE_PAIRS,
+    REDUCED_DOF_NAMES,
+    FinFE,
+    build_fin_fe,
+    default_fin,
+    fin_from_config,
+    fin_reduction,
+    part_matrices,
+    reduce_fin,
+)
+from .fin_config import (
+    FinConfig,
+    PartProperties,
+    default_fin_parameters,
+    fin_config_path,
+    load_fin_config,
+)
 from .freeplay import describing_function, freeplay_force, gap_ratio, kappa_of_ratio
 from .modal import Modes, mac, modal_analysis, pair_modes
+from .plate import PlateMesh, acm_element, assemble_plate, rectangular_mesh
+from .reduce import Reduction, craig_bampton, guyan
 from .small import sdof_system, two_dof_system
 from .system import FreeplaySystem, SystemFileError, load_system, save_system
 from .update import UpdateResult, mode_table, update_model
@@ -29,4 +49,25 @@ __all__ = [
     "UpdateResult",
     "update_model",
     "mode_table",
+    "default_fin",
+    "fin_from_config",
+    "build_fin_fe",
+    "reduce_fin",
+    "fin_reduction",
+    "part_matrices",
+    "FinFE",
+    "FinConfig",
+    "PartProperties",
+    "load_fin_config",
+    "fin_config_path",
+    "default_fin_parameters",
+    "REDUCED_DOF_NAMES",
+    "FIN_HINGE_PAIRS",
+    "PlateMesh",
+    "rectangular_mesh",
+    "acm_element",
+    "assemble_plate",
+    "Reduction",
+    "craig_bampton",
+    "guyan",
 ]
