@@ -1,0 +1,41 @@
+"""Output-only first-harmonic extraction and backbone fitting points (plain NumPy arrays).
+
+- :func:`acmp`: adaptive chirp mode pursuit, one chirp mode, banded O(N) solves;
+- :func:`lockin`: demodulation with the known sweep phase (reference, baseline);
+- :func:`extract_backbone_points`: Eq. 9, base subtraction, resonance peak / jump, rejections;
+- noise helpers for simulated records.
+"""
+
+from .acmp import ChirpMode, acmp, bandwidth_weight, ridge_frequency
+from .lockin import lockin
+from .noise import add_noise_for_snr, white_noise
+from .points import (
+    REASON_EDGE,
+    REASON_NO_JUMP,
+    REASON_NOISY,
+    AmplitudeCurve,
+    BackbonePoint,
+    BackbonePoints,
+    extract_backbone_points,
+    find_jump_peak,
+    to_displacement,
+)
+
+__all__ = [
+    "ChirpMode",
+    "acmp",
+    "lockin",
+    "ridge_frequency",
+    "bandwidth_weight",
+    "white_noise",
+    "add_noise_for_snr",
+    "extract_backbone_points",
+    "find_jump_peak",
+    "to_displacement",
+    "BackbonePoint",
+    "BackbonePoints",
+    "AmplitudeCurve",
+    "REASON_NO_JUMP",
+    "REASON_EDGE",
+    "REASON_NOISY",
+]
