@@ -4,8 +4,10 @@ With the sweep phase phi(t) known, ``z = 2 x e^{-i phi}`` holds the first harmon
 ``a e^{i theta}``, plus a term at twice the sweep frequency. A zero-phase low-pass removes the
 latter; ``|z|`` is the amplitude, ``phi + theta`` the phase, and ``f + theta'/(2 pi)`` the
 instantaneous frequency (the response need not be in phase with, or exactly at, the sweep).
-The low-pass is the same second-difference Tikhonov filter as ACMP's, ``(I + D^T D / a)^{-1}``
-with ``a = (2 pi f_c / fs)^4``: -6 dB at f_c, 4th-order roll-off, O(N) banded solves.
+The low-pass is the base-band filter ACMP applies for the same ``bandwidth_hz`` f_c: with
+``K^T K ~ I / 2`` the ACMP mode update reduces to ``(I + 2 D^T D / alpha)^{-1}``,
+``alpha = (2 pi f_c / fs)^4``: gain 1/2 at ``2^(-1/4) f_c ~ 0.84 f_c``, 4th-order roll-off, O(N)
+banded solves. So both methods average the same amount of noise for the same bandwidth.
 """
 
 from __future__ import annotations
@@ -37,7 +39,7 @@ def lockin(
     sweep : freeplayid.simulate.Sweep
         The excitation's sweep law; sample 0 is at the sweep's t = 0.
     bandwidth_hz : float [Hz]
-        Low-pass corner f_c (gain 1/2) of the base-band filter.
+        Base-band bandwidth f_c, the same meaning as in :func:`acmp` (gain 1/2 at 0.84 f_c).
     decimate_to : float, optional
         As in :func:`acmp`: decimate to about this many samples per period of the top sweep
         frequency first (``None``: never).
@@ -69,7 +71,7 @@ def lockin(
         x, fsd = x_full, fs
     t = np.arange(x.shape[0]) / fsd
     phi = sweep.phase(t)
-    a = bandwidth_weight(bw, fsd)
+    a = 0.5 * bandwidth_weight(bw, fsd)
     zr = smooth_second_difference(2 * x * np.cos(phi), a)
     zi = smooth_second_difference(-2 * x * np.sin(phi), a)
     theta = np.unwrap(np.arctan2(zi, zr))
