@@ -446,3 +446,34 @@ def test_noise_levels_and_seeds():
     np.testing.assert_allclose(snr, 20.0, atol=0.1)
     with pytest.raises(ValueError, match="std_g"):
         white_noise(3, std_g=-1.0)
+
+
+# --- figure ------------------------------------------------------------------------------------
+
+
+def test_plot_backbone_points_draws_curves_and_marks(sdof_runs):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from freeplayid.plots import plot_backbone_points
+
+    res = extract_backbone_points(sdof_runs["displacement"], FS, quantity="displacement",
+                                  run_names=RUNS)
+    fig, ax = plt.subplots()
+    try:
+        plot_backbone_points(ax, res, backbone=([40.0, 48.0], [5e-4, 1.5e-3]))
+        lines = ax.get_lines()
+        # 3 curves + 2 used dots + 1 rejected cross + backbone
+        assert len(lines) == 7
+        used = [ln for ln in lines if ln.get_marker() == "o"]
+        assert sorted(float(ln.get_xdata()[0]) for ln in used) == sorted(
+            p.f_hz for p in res.used())
+        assert float(used[0].get_ydata()[0]) == pytest.approx(1e3 * res.used()[0].amplitude_m)
+        labels = [t.get_text() for t in ax.get_legend().get_texts()]
+        assert f"rejected: {REASON_NO_JUMP}" in labels
+        with pytest.raises(ValueError, match="channel"):
+            plot_backbone_points(ax, res, channel="nope")
+    finally:
+        plt.close(fig)
