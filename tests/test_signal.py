@@ -187,6 +187,7 @@ def test_chirp_amplitude_and_frequency_at_20db(how, kind):
     assert amp_err < 0.005, amp_err
     assert f_err < 0.05, f_err
     assert 17.0 < m.snr_db < 23.0  # the mode holds the chirp, the residual the noise
+    np.testing.assert_allclose(m.mode, m.amplitude * np.cos(m.phase), atol=1e-9)
 
 
 def test_acmp_tracks_frequency_far_from_initial_guess():
@@ -281,7 +282,7 @@ def test_same_peak_from_displacement_velocity_acceleration(sdof_runs):
     """Output-only (no sweep hint): Eq. 9 makes the three quantities give one point."""
     pts = {}
     for q in ("displacement", "velocity", "acceleration"):
-        res = extract_backbone_points(sdof_runs[q], FS, quantity=q, run_names=RUNS)
+        res = extract_backbone_points(sdof_runs[q][1:], FS, quantity=q, run_names=RUNS[1:])
         pts[q] = [(p.f_hz, p.amplitude_m) for p in res.used()]
         assert len(pts[q]) == 2
     ref = np.array(pts["displacement"])
@@ -309,8 +310,8 @@ def test_base_subtraction_recovers_relative_points(sdof_runs):
         assert b.f_hz == pytest.approx(a.f_hz, rel=1e-4)
         assert b.amplitude_m == pytest.approx(a.amplitude_m, rel=1e-4)
     # without subtraction the absolute motion gives a visibly different point
-    raw = extract_backbone_points(absolute, FS, quantity="acceleration")
-    assert abs(raw.points[2].amplitude_m / rel.points[2].amplitude_m - 1) > 2e-3
+    raw = extract_backbone_points(absolute[2:], FS, quantity="acceleration")
+    assert abs(raw.points[0].amplitude_m / rel.points[2].amplitude_m - 1) > 2e-3
 
 
 def test_sweep_ending_before_the_jump_is_band_edge(sdof_runs):
@@ -332,17 +333,19 @@ def test_jump_at_band_start_is_band_edge(sdof_runs):
 
 
 def test_moderate_noise_keeps_points_heavy_noise_rejects(sdof_runs, sweep):
-    acc = sdof_runs["acceleration"]
+    acc = sdof_runs["acceleration"][1:]
     clean = extract_backbone_points(acc, FS, quantity="acceleration", sweep=sweep)
     moderate = acc + white_noise(acc.shape, std_g=0.3, seed=2)  # the paper's worst case
     res = extract_backbone_points(moderate, FS, quantity="acceleration", sweep=sweep)
     for a, b in zip(clean.used(), res.used(), strict=True):
-        assert b.f_hz == pytest.approx(a.f_hz, rel=2e-3)
+        # noise moves the maximum along the flat top of the curve, not off the backbone
+        assert abs(b.f_hz / exact_backbone_hz(b.amplitude_m) - 1.0) < 0.01
+        assert b.f_hz == pytest.approx(a.f_hz, rel=5e-3)
         assert b.amplitude_m == pytest.approx(a.amplitude_m, rel=5e-3)
-    heavy = acc + white_noise(acc.shape, std_g=20.0, seed=3)
+    heavy = acc[:1] + white_noise(acc[:1].shape, std_g=20.0, seed=3)
     res = extract_backbone_points(heavy, FS, quantity="acceleration", sweep=sweep)
-    assert all(p.reason == REASON_NOISY and not p.used for p in res.points)
-    assert res.rejected_runs == tuple(f"run{i}" for i in range(len(LEVELS)))
+    assert res.points[0].reason == REASON_NOISY and not res.points[0].used
+    assert res.rejected_runs == ("run0",)
 
 
 def test_linear_resonance_is_not_a_jump():
@@ -370,6 +373,18 @@ def test_find_jump_peak_down_sweep_mirrors_up_sweep():
     assert reason == ""
     k, reason = find_jump_peak(t, f, x[::-1], sweep_rate=1.0, band=(30.0, 40.0))
     assert reason == REASON_NO_JUMP  # sharp rise then slow fall is not an up-sweep jump
+
+
+def test_channels_are_handled_independently(sdof_runs):
+    """Channel 1 = half of channel 0 (a second measure point): same f, half the amplitude."""
+    d = sdof_runs["displacement"][1:]
+    two = np.concatenate([d, 0.5 * d], axis=1)
+    res = extract_backbone_points(two, FS, quantity="displacement", channel_names=["tl", "lr"])
+    assert [(p.run, p.channel) for p in res.points] == [
+        ("run0", "tl"), ("run0", "lr"), ("run1", "tl"), ("run1", "lr")]
+    for a, b in zip(res.used("tl"), res.used("lr"), strict=True):
+        assert b.f_hz == pytest.approx(a.f_hz, abs=1e-9)
+        assert b.amplitude_m == pytest.approx(0.5 * a.amplitude_m, rel=1e-6)
 
 
 def test_list_of_runs_with_different_lengths(sdof_runs):

@@ -135,7 +135,7 @@ def acmp(
     *,
     init_freq=None,
     sweep=None,
-    bandwidth_hz: float = 4.0,
+    bandwidth_hz: float = 2.0,
     if_bandwidth_hz: float = 1.0,
     adapt: bool = True,
     min_bandwidth_hz: float | None = None,
@@ -157,7 +157,9 @@ def acmp(
         Sweep hint; sample 0 is taken at the sweep's t = 0.
     bandwidth_hz : float [Hz]
         Initial demodulation bandwidth f_c (alpha = (2 pi f_c / fs)^4): how fast the amplitude may
-        change. 4 Hz follows a freeplay jump (free decay in ~0.1 s) and rejects harmonics.
+        change. 2 Hz follows the drop after a freeplay jump at sweep rates up to ~1 Hz/s and
+        rejects harmonics; narrower averages more noise (:func:`extract_backbone_points` picks
+        it from the sweep rate).
     if_bandwidth_hz : float [Hz]
         Bandwidth of the frequency-increment smoothing (beta); linear trends pass exactly.
     adapt : bool

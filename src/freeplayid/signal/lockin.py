@@ -27,7 +27,7 @@ def lockin(
     sample_rate: float,
     *,
     sweep,
-    bandwidth_hz: float = 4.0,
+    bandwidth_hz: float = 2.0,
     decimate_to: float | None = 4.0,
 ) -> ChirpMode:
     """First harmonic of a sweep response by demodulation with the known sweep phase.

@@ -31,7 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .acmp import ChirpMode, acmp
+from .acmp import ChirpMode, acmp, ridge_frequency
 from .lockin import lockin
 from .validate import check_positive
 
@@ -235,6 +235,7 @@ def extract_backbone_points(
     sweep=None,
     base=None,
     method: str = "acmp",
+    bandwidth_hz: float | None = None,
     options: Mapping | None = None,
     trim_s: float = 1.0,
     jump_ratio: float = 0.5,
@@ -262,8 +263,12 @@ def extract_backbone_points(
         Base (control) channel in the same quantity; subtracted from every channel first, so
         absolute motion becomes motion relative to the base.
     method : {"acmp", "lockin"}
+    bandwidth_hz : float [Hz], optional
+        Demodulation bandwidth of either method. Default ``max(1 Hz, 2 s x |sweep rate|)``
+        (rate from the hint, else from the STFT ridge): narrow enough to keep the noise bias of
+        the maximum small, wide enough to follow the drop after the peak without overshoot.
     options : mapping, optional
-        Keyword options of the method (e.g. ``{"bandwidth_hz": 4.0}``).
+        Further keyword options of the method (e.g. ``{"if_bandwidth_hz": 0.5}``).
     trim_s : float [s]
         Ignore this much at each end of the record (filter end effects).
     jump_ratio, jump_width_hz, jump_asymmetry, edge_hz, require_jump
@@ -326,6 +331,10 @@ def extract_backbone_points(
                 raise ValueError(f"`base[{i}]` must have shape {r.shape[1:]}, got {b.shape}")
     extract = _METHODS[method]
     opts = dict(options or {})
+    if "bandwidth_hz" in opts or "sweep" in opts:
+        raise ValueError("pass `bandwidth_hz` and `sweep` as arguments, not in `options`")
+    if bandwidth_hz is not None:
+        check_positive(bandwidth_hz, "bandwidth_hz")
 
     points, curves = [], []
     for i, run in enumerate(runs):
@@ -338,15 +347,27 @@ def extract_backbone_points(
             )
         for j in range(n_ch):
             x = run[j] - bases[i] if bases is not None else run[j]
-            mode: ChirpMode = extract(x, fs, sweep=sweeps[i], **opts)
             sl = slice(m, n - m)
-            ti, fi = t[sl], mode.frequency[sl]
+            ti = t[sl]
+            run_opts = dict(opts)
             if sweeps[i] is not None:
                 rate = sweeps[i].signed_rate
                 band = (float(sweeps[i].frequency(ti[0])), float(sweeps[i].frequency(ti[-1])))
             else:
-                rate, c0 = np.polyfit(ti, fi, 1)
-                band = (c0 + rate * ti[0], c0 + rate * ti[-1])
+                # output-only: the (linear) STFT ridge gives the rate, the band and ACMP's start
+                if "init_freq" not in run_opts:
+                    run_opts["init_freq"] = ridge_frequency(x, fs, fmin=2.0)
+                f_init = np.broadcast_to(np.asarray(run_opts["init_freq"], dtype=float), (n,))
+                rate = float((f_init[sl][-1] - f_init[sl][0]) / (ti[-1] - ti[0]))
+                band = (float(f_init[sl][0]), float(f_init[sl][-1]))
+                if rate == 0:
+                    raise ValueError(
+                        f"run {run_names[i]!r}: the initial frequency is constant, not a sweep "
+                        "(pass `sweep`)"
+                    )
+            bw = max(1.0, 2.0 * abs(rate)) if bandwidth_hz is None else bandwidth_hz
+            mode: ChirpMode = extract(x, fs, sweep=sweeps[i], bandwidth_hz=bw, **run_opts)
+            fi = mode.frequency[sl]
             # the first harmonic lives in the swept band; keep a wild IF (noise, after a jump)
             # from blowing up X = A / w^2
             lo, hi = min(band), max(band)
