@@ -21,6 +21,7 @@ from freeplayid.signal import (
     extract_backbone_points,
     find_jump_peak,
     lockin,
+    narrowest_bandwidth,
     ridge_frequency,
     to_displacement,
     white_noise,
@@ -227,6 +228,17 @@ def test_ridge_frequency_follows_a_sweep(noisy_chirp):
     assert np.max(np.abs(f[interior] - sw.frequency(np.arange(x.size) / FS)[interior])) < 0.6
 
 
+def test_narrow_band_stays_accurate_through_decimation():
+    """0.1 Hz at 2048 Hz is ill-conditioned (1/alpha ~ 1e14) and refused at the full rate; after
+    the default decimation (256 Hz) it is fine and averages noise as expected."""
+    assert narrowest_bandwidth(2048.0) == pytest.approx(0.326, abs=1e-3)
+    t = np.arange(int(60 * FS)) / FS
+    x = add_noise_for_snr(np.cos(2 * np.pi * (40.0 * t + 0.05 * t * t)), 10.0, seed=4)
+    m = acmp(x, FS, init_freq=40.0 + 0.1 * t, bandwidth_hz=0.1, adapt=False)
+    sl = slice(int(10 * FS), int(50 * FS))
+    assert np.max(np.abs(m.amplitude[sl] - 1.0)) < 0.01
+
+
 def test_adaptation_narrows_band_down_to_floor_only():
     rng = np.random.default_rng(3)
     t = np.arange(int(20 * FS)) / FS
@@ -424,6 +436,8 @@ def test_acmp_and_lockin_validate_inputs():
         lockin(x, 100.0, sweep=None)
     with pytest.raises(ValueError, match="decimate_to"):
         acmp(x, 100.0, init_freq=3.0, decimate_to=1.0)
+    with pytest.raises(ValueError, match="too narrow"):
+        acmp(x, 2048.0, init_freq=30.0, bandwidth_hz=0.1, decimate_to=None)
 
 
 def test_extract_validates_inputs():

@@ -6,7 +6,7 @@
 - noise helpers for simulated records.
 """
 
-from .acmp import ChirpMode, acmp, bandwidth_weight, ridge_frequency
+from .acmp import ChirpMode, acmp, bandwidth_weight, narrowest_bandwidth, ridge_frequency
 from .lockin import lockin
 from .noise import add_noise_for_snr, white_noise
 from .points import (
@@ -27,6 +27,7 @@ __all__ = [
     "lockin",
     "ridge_frequency",
     "bandwidth_weight",
+    "narrowest_bandwidth",
     "white_noise",
     "add_noise_for_snr",
     "extract_backbone_points",

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .acmp import ChirpMode, bandwidth_weight
+from .acmp import ChirpMode, bandwidth_weight, check_bandwidth
 from .banded import smooth_second_difference
 from .decimate import decimate, decimation_factor
 from .validate import as_signal, check_positive
@@ -71,6 +71,7 @@ def lockin(
         x, fsd = x_full, fs
     t = np.arange(x.shape[0]) / fsd
     phi = sweep.phase(t)
+    check_bandwidth(bw, fsd, "bandwidth_hz")
     a = 0.5 * bandwidth_weight(bw, fsd)
     zr = smooth_second_difference(2 * x * np.cos(phi), a)
     zi = smooth_second_difference(-2 * x * np.sin(phi), a)
