@@ -7,17 +7,14 @@
 """
 
 from .acmp import ChirpMode, acmp, bandwidth_weight, narrowest_bandwidth, ridge_frequency
+from .jump import REASON_EDGE, REASON_NO_JUMP, REASON_NOISY, find_jump_peak
 from .lockin import lockin
 from .noise import add_noise_for_snr, white_noise
 from .points import (
-    REASON_EDGE,
-    REASON_NO_JUMP,
-    REASON_NOISY,
     AmplitudeCurve,
     BackbonePoint,
     BackbonePoints,
     extract_backbone_points,
-    find_jump_peak,
     to_displacement,
 )
 
