@@ -13,6 +13,7 @@ import scipy.signal
 
 from freeplayid.signal import (
     REASON_EDGE,
+    REASON_FAILED,
     REASON_NO_JUMP,
     REASON_NOISY,
     acmp,
@@ -397,6 +398,24 @@ def test_channels_are_handled_independently(sdof_runs):
     for a, b in zip(res.used("tl"), res.used("lr"), strict=True):
         assert b.f_hz == pytest.approx(a.f_hz, abs=1e-9)
         assert b.amplitude_m == pytest.approx(0.5 * a.amplitude_m, rel=1e-6)
+
+
+def test_dead_channel_is_reported_not_fatal(sdof_runs):
+    d = sdof_runs["displacement"][1:2]
+    two = np.concatenate([d, np.zeros_like(d)], axis=1)
+    res = extract_backbone_points(two, FS, quantity="displacement", channel_names=["ok", "dead"])
+    ok, dead = res.points
+    assert ok.used and not dead.used and dead.reason.startswith(REASON_FAILED)
+    assert math.isnan(dead.f_hz) and res.rejected_runs == ()
+
+
+def test_jump_parameters_are_honoured(sdof_runs):
+    d = sdof_runs["displacement"][1:2]
+    assert extract_backbone_points(d, FS, quantity="displacement").points[0].used
+    strict = extract_backbone_points(d, FS, quantity="displacement", jump_asymmetry=100.0)
+    assert strict.points[0].reason == REASON_NO_JUMP
+    narrow = extract_backbone_points(d, FS, quantity="displacement", jump_width_hz=0.1)
+    assert narrow.points[0].reason == REASON_NO_JUMP
 
 
 def test_list_of_runs_with_different_lengths(sdof_runs):

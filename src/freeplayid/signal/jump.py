@@ -17,17 +17,21 @@ Rejections, checked in this order (the reason string is stored with the point):
   lie beyond the band);
 - no jump otherwise: ``no jump in band (response stayed in the gap)``;
 - a jump whose peak is within ``edge_hz`` of either end of the analysed band: ``peak at band edge``.
+
+A channel that cannot be processed at all (constant, no sweep found in it, a failed solve) is
+reported as ``extraction failed: <why>`` with NaN values instead of stopping the batch.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["find_jump_peak", "REASON_NO_JUMP", "REASON_EDGE", "REASON_NOISY"]
+__all__ = ["find_jump_peak", "REASON_NO_JUMP", "REASON_EDGE", "REASON_NOISY", "REASON_FAILED"]
 
 REASON_NO_JUMP = "no jump in band (response stayed in the gap)"
 REASON_EDGE = "peak at band edge"
 REASON_NOISY = "too noisy"
+REASON_FAILED = "extraction failed"  # followed by ": <why>" (constant signal, no sweep found)
 
 
 def find_jump_peak(

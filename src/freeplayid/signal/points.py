@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .acmp import ChirpMode, acmp, ridge_frequency
-from .jump import REASON_NOISY, find_jump_peak
+from .jump import REASON_FAILED, REASON_NOISY, find_jump_peak
 from .lockin import lockin
 from .validate import check_positive
 
@@ -268,10 +268,16 @@ def extract_backbone_points(
     if bandwidth_hz is not None:
         check_positive(bandwidth_hz, "bandwidth_hz")
 
+    peak_rule = dict(
+        jump_ratio=jump_ratio,
+        jump_width_hz=jump_width_hz,
+        jump_asymmetry=jump_asymmetry,
+        edge_hz=edge_hz,
+        require_jump=require_jump,
+    )
     points, curves = [], []
     for i, run in enumerate(runs):
         n = run.shape[1]
-        t = np.arange(n) / fs
         m = int(round(trim_s * fs))
         if n - 2 * m < 16:
             raise ValueError(
@@ -279,60 +285,90 @@ def extract_backbone_points(
             )
         for j in range(n_ch):
             x = run[j] - bases[i] if bases is not None else run[j]
-            sl = slice(m, n - m)
-            ti = t[sl]
-            run_opts = dict(opts)
-            if sweeps[i] is not None:
-                rate = sweeps[i].signed_rate
-                band = (float(sweeps[i].frequency(ti[0])), float(sweeps[i].frequency(ti[-1])))
-            else:
-                # output-only: the (linear) STFT ridge gives the rate, the band and ACMP's start
-                if "init_freq" not in run_opts:
-                    run_opts["init_freq"] = ridge_frequency(x, fs, fmin=2.0)
-                f_init = np.broadcast_to(np.asarray(run_opts["init_freq"], dtype=float), (n,))
-                rate = float((f_init[sl][-1] - f_init[sl][0]) / (ti[-1] - ti[0]))
-                band = (float(f_init[sl][0]), float(f_init[sl][-1]))
-                if rate == 0:
-                    raise ValueError(
-                        f"run {run_names[i]!r}: the initial frequency is constant, not a sweep "
-                        "(pass `sweep`)"
-                    )
-            bw = max(1.0, 2.0 * abs(rate)) if bandwidth_hz is None else bandwidth_hz
-            mode: ChirpMode = extract(x, fs, sweep=sweeps[i], bandwidth_hz=bw, **run_opts)
-            fi = mode.frequency[sl]
-            # the first harmonic lives in the swept band; keep a wild IF (noise, after a jump)
-            # from blowing up X = A / w^2
-            lo, hi = min(band), max(band)
-            fconv = np.clip(fi, 0.5 * lo, 2.0 * hi)
-            xi = to_displacement(mode.amplitude[sl], fconv, quantity)
-            k, reason = find_jump_peak(
-                ti,
-                fi,
-                xi,
-                sweep_rate=rate,
-                band=band,
-                jump_ratio=jump_ratio,
-                jump_width_hz=jump_width_hz,
-                edge_hz=edge_hz,
-                require_jump=require_jump,
-            )
-            if mode.snr_db < min_snr_db:
-                reason = REASON_NOISY
-            points.append(
-                BackbonePoint(
-                    run=run_names[i],
-                    channel=channel_names[j],
-                    f_hz=float(fi[k]),
-                    amplitude_m=float(xi[k]),
-                    used=reason == "",
-                    reason=reason,
-                    time_s=float(ti[k]),
-                    snr_db=mode.snr_db,
+            names = (run_names[i], channel_names[j])
+            try:
+                point, curve = _channel_point(
+                    x,
+                    fs,
+                    names,
+                    extract=extract,
+                    sweep=sweeps[i],
+                    trim=m,
+                    opts=opts,
+                    bandwidth_hz=bandwidth_hz,
+                    quantity=quantity,
+                    min_snr_db=min_snr_db,
+                    curve_points=curve_points,
+                    peak_rule=peak_rule,
                 )
-            )
-            step = max(1, xi.shape[0] // curve_points)
-            curves.append(
-                AmplitudeCurve(run_names[i], channel_names[j], fi[::step].copy(), xi[::step].copy())
-            )
+            except (np.linalg.LinAlgError, _ExtractionError) as e:
+                # one bad channel (dead sensor, no sweep in it) does not stop the batch
+                nan = float("nan")
+                point = BackbonePoint(*names, nan, nan, False, f"{REASON_FAILED}: {e}", nan, nan)
+                curve = AmplitudeCurve(*names, np.empty(0), np.empty(0))
+            points.append(point)
+            curves.append(curve)
     rejected = tuple(r for r in run_names if not any(p.used for p in points if p.run == r))
     return BackbonePoints(tuple(points), rejected, tuple(curves), quantity, method)
+
+
+class _ExtractionError(Exception):
+    """A channel that cannot be processed (reported as a rejected point, not raised)."""
+
+
+def _channel_point(
+    x,
+    fs,
+    names,
+    *,
+    extract,
+    sweep,
+    trim,
+    opts,
+    bandwidth_hz,
+    quantity,
+    min_snr_db,
+    curve_points,
+    peak_rule,
+) -> tuple[BackbonePoint, AmplitudeCurve]:
+    """Fitting point and thinned curve of one channel of one run (see extract_backbone_points)."""
+    n = x.shape[0]
+    if np.ptp(x) == 0:
+        raise _ExtractionError("constant signal")
+    sl = slice(trim, n - trim)
+    ti = np.arange(n)[sl] / fs
+    run_opts = dict(opts)
+    if sweep is not None:
+        rate = sweep.signed_rate
+        band = (float(sweep.frequency(ti[0])), float(sweep.frequency(ti[-1])))
+    else:
+        # output-only: the (linear) STFT ridge gives the rate, the band and ACMP's start
+        if "init_freq" not in run_opts:
+            run_opts["init_freq"] = ridge_frequency(x, fs, fmin=2.0)
+        f_init = np.broadcast_to(np.asarray(run_opts["init_freq"], dtype=float), (n,))
+        rate = float((f_init[sl][-1] - f_init[sl][0]) / (ti[-1] - ti[0]))
+        band = (float(f_init[sl][0]), float(f_init[sl][-1]))
+        if not np.isfinite(rate) or rate == 0:
+            raise _ExtractionError("the initial frequency is not a sweep (pass `sweep`)")
+    bw = max(1.0, 2.0 * abs(rate)) if bandwidth_hz is None else bandwidth_hz
+    mode: ChirpMode = extract(x, fs, sweep=sweep, bandwidth_hz=bw, **run_opts)
+    fi = mode.frequency[sl]
+    # the first harmonic lives in the swept band; keep a wild IF (noise, after a jump) from
+    # blowing up X = A / w^2
+    lo, hi = min(band), max(band)
+    xi = to_displacement(mode.amplitude[sl], np.clip(fi, 0.5 * lo, 2.0 * hi), quantity)
+    k, reason = find_jump_peak(ti, fi, xi, sweep_rate=rate, band=band, **peak_rule)
+    if mode.snr_db < min_snr_db:
+        reason = REASON_NOISY
+    point = BackbonePoint(
+        run=names[0],
+        channel=names[1],
+        f_hz=float(fi[k]),
+        amplitude_m=float(xi[k]),
+        used=reason == "",
+        reason=reason,
+        time_s=float(ti[k]),
+        snr_db=mode.snr_db,
+    )
+    step = max(1, xi.shape[0] // curve_points)
+    return point, AmplitudeCurve(*names, fi[::step].copy(), xi[::step].copy())
