@@ -525,3 +525,17 @@ def test_plot_backbone_points_draws_curves_and_marks(sdof_runs):
             plot_backbone_points(ax, res, channel="nope")
     finally:
         plt.close(fig)
+
+
+def test_signal_does_not_import_torch():
+    """signal works on plain arrays: importing it must not pull in torch (via simulate)."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    src = str(Path(__file__).resolve().parents[1] / "src")
+    code = "import sys, freeplayid.signal, freeplayid.plots; print('torch' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
+                         env={**os.environ, "PYTHONPATH": src})
+    assert out.stdout.strip() == "False"
