@@ -29,61 +29,10 @@ from freeplayid.signal import (
 )
 from freeplayid.signal.banded import demodulate, smooth_second_difference
 from freeplayid.simulate.sweep import G, Sweep
+from sdof_reference import DELTA, FS, ZETA, exact_backbone_hz, simulate_sdof_sweep
 
-FS = 2048.0  # [Hz] the paper's sampling rate
-F_N = 50.0  # [Hz] contact (closed-hinge) frequency of the SDOF oscillator
-ZETA = 0.04  # [-]
-DELTA = 1.2e-4  # [m] half-gap
 RATE = 0.2  # [Hz/s] test sweep rate (paper: 0.1)
 LEVELS = (0.3, 0.6, 1.0)  # [g]; 0.3 g stays in the gap: a_g / w^2 < delta from 30 Hz on
-
-
-def exact_backbone_hz(amplitude):
-    """Exact SDOF freeplay backbone frequency [Hz] at peak displacement ``amplitude`` [m]."""
-    return F_N / (1.0 + 2.0 * DELTA / (math.pi * (amplitude - DELTA)))
-
-
-def simulate_sdof_sweep(level_g, sweep, *, fs=FS, substeps=2):
-    """RK4 of ``y'' + 2 zeta w_n y' + f(y) = -a_g(t)`` (m = 1), y relative to the base.
-
-    Plain-Python scalar loop (fast enough: ~1 us per stage), step 1/(fs substeps). Starts on the
-    in-gap steady state (y = 0, y' = a_g / w0) so a weak run does not drift into contact.
-
-    Returns displacement, velocity, acceleration relative to the base [m, m/s, m/s^2] and the
-    base acceleration [m/s^2], each shape (T,).
-    """
-    wn = 2 * math.pi * F_N
-    kn, c = wn * wn, 2 * ZETA * wn
-    amp = level_g * G
-    f0, s = sweep.start_hz, sweep.signed_rate
-    n = int(round(sweep.duration * fs)) + 1
-    h = 1.0 / (fs * substeps)
-    twopi = 2 * math.pi
-
-    def acc(t, y, v):
-        ag = amp * math.sin(twopi * (f0 * t + 0.5 * s * t * t))
-        fp = kn * (y - DELTA) if y > DELTA else (kn * (y + DELTA) if y < -DELTA else 0.0)
-        return -ag - c * v - fp
-
-    y, v, t = 0.0, amp / (twopi * f0), 0.0
-    ys, vs = np.empty(n), np.empty(n)
-    for k in range(n):
-        ys[k], vs[k] = y, v
-        for _ in range(substeps):
-            a1 = acc(t, y, v)
-            y2, v2 = y + 0.5 * h * v, v + 0.5 * h * a1
-            a2 = acc(t + 0.5 * h, y2, v2)
-            y3, v3 = y + 0.5 * h * v2, v + 0.5 * h * a2
-            a3 = acc(t + 0.5 * h, y3, v3)
-            y4, v4 = y + h * v3, v + h * a3
-            a4 = acc(t + h, y4, v4)
-            y += h / 6 * (v + 2 * v2 + 2 * v3 + v4)
-            v += h / 6 * (a1 + 2 * a2 + 2 * a3 + a4)
-            t += h
-    tt = np.arange(n) / fs
-    ag = sweep.acceleration(tt, level_g)
-    fp = np.where(ys > DELTA, kn * (ys - DELTA), np.where(ys < -DELTA, kn * (ys + DELTA), 0.0))
-    return ys, vs, -ag - c * vs - fp, ag
 
 
 @pytest.fixture(scope="module")

@@ -4,8 +4,7 @@
 
 Five base levels (0.3-1.0 g), 30 -> 50 Hz at 0.2 Hz/s, absolute acceleration with 0.1 g noise and
 the base channel subtracted; ACMP without the sweep hint; the exact backbone overlaid. The sweeps
-come from the reference RK4 in tests/test_signal.py (until freeplayid.simulate.simulate_sweeps
-is merged).
+come from the reference RK4 in tests/sdof_reference.py (independent of freeplayid.simulate).
 """
 
 import sys
@@ -22,7 +21,7 @@ sys.path.insert(0, str(ROOT / "tests"))
 from freeplayid.plots import plot_backbone_points  # noqa: E402
 from freeplayid.signal import extract_backbone_points, white_noise  # noqa: E402
 from freeplayid.simulate.sweep import Sweep  # noqa: E402
-from test_signal import DELTA, FS, exact_backbone_hz, simulate_sdof_sweep  # noqa: E402
+from sdof_reference import DELTA, FS, exact_backbone_hz, simulate_sdof_sweep  # noqa: E402
 
 levels = (0.3, 0.5, 0.6, 0.8, 1.0)  # [g]
 sweep = Sweep(30.0, 50.0, 0.2)
