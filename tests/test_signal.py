@@ -228,6 +228,9 @@ def test_sdof_peaks_lie_on_exact_backbone(sdof_runs, sweep, method):
         assert p.amplitude_m > 5 * DELTA  # really on the upper branch
     # higher level, higher amplitude, higher frequency: a rising backbone
     assert used[0].f_hz < used[1].f_hz and used[0].amplitude_m < used[1].amplitude_m
+    f, x = res.arrays("x")
+    np.testing.assert_array_equal(f, [p.f_hz for p in used])
+    np.testing.assert_array_equal(x, [p.amplitude_m for p in used])
 
 
 def test_peak_amplitude_is_first_harmonic_of_the_record(sdof_runs, sweep):
@@ -428,6 +431,10 @@ def test_extract_validates_inputs():
         extract_backbone_points(x, FS, quantity="velocity", sweep=[Sweep(30, 50, 1)])
     with pytest.raises(ValueError, match="jump_ratio"):
         extract_backbone_points(x, FS, quantity="velocity", jump_ratio=1.5)
+    with pytest.raises(ValueError, match="curve_points"):
+        extract_backbone_points(x, FS, quantity="velocity", curve_points=1)
+    with pytest.raises(ValueError, match="options"):
+        extract_backbone_points(x, FS, quantity="velocity", options={"bandwidth_hz": 1.0})
 
 
 # --- noise -----------------------------------------------------------------------------------

@@ -107,6 +107,20 @@ class BackbonePoints:
         """The used points (of one channel if given)."""
         return tuple(p for p in self.points if p.used and (channel is None or p.channel == channel))
 
+    def arrays(self, channel: str | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Used points as arrays for a fit.
+
+        Returns
+        -------
+        f_hz : ndarray, shape (P,) [Hz]
+        amplitude_m : ndarray, shape (P,) [m]
+        """
+        used = self.used(channel)
+        return (
+            np.array([p.f_hz for p in used], dtype=float),
+            np.array([p.amplitude_m for p in used], dtype=float),
+        )
+
     def to_records(self) -> list[dict]:
         """JSON-ready dicts (run, channel, f_hz, amplitude_m, used, reason) for the result file."""
         return [
@@ -225,8 +239,12 @@ def extract_backbone_points(
         raise ValueError(f"`jump_asymmetry` must be >= 1, got {jump_asymmetry!r}")
     if not 0 < jump_ratio < 1:
         raise ValueError(f"`jump_ratio` must be in (0, 1), got {jump_ratio!r}")
-    if trim_s < 0:
-        raise ValueError(f"`trim_s` must be >= 0, got {trim_s!r}")
+    if not (np.isfinite(trim_s) and trim_s >= 0):
+        raise ValueError(f"`trim_s` must be a finite number >= 0, got {trim_s!r}")
+    if not np.isfinite(min_snr_db):
+        raise ValueError(f"`min_snr_db` must be finite, got {min_snr_db!r}")
+    if not isinstance(curve_points, (int, np.integer)) or curve_points < 2:
+        raise ValueError(f"`curve_points` must be an integer >= 2, got {curve_points!r}")
     runs = _as_runs(signals, "signals")
     n_runs = len(runs)
     if n_runs == 0:
