@@ -1,0 +1,74 @@
+"""Figures. Every function draws on a matplotlib ``Axes`` it is given; none computes or saves."""
+
+from __future__ import annotations
+
+__all__ = ["plot_backbone_points"]
+
+
+# ------------------------------------------------------------------------------------------------
+# signal: amplitude-frequency curves of all runs with their backbone points (paper Fig. 7 / 11)
+# ------------------------------------------------------------------------------------------------
+
+_AMPLITUDE_SCALE = {"m": 1.0, "mm": 1e3, "um": 1e6}
+
+
+def plot_backbone_points(
+    ax,
+    points,
+    *,
+    channel: str | None = None,
+    backbone=None,
+    amplitude_unit: str = "mm",
+    legend: bool = True,
+):
+    """First-harmonic displacement curves of all runs, with their peaks (fitting points) marked.
+
+    Used points are filled circles; rejected maxima are crosses, labelled with the reason.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+    points : freeplayid.signal.BackbonePoints
+        Result of :func:`freeplayid.signal.extract_backbone_points` (its ``curves`` are drawn).
+    channel : str, optional
+        Draw this channel only (default: all; the channel is then added to each label).
+    backbone : (array_like, array_like), optional
+        A backbone curve to overlay: frequency [Hz], shape (K,), and amplitude [m], shape (K,).
+    amplitude_unit : {"m", "mm", "um"}
+    legend : bool
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+        ``ax``.
+    """
+    if amplitude_unit not in _AMPLITUDE_SCALE:
+        raise ValueError(
+            f"`amplitude_unit` must be one of {sorted(_AMPLITUDE_SCALE)}, got {amplitude_unit!r}"
+        )
+    channels = sorted({c.channel for c in points.curves})
+    if channel is not None and channel not in channels:
+        raise ValueError(f"`channel` must be one of {channels}, got {channel!r}")
+    scale = _AMPLITUDE_SCALE[amplitude_unit]
+    multi = channel is None and len(channels) > 1
+    reasons_shown = set()
+    for curve, p in zip(points.curves, points.points, strict=True):
+        if channel is not None and curve.channel != channel:
+            continue
+        label = f"{curve.run}, {curve.channel}" if multi else curve.run
+        (line,) = ax.plot(curve.frequency, scale * curve.amplitude_m, lw=1.0, label=label)
+        if p.used:
+            ax.plot(p.f_hz, scale * p.amplitude_m, "o", color=line.get_color(), ms=6, mec="k",
+                    zorder=3)
+        else:
+            ax.plot(p.f_hz, scale * p.amplitude_m, "x", color=line.get_color(), ms=8, mew=2,
+                    zorder=3, label=None if p.reason in reasons_shown else f"rejected: {p.reason}")
+            reasons_shown.add(p.reason)
+    if backbone is not None:
+        f_bb, x_bb = backbone
+        ax.plot(f_bb, [scale * v for v in x_bb], "k--", lw=1.2, label="backbone")
+    ax.set_xlabel("frequency [Hz]")
+    ax.set_ylabel(f"first-harmonic displacement [{amplitude_unit}]")
+    if legend:
+        ax.legend(fontsize="small")
+    return ax

@@ -1,0 +1,40 @@
+"""Output-only first-harmonic extraction and backbone fitting points (plain NumPy arrays).
+
+- :func:`acmp`: adaptive chirp mode pursuit, one chirp mode, banded O(N) solves;
+- :func:`lockin`: demodulation with the known sweep phase (reference, baseline);
+- :func:`extract_backbone_points`: Eq. 9, base subtraction, resonance peak / jump, rejections;
+- noise helpers for simulated records.
+"""
+
+from .acmp import ChirpMode, acmp, bandwidth_weight, narrowest_bandwidth, ridge_frequency
+from .jump import REASON_EDGE, REASON_FAILED, REASON_NO_JUMP, REASON_NOISY, find_jump_peak
+from .lockin import lockin
+from .noise import add_noise_for_snr, white_noise
+from .points import (
+    AmplitudeCurve,
+    BackbonePoint,
+    BackbonePoints,
+    extract_backbone_points,
+    to_displacement,
+)
+
+__all__ = [
+    "ChirpMode",
+    "acmp",
+    "lockin",
+    "ridge_frequency",
+    "bandwidth_weight",
+    "narrowest_bandwidth",
+    "white_noise",
+    "add_noise_for_snr",
+    "extract_backbone_points",
+    "find_jump_peak",
+    "to_displacement",
+    "BackbonePoint",
+    "BackbonePoints",
+    "AmplitudeCurve",
+    "REASON_NO_JUMP",
+    "REASON_EDGE",
+    "REASON_NOISY",
+    "REASON_FAILED",
+]

@@ -1,0 +1,392 @@
+"""Backbone fitting points: first-harmonic displacement curves, resonance peak / jump detection.
+
+For each run and channel: (optionally) subtract the base channel, extract the first harmonic
+(ACMP or lock-in), convert the whole amplitude curve to displacement with Eq. 9,
+``X = V / w = A / w^2`` with ``w = 2 pi f(t)`` the instantaneous frequency, and take its
+maximum as the fitting point (f*, X*), or reject the run with a reason.
+
+The jump rule and the rejection reasons are in :mod:`.jump`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from .acmp import ChirpMode, acmp, ridge_frequency
+from .jump import REASON_FAILED, REASON_NOISY, find_jump_peak
+from .lockin import lockin
+from .validate import check_positive
+
+__all__ = [
+    "BackbonePoint",
+    "BackbonePoints",
+    "AmplitudeCurve",
+    "extract_backbone_points",
+    "to_displacement",
+    "QUANTITY_ORDER",
+]
+
+QUANTITY_ORDER = {"displacement": 0, "velocity": 1, "acceleration": 2}
+_METHODS = {"acmp": acmp, "lockin": lockin}
+
+
+@dataclass(frozen=True)
+class BackbonePoint:
+    """One candidate fitting point (one run, one channel).
+
+    Attributes
+    ----------
+    run, channel : str
+    f_hz : float [Hz]
+        Instantaneous frequency at the displacement-amplitude maximum.
+    amplitude_m : float [m]
+        First-harmonic displacement amplitude there (Eq. 9 applied before the maximum).
+    used : bool
+        False when rejected; ``f_hz`` and ``amplitude_m`` then describe the maximum found.
+    reason : str
+        Empty when used, else one of ``REASON_*``.
+    time_s : float [s]
+        Time of the maximum from the start of the record.
+    snr_db : float [dB]
+        SNR of the extracted mode against the residual.
+    """
+
+    run: str
+    channel: str
+    f_hz: float
+    amplitude_m: float
+    used: bool
+    reason: str
+    time_s: float
+    snr_db: float
+
+
+@dataclass(frozen=True)
+class AmplitudeCurve:
+    """A first-harmonic displacement curve for figures (thinned to at most ``curve_points``).
+
+    Attributes
+    ----------
+    run, channel : str
+    frequency : ndarray, shape (M,) [Hz]
+    amplitude_m : ndarray, shape (M,) [m]
+    """
+
+    run: str
+    channel: str
+    frequency: np.ndarray
+    amplitude_m: np.ndarray
+
+
+@dataclass(frozen=True)
+class BackbonePoints:
+    """Result of :func:`extract_backbone_points`.
+
+    Attributes
+    ----------
+    points : tuple of BackbonePoint
+        One per (run, channel), run-major, used or not.
+    rejected_runs : tuple of str
+        Runs none of whose channels gave a point.
+    curves : tuple of AmplitudeCurve
+        Same order as ``points``.
+    quantity : str
+    method : str
+    """
+
+    points: tuple[BackbonePoint, ...]
+    rejected_runs: tuple[str, ...]
+    curves: tuple[AmplitudeCurve, ...]
+    quantity: str
+    method: str
+
+    def used(self, channel: str | None = None) -> tuple[BackbonePoint, ...]:
+        """The used points (of one channel if given)."""
+        return tuple(p for p in self.points if p.used and (channel is None or p.channel == channel))
+
+    def arrays(self, channel: str | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Used points as arrays for a fit.
+
+        Returns
+        -------
+        f_hz : ndarray, shape (P,) [Hz]
+        amplitude_m : ndarray, shape (P,) [m]
+        """
+        used = self.used(channel)
+        return (
+            np.array([p.f_hz for p in used], dtype=float),
+            np.array([p.amplitude_m for p in used], dtype=float),
+        )
+
+    def to_records(self) -> list[dict]:
+        """JSON-ready dicts (run, channel, f_hz, amplitude_m, used, reason) for the result file."""
+        return [
+            {
+                "run": p.run,
+                "channel": p.channel,
+                "f_hz": p.f_hz,
+                "amplitude_m": p.amplitude_m,
+                "used": p.used,
+                "reason": p.reason,
+            }
+            for p in self.points
+        ]
+
+
+def to_displacement(amplitude, frequency, quantity: str) -> np.ndarray:
+    """Eq. 9: first-harmonic displacement amplitude ``X = V / w = A / w^2``, w = 2 pi f.
+
+    Parameters
+    ----------
+    amplitude : array_like, shape (..., N) [m, m/s or m/s^2]
+    frequency : array_like, shape (..., N) [Hz], > 0
+    quantity : {"displacement", "velocity", "acceleration"}
+
+    Returns
+    -------
+    ndarray, shape (..., N) [m]
+    """
+    if quantity not in QUANTITY_ORDER:
+        raise ValueError(f"`quantity` must be one of {sorted(QUANTITY_ORDER)}, got {quantity!r}")
+    w = 2 * np.pi * np.asarray(frequency, dtype=float)
+    return np.asarray(amplitude, dtype=float) / w ** QUANTITY_ORDER[quantity]
+
+
+def _as_runs(signals, name: str) -> list[np.ndarray]:
+    if isinstance(signals, np.ndarray) or not isinstance(signals, Sequence):
+        a = np.asarray(signals, dtype=float)
+        if a.ndim != 3:
+            raise ValueError(
+                f"`{name}` must have shape (runs, channels, T) or be a list of "
+                f"(channels, T) arrays, got shape {a.shape}"
+            )
+        return list(a)
+    runs = [np.asarray(r, dtype=float) for r in signals]
+    for i, r in enumerate(runs):
+        if r.ndim != 2:
+            raise ValueError(f"`{name}[{i}]` must have shape (channels, T), got {r.shape}")
+    return runs
+
+
+def extract_backbone_points(
+    signals,
+    sample_rate: float,
+    *,
+    quantity: str,
+    channel_names: Sequence[str] | None = None,
+    run_names: Sequence[str] | None = None,
+    sweep=None,
+    base=None,
+    method: str = "acmp",
+    bandwidth_hz: float | None = None,
+    options: Mapping | None = None,
+    trim_s: float = 1.0,
+    jump_ratio: float = 0.5,
+    jump_width_hz: float = 2.0,
+    jump_asymmetry: float = 3.0,
+    edge_hz: float = 0.5,
+    min_snr_db: float = 0.0,
+    require_jump: bool = True,
+    curve_points: int = 2000,
+) -> BackbonePoints:
+    """Backbone fitting points (resonance peak / jump) of every channel of every sweep run.
+
+    Parameters
+    ----------
+    signals : ndarray, shape (runs, channels, T), or list of ndarray, shape (channels, T_r)
+        Responses in SI units of ``quantity`` (m, m/s, m/s^2); runs may differ in length.
+    sample_rate : float [Hz]
+    quantity : {"displacement", "velocity", "acceleration"}
+    channel_names, run_names : sequence of str, optional
+        Default "ch0", "ch1", ... and "run0", "run1", ...
+    sweep : Sweep or sequence of Sweep (one per run), optional
+        Sweep hint (sample 0 at the sweep's t = 0): initial frequency of ACMP, the band, the
+        rate. Required by ``method="lockin"``.
+    base : ndarray, shape (runs, T), or list of ndarray, shape (T_r,), optional
+        Base (control) channel in the same quantity; subtracted from every channel first, so
+        absolute motion becomes motion relative to the base.
+    method : {"acmp", "lockin"}
+    bandwidth_hz : float [Hz], optional
+        Demodulation bandwidth of either method. Default ``max(1 Hz, 2 s x |sweep rate|)``
+        (rate from the hint, else from the STFT ridge): narrow enough to keep the noise bias of
+        the maximum small, wide enough to follow the drop after the peak without overshoot.
+    options : mapping, optional
+        Further keyword options of the method (e.g. ``{"if_bandwidth_hz": 0.5}``).
+    trim_s : float [s]
+        Ignore this much at each end of the record (filter end effects).
+    jump_ratio, jump_width_hz, jump_asymmetry, edge_hz, require_jump
+        Jump rule, see the module docstring and :func:`find_jump_peak`.
+    min_snr_db : float [dB]
+        Reject as too noisy below this mode-to-residual SNR.
+    curve_points : int
+        Number of samples kept per curve for figures.
+
+    Returns
+    -------
+    BackbonePoints
+    """
+    if quantity not in QUANTITY_ORDER:
+        raise ValueError(f"`quantity` must be one of {sorted(QUANTITY_ORDER)}, got {quantity!r}")
+    if method not in _METHODS:
+        raise ValueError(f"`method` must be one of {sorted(_METHODS)}, got {method!r}")
+    fs = check_positive(sample_rate, "sample_rate")
+    for name, v in (("jump_width_hz", jump_width_hz), ("edge_hz", edge_hz)):
+        check_positive(v, name)
+    if not jump_asymmetry >= 1:
+        raise ValueError(f"`jump_asymmetry` must be >= 1, got {jump_asymmetry!r}")
+    if not 0 < jump_ratio < 1:
+        raise ValueError(f"`jump_ratio` must be in (0, 1), got {jump_ratio!r}")
+    if not (np.isfinite(trim_s) and trim_s >= 0):
+        raise ValueError(f"`trim_s` must be a finite number >= 0, got {trim_s!r}")
+    if not np.isfinite(min_snr_db):
+        raise ValueError(f"`min_snr_db` must be finite, got {min_snr_db!r}")
+    if not isinstance(curve_points, (int, np.integer)) or curve_points < 2:
+        raise ValueError(f"`curve_points` must be an integer >= 2, got {curve_points!r}")
+    runs = _as_runs(signals, "signals")
+    n_runs = len(runs)
+    if n_runs == 0:
+        raise ValueError("`signals` holds no run")
+    n_ch = runs[0].shape[0]
+    if any(r.shape[0] != n_ch for r in runs):
+        raise ValueError(
+            f"every run must have the same number of channels, got {[r.shape[0] for r in runs]}"
+        )
+    if channel_names is None:
+        channel_names = [f"ch{i}" for i in range(n_ch)]
+    if run_names is None:
+        run_names = [f"run{i}" for i in range(n_runs)]
+    channel_names, run_names = [str(c) for c in channel_names], [str(r) for r in run_names]
+    if len(channel_names) != n_ch:
+        raise ValueError(f"`channel_names` must have {n_ch} names, got {len(channel_names)}")
+    if len(run_names) != n_runs:
+        raise ValueError(f"`run_names` must have {n_runs} names, got {len(run_names)}")
+    if sweep is None or hasattr(sweep, "phase"):
+        sweeps = [sweep] * n_runs
+    else:
+        sweeps = list(sweep)
+        if len(sweeps) != n_runs:
+            raise ValueError(f"`sweep` must be one Sweep or {n_runs} of them, got {len(sweeps)}")
+    if method == "lockin" and any(s is None for s in sweeps):
+        raise ValueError("`method='lockin'` needs the sweep law: pass `sweep`")
+    bases = None
+    if base is not None:
+        bases = [np.asarray(b, dtype=float) for b in base]
+        if len(bases) != n_runs:
+            raise ValueError(f"`base` must hold {n_runs} runs, got {len(bases)}")
+        for i, (b, r) in enumerate(zip(bases, runs, strict=True)):
+            if b.shape != r.shape[1:]:
+                raise ValueError(f"`base[{i}]` must have shape {r.shape[1:]}, got {b.shape}")
+    extract = _METHODS[method]
+    opts = dict(options or {})
+    if "bandwidth_hz" in opts or "sweep" in opts:
+        raise ValueError("pass `bandwidth_hz` and `sweep` as arguments, not in `options`")
+    if bandwidth_hz is not None:
+        check_positive(bandwidth_hz, "bandwidth_hz")
+
+    peak_rule = dict(
+        jump_ratio=jump_ratio,
+        jump_width_hz=jump_width_hz,
+        jump_asymmetry=jump_asymmetry,
+        edge_hz=edge_hz,
+        require_jump=require_jump,
+    )
+    points, curves = [], []
+    for i, run in enumerate(runs):
+        n = run.shape[1]
+        m = int(round(trim_s * fs))
+        if n - 2 * m < 16:
+            raise ValueError(
+                f"run {run_names[i]!r} has {n} samples, too short for `trim_s`={trim_s}"
+            )
+        for j in range(n_ch):
+            x = run[j] - bases[i] if bases is not None else run[j]
+            names = (run_names[i], channel_names[j])
+            try:
+                point, curve = _channel_point(
+                    x,
+                    fs,
+                    names,
+                    extract=extract,
+                    sweep=sweeps[i],
+                    trim=m,
+                    opts=opts,
+                    bandwidth_hz=bandwidth_hz,
+                    quantity=quantity,
+                    min_snr_db=min_snr_db,
+                    curve_points=curve_points,
+                    peak_rule=peak_rule,
+                )
+            except (np.linalg.LinAlgError, _ExtractionError) as e:
+                # one bad channel (dead sensor, no sweep in it) does not stop the batch
+                nan = float("nan")
+                point = BackbonePoint(*names, nan, nan, False, f"{REASON_FAILED}: {e}", nan, nan)
+                curve = AmplitudeCurve(*names, np.empty(0), np.empty(0))
+            points.append(point)
+            curves.append(curve)
+    rejected = tuple(r for r in run_names if not any(p.used for p in points if p.run == r))
+    return BackbonePoints(tuple(points), rejected, tuple(curves), quantity, method)
+
+
+class _ExtractionError(Exception):
+    """A channel that cannot be processed (reported as a rejected point, not raised)."""
+
+
+def _channel_point(
+    x,
+    fs,
+    names,
+    *,
+    extract,
+    sweep,
+    trim,
+    opts,
+    bandwidth_hz,
+    quantity,
+    min_snr_db,
+    curve_points,
+    peak_rule,
+) -> tuple[BackbonePoint, AmplitudeCurve]:
+    """Fitting point and thinned curve of one channel of one run (see extract_backbone_points)."""
+    n = x.shape[0]
+    if np.ptp(x) == 0:
+        raise _ExtractionError("constant signal")
+    sl = slice(trim, n - trim)
+    ti = np.arange(n)[sl] / fs
+    run_opts = dict(opts)
+    if sweep is not None:
+        rate = sweep.signed_rate
+        band = (float(sweep.frequency(ti[0])), float(sweep.frequency(ti[-1])))
+    else:
+        # output-only: the (linear) STFT ridge gives the rate, the band and ACMP's start
+        if "init_freq" not in run_opts:
+            run_opts["init_freq"] = ridge_frequency(x, fs, fmin=2.0)
+        f_init = np.broadcast_to(np.asarray(run_opts["init_freq"], dtype=float), (n,))
+        rate = float((f_init[sl][-1] - f_init[sl][0]) / (ti[-1] - ti[0]))
+        band = (float(f_init[sl][0]), float(f_init[sl][-1]))
+        if not np.isfinite(rate) or rate == 0:
+            raise _ExtractionError("the initial frequency is not a sweep (pass `sweep`)")
+    bw = max(1.0, 2.0 * abs(rate)) if bandwidth_hz is None else bandwidth_hz
+    mode: ChirpMode = extract(x, fs, sweep=sweep, bandwidth_hz=bw, **run_opts)
+    fi = mode.frequency[sl]
+    # the first harmonic lives in the swept band; keep a wild IF (noise, after a jump) from
+    # blowing up X = A / w^2
+    lo, hi = min(band), max(band)
+    xi = to_displacement(mode.amplitude[sl], np.clip(fi, 0.5 * lo, 2.0 * hi), quantity)
+    k, reason = find_jump_peak(ti, fi, xi, sweep_rate=rate, band=band, **peak_rule)
+    if mode.snr_db < min_snr_db:
+        reason = REASON_NOISY
+    point = BackbonePoint(
+        run=names[0],
+        channel=names[1],
+        f_hz=float(fi[k]),
+        amplitude_m=float(xi[k]),
+        used=reason == "",
+        reason=reason,
+        time_s=float(ti[k]),
+        snr_db=mode.snr_db,
+    )
+    step = max(1, xi.shape[0] // curve_points)
+    return point, AmplitudeCurve(*names, fi[::step].copy(), xi[::step].copy())
