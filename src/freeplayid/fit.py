@@ -185,6 +185,8 @@ def multistart_grid(
 
 def _points_as_arrays(points) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(channels (p,) str, amplitude (p,) [m], f_hz (p,)) from the accepted point formats."""
+    if hasattr(points, "points"):  # freeplayid.signal.BackbonePoints
+        points = points.points
     if isinstance(points, dict):
         ch, amp, f = points["channel"], points["amplitude"], points["f_hz"]
     elif hasattr(points, "channels") and hasattr(points, "amplitudes"):
