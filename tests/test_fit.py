@@ -79,3 +79,17 @@ def test_fit_input_errors():
             sys_,
             backbone="ihb",
         )
+
+
+def test_validate_modes_passes_for_true_kn_and_fails_for_wrong_kn():
+    from freeplayid.fit import validate_modes
+    from freeplayid.model import modal_analysis
+
+    sys_ = two_dof_system()
+    ref = modal_analysis(sys_.M, sys_.closed_stiffness(KN))
+    dofs = ["uz_in", "uz_out"]
+    good = validate_modes(sys_, KN * 1.001, ref.frequencies_hz, ref.shapes, dofs)
+    assert good.passed and np.all(np.abs(good.error_hz) < 0.01)
+    assert "MAC" in good.table()
+    bad = validate_modes(sys_, KN * 3, ref.frequencies_hz, ref.shapes, dofs)
+    assert not bad.passed
