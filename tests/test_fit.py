@@ -89,7 +89,7 @@ def test_validate_modes_passes_for_true_kn_and_fails_for_wrong_kn():
     ref = modal_analysis(sys_.M, sys_.closed_stiffness(KN))
     dofs = ["uz_in", "uz_out"]
     good = validate_modes(sys_, KN * 1.001, ref.frequencies_hz, ref.shapes, dofs)
-    assert good.passed and np.all(np.abs(good.error_hz) < 0.01)
+    assert good.passed and np.all(np.abs(good.error_hz) < 0.05)
     assert "MAC" in good.table()
     bad = validate_modes(sys_, KN * 3, ref.frequencies_hz, ref.shapes, dofs)
     assert not bad.passed
