@@ -1,0 +1,230 @@
+"""Describing-function (DFA) backbone curves of a reduced model with freeplay hinges.
+
+Harmonic ansatz y = Y cos(w t) in the unforced, undamped EOM (DESIGN.md §1). Each hinge spring j
+is replaced by its equivalent stiffness kappa_j kn with kappa_j = kappa(delta / Theta_j),
+Theta_j = |b_j^T Y| its first-harmonic amplitude, so a backbone point solves::
+
+    [K + kn sum_j kappa_j b_j b_j^T] phi = w^2 M phi,   Theta_j = c |b_j^T phi|      (BC)
+
+Parametrisation: s = max_j Theta_j / delta in (1, inf). For the hinge j* with the largest
+amplitude kappa_j* = kappa(1/s); the others follow from the mode shape,
+kappa_j = kappa(|b_j*^T phi| / (s |b_j^T phi|)), found by iteration from equal kappas
+(``equal_hinges=True`` stops after the first step: every hinge gets kappa(1/s), the paper-style
+approximation). Amplitudes are Y = s delta phi / |b_j*^T phi|. The consistency
+kappa = F(kappa) is solved by Newton's method (a plain fixed point oscillates when the hinges are
+strongly unequal).
+
+Two exact reductions make the curve cheap:
+- delta only scales amplitudes (scale invariance), so curves are computed for delta = 1 and
+  multiplied;
+- all s-points and all kn values form one batch of small symmetric eigenproblems, solved at once
+  by ``numpy.linalg.eigh`` after the Cholesky transform A = L^-1 K L^-T (M = L L^T).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..model import FreeplaySystem, kappa_of_ratio
+
+__all__ = ["BackboneCurve", "dfa_backbone", "amplitude_grid"]
+
+
+@dataclass(frozen=True)
+class BackboneCurve:
+    """Backbone curve(s): first-harmonic amplitude vs frequency of one nonlinear normal mode.
+
+    Batch dimension k over (kn, delta) pairs, m points along the curve.
+
+    Attributes
+    ----------
+    frequency_hz : ndarray, shape (k, m) [Hz]
+    amplitude : ndarray, shape (k, m, n_dof) [m or rad]
+        First-harmonic amplitude of every DOF (relative to the base).
+    hinge_amplitude : ndarray, shape (k, m, h) [rad]
+        First-harmonic amplitude Theta_j of each hinge's relative rotation.
+    kappa : ndarray, shape (k, m, h) [-]
+        Equivalent-stiffness ratio of each hinge.
+    kn, delta : ndarray, shape (k,) [N m/rad], [rad]
+    dof_names : tuple of str
+    method : str
+        "dfa" or "hb".
+    converged : ndarray, shape (k, m) of bool
+        Whether the unequal-hinge fixed point (or harmonic balance) converged at each point.
+    peak_amplitude : ndarray, shape (k, m, n_dof), optional [m or rad]
+        Largest |y| over a period (harmonic balance only; the DFA has one harmonic).
+    """
+
+    frequency_hz: np.ndarray
+    amplitude: np.ndarray
+    hinge_amplitude: np.ndarray
+    kappa: np.ndarray
+    kn: np.ndarray
+    delta: np.ndarray
+    dof_names: tuple
+    method: str
+    converged: np.ndarray
+    peak_amplitude: np.ndarray | None = None
+
+    def channel(self, name: str) -> np.ndarray:
+        """First-harmonic amplitude of DOF ``name`` along the curve(s), shape (k, m)."""
+        if name not in self.dof_names:
+            raise KeyError(f"unknown channel {name!r}; known DOFs: {list(self.dof_names)}")
+        return self.amplitude[..., self.dof_names.index(name)]
+
+    def frequency_at(self, amplitude, channel: str) -> np.ndarray:
+        """Backbone frequency [Hz] at first-harmonic ``amplitude`` of ``channel``.
+
+        Linear interpolation along the curve (whose amplitudes increase with s); NaN outside the
+        computed amplitude range. Returns shape (k, p) for amplitudes of shape (p,).
+        """
+        amp = np.atleast_1d(np.asarray(amplitude, dtype=float))
+        x = self.channel(channel)
+        out = np.empty((x.shape[0], amp.size))
+        for i in range(x.shape[0]):
+            order = np.argsort(x[i])
+            out[i] = np.interp(
+                amp, x[i, order], self.frequency_hz[i, order], left=np.nan, right=np.nan
+            )
+        return out
+
+
+def amplitude_grid(
+    n_points: int = 200, *, s_max: float = 50.0, s_min: float = 1.0005
+) -> np.ndarray:
+    """Grid of s = Theta_max / delta, dense near contact (s -> 1) where the curve bends most."""
+    if n_points < 2:
+        raise ValueError(f"`n_points` must be >= 2, got {n_points!r}")
+    if not (1.0 < s_min < s_max):
+        raise ValueError(f"need 1 < s_min < s_max, got s_min={s_min!r}, s_max={s_max!r}")
+    return 1.0 + np.geomspace(s_min - 1.0, s_max - 1.0, n_points)
+
+
+def _as_batch(kn, delta) -> tuple[np.ndarray, np.ndarray]:
+    kn = np.atleast_1d(np.asarray(kn, dtype=float))
+    delta = np.atleast_1d(np.asarray(delta, dtype=float))
+    try:
+        kn, delta = np.broadcast_arrays(kn, delta)
+    except ValueError:
+        raise ValueError(
+            f"`kn` and `delta` must broadcast to one batch, got shapes {kn.shape} and {delta.shape}"
+        ) from None
+    if kn.ndim != 1:
+        raise ValueError(f"`kn` and `delta` must be scalars or 1-D, got shape {kn.shape}")
+    if np.any(~np.isfinite(kn)) or np.any(kn <= 0):
+        raise ValueError(f"`kn` must be finite and > 0, got {kn!r}")
+    if np.any(~np.isfinite(delta)) or np.any(delta <= 0):
+        raise ValueError(f"`delta` must be finite and > 0 for a backbone, got {delta!r}")
+    return kn.copy(), delta.copy()
+
+
+def dfa_backbone(
+    system: FreeplaySystem,
+    *,
+    kn,
+    delta,
+    mode: int = 0,
+    s: np.ndarray | None = None,
+    equal_hinges: bool = False,
+    tol: float = 1e-10,
+    max_iter: int = 100,
+) -> BackboneCurve:
+    """DFA backbone curve(s) of ``system`` for one or many (kn, delta).
+
+    Parameters
+    ----------
+    system : FreeplaySystem
+        Linear model with at least one hinge spring.
+    kn : float or array_like, shape (k,) [N m/rad]
+    delta : float or array_like, shape (k,) [rad]
+        Broadcast with ``kn``.
+    mode : int
+        Which mode, counted from the lowest (0) at every amplitude.
+    s : ndarray, shape (m,), optional
+        Largest hinge amplitude over delta at each point (> 1); default :func:`amplitude_grid`.
+    equal_hinges : bool
+        Give every hinge the largest hinge's kappa (no fixed point).
+    tol, max_iter : float, int
+        Fixed-point tolerance on kappa and iteration cap.
+
+    Returns
+    -------
+    BackboneCurve
+        With k = batch size and m = len(s); ``converged`` flags the fixed point per point.
+    """
+    if not isinstance(system, FreeplaySystem):
+        raise TypeError(f"`system` must be a FreeplaySystem, got {type(system).__name__}")
+    if system.n_hinges == 0:
+        raise ValueError("`system` has no hinge springs: its backbone is linear")
+    if not (0 <= mode < system.n_dof):
+        raise ValueError(f"`mode` must be in [0, {system.n_dof - 1}], got {mode!r}")
+    kn, delta = _as_batch(kn, delta)
+    s = amplitude_grid() if s is None else np.asarray(s, dtype=float).reshape(-1)
+    if s.size == 0 or np.any(s <= 1.0) or np.any(~np.isfinite(s)):
+        raise ValueError("`s` (largest hinge amplitude / delta) must be finite and > 1")
+
+    L = np.linalg.cholesky(system.M)
+    Linv = np.linalg.inv(L)
+    Kt = Linv @ system.K @ Linv.T
+    B = system.hinge_matrix()  # (n, h)
+    g = Linv @ B  # (n, h): hinge vectors in the transformed coordinates
+
+    k_, m_, h = kn.size, s.size, B.shape[1]
+
+    def solve(kappa):
+        """Eigen-solution for given hinge kappas, and the kappas it implies (the map F)."""
+        A = Kt + np.einsum("k,kmj,aj,bj->kmab", kn, kappa, g, g)  # (k, m, n, n)
+        lam, psi = np.linalg.eigh(A)
+        vec = psi[..., mode]  # (k, m, n), transformed coordinates
+        theta = np.abs(vec @ g)  # (k, m, h): |b_j^T phi| up to a common scale
+        ratio = theta / theta.max(axis=-1, keepdims=True)
+        with np.errstate(divide="ignore"):
+            implied = kappa_of_ratio(1.0 / (s[None, :, None] * ratio))
+        return lam[..., mode], vec, theta, implied
+
+    # Newton on G(kappa) = kappa - F(kappa) = 0, batched over (kn, s), with a forward-difference
+    # Jacobian (h extra eigen-batches per iteration) and a fall-back to the relaxed fixed point.
+    kappa = np.broadcast_to(kappa_of_ratio(1.0 / s)[None, :, None], (k_, m_, h)).copy()
+    lam, vec, theta, implied = solve(kappa)
+    converged = np.full((k_, m_), equal_hinges or h == 1)
+    eps = 1e-7
+    for _ in range(0 if (equal_hinges or h == 1) else max_iter):
+        G = kappa - implied
+        converged = np.max(np.abs(G), axis=-1) <= tol
+        if converged.all():
+            break
+        J = np.empty((k_, m_, h, h))
+        for j in range(h):
+            kp = kappa.copy()
+            kp[..., j] += eps
+            J[..., :, j] = ((kp - solve(kp)[3]) - G) / eps
+        try:
+            step = -np.linalg.solve(J, G[..., None])[..., 0]
+        except np.linalg.LinAlgError:
+            step = -0.5 * G
+        bad = ~np.all(np.isfinite(step), axis=-1, keepdims=True)
+        step = np.where(bad, -0.5 * G, step)
+        kappa = np.clip(kappa + np.where(converged[..., None], 0.0, step), 0.0, 1.0)
+        lam, vec, theta, implied = solve(kappa)
+    else:
+        if not (equal_hinges or h == 1):
+            converged = np.max(np.abs(kappa - implied), axis=-1) <= tol
+
+    phi = vec @ Linv  # (k, m, n): back to physical coordinates, phi = L^-T psi
+    scale = s[None, :] / theta.max(axis=-1)  # for delta = 1: Theta_max = s
+    amplitude = np.abs(phi) * scale[..., None] * delta[:, None, None]
+    hinge_amp = theta * scale[..., None] * delta[:, None, None]
+    freq = np.sqrt(np.clip(lam, 0.0, None)) / (2 * np.pi)
+    return BackboneCurve(
+        frequency_hz=freq,
+        amplitude=amplitude,
+        hinge_amplitude=hinge_amp,
+        kappa=kappa,
+        kn=kn,
+        delta=delta,
+        dof_names=system.dof_names,
+        method="dfa",
+        converged=converged,
+    )

@@ -1,0 +1,127 @@
+import numpy as np
+import pytest
+
+from freeplayid.backbone import dfa_backbone, hb_backbone
+from freeplayid.model import (
+    FreeplaySystem,
+    describing_function,
+    modal_analysis,
+    sdof_system,
+    two_dof_system,
+)
+
+
+def exact_sdof_omega(peak, delta, omega_n):
+    """Exact backbone of the pure freeplay oscillator (DESIGN.md §1)."""
+    return omega_n / (1.0 + 2.0 * delta / (np.pi * (peak - delta)))
+
+
+def two_hinge_system():
+    """Inboard mass on a root spring carrying two unequal outboard masses on freeplay springs."""
+    return FreeplaySystem(
+        M=np.diag([2.0, 0.5, 0.8]),
+        K=np.diag([5.0e4, 0.0, 0.0]) + 3.0e3 * np.array([[0, 0, 0], [0, 1, -1], [0, -1, 1.0]]),
+        dof_names=("a", "b", "c"),
+        hinge_pairs=(("b", "a"), ("c", "a")),
+        base_influence=[1.0, 1.0, 1.0],
+    )
+
+
+def test_dfa_sdof_is_the_describing_function_frequency():
+    bc = dfa_backbone(sdof_system(mass=2.0), kn=[8.0e4, 2.0e4], delta=[1e-3, 2e-3])
+    amp = bc.channel("x")
+    wn = np.sqrt(np.array([8.0e4, 2.0e4]) / 2.0)[:, None]
+    expected = wn * np.sqrt(describing_function(amp, bc.delta[:, None])) / (2 * np.pi)
+    np.testing.assert_allclose(bc.frequency_hz, expected, rtol=1e-10, atol=1e-12)
+
+
+@pytest.mark.parametrize("peak_over_delta, max_err", [(1.2, 0.004), (1.5, 0.001), (3.0, 1e-4)])
+def test_hb_matches_exact_sdof_backbone_where_dfa_fails(peak_over_delta, max_err):
+    delta, kn = 1.0, 1.0
+    s = np.linspace(1.02, 3.5, 60)
+    hb = hb_backbone(sdof_system(), kn=kn, delta=delta, s=s, n_harmonics=7, n_time=1024)
+    assert hb.converged.all()
+    peak = hb.peak_amplitude[0, :, 0]
+    err = hb.frequency_hz[0] * 2 * np.pi / exact_sdof_omega(peak, delta, 1.0) - 1
+    # error at the requested peak amplitude (interpolated along the curve)
+    assert abs(np.interp(peak_over_delta, peak, err)) < max_err
+    # the DFA at the exact solution's first harmonic: -53 % at 1.2 delta, -7 % at 1.5, -0.15 % at 3
+    a1 = np.interp(peak_over_delta, peak, hb.amplitude[0, :, 0])
+    w_dfa = np.sqrt(describing_function(a1, delta))
+    dfa_err = w_dfa / exact_sdof_omega(peak_over_delta, delta, 1.0) - 1
+    expected = {1.2: -0.53, 1.5: -0.07, 3.0: -0.0015}[peak_over_delta]
+    assert dfa_err == pytest.approx(expected, rel=0.1)
+
+
+def test_scale_invariance_of_the_backbone():
+    sys_ = two_hinge_system()
+    a = dfa_backbone(sys_, kn=2.0e3, delta=1e-3)
+    b = dfa_backbone(sys_, kn=2.0e3, delta=3.7e-3)
+    np.testing.assert_allclose(b.frequency_hz, a.frequency_hz, rtol=1e-12)
+    np.testing.assert_allclose(b.amplitude, 3.7 * a.amplitude, rtol=1e-10)
+
+
+def test_backbone_limits_open_and_closed_hinge():
+    sys_ = two_dof_system()
+    kn = 2.0e4
+    bc = dfa_backbone(sys_, kn=kn, delta=1e-3, s=np.array([1.000001, 1e6]))
+    closed = modal_analysis(sys_.M, sys_.closed_stiffness(kn)).frequencies_hz[0]
+    open_ = modal_analysis(sys_.M, sys_.K).frequencies_hz[0]
+    assert bc.frequency_hz[0, -1] == pytest.approx(closed, rel=1e-5)
+    assert bc.frequency_hz[0, 0] == pytest.approx(open_, abs=1e-2 * closed)
+    assert np.all(np.diff(dfa_backbone(sys_, kn=kn, delta=1e-3).frequency_hz[0]) > 0)
+
+
+def test_unequal_hinges_fixed_point_equals_one_harmonic_balance():
+    sys_ = two_hinge_system()
+    s = np.geomspace(1.05, 20, 25)
+    dfa = dfa_backbone(sys_, kn=4.0e3, delta=2e-3, s=s)
+    assert dfa.converged.all()
+    ratio = dfa.hinge_amplitude[0].min(axis=1) / dfa.hinge_amplitude[0].max(axis=1)
+    assert ratio.min() < 0.95  # the hinges really are unequal here
+    hb1 = hb_backbone(sys_, kn=4.0e3, delta=2e-3, s=s, n_harmonics=1, n_time=8192)
+    np.testing.assert_allclose(hb1.frequency_hz, dfa.frequency_hz, rtol=2e-5)
+    np.testing.assert_allclose(hb1.amplitude, dfa.amplitude, rtol=1e-4, atol=1e-9)
+    # the equal-hinge approximation differs from the consistent solution
+    eq = dfa_backbone(sys_, kn=4.0e3, delta=2e-3, s=s, equal_hinges=True)
+    assert np.max(np.abs(eq.frequency_hz / dfa.frequency_hz - 1)) > 1e-3
+
+
+def test_batched_kn_equals_individual_calls_and_frequency_at():
+    sys_ = two_dof_system()
+    kns = np.array([5e3, 2e4, 8e4])
+    batch = dfa_backbone(sys_, kn=kns, delta=1e-3)
+    for i, k in enumerate(kns):
+        one = dfa_backbone(sys_, kn=k, delta=1e-3)
+        np.testing.assert_allclose(batch.frequency_hz[i], one.frequency_hz[0], rtol=1e-12)
+    x = batch.channel("uz_out")[1, 80]
+    assert batch.frequency_at([x], "uz_out")[1, 0] == pytest.approx(batch.frequency_hz[1, 80])
+    assert np.isnan(batch.frequency_at([1e9], "uz_out")).all()
+
+
+def test_backbone_input_errors():
+    with pytest.raises(ValueError, match="delta"):
+        dfa_backbone(two_dof_system(), kn=1.0, delta=0.0)
+    with pytest.raises(ValueError, match="broadcast"):
+        dfa_backbone(two_dof_system(), kn=[1.0, 2.0], delta=[1.0, 2.0, 3.0])
+    with pytest.raises(ValueError, match="no hinge"):
+        dfa_backbone(
+            FreeplaySystem(M=np.eye(1), K=np.eye(1), dof_names=("x",), hinge_pairs=()),
+            kn=1.0,
+            delta=1.0,
+        )
+    with pytest.raises(KeyError, match="unknown channel"):
+        dfa_backbone(two_dof_system(), kn=1.0, delta=1.0).channel("nope")
+
+
+def test_inconsistent_points_are_flagged_not_hidden():
+    # nearly decoupled outboard masses: near contact the softer hinge falls into its gap and the
+    # lowest mode switches hinge, so no consistent DFA point exists there; it must be flagged
+    weak = FreeplaySystem(
+        M=np.diag([2.0, 0.5, 0.8]),
+        K=np.diag([5.0e4, 0.0, 0.0]) + 300.0 * np.array([[0, 0, 0], [0, 1, -1], [0, -1, 1.0]]),
+        dof_names=("a", "b", "c"),
+        hinge_pairs=(("b", "a"), ("c", "a")),
+    )
+    bc = dfa_backbone(weak, kn=4.0e3, delta=2e-3, s=np.array([1.1, 1.3, 20.0]))
+    assert not bc.converged[0, 0] and bc.converged[0, -1]

@@ -1,0 +1,95 @@
+import numpy as np
+import pytest
+
+from freeplayid.backbone import dfa_backbone, hb_backbone
+from freeplayid.fit import fit_backbone, multistart_grid
+from freeplayid.model import two_dof_system
+
+KN, DELTA = 2.0e4, 1.0e-3
+S = np.array([1.6, 2.0, 3.0, 5.0, 8.0])
+
+
+def _points(curve, noise=0.0, seed=0):
+    rng = np.random.default_rng(seed)
+    f = np.r_[curve.frequency_hz[0], curve.frequency_hz[0]]
+    return {
+        "channel": ["uz_out"] * S.size + ["uz_in"] * S.size,
+        "amplitude": np.r_[curve.channel("uz_out")[0], curve.channel("uz_in")[0]],
+        "f_hz": f * (1 + noise * rng.standard_normal(f.size)),
+    }
+
+
+def test_fit_recovers_parameters_from_exact_dfa_points():
+    pts = _points(dfa_backbone(two_dof_system(), kn=KN, delta=DELTA, s=S))
+    res = fit_backbone(pts, two_dof_system())
+    assert res.kn == pytest.approx(KN, rel=1e-4)
+    assert res.delta == pytest.approx(DELTA, rel=1e-3)
+    assert res.residual_rms < 1e-4 and res.init == "multistart"
+    assert res.n_evaluations > 25
+
+
+def test_multistart_is_insensitive_to_the_start():
+    pts = _points(dfa_backbone(two_dof_system(), kn=KN, delta=DELTA, s=S))
+    sys_ = two_dof_system()
+    starts = multistart_grid(3, kn_range=(1e3, 1e8), delta_range=(1e-4, 1e-2))
+    results = [fit_backbone(pts, sys_, init=[s0] + multistart_grid(3)) for s0 in starts]
+    kns = np.array([r.kn for r in results])
+    np.testing.assert_allclose(kns, KN, rtol=1e-4)
+
+
+def test_confidence_intervals_cover_truth_with_noisy_points():
+    sys_ = two_dof_system()
+    pts = _points(dfa_backbone(sys_, kn=KN, delta=DELTA, s=S), noise=0.003, seed=1)
+    res = fit_backbone(pts, sys_, init=(1e4, 2e-3), n_bootstrap=40)
+    assert res.kn_ci95[0] < KN < res.kn_ci95[1]
+    assert res.delta_ci95[0] < DELTA < res.delta_ci95[1]
+    assert res.kn_ci95_bootstrap[0] < res.kn < res.kn_ci95_bootstrap[1]
+    assert res.init == "given"
+
+
+def test_hb_backbone_fit_on_harmonic_balance_points_near_contact():
+    # points close to contact (s = 1.2-2), where the DFA is biased: the HB fit removes the bias
+    sys_ = two_dof_system()
+    s = np.array([1.2, 1.3, 1.5, 1.8, 2.2])
+    hb = hb_backbone(sys_, kn=KN, delta=DELTA, s=s, n_harmonics=5)
+    pts = {
+        "channel": ["uz_out"] * s.size,
+        "amplitude": hb.channel("uz_out")[0],
+        "f_hz": hb.frequency_hz[0],
+    }
+    dfa_fit = fit_backbone(pts, sys_, init=(KN, DELTA))
+    hb_fit = fit_backbone(pts, sys_, init=(KN, DELTA), backbone="hb")
+    assert abs(hb_fit.delta / DELTA - 1) < 0.25 * abs(dfa_fit.delta / DELTA - 1)
+    assert hb_fit.delta == pytest.approx(DELTA, rel=5e-3)
+
+
+def test_fit_input_errors():
+    sys_ = two_dof_system()
+    with pytest.raises(ValueError, match="at least 2"):
+        fit_backbone({"channel": ["uz_in"], "amplitude": [1e-3], "f_hz": [5.0]}, sys_)
+    with pytest.raises(ValueError, match="not DOFs"):
+        fit_backbone({"channel": ["x", "x"], "amplitude": [1e-3, 2e-3], "f_hz": [5.0, 6.0]}, sys_)
+    with pytest.raises(ValueError, match="bad points"):
+        fit_backbone(
+            {"channel": ["uz_in", "uz_in"], "amplitude": [np.nan, 2e-3], "f_hz": [5.0, 6.0]}, sys_
+        )
+    with pytest.raises(ValueError, match="backbone"):
+        fit_backbone(
+            {"channel": ["uz_in", "uz_in"], "amplitude": [1e-3, 2e-3], "f_hz": [5.0, 6.0]},
+            sys_,
+            backbone="ihb",
+        )
+
+
+def test_validate_modes_passes_for_true_kn_and_fails_for_wrong_kn():
+    from freeplayid.fit import validate_modes
+    from freeplayid.model import modal_analysis
+
+    sys_ = two_dof_system()
+    ref = modal_analysis(sys_.M, sys_.closed_stiffness(KN))
+    dofs = ["uz_in", "uz_out"]
+    good = validate_modes(sys_, KN * 1.001, ref.frequencies_hz, ref.shapes, dofs)
+    assert good.passed and np.all(np.abs(good.error_hz) < 0.05)
+    assert "MAC" in good.table()
+    bad = validate_modes(sys_, KN * 3, ref.frequencies_hz, ref.shapes, dofs)
+    assert not bad.passed
