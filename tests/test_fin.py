@@ -102,7 +102,7 @@ def test_knuckle_hinge_converges_with_the_mesh(cfg):
 def test_harmonic_response_matches_full_model(cfg):
     """Base-driven response at 40 Hz (closed hinges, undamped): reduced vs full FE."""
     fe = build_fin_fe(cfg)
-    sysr = reduce_fin(fe)
+    sysr = reduce_fin(fe, influence="load")
     w = 2 * np.pi * 40.0
     y_full = spla.spsolve((fe.closed_stiffness(cfg.kn) - w * w * fe.M).tocsc(), -fe.base_load)
     Kr = sysr.closed_stiffness(cfg.kn)
@@ -117,7 +117,7 @@ def test_base_vector_option_makes_influence_rigid(cfg):
     assert s.dof_names[-1] == "q_base" and s.n_dof == 13
     np.testing.assert_allclose(s.base_influence[:6], [1, 1, 0, 0, 0, 0], atol=1e-9)
     # modal participation factors of the base load agree with the exact-load 12-DOF model
-    s12 = reduce_fin(fe)
+    s12 = reduce_fin(fe, influence="load")
     gam = []
     for sys_ in (s, s12):
         modes = modal_analysis(sys_.M, sys_.closed_stiffness(cfg.kn))
@@ -178,3 +178,16 @@ def test_config_errors(mapping, edit, match):
     edit(bad)
     with pytest.raises(ValueError, match=match):
         fin_from_config(bad)
+
+
+def test_default_influence_is_rigid_and_close_to_the_exact_load_in_mode_1(cfg):
+    fe = build_fin_fe(cfg)
+    rigid = reduce_fin(fe)
+    exact = reduce_fin(fe, influence="load")
+    np.testing.assert_array_equal(rigid.base_influence, [1, 1] + [0] * 10)
+    for K in (rigid.closed_stiffness(cfg.kn), rigid.K):
+        phi = modal_analysis(rigid.M, K).shapes[:, 0]
+        ratio = (phi @ rigid.M @ rigid.base_influence) / (phi @ exact.M @ exact.base_influence)
+        assert abs(ratio - 1) < 0.02
+    with pytest.raises(ValueError, match="influence"):
+        reduce_fin(fe, influence="modal")
