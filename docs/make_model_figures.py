@@ -138,8 +138,9 @@ def main() -> None:
 
     print("\n### Base influence r at the Uz DOFs\n")
     for name, s in (
-        ("12 DOFs (default)", fin),
-        ("14 DOFs (8 modes)", fin8),
+        ("12 DOFs (default, rigid)", fin),
+        ("12 DOFs (exact load)", reduce_fin(fe, influence="load")),
+        ("14 DOFs (8 modes, exact load)", reduce_fin(fe, n_modes=8, influence="load")),
         ("13 DOFs (base_vector=True)", reduce_fin(fe, base_vector=True)),
     ):
         r = s.base_influence
