@@ -11,7 +11,7 @@ N m/rad). The layout of the mapping is the one of ``conf/model/fin.yaml``::
     hinge: {x: [left, mid, right], knuckle_width, kn, delta}
     points: {top_left: [x, y], lower_right: [x, y], exciting: [x, y]}
     damping: {model: modal | rayleigh, zeta, f1, f2}
-    reduction: {method: craig_bampton | guyan, n_modes}
+    reduction: {method: craig_bampton | guyan, n_modes, interior: system | fixed_interface}
 """
 
 from __future__ import annotations
@@ -129,7 +129,10 @@ class FinConfig:
         f1, f2 of Rayleigh damping (ignored for modal damping).
     reduction : "craig_bampton" or "guyan"
     n_modes : int
-        Fixed-interface modes kept by Craig-Bampton.
+        Interior (modal) coordinates kept by Craig-Bampton.
+    interior : "system" or "fixed_interface"
+        Interior vectors: the zero-clearance modes of the assembled fin at kn (their interior
+        residuals; keeps those modes exact) or the classical fixed-interface modes.
     """
 
     root_chord: float
@@ -150,6 +153,7 @@ class FinConfig:
     rayleigh_hz: tuple = (30.0, 60.0)
     reduction: str = "craig_bampton"
     n_modes: int = 6
+    interior: str = "system"
 
     def __post_init__(self) -> None:
         for name in ("root_chord", "inboard_span", "outboard_span", "outboard_chord"):
@@ -210,6 +214,10 @@ class FinConfig:
         if int(self.n_modes) != self.n_modes or self.n_modes < 0:
             raise ValueError(f"`reduction.n_modes` must be an integer >= 0, got {self.n_modes!r}")
         object.__setattr__(self, "n_modes", int(self.n_modes))
+        if self.interior not in ("system", "fixed_interface"):
+            raise ValueError(
+                f"`reduction.interior` must be 'system' or 'fixed_interface', got {self.interior!r}"
+            )
 
     # ------------------------------------------------------------------ construction
     @classmethod
@@ -229,7 +237,7 @@ class FinConfig:
         pt_keys = ("top_left", "lower_right", "exciting")
         pts = _keys(m["points"], pt_keys, "points", required=pt_keys[:2])
         d = _keys(m.get("damping", {}), ("model", "zeta", "f1", "f2"), "damping")
-        r = _keys(m.get("reduction", {}), ("method", "n_modes"), "reduction")
+        r = _keys(m.get("reduction", {}), ("method", "n_modes", "interior"), "reduction")
         return cls(
             root_chord=g["root_chord"],
             inboard_span=g["inboard_span"],
@@ -249,6 +257,7 @@ class FinConfig:
             rayleigh_hz=(d.get("f1", 30.0), d.get("f2", 60.0)),
             reduction=r.get("method", "craig_bampton"),
             n_modes=r.get("n_modes", 6),
+            interior=r.get("interior", "system"),
         )
 
     def replace(self, **changes) -> FinConfig:

@@ -55,7 +55,9 @@ def modal_analysis(M, K, *, n_modes: int | None = None, sparse: bool | None = No
         # shift slightly below zero so a mechanism (singular K) does not break the factorisation
         Ks, Ms = sp.csc_matrix(K), sp.csc_matrix(M)
         scale = abs(Ks.diagonal()).max() / abs(Ms.diagonal()).max()
-        lam, phi = spla.eigsh(Ks, k=n_modes, M=Ms, sigma=-1e-6 * scale, which="LM")
+        # a fixed start vector makes repeated calls bit-identical (reproducible reduced models)
+        v0 = np.ones(n)
+        lam, phi = spla.eigsh(Ks, k=n_modes, M=Ms, sigma=-1e-6 * scale, which="LM", v0=v0)
         order = np.argsort(lam)
         lam, phi = lam[order], phi[:, order]
         # mass-normalise (eigsh returns M-orthonormal vectors, but be explicit)

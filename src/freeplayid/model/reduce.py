@@ -94,7 +94,7 @@ def _check_boundary(boundary, n: int) -> np.ndarray:
     return b.astype(int)
 
 
-def craig_bampton(M, K, boundary, *, n_modes: int) -> Reduction:
+def craig_bampton(M, K, boundary, *, n_modes: int, interior_vectors=None) -> Reduction:
     """Craig-Bampton reduction to the ``boundary`` DOFs plus ``n_modes`` fixed-interface modes.
 
     Parameters
@@ -106,6 +106,13 @@ def craig_bampton(M, K, boundary, *, n_modes: int) -> Reduction:
         Retained DOF indices; the reduced coordinates start with them in this order.
     n_modes : int, >= 0
         Number of fixed-interface modes kept (0 gives Guyan).
+    interior_vectors : ndarray, shape (n, m), optional
+        Use these full-space vectors instead of fixed-interface modes (``n_modes`` is then
+        ignored): their interior residuals after the constraint-mode part is removed,
+        ``x_i - Psi x_b``, are diagonalised on (K_ii, M_ii) inside their span. With the lowest
+        modes of the assembled structure this keeps those modes exactly in the basis (a
+        system-mode interior basis); ``fixed_interface_hz`` then holds the interior-subspace
+        frequencies.
 
     Returns
     -------
@@ -142,7 +149,21 @@ def craig_bampton(M, K, boundary, *, n_modes: int) -> Reduction:
         )
     Psi = -lu.solve(Kib)
 
-    if n_modes > 0:
+    if interior_vectors is not None:
+        X = np.asarray(interior_vectors, dtype=float)
+        if X.ndim != 2 or X.shape[0] != n:
+            raise ValueError(f"`interior_vectors` must have shape ({n}, m), got {X.shape}")
+        import scipy.linalg
+
+        Mii = Ms[interior][:, interior].tocsc()
+        R = X[interior] - Psi @ X[b]  # zero boundary values: pure interior motion
+        lam, V = scipy.linalg.eigh(R.T @ (Kii @ R), R.T @ (Mii @ R))
+        Phi = R @ V  # M_ii-orthonormal, K_ii-diagonal
+        n_modes = Phi.shape[1]
+        big = np.argmax(np.abs(Phi), axis=0)
+        Phi = Phi * np.sign(Phi[big, np.arange(n_modes)])
+        f_fi = np.sqrt(np.clip(lam, 0.0, None)) / (2 * np.pi)
+    elif n_modes > 0:
         Mii = Ms[interior][:, interior].tocsc()
         if ni <= 400 or n_modes >= ni - 1:
             import scipy.linalg
