@@ -245,7 +245,7 @@ def simulate_sweeps(
 
     taps = design_decimator(m)
     n_out = int(math.floor(sweep.duration * sample_rate + 1e-9)) + 1
-    look = (len(taps) - 1) // 2 // m
+    look = (len(taps) - 1) // 2 // m + 1  # filter look-ahead (+1: the polyphase block padding)
     n_steps = (n_out - 1 + look) * m + 1  # recorded step-rate samples t_0 .. t_{n_steps-1}
 
     # initial state: at rest relative to the base; the large-mass form starts on the base motion
@@ -254,16 +254,16 @@ def simulate_sweeps(
     eta0 = np.outer(G_lv * base_state[0], form.x0_per_ub)
     v0 = np.outer(G_lv * base_state[1], form.v0_per_vb)
     if engine == "numba":
-        from .kernel import NumbaRK4
+        from .kernel import NumbaDecimator, NumbaRK4
 
         eng = NumbaRK4(form, kn_a, dl_a, lv_a, eta0, v0, h=h, quantity=quantity, dtype=dtype)
+        dec = NumbaDecimator(taps, m, dtype=eng.nd)
         width = len(channels)
     else:
         eng = TorchRK4(form, kn_a, dl_a, lv_a, eta0, v0, h=h, quantity=quantity, dtype=dtype,
                        device=device)
+        dec = StreamingDecimator(taps, m, dtype=dtype, device=device)
         width = form.n_modes
-    rec_device = torch.device("cpu") if engine == "numba" else device
-    dec = StreamingDecimator(taps, m, dtype=dtype, device=rec_device)
     dec_base = StreamingDecimator(taps, m, dtype=torch.float64, device=torch.device("cpu"))
     chunk = max(m, (_CHUNK_ELEMENTS // max(1, batch * width)) // m * m)
 
@@ -279,8 +279,11 @@ def simulate_sweeps(
     while i0 < n_steps:
         L = min(chunk, n_steps - i0)
         s_half = np.sin(sweep.phase((i0 + 0.5 * np.arange(2 * L + 1)) * h))
-        rec = eng.run(s_half)  # (batch, C, L)
-        outs.append(dec.push(rec.reshape(batch * len(channels), L)))
+        rec = eng.run(s_half)  # (batch, C, L) tensor, or (L, C, batch) array for numba
+        if engine == "numba":
+            outs.append(dec.push(rec))
+        else:
+            outs.append(dec.push(rec.reshape(batch * len(channels), L)))
         sig = _base_signals(sweep, i0, L, h, s_half, base_state)
         q = ("displacement", "velocity", "acceleration").index(quantity)
         rows = np.stack([sig["base"][q], sig["quasi_static"][q]])
@@ -290,8 +293,11 @@ def simulate_sweeps(
             bar.update(round(min(i0 * h, sweep.duration) - bar.n, 3))
     if bar is not None:
         bar.close()
-    y = torch.cat(outs, dim=1)[:, :n_out].reshape(batch, len(channels), n_out)
-    y = y.cpu().numpy().astype(np.float64 if dtype == torch.float64 else np.float32, copy=False)
+    if engine == "numba":
+        y = np.ascontiguousarray(np.concatenate(outs, axis=0)[:n_out].transpose(2, 1, 0))
+    else:
+        y = torch.cat(outs, dim=1)[:, :n_out].reshape(batch, len(channels), n_out)
+        y = y.cpu().numpy()
     base = torch.cat(base_outs, dim=1)[:, :n_out].numpy()
     extra = (form.base_coef[None, :, None] * base[0] + form.static_coef[None, :, None] * base[1])
     if np.any(extra):
