@@ -22,9 +22,11 @@ built from the fixed-base one by the kinematic map ``x = y + r u_b``::
 hinges act on ``b_j^T (x - r u_b)`` and the base DOF is driven by the force ``M_L a_g``.
 It starts on the rigid-body motion of the base (``x = r u_b``, ``x' = r v_b``).
 
-Modal truncation (optional, ``cutoff_hz``): the basis is restricted to the closed-hinge modes (at
-the batch's largest kn) below the cut-off and re-diagonalised for the open stiffness inside that
-subspace. The quasi-static response of the dropped modes to the base load is added back to the
+Modal truncation (optional, ``cutoff_hz``): the basis is restricted to the span of the open-hinge
+and the closed-hinge (at the batch's largest kn) modes below the cut-off (the in-gap motion and the
+contact state both stay representable) and re-diagonalised for the open stiffness inside it.
+A contact mode above the cut-off that the in-gap motion needs cannot be dropped: then the span is
+the whole space and nothing is gained (a stiff contact needs a small step). The quasi-static response of the dropped modes to the base load is added back to the
 outputs (residual flexibility, mode-acceleration correction) and its size is reported.
 """
 
@@ -70,7 +72,7 @@ class ModalTruncation:
         make in the response to the base load without the residual-flexibility correction
         (the correction, applied to the outputs, removes it for slow loading).
     missing_mass : float [-]
-        Fraction of the base-load effective mass carried by the dropped modes.
+        Fraction of the base load ``F^T M^-1 F`` outside the kept subspace.
     """
 
     cutoff_hz: float
@@ -240,29 +242,35 @@ def build_modal_form(
             raise ValueError(f"`cutoff_hz` must be > 0 or None, got {cutoff_hz!r}")
         lam_c, phi_c = scipy.linalg.eigh(Kc, M)
         lam_c = np.clip(lam_c, 0.0, None)
-        keep = np.sqrt(lam_c) / (2 * np.pi) <= cutoff_hz
-        if not np.any(keep):
+        lam_o, phi_o = scipy.linalg.eigh(K, M)
+        fc = (2 * np.pi * cutoff_hz) ** 2
+        keep_c, keep_o = lam_c <= fc, lam_o <= fc
+        if not np.any(keep_c):
             raise ValueError(
                 f"`cutoff_hz`={cutoff_hz!r} keeps no mode; the lowest closed-hinge mode is at "
                 f"{math.sqrt(lam_c[0]) / (2 * np.pi):.4g} Hz"
             )
-        V = phi_c[:, keep]
-        drop = ~keep
-        # residual flexibility of the dropped (all elastic, high) modes: quasi-static correction
-        Rflex = (phi_c[:, drop] / lam_c[drop]) @ phi_c[:, drop].T
-        static_coef = S_phys @ Rflex @ F
-        # full quasi-static response of the elastic modes (a rigid base mode carries none)
+        # span of the open- and closed-hinge modes below the cut-off (the in-gap motion and the
+        # contact state), M-orthonormalised with rank detection
+        W = np.hstack([phi_o[:, keep_o], phi_c[:, keep_c]])
+        gw, U = np.linalg.eigh(W.T @ M @ W)
+        ok = gw > 1e-10 * gw.max()
+        V = W @ (U[:, ok] / np.sqrt(gw[ok]))
+        # residual flexibility: full elastic flexibility minus the subspace's (pinv: rigid modes)
         elastic = lam_c > 1e-9 * lam_c[-1]
-        full_static = S_phys @ ((phi_c[:, elastic] / lam_c[elastic]) @ (phi_c[:, elastic].T @ F))
+        flex_full = (phi_c[:, elastic] / lam_c[elastic]) @ phi_c[:, elastic].T
+        flex_sub = V @ np.linalg.pinv(V.T @ Kc @ V, rcond=1e-10, hermitian=True) @ V.T
+        full_static = S_phys @ flex_full @ F
+        static_coef = S_phys @ (flex_full - flex_sub) @ F
         denom = np.maximum(np.abs(full_static), 1e-300)
-        part = phi_c.T @ F
-        missing = float(np.sum(part[drop] ** 2) / max(np.sum(part**2), 1e-300))
+        total = float(F @ np.linalg.solve(M, F))
+        captured = float(np.sum((V.T @ F) ** 2))
         truncation = ModalTruncation(
             cutoff_hz=float(cutoff_hz),
-            kept=int(keep.sum()),
+            kept=int(V.shape[1]),
             total=n,
             static_error=float(np.max(np.abs(static_coef) / denom)),
-            missing_mass=missing,
+            missing_mass=max(0.0, 1.0 - captured / max(total, 1e-300)),
         )
     else:
         V = np.eye(n)
