@@ -5,8 +5,8 @@ import pytest
 import scipy.integrate
 import scipy.linalg
 import torch
-from conftest import DELTA_PAPER, KN_PAPER, standin_fin
 
+from conftest import DELTA_PAPER, KN_PAPER
 from freeplayid.model import FreeplaySystem, freeplay_force, two_dof_system
 from freeplayid.simulate import (
     G,

@@ -26,8 +26,9 @@ Modal truncation (optional, ``cutoff_hz``): the basis is restricted to the span 
 and the closed-hinge (at the batch's largest kn) modes below the cut-off (the in-gap motion and the
 contact state both stay representable) and re-diagonalised for the open stiffness inside it.
 A contact mode above the cut-off that the in-gap motion needs cannot be dropped: then the span is
-the whole space and nothing is gained (a stiff contact needs a small step). The quasi-static response of the dropped modes to the base load is added back to the
-outputs (residual flexibility, mode-acceleration correction) and its size is reported.
+the whole space and nothing is gained (a stiff contact needs a small step). The quasi-static
+response of the dropped modes to the base load is added back to the outputs (residual
+flexibility, mode-acceleration correction) and its size is reported.
 """
 
 from __future__ import annotations
