@@ -15,7 +15,7 @@ from freeplayid.simulate import (
     design_decimator,
     simulate_sweeps,
 )
-from freeplayid.simulate.kernel import numba_available
+from freeplayid.simulate.engines import numba_available
 
 CH = ("uz_top_left", "uz_lower_right")
 needs_numba = pytest.mark.skipif(not numba_available(), reason="numba not installed")

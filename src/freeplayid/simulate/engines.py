@@ -26,10 +26,19 @@ import torch
 
 from .formulation import ModalForm
 
-__all__ = ["TorchRK4", "MODES", "BLOWUP"]
+__all__ = ["TorchRK4", "MODES", "BLOWUP", "numba_available"]
 
 MODES = {"displacement": 0, "velocity": 1, "acceleration": 2}
 BLOWUP = 1e12  # |modal state| above this (or non-finite) marks a member as diverged
+
+
+def numba_available() -> bool:
+    """True if numba imports, so the compiled engine (``kernel.py``) can be used."""
+    try:
+        import numba  # noqa: F401
+    except Exception:  # pragma: no cover - depends on the environment
+        return False
+    return True
 
 
 class TorchRK4:

@@ -5,175 +5,152 @@ a loop over contiguous members that LLVM vectorises (SIMD lanes = members). Bloc
 members run the whole chunk in one thread (their state stays in L1 cache); blocks are spread
 over threads with ``prange``. The step is fused: no temporaries leave the block.
 
-numba is optional: :func:`numba_available` says whether it imports; the simulator falls back to
-the torch engine without it.
+numba is optional: this module imports it, so import it only after
+:func:`.engines.numba_available` says yes (the simulator falls back to the torch engine).
 """
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 
 from .engines import BLOWUP, MODES
 from .formulation import ModalForm
 
-__all__ = ["NumbaRK4", "NumbaDecimator", "numba_available"]
+__all__ = ["NumbaRK4", "NumbaDecimator"]
 
 BLOCK = 64  # members per block: 4 AVX-512 float32 vectors; block state ~ 8 x 12 x 64 words
 
-_kernel = None
-
-
-def numba_available() -> bool:
-    """True if numba imports (the compiled engine can be used)."""
-    try:
-        import numba  # noqa: F401
-    except Exception:  # pragma: no cover - depends on the environment
-        return False
-    return True
-
-
-def _build_kernel():
-    import numba
-
-    @numba.njit(fastmath=True, inline="always", cache=True)
-    def accel(eta, v, s, kn, dl, lev, lam, cm, cdiag, diag, D, g, th, acc, nb):
-        N, H = D.shape
-        for j in range(H):
+@numba.njit(fastmath=True, inline="always", cache=True)
+def _accel(eta, v, s, kn, dl, lev, lam, cm, cdiag, diag, D, g, th, acc, nb):
+    N, H = D.shape
+    for j in range(H):
+        for b in range(nb):
+            th[j, b] = 0.0
+        for k in range(N):
+            d = D[k, j]
             for b in range(nb):
-                th[j, b] = 0.0
+                th[j, b] += d * eta[k, b]
+        for b in range(nb):
+            x = th[j, b]
+            c = min(max(x, -dl[b]), dl[b])
+            th[j, b] = kn[b] * (x - c)
+    for i in range(N):
+        gi = g[i] * s
+        li = lam[i]
+        for b in range(nb):
+            acc[i, b] = gi * lev[b] - li * eta[i, b]
+        if diag:
+            ci = cdiag[i]
+            for b in range(nb):
+                acc[i, b] -= ci * v[i, b]
+        else:
             for k in range(N):
-                d = D[k, j]
+                c = cm[i, k]
                 for b in range(nb):
-                    th[j, b] += d * eta[k, b]
+                    acc[i, b] -= c * v[k, b]
+        for j in range(H):
+            d = D[i, j]
             for b in range(nb):
-                x = th[j, b]
-                c = min(max(x, -dl[b]), dl[b])
-                th[j, b] = kn[b] * (x - c)
+                acc[i, b] -= d * th[j, b]
+
+@numba.njit(parallel=True, fastmath=True, cache=True)
+def rk4_chunk(eta, v, kn, dl, lev, lam, cm, cdiag, diag, D, g, S, mode, s_half, coef, out,
+              alive):
+    N, B = eta.shape
+    H = D.shape[1]
+    C = S.shape[0]
+    L = out.shape[0]
+    dt = eta.dtype
+    nblk = (B + BLOCK - 1) // BLOCK
+    for blk in numba.prange(nblk):
+        b0 = blk * BLOCK
+        nb = min(BLOCK, B - b0)
+        e = np.empty((N, BLOCK), dt)
+        w = np.empty((N, BLOCK), dt)
+        et = np.empty((N, BLOCK), dt)
+        vt = np.empty((N, BLOCK), dt)
+        se = np.zeros((N, BLOCK), dt)
+        sv = np.zeros((N, BLOCK), dt)
+        k = np.empty((N, BLOCK), dt)
+        th = np.empty((H, BLOCK), dt)
+        knb = np.empty(BLOCK, dt)
+        dlb = np.empty(BLOCK, dt)
+        lvb = np.empty(BLOCK, dt)
+        for b in range(nb):
+            knb[b] = kn[b0 + b]
+            dlb[b] = dl[b0 + b]
+            lvb[b] = lev[b0 + b]
         for i in range(N):
-            gi = g[i] * s
-            li = lam[i]
             for b in range(nb):
-                acc[i, b] = gi * lev[b] - li * eta[i, b]
-            if diag:
-                ci = cdiag[i]
+                e[i, b] = eta[i, b0 + b]
+                w[i, b] = v[i, b0 + b]
+        h = coef[0]
+        h2 = coef[1]
+        h6 = coef[2]
+        two = coef[3]
+        for step in range(L):
+            s0 = s_half[2 * step]
+            s1 = s_half[2 * step + 1]
+            s2 = s_half[2 * step + 2]
+            # stage 1 at (e, w)
+            _accel(e, w, s0, knb, dlb, lvb, lam, cm, cdiag, diag, D, g, th, k, nb)
+            src = e if mode == 0 else (w if mode == 1 else k)
+            for c in range(C):
                 for b in range(nb):
-                    acc[i, b] -= ci * v[i, b]
-            else:
-                for k in range(N):
-                    c = cm[i, k]
+                    out[step, c, b0 + b] = 0.0
+                for i in range(N):
+                    sc = S[c, i]
                     for b in range(nb):
-                        acc[i, b] -= c * v[k, b]
-            for j in range(H):
-                d = D[i, j]
-                for b in range(nb):
-                    acc[i, b] -= d * th[j, b]
-
-    @numba.njit(parallel=True, fastmath=True, cache=True)
-    def rk4_chunk(eta, v, kn, dl, lev, lam, cm, cdiag, diag, D, g, S, mode, s_half, coef, out,
-                  alive):
-        N, B = eta.shape
-        H = D.shape[1]
-        C = S.shape[0]
-        L = out.shape[0]
-        dt = eta.dtype
-        nblk = (B + BLOCK - 1) // BLOCK
-        for blk in numba.prange(nblk):
-            b0 = blk * BLOCK
-            nb = min(BLOCK, B - b0)
-            e = np.empty((N, BLOCK), dt)
-            w = np.empty((N, BLOCK), dt)
-            et = np.empty((N, BLOCK), dt)
-            vt = np.empty((N, BLOCK), dt)
-            se = np.zeros((N, BLOCK), dt)
-            sv = np.zeros((N, BLOCK), dt)
-            k = np.empty((N, BLOCK), dt)
-            th = np.empty((H, BLOCK), dt)
-            knb = np.empty(BLOCK, dt)
-            dlb = np.empty(BLOCK, dt)
-            lvb = np.empty(BLOCK, dt)
-            for b in range(nb):
-                knb[b] = kn[b0 + b]
-                dlb[b] = dl[b0 + b]
-                lvb[b] = lev[b0 + b]
+                        out[step, c, b0 + b] += sc * src[i, b]
             for i in range(N):
                 for b in range(nb):
-                    e[i, b] = eta[i, b0 + b]
-                    w[i, b] = v[i, b0 + b]
-            h = coef[0]
-            h2 = coef[1]
-            h6 = coef[2]
-            two = coef[3]
-            for step in range(L):
-                s0 = s_half[2 * step]
-                s1 = s_half[2 * step + 1]
-                s2 = s_half[2 * step + 2]
-                # stage 1 at (e, w)
-                accel(e, w, s0, knb, dlb, lvb, lam, cm, cdiag, diag, D, g, th, k, nb)
-                src = e if mode == 0 else (w if mode == 1 else k)
-                for c in range(C):
-                    for b in range(nb):
-                        out[step, c, b0 + b] = 0.0
-                    for i in range(N):
-                        sc = S[c, i]
-                        for b in range(nb):
-                            out[step, c, b0 + b] += sc * src[i, b]
-                for i in range(N):
-                    for b in range(nb):
-                        se[i, b] = w[i, b]
-                        sv[i, b] = k[i, b]
-                        et[i, b] = e[i, b] + h2 * w[i, b]
-                        vt[i, b] = w[i, b] + h2 * k[i, b]
-                # stage 2 at (e + h/2 w, w + h/2 k1)
-                accel(et, vt, s1, knb, dlb, lvb, lam, cm, cdiag, diag, D, g, th, k, nb)
-                for i in range(N):
-                    for b in range(nb):
-                        se[i, b] += two * vt[i, b]
-                        sv[i, b] += two * k[i, b]
-                        et[i, b] = e[i, b] + h2 * vt[i, b]
-                        vt[i, b] = w[i, b] + h2 * k[i, b]
-                # stage 3
-                accel(et, vt, s1, knb, dlb, lvb, lam, cm, cdiag, diag, D, g, th, k, nb)
-                for i in range(N):
-                    for b in range(nb):
-                        se[i, b] += two * vt[i, b]
-                        sv[i, b] += two * k[i, b]
-                        et[i, b] = e[i, b] + h * vt[i, b]
-                        vt[i, b] = w[i, b] + h * k[i, b]
-                # stage 4
-                accel(et, vt, s2, knb, dlb, lvb, lam, cm, cdiag, diag, D, g, th, k, nb)
-                for i in range(N):
-                    for b in range(nb):
-                        e[i, b] += h6 * (se[i, b] + vt[i, b])
-                        w[i, b] += h6 * (sv[i, b] + k[i, b])
+                    se[i, b] = w[i, b]
+                    sv[i, b] = k[i, b]
+                    et[i, b] = e[i, b] + h2 * w[i, b]
+                    vt[i, b] = w[i, b] + h2 * k[i, b]
+            # stage 2 at (e + h/2 w, w + h/2 k1)
+            _accel(et, vt, s1, knb, dlb, lvb, lam, cm, cdiag, diag, D, g, th, k, nb)
             for i in range(N):
                 for b in range(nb):
-                    eta[i, b0 + b] = e[i, b]
-                    v[i, b0 + b] = w[i, b]
+                    se[i, b] += two * vt[i, b]
+                    sv[i, b] += two * k[i, b]
+                    et[i, b] = e[i, b] + h2 * vt[i, b]
+                    vt[i, b] = w[i, b] + h2 * k[i, b]
+            # stage 3
+            _accel(et, vt, s1, knb, dlb, lvb, lam, cm, cdiag, diag, D, g, th, k, nb)
+            for i in range(N):
+                for b in range(nb):
+                    se[i, b] += two * vt[i, b]
+                    sv[i, b] += two * k[i, b]
+                    et[i, b] = e[i, b] + h * vt[i, b]
+                    vt[i, b] = w[i, b] + h * k[i, b]
+            # stage 4
+            _accel(et, vt, s2, knb, dlb, lvb, lam, cm, cdiag, diag, D, g, th, k, nb)
+            for i in range(N):
+                for b in range(nb):
+                    e[i, b] += h6 * (se[i, b] + vt[i, b])
+                    w[i, b] += h6 * (sv[i, b] + k[i, b])
+        for i in range(N):
+            for b in range(nb):
+                eta[i, b0 + b] = e[i, b]
+                v[i, b0 + b] = w[i, b]
 
-    @numba.njit(parallel=True, fastmath=True, cache=True)
-    def fir_decimate(buf, h, m, out):
-        # out[k, c, b] = sum_j h[j] buf[k m + j, c, b]; members innermost (SIMD)
-        K, C, B = out.shape
-        N = h.shape[0]
-        for kc in numba.prange(K * C):
-            k = kc // C
-            c = kc % C
+@numba.njit(parallel=True, fastmath=True, cache=True)
+def fir_decimate(buf, h, m, out):
+    # out[k, c, b] = sum_j h[j] buf[k m + j, c, b]; members innermost (SIMD)
+    K, C, B = out.shape
+    N = h.shape[0]
+    for kc in numba.prange(K * C):
+        k = kc // C
+        c = kc % C
+        for b in range(B):
+            out[k, c, b] = 0.0
+        base = k * m
+        for j in range(N):
+            hj = h[j]
             for b in range(B):
-                out[k, c, b] = 0.0
-            base = k * m
-            for j in range(N):
-                hj = h[j]
-                for b in range(B):
-                    out[k, c, b] += hj * buf[base + j, c, b]
-
-    return rk4_chunk, fir_decimate
-
-
-def _get_kernel():
-    global _kernel
-    if _kernel is None:
-        _kernel = _build_kernel()
-    return _kernel
+                out[k, c, b] += hj * buf[base + j, c, b]
 
 
 class NumbaRK4:
@@ -203,7 +180,7 @@ class NumbaRK4:
         self.v = a(np.asarray(v0).T)
         self.coef = a([h, 0.5 * h, h / 6.0, 2.0])
         self.alive = np.ones(len(self.kn), dtype=np.bool_)
-        self._kernel = _get_kernel()[0]
+        self._kernel = rk4_chunk
 
     def run(self, s_half: np.ndarray) -> np.ndarray:
         """Integrate one chunk; returns the recorded channels, shape (L, C, batch)."""
@@ -245,7 +222,7 @@ class NumbaDecimator:
         self.m = int(factor)
         self.half = (len(taps) - 1) // 2
         self.buffer: np.ndarray | None = None
-        self._fir = _get_kernel()[1]
+        self._fir = fir_decimate
 
     def push(self, x: np.ndarray) -> np.ndarray:
         """Feed x, shape (L, C, batch); return the completed outputs, shape (L_out, C, batch)."""

@@ -224,7 +224,7 @@ def simulate_sweeps(
     device = torch.device(device if device is not None else
                           ("cuda" if torch.cuda.is_available() else "cpu"))
     if engine == "auto":
-        from .kernel import numba_available
+        from .engines import numba_available
 
         engine = "numba" if device.type == "cpu" and numba_available() else "torch"
     if engine == "numba" and device.type != "cpu":
