@@ -305,8 +305,12 @@ def test_bad_arguments_name_the_argument(fin):
 @pytest.mark.skipif(not torch.cuda.is_available(), reason="needs CUDA")
 def test_cuda_matches_cpu(fin):
     sw = Sweep(40.0, 42.0, 4.0)
-    kw = dict(kn=KN_PAPER, delta=DELTA_PAPER, level_g=[0.4, 0.6], sweep=sw, channels=CH,
-              dtype=torch.float64)
-    a = simulate_sweeps(fin, **kw, device="cpu", engine="torch")
-    b = simulate_sweeps(fin, **kw, device="cuda", engine="torch")
-    np.testing.assert_allclose(b.signals, a.signals, rtol=0, atol=1e-9 * np.abs(a.signals).max())
+    kw = dict(kn=[KN_PAPER, 1e6 * KN_PAPER], delta=DELTA_PAPER, level_g=[0.4, 0.6], sweep=sw,
+              channels=CH, dtype=torch.float64, engine="torch")
+    m = simulate_sweeps(fin, **{**kw, "kn": KN_PAPER}, device="cpu").steps_per_sample
+    a = simulate_sweeps(fin, **kw, device="cpu", steps_per_sample=m)
+    for graphs in (False, True):
+        b = simulate_sweeps(fin, **kw, device="cuda", cuda_graphs=graphs, steps_per_sample=m)
+        assert b.diverged.tolist() == a.diverged.tolist() == [False, True]
+        np.testing.assert_allclose(b.signals[0], a.signals[0], rtol=0,
+                                   atol=1e-9 * np.abs(a.signals[0]).max())

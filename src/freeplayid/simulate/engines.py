@@ -21,6 +21,8 @@ The freeplay force is branch-free: ``kn * (theta - clamp(theta, -delta, delta))`
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import torch
 
@@ -55,10 +57,14 @@ class TorchRK4:
     quantity : str
         Recorded quantity (displacement | velocity | acceleration).
     dtype, device : torch dtype and device.
+    cuda_graphs : bool, optional
+        Replay the step loop as CUDA graphs of ``graph_steps`` steps (default: on CUDA). The
+        Python loop issues ~30 kernels per step, so on a GPU it is launch-bound without them.
+    graph_steps : int
     """
 
     def __init__(self, form: ModalForm, kn, delta, level_g, eta0, v0, *, h, quantity, dtype,
-                 device):
+                 device, cuda_graphs: bool | None = None, graph_steps: int = 128):
         t = lambda a: torch.as_tensor(np.asarray(a), dtype=dtype, device=device)  # noqa: E731
         self.h = float(h)
         self.mode = MODES[quantity]
@@ -77,6 +83,10 @@ class TorchRK4:
         self.v = t(v0).clone()
         self.alive = torch.ones(len(kn), dtype=torch.bool, device=device)
         self.dtype, self.device = dtype, device
+        device = torch.device(device)
+        self.use_graphs = device.type == "cuda" if cuda_graphs is None else bool(cuda_graphs)
+        self.graph_steps = int(graph_steps)
+        self._graph = None
 
     def _accel(self, eta, v, s):
         th = eta @ self.D
@@ -87,6 +97,45 @@ class TorchRK4:
         else:
             a -= v @ self.CmT
         return a
+
+    def _steps(self, s: torch.Tensor, rec: torch.Tensor, L: int) -> None:
+        """L RK4 steps from (self.eta, self.v), in place; ``rec[i]`` gets the recorded quantity."""
+        h, h2, h6 = self.h, 0.5 * self.h, self.h / 6.0
+        eta, v = self.eta, self.v
+        for i in range(L):
+            s0, s1, s2 = s[2 * i], s[2 * i + 1], s[2 * i + 2]
+            k1 = self._accel(eta, v, s0)
+            rec[i] = (eta, v, k1)[self.mode]
+            v2 = v + h2 * k1
+            k2 = self._accel(eta + h2 * v, v2, s1)
+            v3 = v + h2 * k2
+            k3 = self._accel(eta + h2 * v2, v3, s1)
+            v4 = v + h * k3
+            k4 = self._accel(eta + h * v3, v4, s2)
+            eta = eta + h6 * (v + 2.0 * (v2 + v3) + v4)
+            v = v + h6 * (k1 + 2.0 * (k2 + k3) + k4)
+        # in place, so that a captured CUDA graph keeps working on the same storage
+        self.eta.copy_(eta)
+        self.v.copy_(v)
+
+    def _capture(self) -> None:
+        """Record ``graph_steps`` steps as one CUDA graph (a Python step loop is launch-bound)."""
+        G = self.graph_steps
+        self._s_static = torch.zeros(2 * G + 1, dtype=self.dtype, device=self.device)
+        self._rec_static = torch.empty((G,) + self.eta.shape, dtype=self.dtype,
+                                       device=self.device)
+        e0, v0 = self.eta.clone(), self.v.clone()
+        side = torch.cuda.Stream()
+        side.wait_stream(torch.cuda.current_stream())
+        with torch.cuda.stream(side):  # warm-up outside the capture, then restore the state
+            self._steps(self._s_static, self._rec_static, G)
+            self.eta.copy_(e0)
+            self.v.copy_(v0)
+        torch.cuda.current_stream().wait_stream(side)
+        graph = torch.cuda.CUDAGraph()
+        with torch.cuda.graph(graph):
+            self._steps(self._s_static, self._rec_static, G)
+        self._graph = graph
 
     def run(self, s_half: np.ndarray) -> torch.Tensor:
         """Integrate ``L = (len(s_half) - 1) / 2`` steps; return the recorded channels.
@@ -103,29 +152,32 @@ class TorchRK4:
         """
         L = (len(s_half) - 1) // 2
         s = torch.as_tensor(s_half, dtype=self.dtype, device=self.device)
-        h, h2, h6 = self.h, 0.5 * self.h, self.h / 6.0
+        rec = torch.empty((L,) + self.eta.shape, dtype=self.dtype, device=self.device)
+        i = 0
+        G = self.graph_steps
+        while self.use_graphs and L - i >= G:
+            if self._graph is None:
+                try:
+                    self._capture()
+                except RuntimeError as exc:  # pragma: no cover - needs CUDA
+                    warnings.warn(f"CUDA graph capture failed ({exc}); eager steps", stacklevel=2)
+                    self.use_graphs = False
+                    break
+            self._s_static.copy_(s[2 * i : 2 * i + 2 * G + 1])
+            self._graph.replay()
+            rec[i : i + G].copy_(self._rec_static)
+            i += G
+        if i < L:
+            self._steps(s[2 * i :], rec[i:], L - i)
+        # divergence: freeze the member at zero with no load, so it stays there (in place)
         eta, v = self.eta, self.v
-        rec = torch.empty((L,) + eta.shape, dtype=self.dtype, device=self.device)
-        for i in range(L):
-            s0, s1, s2 = s[2 * i], s[2 * i + 1], s[2 * i + 2]
-            k1 = self._accel(eta, v, s0)
-            rec[i] = (eta, v, k1)[self.mode]
-            v2 = v + h2 * k1
-            k2 = self._accel(eta + h2 * v, v2, s1)
-            v3 = v + h2 * k2
-            k3 = self._accel(eta + h2 * v2, v3, s1)
-            v4 = v + h * k3
-            k4 = self._accel(eta + h * v3, v4, s2)
-            eta = eta + h6 * (v + 2.0 * (v2 + v3) + v4)
-            v = v + h6 * (k1 + 2.0 * (k2 + k3) + k4)
-        # divergence: freeze the member at zero with no load, so it stays there
         bad = ~(torch.isfinite(eta).all(1) & torch.isfinite(v).all(1))
         bad |= (eta.abs().amax(1) > BLOWUP) | (v.abs().amax(1) > BLOWUP)
         self.alive &= ~bad
         keep = self.alive[:, None]
-        self.eta = torch.where(keep, eta, torch.zeros_like(eta))
-        self.v = torch.where(keep, v, torch.zeros_like(v))
-        self.lev = torch.where(keep, self.lev, torch.zeros_like(self.lev))
+        eta.copy_(torch.where(keep, eta, torch.zeros_like(eta)))
+        v.copy_(torch.where(keep, v, torch.zeros_like(v)))
+        self.lev.mul_(keep)
         out = rec @ self.ST  # (L, batch, C)
         return out.permute(1, 2, 0)
 

@@ -141,6 +141,7 @@ def simulate_sweeps(
     cutoff_hz: float | None = None,
     large_mass_ratio: float = 1e6,
     progress: bool | None = None,
+    cuda_graphs: bool | None = None,
 ) -> SweepResult:
     """Simulate sine sweeps of a freeplay system for a batch of (kn, delta, level).
 
@@ -183,6 +184,8 @@ def simulate_sweeps(
     large_mass_ratio : float [-]
     progress : bool, optional
         tqdm progress bar; default: on for long runs on an interactive terminal.
+    cuda_graphs : bool, optional
+        torch engine on CUDA: replay the step loop as CUDA graphs (default on CUDA).
 
     Returns
     -------
@@ -261,7 +264,7 @@ def simulate_sweeps(
         width = len(channels)
     else:
         eng = TorchRK4(form, kn_a, dl_a, lv_a, eta0, v0, h=h, quantity=quantity, dtype=dtype,
-                       device=device)
+                       device=device, cuda_graphs=cuda_graphs)
         dec = StreamingDecimator(taps, m, dtype=dtype, device=device)
         width = form.n_modes
     dec_base = StreamingDecimator(taps, m, dtype=torch.float64, device=torch.device("cpu"))
