@@ -22,36 +22,36 @@ __all__ = ["NumbaRK4", "NumbaDecimator"]
 BLOCK = 64  # members per block: 4 AVX-512 float32 vectors; block state ~ 8 x 12 x 64 words
 
 @numba.njit(fastmath=True, inline="always", cache=True)
-def _accel(eta, v, s, kn, dl, lev, lam, cm, cdiag, diag, D, g, th, acc, nb):
+def _accel(eta, v, s, kn, dl, lev, lam, cm, cdiag, diag, D, g, th, acc):
     N, H = D.shape
     for j in range(H):
-        for b in range(nb):
+        for b in range(BLOCK):
             th[j, b] = 0.0
         for k in range(N):
             d = D[k, j]
-            for b in range(nb):
+            for b in range(BLOCK):
                 th[j, b] += d * eta[k, b]
-        for b in range(nb):
+        for b in range(BLOCK):
             x = th[j, b]
             c = min(max(x, -dl[b]), dl[b])
             th[j, b] = kn[b] * (x - c)
     for i in range(N):
         gi = g[i] * s
         li = lam[i]
-        for b in range(nb):
+        for b in range(BLOCK):
             acc[i, b] = gi * lev[b] - li * eta[i, b]
         if diag:
             ci = cdiag[i]
-            for b in range(nb):
+            for b in range(BLOCK):
                 acc[i, b] -= ci * v[i, b]
         else:
             for k in range(N):
                 c = cm[i, k]
-                for b in range(nb):
+                for b in range(BLOCK):
                     acc[i, b] -= c * v[k, b]
         for j in range(H):
             d = D[i, j]
-            for b in range(nb):
+            for b in range(BLOCK):
                 acc[i, b] -= d * th[j, b]
 
 @numba.njit(parallel=True, fastmath=True, cache=True)
@@ -65,7 +65,6 @@ def rk4_chunk(eta, v, kn, dl, lev, lam, cm, cdiag, diag, D, g, S, mode, s_half, 
     nblk = (B + BLOCK - 1) // BLOCK
     for blk in numba.prange(nblk):
         b0 = blk * BLOCK
-        nb = min(BLOCK, B - b0)
         e = np.empty((N, BLOCK), dt)
         w = np.empty((N, BLOCK), dt)
         et = np.empty((N, BLOCK), dt)
@@ -77,12 +76,12 @@ def rk4_chunk(eta, v, kn, dl, lev, lam, cm, cdiag, diag, D, g, S, mode, s_half, 
         knb = np.empty(BLOCK, dt)
         dlb = np.empty(BLOCK, dt)
         lvb = np.empty(BLOCK, dt)
-        for b in range(nb):
+        for b in range(BLOCK):
             knb[b] = kn[b0 + b]
             dlb[b] = dl[b0 + b]
             lvb[b] = lev[b0 + b]
         for i in range(N):
-            for b in range(nb):
+            for b in range(BLOCK):
                 e[i, b] = eta[i, b0 + b]
                 w[i, b] = v[i, b0 + b]
         h = coef[0]
@@ -94,63 +93,70 @@ def rk4_chunk(eta, v, kn, dl, lev, lam, cm, cdiag, diag, D, g, S, mode, s_half, 
             s1 = s_half[2 * step + 1]
             s2 = s_half[2 * step + 2]
             # stage 1 at (e, w)
-            _accel(e, w, s0, knb, dlb, lvb, lam, cm, cdiag, diag, D, g, th, k, nb)
+            _accel(e, w, s0, knb, dlb, lvb, lam, cm, cdiag, diag, D, g, th, k)
             src = e if mode == 0 else (w if mode == 1 else k)
             for c in range(C):
-                for b in range(nb):
+                for b in range(BLOCK):
                     out[step, c, b0 + b] = 0.0
                 for i in range(N):
                     sc = S[c, i]
-                    for b in range(nb):
+                    for b in range(BLOCK):
                         out[step, c, b0 + b] += sc * src[i, b]
             for i in range(N):
-                for b in range(nb):
+                for b in range(BLOCK):
                     se[i, b] = w[i, b]
                     sv[i, b] = k[i, b]
                     et[i, b] = e[i, b] + h2 * w[i, b]
                     vt[i, b] = w[i, b] + h2 * k[i, b]
             # stage 2 at (e + h/2 w, w + h/2 k1)
-            _accel(et, vt, s1, knb, dlb, lvb, lam, cm, cdiag, diag, D, g, th, k, nb)
+            _accel(et, vt, s1, knb, dlb, lvb, lam, cm, cdiag, diag, D, g, th, k)
             for i in range(N):
-                for b in range(nb):
+                for b in range(BLOCK):
                     se[i, b] += two * vt[i, b]
                     sv[i, b] += two * k[i, b]
                     et[i, b] = e[i, b] + h2 * vt[i, b]
                     vt[i, b] = w[i, b] + h2 * k[i, b]
             # stage 3
-            _accel(et, vt, s1, knb, dlb, lvb, lam, cm, cdiag, diag, D, g, th, k, nb)
+            _accel(et, vt, s1, knb, dlb, lvb, lam, cm, cdiag, diag, D, g, th, k)
             for i in range(N):
-                for b in range(nb):
+                for b in range(BLOCK):
                     se[i, b] += two * vt[i, b]
                     sv[i, b] += two * k[i, b]
                     et[i, b] = e[i, b] + h * vt[i, b]
                     vt[i, b] = w[i, b] + h * k[i, b]
             # stage 4
-            _accel(et, vt, s2, knb, dlb, lvb, lam, cm, cdiag, diag, D, g, th, k, nb)
+            _accel(et, vt, s2, knb, dlb, lvb, lam, cm, cdiag, diag, D, g, th, k)
             for i in range(N):
-                for b in range(nb):
+                for b in range(BLOCK):
                     e[i, b] += h6 * (se[i, b] + vt[i, b])
                     w[i, b] += h6 * (sv[i, b] + k[i, b])
         for i in range(N):
-            for b in range(nb):
+            for b in range(BLOCK):
                 eta[i, b0 + b] = e[i, b]
                 v[i, b0 + b] = w[i, b]
 
 @numba.njit(parallel=True, fastmath=True, cache=True)
 def fir_decimate(buf, h, m, out):
-    # out[k, c, b] = sum_j h[j] buf[k m + j, c, b]; members innermost (SIMD)
+    # out[k, c, b] = sum_j h[j] buf[k m + j, c, b]; members innermost (SIMD). One thread takes a
+    # column of BLOCK members of one channel through all outputs, so the tap window of that
+    # column (N x BLOCK words) stays in cache while it slides by m rows per output.
     K, C, B = out.shape
     N = h.shape[0]
-    for kc in numba.prange(K * C):
-        k = kc // C
-        c = kc % C
-        for b in range(B):
-            out[k, c, b] = 0.0
-        base = k * m
-        for j in range(N):
-            hj = h[j]
-            for b in range(B):
-                out[k, c, b] += hj * buf[base + j, c, b]
+    nblk = B // BLOCK
+    for cb in numba.prange(C * nblk):
+        c = cb // nblk
+        b0 = (cb % nblk) * BLOCK
+        acc = np.empty(BLOCK, out.dtype)
+        for k in range(K):
+            base = k * m
+            for b in range(BLOCK):
+                acc[b] = 0.0
+            for j in range(N):
+                hj = h[j]
+                for b in range(BLOCK):
+                    acc[b] += hj * buf[base + j, c, b0 + b]
+            for b in range(BLOCK):
+                out[k, c, b0 + b] = acc[b]
 
 
 class NumbaRK4:
@@ -175,17 +181,23 @@ class NumbaRK4:
         self.lam, self.cm, self.cdiag = a(form.lam), a(form.Cm), a(np.diag(form.Cm))
         self.diag = bool(form.c_diagonal)
         self.D, self.g, self.S = a(form.D), a(form.g), a(form.S)
-        self.kn, self.dl, self.lev = a(kn), a(delta), a(level_g)
-        self.eta = a(np.asarray(eta0).T)
-        self.v = a(np.asarray(v0).T)
+        # pad the batch to whole blocks (constant trip counts vectorise cleanly); padded members
+        # have no load and no contact stiffness, so they stay at rest
+        self.batch = B = len(np.atleast_1d(kn))
+        pad = -B % BLOCK
+        p1 = lambda x: a(np.concatenate([np.asarray(x, dtype=float), np.zeros(pad)]))  # noqa: E731
+        self.kn, self.dl, self.lev = p1(kn), p1(delta), p1(level_g)
+        p2 = lambda x: a(np.hstack([np.asarray(x, dtype=float).T,  # noqa: E731
+                                    np.zeros((form.n_modes, pad))]))
+        self.eta, self.v = p2(eta0), p2(v0)
         self.coef = a([h, 0.5 * h, h / 6.0, 2.0])
         self.alive = np.ones(len(self.kn), dtype=np.bool_)
         self._kernel = rk4_chunk
 
     def run(self, s_half: np.ndarray) -> np.ndarray:
-        """Integrate one chunk; returns the recorded channels, shape (L, C, batch)."""
+        """Integrate one chunk; returns the recorded channels, shape (L, C, padded batch)."""
         L = (len(s_half) - 1) // 2
-        out = np.empty((L, self.S.shape[0], self.kn.shape[0]), dtype=self.nd)
+        out = np.empty((L, self.S.shape[0], self.kn.shape[0]), dtype=self.nd)  # padded batch
         self._kernel(
             self.eta, self.v, self.kn, self.dl, self.lev, self.lam, self.cm, self.cdiag,
             self.diag, self.D, self.g, self.S, self.mode, np.asarray(s_half, dtype=self.nd),
@@ -200,11 +212,11 @@ class NumbaRK4:
             self.lev[bad] = 0.0
             self.eta[:, bad] = 0.0
             self.v[:, bad] = 0.0
-        return out
+        return out  # padded batch: the caller keeps the first `batch` members
 
     @property
     def diverged(self) -> np.ndarray:
-        return ~self.alive
+        return ~self.alive[: self.batch]
 
 
 class NumbaDecimator:
@@ -225,7 +237,10 @@ class NumbaDecimator:
         self._fir = fir_decimate
 
     def push(self, x: np.ndarray) -> np.ndarray:
-        """Feed x, shape (L, C, batch); return the completed outputs, shape (L_out, C, batch)."""
+        """Feed x, shape (L, C, padded batch); return the completed outputs (L_out, C, batch).
+
+        The batch must be a multiple of ``BLOCK`` (as :class:`NumbaRK4` returns it).
+        """
         if self.buffer is None:
             buf = np.concatenate([np.repeat(x[:1], self.half, axis=0), x], axis=0)
         else:

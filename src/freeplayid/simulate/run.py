@@ -282,7 +282,7 @@ def simulate_sweeps(
     while i0 < n_steps:
         L = min(chunk, n_steps - i0)
         s_half = np.sin(sweep.phase((i0 + 0.5 * np.arange(2 * L + 1)) * h))
-        rec = eng.run(s_half)  # (batch, C, L) tensor, or (L, C, batch) array for numba
+        rec = eng.run(s_half)  # (batch, C, L) tensor, or (L, C, padded batch) array for numba
         if engine == "numba":
             outs.append(dec.push(rec))
         else:
@@ -297,7 +297,8 @@ def simulate_sweeps(
     if bar is not None:
         bar.close()
     if engine == "numba":
-        y = np.ascontiguousarray(np.concatenate(outs, axis=0)[:n_out].transpose(2, 1, 0))
+        y = np.concatenate(outs, axis=0)[:n_out, :, :batch]
+        y = np.ascontiguousarray(y.transpose(2, 1, 0))
     else:
         y = torch.cat(outs, dim=1)[:, :n_out].reshape(batch, len(channels), n_out)
         y = y.cpu().numpy()
