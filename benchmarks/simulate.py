@@ -104,7 +104,7 @@ def matmul_rate(dtype) -> float:
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--quick", action="store_true", help="short segments: a smoke run")
-    p.add_argument("--cutoff-hz", type=float, default=1000.0,
+    p.add_argument("--cutoff-hz", type=float, default=600.0,
                    help="modal truncation row (numba, float32) [Hz]")
     args = p.parse_args()
     q = args.quick
@@ -137,8 +137,7 @@ def main() -> None:
 
         for dt in (torch.float32, torch.float64):
             for b in (256, 1024, 4096):
-                seg = (0.1 if q else 2.0) * 1024 / b * (4 if b == 256 else 1)
-                seg = max(seg, 0.05)
+                seg = max((0.1 if q else 2.0) * 1024 / b, 0.05)
                 rate, r = time_sim(system, b, seg, engine="numba", dtype=dt)
                 rows.append((f"numba kernel, batch {b}", str(dt)[6:], b, seg, rate, r))
         b = 1024
