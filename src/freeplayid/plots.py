@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
-__all__ = ["plot_backbone_points"]
+import numpy as np
+
+__all__ = ["plot_backbone_points", "plot_sweep_response"]
 
 
 # ------------------------------------------------------------------------------------------------
@@ -58,11 +60,20 @@ def plot_backbone_points(
         label = f"{curve.run}, {curve.channel}" if multi else curve.run
         (line,) = ax.plot(curve.frequency, scale * curve.amplitude_m, lw=1.0, label=label)
         if p.used:
-            ax.plot(p.f_hz, scale * p.amplitude_m, "o", color=line.get_color(), ms=6, mec="k",
-                    zorder=3)
+            ax.plot(
+                p.f_hz, scale * p.amplitude_m, "o", color=line.get_color(), ms=6, mec="k", zorder=3
+            )
         else:
-            ax.plot(p.f_hz, scale * p.amplitude_m, "x", color=line.get_color(), ms=8, mew=2,
-                    zorder=3, label=None if p.reason in reasons_shown else f"rejected: {p.reason}")
+            ax.plot(
+                p.f_hz,
+                scale * p.amplitude_m,
+                "x",
+                color=line.get_color(),
+                ms=8,
+                mew=2,
+                zorder=3,
+                label=None if p.reason in reasons_shown else f"rejected: {p.reason}",
+            )
             reasons_shown.add(p.reason)
     if backbone is not None:
         f_bb, x_bb = backbone
@@ -71,4 +82,38 @@ def plot_backbone_points(
     ax.set_ylabel(f"first-harmonic displacement [{amplitude_unit}]")
     if legend:
         ax.legend(fontsize="small")
+    return ax
+
+
+# ------------------------------------------------------------------------------------------------
+# simulate: response time histories of a sweep
+# ------------------------------------------------------------------------------------------------
+
+
+def plot_sweep_response(ax, time, signal, *, sweep=None, label=None, units="", title=None):
+    """Draw one response time history of a sine sweep.
+
+    Parameters
+    ----------
+    ax : matplotlib Axes
+    time : array_like, shape (T,) [s]
+    signal : array_like, shape (T,) [units]
+    sweep : Sweep, optional
+        If given, a top axis shows the sweep frequency [Hz].
+    label, units, title : str, optional
+    """
+    time = np.asarray(time)
+    ax.plot(time, np.asarray(signal), lw=0.5, label=label)
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel(f"response [{units}]" if units else "response")
+    if title:
+        ax.set_title(title, fontsize=9)
+    if label is not None:
+        ax.legend(loc="upper left", fontsize=8)
+    if sweep is not None and not getattr(ax, "_freq_axis", False):
+        sec = ax.secondary_xaxis(
+            "top", functions=(sweep.frequency, lambda f: np.asarray(sweep.time_at(f)))
+        )
+        sec.set_xlabel("sweep frequency [Hz]", fontsize=8)
+        ax._freq_axis = True
     return ax

@@ -1,5 +1,25 @@
-"""Sine-sweep base excitation and the batched RK4 simulator."""
+"""Sine-sweep base excitation and the batched RK4 simulator.
 
+``simulate_sweeps`` integrates a batch of (kn, delta, level) members with fixed-step RK4 on a
+torch engine (CPU or CUDA) or a compiled numba CPU kernel, and returns a :class:`SweepResult`
+at the output sample rate. See docs/simulate.md.
+"""
+
+from .formulation import ModalForm, ModalTruncation, build_modal_form, rk4_step_limit
+from .resample import StreamingDecimator, design_decimator
+from .run import DEFAULT_OMEGA_DT, SweepResult, simulate_sweeps
 from .sweep import G, Sweep
 
-__all__ = ["G", "Sweep"]
+__all__ = [
+    "G",
+    "Sweep",
+    "simulate_sweeps",
+    "SweepResult",
+    "ModalForm",
+    "ModalTruncation",
+    "build_modal_form",
+    "rk4_step_limit",
+    "design_decimator",
+    "StreamingDecimator",
+    "DEFAULT_OMEGA_DT",
+]

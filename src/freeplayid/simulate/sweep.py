@@ -31,9 +31,8 @@ class Sweep:
     def __post_init__(self) -> None:
         for name in ("start_hz", "stop_hz", "rate_hz_per_s"):
             v = getattr(self, name)
-            if not (
-                isinstance(v, (int, float, np.floating, np.integer)) and math.isfinite(v) and v > 0
-            ):
+            number = isinstance(v, (int, float, np.floating, np.integer))
+            if not (number and math.isfinite(v) and v > 0):
                 raise ValueError(f"Sweep `{name}` must be a finite number > 0, got {v!r}")
         if self.start_hz == self.stop_hz:
             raise ValueError(

@@ -1,0 +1,184 @@
+"""Sweep-simulation throughput: scipy RK45 vs the torch engine vs the compiled numba kernel.
+
+    python benchmarks/simulate.py            # full table (a few minutes on 2 cores)
+    python benchmarks/simulate.py --quick    # smoke run (short segments, noisier numbers)
+
+Model: ``freeplayid.model.default_fin()`` if this checkout has it, else the 12-DOF stand-in of
+``tests/conftest.py`` (printed). Sweep: the paper's 30 -> 50 Hz at 0.1 Hz/s (200 s), kn = 2.35e6
+N m/rad, delta = 3e-3 rad, two acceleration channels at 2048 Hz, automatic step. Every row times
+a segment of the sweep and scales to the full 200 s (the cost per step does not depend on the
+sweep frequency); the segment lengths are printed. The arithmetic limit is
+flops per member-step x steps per sweep / the measured dense-matmul flop rate.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from freeplayid.simulate import G, Sweep, build_modal_form, simulate_sweeps
+from freeplayid.simulate.resample import design_decimator
+
+KN, DELTA, FULL = 2.35e6, 3e-3, 200.0  # N m/rad, rad, s
+CH = ("uz_top_left", "uz_lower_right")
+
+
+def load_model():
+    try:
+        from freeplayid.model import default_fin
+
+        return default_fin(), "default_fin()"
+    except ImportError:
+        sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+        from conftest import standin_fin
+
+        return standin_fin(), "12-DOF stand-in (tests/conftest.py; default_fin not in checkout)"
+
+
+def segment(seconds: float) -> Sweep:
+    return Sweep(40.0, 40.0 + 0.1 * seconds, 0.1)  # the paper's rate, around the resonance
+
+
+def time_sim(system, batch, seconds, **kw) -> tuple[float, object]:
+    sw = segment(seconds)
+    lv = np.linspace(0.3, 1.0, batch)
+    simulate_sweeps(system, kn=KN, delta=DELTA, level_g=lv[: min(batch, 4)], sweep=segment(0.05),
+                    channels=CH, progress=False, **kw)  # warm-up (numba compile, allocator)
+    t0 = time.perf_counter()
+    r = simulate_sweeps(system, kn=KN, delta=DELTA, level_g=lv, sweep=sw, channels=CH,
+                        progress=False, **kw)
+    el = time.perf_counter() - t0
+    return batch * sw.duration / (el * FULL), r  # full sweeps per second
+
+
+def time_scipy(system, seconds) -> float:
+    from scipy.integrate import solve_ivp
+
+    from freeplayid.model import freeplay_force
+
+    M, C, K, B, r = system.M, system.damping, system.K, system.hinge_matrix(), system.influence
+    n = system.n_dof
+    Mi = np.linalg.inv(M)
+    MiK, MiC, MiB = Mi @ K, Mi @ C, Mi @ B
+    sw = segment(seconds)
+
+    def rhs(t, x):
+        y, v = x[:n], x[n:]
+        f = freeplay_force(B.T @ y, KN, DELTA)
+        return np.concatenate([v, -MiK @ y - MiC @ v - MiB @ f - r * 0.6 * G * math.sin(
+            sw.phase(t))])
+
+    t_eval = np.arange(0, sw.duration, 1 / 2048)
+    t0 = time.perf_counter()
+    solve_ivp(rhs, (0, sw.duration), np.zeros(2 * n), method="RK45", rtol=1e-6, atol=1e-12,
+              t_eval=t_eval)
+    return sw.duration / ((time.perf_counter() - t0) * FULL)
+
+
+def flops_per_step(form, n_channels, m) -> float:
+    N, h = form.D.shape
+    stage = 2 * N * h + 4 * h + 2 * N + (2 * N if form.c_diagonal else 2 * N * N) + 2 * N * h
+    stage += 2 * N + 8 * N  # forcing, stage combinations
+    taps = len(design_decimator(m))
+    return 4 * stage + 4 * N + 2 * n_channels * N + 2 * n_channels * taps / m
+
+
+def matmul_rate(dtype) -> float:
+    a = torch.randn(1024, 1024, dtype=dtype)
+    a @ a
+    t0 = time.perf_counter()
+    k = 0
+    while time.perf_counter() - t0 < 0.5:
+        a @ a
+        k += 1
+    return 2 * 1024**3 * k / (time.perf_counter() - t0)
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--quick", action="store_true", help="short segments: a smoke run")
+    p.add_argument("--cutoff-hz", type=float, default=600.0,
+                   help="modal truncation row (numba, float32) [Hz]")
+    args = p.parse_args()
+    q = args.quick
+    torch.set_num_threads(os.cpu_count() or 1)
+    system, what = load_model()
+    form = build_modal_form(system, channels=CH, quantity="acceleration", frame="absolute",
+                            kn_max=KN)
+    print(f"model: {what}; top closed-hinge |eig| {form.omega_max / 2 / np.pi:.0f} Hz; "
+          f"damping {'diagonal' if form.c_diagonal else 'dense'} in the modal basis")
+    print(f"threads: torch {torch.get_num_threads()}, cpu_count {os.cpu_count()}; "
+          f"{'QUICK run: short segments' if q else 'full run'}")
+    rows = []
+    seg = 0.05 if q else 0.5
+    rows.append(("scipy solve_ivp RK45 (rtol 1e-6), 1 sweep", "float64", 1, seg,
+                 time_scipy(system, seg), None))
+    for dt in (torch.float32, torch.float64):
+        for b in (1, 256, 1024):
+            seg = (0.005 if q else 0.05) * (4 if b == 1 else 1)
+            rate, r = time_sim(system, b, seg, engine="torch", dtype=dt)
+            rows.append((f"torch eager, batch {b}", str(dt)[6:], b, seg, rate, r))
+    if torch.cuda.is_available():
+        for dt in (torch.float32, torch.float64):
+            for b in (1024, 16384):
+                seg = 0.05 if q else 1.0
+                rate, r = time_sim(system, b, seg, engine="torch", dtype=dt, device="cuda")
+                rows.append((f"torch CUDA graphs, batch {b} ({torch.cuda.get_device_name()})",
+                             str(dt)[6:], b, seg, rate, r))
+    try:
+        import numba  # noqa: F401
+
+        for dt in (torch.float32, torch.float64):
+            for b in (256, 1024, 4096):
+                seg = max((0.1 if q else 2.0) * 1024 / b, 0.05)
+                rate, r = time_sim(system, b, seg, engine="numba", dtype=dt)
+                rows.append((f"numba kernel, batch {b}", str(dt)[6:], b, seg, rate, r))
+        b = 1024
+        rate, r = time_sim(system, b, 0.1 if q else 2.0, engine="numba", dtype=torch.float32,
+                           cutoff_hz=args.cutoff_hz)
+        tr = r.truncation
+        rows.append((f"numba kernel, batch {b}, modes <= {args.cutoff_hz:g} Hz "
+                     f"({tr.kept}/{tr.total}, static err {tr.static_error:.1e})", "float32", b,
+                     0.1 if q else 2.0, rate, r))
+    except ImportError:
+        print("numba not installed: no compiled-kernel rows")
+    scipy_rate = rows[0][4]
+    mm = {"float32": matmul_rate(torch.float32), "float64": matmul_rate(torch.float64)}
+    print(f"\nmatmul 1024^3: float32 {mm['float32'] / 1e9:.1f} GFLOP/s, "
+          f"float64 {mm['float64'] / 1e9:.1f} GFLOP/s\n")
+    head = f"{'engine':<72} {'dtype':<8} {'dt [us]':>8} {'seg [s]':>7} {'sweeps/s':>10} " \
+           f"{'x scipy':>9} {'% limit':>8}"
+    print(head)
+    print("-" * len(head))
+    for name, dt, _b, seg, rate, r in rows:
+        if r is None:
+            print(f"{name:<72} {dt:<8} {'adaptive':>8} {seg:>7.3g} {rate:>10.4g} {1:>9.3g} "
+                  f"{'':>8}")
+            continue
+        f = build_modal_form(system, channels=CH, quantity="acceleration", frame="absolute",
+                             kn_max=KN, cutoff_hz=r.truncation.cutoff_hz if r.truncation else None)
+        steps = FULL / r.dt
+        limit = mm[dt] / (flops_per_step(f, len(CH), r.steps_per_sample) * steps)
+        print(f"{name:<72} {dt:<8} {r.dt * 1e6:>8.2f} {seg:>7.3g} {rate:>10.4g} "
+              f"{rate / scipy_rate:>9.3g} {100 * rate / limit:>7.1f}%")
+    best = max((row for row in rows[1:] if "CUDA" not in row[0]),
+               key=lambda row: row[4] if row[5].truncation is None else 0)
+    f = build_modal_form(system, channels=CH, quantity="acceleration", frame="absolute",
+                         kn_max=KN)
+    limit = mm[best[1]] / (flops_per_step(f, len(CH), best[5].steps_per_sample) * FULL
+                           / best[5].dt)
+    print(f"\nbest full-model CPU engine: {best[0]} {best[1]}: {best[4]:.3g} sweeps/s = "
+          f"{best[4] / scipy_rate:.0f}x scipy RK45, {best[4] / limit:.2f} of the arithmetic limit "
+          f"({limit:.3g} sweeps/s at {flops_per_step(f, len(CH), best[5].steps_per_sample):.0f} "
+          f"flop/step x {FULL / best[5].dt:.3g} steps)")
+
+
+if __name__ == "__main__":
+    main()

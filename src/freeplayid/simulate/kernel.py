@@ -1,0 +1,255 @@
+"""Compiled CPU RK4 kernel (numba): the same arithmetic as :class:`.engines.TorchRK4`.
+
+Layout: every per-member array is (N, batch) with the batch innermost, so each line of a step is
+a loop over contiguous members that LLVM vectorises (SIMD lanes = members). Blocks of ``BLOCK``
+members run the whole chunk in one thread (their state stays in L1 cache); blocks are spread
+over threads with ``prange``. The step is fused: no temporaries leave the block.
+
+numba is optional: this module imports it, so import it only after
+:func:`.engines.numba_available` says yes (the simulator falls back to the torch engine).
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from .engines import BLOWUP, MODES
+from .formulation import ModalForm
+
+__all__ = ["NumbaRK4", "NumbaDecimator"]
+
+BLOCK = 64  # members per block: 4 AVX-512 float32 vectors; block state ~ 8 x 12 x 64 words
+
+@numba.njit(fastmath=True, inline="always", cache=True)
+def _accel(eta, v, s, kn, dl, lev, lam, cm, cdiag, diag, D, g, th, acc):
+    N, H = D.shape
+    for j in range(H):
+        for b in range(BLOCK):
+            th[j, b] = 0.0
+        for k in range(N):
+            d = D[k, j]
+            for b in range(BLOCK):
+                th[j, b] += d * eta[k, b]
+        for b in range(BLOCK):
+            x = th[j, b]
+            c = min(max(x, -dl[b]), dl[b])
+            th[j, b] = kn[b] * (x - c)
+    for i in range(N):
+        gi = g[i] * s
+        li = lam[i]
+        for b in range(BLOCK):
+            acc[i, b] = gi * lev[b] - li * eta[i, b]
+        if diag:
+            ci = cdiag[i]
+            for b in range(BLOCK):
+                acc[i, b] -= ci * v[i, b]
+        else:
+            for k in range(N):
+                c = cm[i, k]
+                for b in range(BLOCK):
+                    acc[i, b] -= c * v[k, b]
+        for j in range(H):
+            d = D[i, j]
+            for b in range(BLOCK):
+                acc[i, b] -= d * th[j, b]
+
+@numba.njit(parallel=True, fastmath=True, cache=True)
+def rk4_chunk(eta, v, kn, dl, lev, lam, cm, cdiag, diag, D, g, S, mode, s_half, coef, out,
+              alive):
+    N, B = eta.shape
+    H = D.shape[1]
+    C = S.shape[0]
+    L = out.shape[0]
+    dt = eta.dtype
+    nblk = (B + BLOCK - 1) // BLOCK
+    for blk in numba.prange(nblk):
+        b0 = blk * BLOCK
+        e = np.empty((N, BLOCK), dt)
+        w = np.empty((N, BLOCK), dt)
+        et = np.empty((N, BLOCK), dt)
+        vt = np.empty((N, BLOCK), dt)
+        se = np.zeros((N, BLOCK), dt)
+        sv = np.zeros((N, BLOCK), dt)
+        k = np.empty((N, BLOCK), dt)
+        th = np.empty((H, BLOCK), dt)
+        knb = np.empty(BLOCK, dt)
+        dlb = np.empty(BLOCK, dt)
+        lvb = np.empty(BLOCK, dt)
+        for b in range(BLOCK):
+            knb[b] = kn[b0 + b]
+            dlb[b] = dl[b0 + b]
+            lvb[b] = lev[b0 + b]
+        for i in range(N):
+            for b in range(BLOCK):
+                e[i, b] = eta[i, b0 + b]
+                w[i, b] = v[i, b0 + b]
+        h = coef[0]
+        h2 = coef[1]
+        h6 = coef[2]
+        two = coef[3]
+        for step in range(L):
+            s0 = s_half[2 * step]
+            s1 = s_half[2 * step + 1]
+            s2 = s_half[2 * step + 2]
+            # stage 1 at (e, w)
+            _accel(e, w, s0, knb, dlb, lvb, lam, cm, cdiag, diag, D, g, th, k)
+            src = e if mode == 0 else (w if mode == 1 else k)
+            for c in range(C):
+                for b in range(BLOCK):
+                    out[step, c, b0 + b] = 0.0
+                for i in range(N):
+                    sc = S[c, i]
+                    for b in range(BLOCK):
+                        out[step, c, b0 + b] += sc * src[i, b]
+            for i in range(N):
+                for b in range(BLOCK):
+                    se[i, b] = w[i, b]
+                    sv[i, b] = k[i, b]
+                    et[i, b] = e[i, b] + h2 * w[i, b]
+                    vt[i, b] = w[i, b] + h2 * k[i, b]
+            # stage 2 at (e + h/2 w, w + h/2 k1)
+            _accel(et, vt, s1, knb, dlb, lvb, lam, cm, cdiag, diag, D, g, th, k)
+            for i in range(N):
+                for b in range(BLOCK):
+                    se[i, b] += two * vt[i, b]
+                    sv[i, b] += two * k[i, b]
+                    et[i, b] = e[i, b] + h2 * vt[i, b]
+                    vt[i, b] = w[i, b] + h2 * k[i, b]
+            # stage 3
+            _accel(et, vt, s1, knb, dlb, lvb, lam, cm, cdiag, diag, D, g, th, k)
+            for i in range(N):
+                for b in range(BLOCK):
+                    se[i, b] += two * vt[i, b]
+                    sv[i, b] += two * k[i, b]
+                    et[i, b] = e[i, b] + h * vt[i, b]
+                    vt[i, b] = w[i, b] + h * k[i, b]
+            # stage 4
+            _accel(et, vt, s2, knb, dlb, lvb, lam, cm, cdiag, diag, D, g, th, k)
+            for i in range(N):
+                for b in range(BLOCK):
+                    e[i, b] += h6 * (se[i, b] + vt[i, b])
+                    w[i, b] += h6 * (sv[i, b] + k[i, b])
+        for i in range(N):
+            for b in range(BLOCK):
+                eta[i, b0 + b] = e[i, b]
+                v[i, b0 + b] = w[i, b]
+
+@numba.njit(parallel=True, fastmath=True, cache=True)
+def fir_decimate(buf, h, m, out):
+    # out[k, c, b] = sum_j h[j] buf[k m + j, c, b]; members innermost (SIMD). One thread takes a
+    # column of BLOCK members of one channel through all outputs, so the tap window of that
+    # column (N x BLOCK words) stays in cache while it slides by m rows per output.
+    K, C, B = out.shape
+    N = h.shape[0]
+    nblk = B // BLOCK
+    for cb in numba.prange(C * nblk):
+        c = cb // nblk
+        b0 = (cb % nblk) * BLOCK
+        acc = np.empty(BLOCK, out.dtype)
+        for k in range(K):
+            base = k * m
+            for b in range(BLOCK):
+                acc[b] = 0.0
+            for j in range(N):
+                hj = h[j]
+                for b in range(BLOCK):
+                    acc[b] += hj * buf[base + j, c, b0 + b]
+            for b in range(BLOCK):
+                out[k, c, b0 + b] = acc[b]
+
+
+class NumbaRK4:
+    """Compiled CPU engine with the interface of :class:`.engines.TorchRK4`.
+
+    Parameters are those of :class:`.engines.TorchRK4`; ``dtype`` is a numpy or torch float
+    dtype (float32 or float64).
+    """
+
+    def __init__(self, form: ModalForm, kn, delta, level_g, eta0, v0, *, h, quantity, dtype):
+        import torch
+
+        if dtype in (torch.float32, np.float32):
+            nd = np.float32
+        elif dtype in (torch.float64, np.float64):
+            nd = np.float64
+        else:
+            raise ValueError(f"`dtype` must be float32 or float64, got {dtype!r}")
+        a = lambda x: np.ascontiguousarray(np.asarray(x, dtype=nd))  # noqa: E731
+        self.nd = nd
+        self.mode = MODES[quantity]
+        self.lam, self.cm, self.cdiag = a(form.lam), a(form.Cm), a(np.diag(form.Cm))
+        self.diag = bool(form.c_diagonal)
+        self.D, self.g, self.S = a(form.D), a(form.g), a(form.S)
+        # pad the batch to whole blocks (constant trip counts vectorise cleanly); padded members
+        # have no load and no contact stiffness, so they stay at rest
+        self.batch = B = len(np.atleast_1d(kn))
+        pad = -B % BLOCK
+        p1 = lambda x: a(np.concatenate([np.asarray(x, dtype=float), np.zeros(pad)]))  # noqa: E731
+        self.kn, self.dl, self.lev = p1(kn), p1(delta), p1(level_g)
+        p2 = lambda x: a(np.hstack([np.asarray(x, dtype=float).T,  # noqa: E731
+                                    np.zeros((form.n_modes, pad))]))
+        self.eta, self.v = p2(eta0), p2(v0)
+        self.coef = a([h, 0.5 * h, h / 6.0, 2.0])
+        self.alive = np.ones(len(self.kn), dtype=np.bool_)
+        self._kernel = rk4_chunk
+
+    def run(self, s_half: np.ndarray) -> np.ndarray:
+        """Integrate one chunk; returns the recorded channels, shape (L, C, padded batch)."""
+        L = (len(s_half) - 1) // 2
+        out = np.empty((L, self.S.shape[0], self.kn.shape[0]), dtype=self.nd)  # padded batch
+        self._kernel(
+            self.eta, self.v, self.kn, self.dl, self.lev, self.lam, self.cm, self.cdiag,
+            self.diag, self.D, self.g, self.S, self.mode, np.asarray(s_half, dtype=self.nd),
+            self.coef, out, self.alive,
+        )
+        # divergence check once per chunk, outside the fast-math kernel (which may assume that
+        # no NaN occurs); a diverged member is frozen at rest with no load
+        with np.errstate(invalid="ignore"):
+            bad = ~((np.abs(self.eta) <= BLOWUP).all(0) & (np.abs(self.v) <= BLOWUP).all(0))
+        if bad.any():
+            self.alive &= ~bad
+            self.lev[bad] = 0.0
+            self.eta[:, bad] = 0.0
+            self.v[:, bad] = 0.0
+        return out  # padded batch: the caller keeps the first `batch` members
+
+    @property
+    def diverged(self) -> np.ndarray:
+        return ~self.alive[: self.batch]
+
+
+class NumbaDecimator:
+    """:class:`.resample.StreamingDecimator` for (L, C, batch) arrays, compiled, members in SIMD.
+
+    Parameters
+    ----------
+    taps : ndarray, shape (2 K m + 1,)
+    factor : int
+    dtype : numpy float dtype of the samples.
+    """
+
+    def __init__(self, taps: np.ndarray, factor: int, *, dtype) -> None:
+        self.h = np.ascontiguousarray(taps, dtype=dtype)
+        self.m = int(factor)
+        self.half = (len(taps) - 1) // 2
+        self.buffer: np.ndarray | None = None
+        self._fir = fir_decimate
+
+    def push(self, x: np.ndarray) -> np.ndarray:
+        """Feed x, shape (L, C, padded batch); return the completed outputs (L_out, C, batch).
+
+        The batch must be a multiple of ``BLOCK`` (as :class:`NumbaRK4` returns it).
+        """
+        if self.buffer is None:
+            buf = np.concatenate([np.repeat(x[:1], self.half, axis=0), x], axis=0)
+        else:
+            buf = np.concatenate([self.buffer, x], axis=0)
+        N = self.h.shape[0]
+        n_out = (buf.shape[0] - N) // self.m + 1 if buf.shape[0] >= N else 0
+        out = np.empty((max(n_out, 0),) + buf.shape[1:], dtype=buf.dtype)
+        if n_out > 0:
+            self._fir(buf, self.h, self.m, out)
+            buf = buf[n_out * self.m :]
+        self.buffer = buf
+        return out

@@ -1,0 +1,328 @@
+"""`simulate_sweeps`: batched sine-sweep responses of a freeplay system, and its result."""
+
+from __future__ import annotations
+
+import math
+import sys
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+
+from ..model.system import FreeplaySystem
+from .engines import TorchRK4
+from .formulation import METHODS, ModalTruncation, build_modal_form, rk4_step_limit
+from .resample import StreamingDecimator, design_decimator
+from .sweep import G, Sweep
+
+__all__ = ["simulate_sweeps", "SweepResult", "DEFAULT_OMEGA_DT"]
+
+# omega_max * dt of the fastest closed-hinge mode. Measured on the 12-DOF test fin (3 kHz top
+# mode, docs/simulate.md): at 1.5 the linear response is within ~3e-7 of the matrix-exponential
+# solution and the first-harmonic peak of the freeplay response within ~2e-5 of a 6x finer step;
+# the RK4 stability limit is 2.785.
+DEFAULT_OMEGA_DT = 1.5
+ENGINES = ("auto", "torch", "numba")
+_UNITS = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s^2"}
+_CHUNK_ELEMENTS = 1 << 24  # recorded values per chunk (memory bound of the chunked loop)
+
+
+@dataclass(frozen=True)
+class SweepResult:
+    """Responses of a batch of sine sweeps at the output sample rate.
+
+    Attributes
+    ----------
+    time : ndarray, shape (T,) [s]
+        Output times k / sample_rate, from 0 to the sweep duration.
+    signals : ndarray, shape (batch, channel, T) [m, m/s or m/s^2; rad for rotations]
+        Numpy array in the simulation dtype (float32 or float64) on the CPU, so that the
+        array-based ``signal``/``io`` code can use it directly. Rows of diverged members are NaN.
+    channels : tuple of str
+        DOF name of each channel.
+    quantity : str
+        displacement | velocity | acceleration.
+    frame : str
+        absolute (what accelerometers measure) | relative (to the base).
+    diverged : ndarray, shape (batch,) bool
+        Members whose state became non-finite or absurdly large; frozen, the others unaffected.
+    dt : float [s]
+        RK4 step actually used (1 / (sample_rate * steps_per_sample)).
+    sample_rate : float [Hz]
+    kn, delta, level_g : ndarray, shape (batch,) [N m/rad], [rad], [g]
+        Broadcast parameters of each member.
+    sweep : Sweep
+    method : str
+        relative | large_mass.
+    engine : str
+        torch | numba: the engine that ran.
+    omega_max : float [rad/s]
+        Fastest closed-hinge eigenvalue magnitude that set the step.
+    truncation : ModalTruncation or None
+        What modal truncation dropped, with its error estimate.
+    """
+
+    time: np.ndarray
+    signals: np.ndarray
+    channels: tuple[str, ...]
+    quantity: str
+    frame: str
+    diverged: np.ndarray
+    dt: float
+    sample_rate: float
+    kn: np.ndarray
+    delta: np.ndarray
+    level_g: np.ndarray
+    sweep: Sweep
+    method: str
+    engine: str
+    omega_max: float
+    truncation: ModalTruncation | None = None
+
+    @property
+    def steps_per_sample(self) -> int:
+        return int(round(1.0 / (self.dt * self.sample_rate)))
+
+    @property
+    def units(self) -> str:
+        return _UNITS[self.quantity]
+
+
+def _as_batch(name: str, value, *, minimum: float | None) -> np.ndarray:
+    a = np.asarray(value, dtype=float)
+    if a.ndim > 1:
+        raise ValueError(f"`{name}` must be a scalar or 1-D, got shape {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"`{name}` must be finite, got {value!r}")
+    if minimum is not None and np.any(a < minimum):
+        raise ValueError(f"`{name}` must be >= {minimum}, got {value!r}")
+    return a
+
+
+def _base_signals(sweep: Sweep, t0_index: int, L: int, h: float, s_half: np.ndarray, state):
+    """Unit base motion (u_b, v_b, a_g = sin phase) and the derivatives of sin phase on t_i.
+
+    u_b, v_b are integrated by the RK4 rule of the structure (for u'' = a(t) it is Simpson's rule
+    on the half steps); ``state`` = [u_b, v_b] at the chunk start, updated in place.
+    """
+    a = s_half
+    dv = h / 6.0 * (a[0:-1:2] + 4.0 * a[1::2] + a[2::2])
+    v = state[1] + np.concatenate([[0.0], np.cumsum(dv)])
+    du = h * v[:-1] + h * h / 6.0 * (a[0:-1:2] + 2.0 * a[1::2])
+    u = state[0] + np.concatenate([[0.0], np.cumsum(du)])
+    state[0], state[1] = u[-1], v[-1]
+    t = (t0_index + np.arange(L)) * h
+    phase = sweep.phase(t)
+    w = 2 * np.pi * sweep.frequency(t)
+    c, s = np.cos(phase), np.sin(phase)
+    return {
+        "base": np.stack([u[:-1], v[:-1], a[0:-1:2]]),
+        "quasi_static": np.stack([s, w * c, 2 * np.pi * sweep.signed_rate * c - w * w * s]),
+    }
+
+
+def simulate_sweeps(
+    system: FreeplaySystem,
+    *,
+    kn,
+    delta,
+    level_g,
+    sweep: Sweep,
+    channels,
+    quantity: str = "acceleration",
+    frame: str = "absolute",
+    sample_rate: float = 2048.0,
+    method: str = "relative",
+    device=None,
+    dtype=torch.float32,
+    engine: str = "auto",
+    omega_dt: float = DEFAULT_OMEGA_DT,
+    steps_per_sample: int | None = None,
+    cutoff_hz: float | None = None,
+    large_mass_ratio: float = 1e6,
+    progress: bool | None = None,
+    cuda_graphs: bool | None = None,
+) -> SweepResult:
+    """Simulate sine sweeps of a freeplay system for a batch of (kn, delta, level).
+
+    Integrates ``M y'' + C y' + K y + sum_j b_j f(b_j^T y) = -M r a_g(t)`` (or the large-mass
+    form) with fixed-step RK4 from rest, records the requested channels and decimates them to
+    ``sample_rate`` through a streaming anti-aliasing filter (docs/simulate.md).
+
+    Parameters
+    ----------
+    system : FreeplaySystem
+    kn : float or array_like, shape (batch,) [N m/rad], >= 0
+    delta : float or array_like, shape (batch,) [rad], >= 0
+        Half-gap.
+    level_g : float or array_like, shape (batch,) [g]
+        Base acceleration amplitude; kn, delta, level_g broadcast to one batch.
+    sweep : Sweep
+        Linear sweep (up or down); the output covers [0, sweep.duration].
+    channels : sequence of str
+        DOF names to record.
+    quantity : {"displacement", "velocity", "acceleration"}
+    frame : {"absolute", "relative"}
+        Absolute motion (what accelerometers measure) or motion relative to the base.
+    sample_rate : float [Hz]
+        Output rate; the RK4 step is ``1 / (sample_rate * m)`` for an integer m.
+    method : {"relative", "large_mass"}
+        Base excitation in relative coordinates or by a seismic mass ``large_mass_ratio`` times
+        the structure's mass driven by the force M_L a_g (the paper's method).
+    device : str or torch.device, optional
+        Default: CUDA if available, else CPU.
+    dtype : torch.float32 or torch.float64
+    engine : {"auto", "torch", "numba"}
+        "auto": the compiled numba kernel on CPU when numba is installed, else torch.
+    omega_dt : float [-]
+        Bound on omega_max * dt for the fastest closed-hinge mode (<= 2.5).
+    steps_per_sample : int, optional
+        Override the automatic m (no stability check: a member may then diverge).
+    cutoff_hz : float [Hz], optional
+        Modal truncation: drop closed-hinge modes above this frequency (a stiff model then runs
+        at the step of the kept modes); the dropped modes' quasi-static response is added back.
+    large_mass_ratio : float [-]
+    progress : bool, optional
+        tqdm progress bar; default: on for long runs on an interactive terminal.
+    cuda_graphs : bool, optional
+        torch engine on CUDA: replay the step loop as CUDA graphs (default on CUDA).
+
+    Returns
+    -------
+    SweepResult
+    """
+    if not isinstance(system, FreeplaySystem):
+        raise TypeError(f"`system` must be a FreeplaySystem, got {type(system).__name__}")
+    if not isinstance(sweep, Sweep):
+        raise TypeError(f"`sweep` must be a Sweep, got {type(sweep).__name__}")
+    if dtype not in (torch.float32, torch.float64):
+        raise ValueError(f"`dtype` must be torch.float32 or torch.float64, got {dtype!r}")
+    if engine not in ENGINES:
+        raise ValueError(f"`engine` must be one of {ENGINES}, got {engine!r}")
+    if method not in METHODS:
+        raise ValueError(f"`method` must be one of {METHODS}, got {method!r}")
+    if not (math.isfinite(sample_rate) and sample_rate > 0):
+        raise ValueError(f"`sample_rate` must be > 0, got {sample_rate!r}")
+    if isinstance(channels, str):
+        channels = (channels,)
+    channels = tuple(channels)
+    if not channels:
+        raise ValueError("`channels` must name at least one DOF")
+    for c in channels:
+        if c not in system.dof_names:
+            raise ValueError(f"`channels`: unknown DOF {c!r}; known: {list(system.dof_names)}")
+    kn_a = _as_batch("kn", kn, minimum=0.0)
+    dl_a = _as_batch("delta", delta, minimum=0.0)
+    lv_a = _as_batch("level_g", level_g, minimum=None)
+    try:
+        kn_a, dl_a, lv_a = (np.ascontiguousarray(x) for x in np.broadcast_arrays(kn_a, dl_a, lv_a))
+    except ValueError:
+        raise ValueError(
+            f"`kn`, `delta`, `level_g` must broadcast to one batch, got shapes "
+            f"{kn_a.shape}, {dl_a.shape}, {lv_a.shape}"
+        ) from None
+    kn_a, dl_a, lv_a = (x.reshape(-1) for x in (kn_a, dl_a, lv_a))
+    batch = kn_a.shape[0]
+
+    device = torch.device(device if device is not None else
+                          ("cuda" if torch.cuda.is_available() else "cpu"))
+    if engine == "auto":
+        from .engines import numba_available
+
+        engine = "numba" if device.type == "cpu" and numba_available() else "torch"
+    if engine == "numba" and device.type != "cpu":
+        raise ValueError(f"`engine`='numba' runs on the CPU only, got device {device}")
+
+    form = build_modal_form(
+        system, channels=channels, quantity=quantity, frame=frame, method=method,
+        kn_max=float(kn_a.max()), cutoff_hz=cutoff_hz, large_mass_ratio=large_mass_ratio,
+    )
+    if steps_per_sample is None:
+        h_max = rk4_step_limit(form.omega_max, omega_dt=omega_dt)
+        m = max(1, math.ceil(1.0 / (sample_rate * h_max) - 1e-9))
+    else:
+        if not (isinstance(steps_per_sample, (int, np.integer)) and steps_per_sample >= 1):
+            raise ValueError(f"`steps_per_sample` must be an int >= 1, got {steps_per_sample!r}")
+        m = int(steps_per_sample)
+    h = 1.0 / (sample_rate * m)
+
+    taps = design_decimator(m)
+    n_out = int(math.floor(sweep.duration * sample_rate + 1e-9)) + 1
+    look = (len(taps) - 1) // 2 // m + 1  # filter look-ahead (+1: the polyphase block padding)
+    n_steps = (n_out - 1 + look) * m + 1  # recorded step-rate samples t_0 .. t_{n_steps-1}
+
+    # initial state: at rest relative to the base; the large-mass form starts on the base motion
+    base_state = np.array([0.0, -1.0 / (2 * np.pi * sweep.start_hz)])  # unit (u_b, v_b)(0)
+    G_lv = lv_a * G
+    eta0 = np.outer(G_lv * base_state[0], form.x0_per_ub)
+    v0 = np.outer(G_lv * base_state[1], form.v0_per_vb)
+    if engine == "numba":
+        from .kernel import NumbaDecimator, NumbaRK4
+
+        eng = NumbaRK4(form, kn_a, dl_a, lv_a, eta0, v0, h=h, quantity=quantity, dtype=dtype)
+        dec = NumbaDecimator(taps, m, dtype=eng.nd)
+        width = len(channels)
+    else:
+        eng = TorchRK4(form, kn_a, dl_a, lv_a, eta0, v0, h=h, quantity=quantity, dtype=dtype,
+                       device=device, cuda_graphs=cuda_graphs)
+        dec = StreamingDecimator(taps, m, dtype=dtype, device=device)
+        width = form.n_modes
+    dec_base = StreamingDecimator(taps, m, dtype=torch.float64, device=torch.device("cpu"))
+    chunk = max(m, (_CHUNK_ELEMENTS // max(1, batch * width)) // m * m)
+
+    if progress is None:
+        progress = n_steps * batch > 5e8 and sys.stderr.isatty()
+    bar = None
+    if progress:
+        from tqdm.auto import tqdm
+
+        bar = tqdm(total=round(sweep.duration, 3), unit="s", desc=f"sweeps x{batch} ({engine})")
+    outs, base_outs = [], []
+    i0 = 0
+    while i0 < n_steps:
+        L = min(chunk, n_steps - i0)
+        s_half = np.sin(sweep.phase((i0 + 0.5 * np.arange(2 * L + 1)) * h))
+        rec = eng.run(s_half)  # (batch, C, L) tensor, or (L, C, padded batch) array for numba
+        if engine == "numba":
+            outs.append(dec.push(rec))
+        else:
+            outs.append(dec.push(rec.reshape(batch * len(channels), L)))
+        sig = _base_signals(sweep, i0, L, h, s_half, base_state)
+        q = ("displacement", "velocity", "acceleration").index(quantity)
+        rows = np.stack([sig["base"][q], sig["quasi_static"][q]])
+        base_outs.append(dec_base.push(torch.from_numpy(rows)))
+        i0 += L
+        if bar is not None:
+            bar.update(round(min(i0 * h, sweep.duration) - bar.n, 3))
+    if bar is not None:
+        bar.close()
+    if engine == "numba":
+        y = np.concatenate(outs, axis=0)[:n_out, :, :batch]
+        y = np.ascontiguousarray(y.transpose(2, 1, 0))
+    else:
+        y = torch.cat(outs, dim=1)[:, :n_out].reshape(batch, len(channels), n_out)
+        y = y.cpu().numpy()
+    base = torch.cat(base_outs, dim=1)[:, :n_out].numpy()
+    extra = (form.base_coef[None, :, None] * base[0] + form.static_coef[None, :, None] * base[1])
+    if np.any(extra):
+        y = y + (lv_a[:, None, None] * extra).astype(y.dtype)
+    diverged = np.asarray(eng.diverged, dtype=bool)
+    y[diverged] = np.nan
+    return SweepResult(
+        time=np.arange(n_out) / sample_rate,
+        signals=y,
+        channels=channels,
+        quantity=quantity,
+        frame=frame,
+        diverged=diverged,
+        dt=h,
+        sample_rate=float(sample_rate),
+        kn=kn_a,
+        delta=dl_a,
+        level_g=lv_a,
+        sweep=sweep,
+        method=method,
+        engine=engine,
+        omega_max=form.omega_max,
+        truncation=form.truncation,
+    )

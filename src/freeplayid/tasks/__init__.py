@@ -1,0 +1,11 @@
+"""Hydra-aware entry points: one function per script, taking the composed config.
+
+Each task instantiates the library objects from the config, seeds, runs, saves (via ``io``),
+draws (via ``plots``), writes ``metrics.json`` in the run folder and returns the metrics.
+This is the only package that imports Hydra/OmegaConf.
+"""
+
+from .common import build_system, run_dir, write_metrics
+from .simulate import simulate
+
+__all__ = ["build_system", "run_dir", "write_metrics", "simulate"]

@@ -1,0 +1,70 @@
+"""Helpers shared by the tasks: the model from its config group, the run folder, metrics."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from omegaconf import DictConfig, OmegaConf
+
+from ..model.system import FreeplaySystem
+
+__all__ = ["build_system", "run_dir", "write_metrics", "MODEL_KINDS"]
+
+MODEL_KINDS = ("fin", "npz", "sdof")
+
+
+def build_system(model_cfg: DictConfig | dict) -> FreeplaySystem:
+    """The linear structure selected by the ``model`` config group.
+
+    ``kind: fin`` -> :func:`freeplayid.model.fin_from_config` (the default plate-FE fin),
+    ``kind: npz`` -> :func:`freeplayid.model.load_system` of ``path`` (relative to the directory
+    the command was started from), ``kind: sdof`` -> :func:`freeplayid.model.sdof_system`.
+    """
+    cfg = OmegaConf.to_container(model_cfg, resolve=True) if isinstance(model_cfg, DictConfig) \
+        else dict(model_cfg)
+    kind = cfg.get("kind")
+    if kind == "fin":
+        try:
+            from ..model import fin_from_config
+        except ImportError as exc:  # the fin model lands in a separate change
+            raise ValueError(
+                "model `kind`='fin' needs freeplayid.model.fin_from_config, which this checkout "
+                f"does not have ({exc}); use model=npz or model=sdof"
+            ) from None
+        return fin_from_config({k: v for k, v in cfg.items() if k != "channels"})
+    if kind == "npz":
+        from hydra.utils import to_absolute_path
+
+        from ..model import load_system
+
+        path = cfg.get("path")
+        if not path:
+            raise ValueError("model `kind`='npz' needs `path` (model.path=FILE.npz)")
+        return load_system(to_absolute_path(str(path)))
+    if kind == "sdof":
+        from ..model import sdof_system
+
+        return sdof_system(
+            mass=float(cfg["mass"]), stiffness=float(cfg.get("stiffness", 0.0)),
+            damping=float(cfg.get("damping", 0.0)),
+        )
+    raise ValueError(f"model `kind` must be one of {MODEL_KINDS}, got {kind!r}")
+
+
+def run_dir() -> Path:
+    """Hydra's output folder of this run (the working directory outside a Hydra run)."""
+    from hydra.core.hydra_config import HydraConfig
+
+    if HydraConfig.initialized():
+        return Path(HydraConfig.get().runtime.output_dir)
+    return Path.cwd()
+
+
+def write_metrics(folder: Path, metrics: dict) -> Path:
+    """Write ``metrics.json`` (atomically) and return its path."""
+    path = Path(folder) / "metrics.json"
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(json.dumps(metrics, indent=2, sort_keys=True))
+    tmp.replace(path)
+    return path
