@@ -5,7 +5,8 @@
 
 Model: ``freeplayid.model.default_fin()`` if this checkout has it, else the 12-DOF stand-in of
 ``tests/conftest.py`` (printed). Sweep: the paper's 30 -> 50 Hz at 0.1 Hz/s (200 s), kn = 2.35e6
-N m/rad, delta = 3e-3 rad, two acceleration channels at 2048 Hz, automatic step. Every row times
+N m/rad for the stand-in, the configured kn (480 N m/rad) and delta for the default fin, two
+acceleration channels at 2048 Hz, automatic step. Every row times
 a segment of the sweep and scales to the full 200 s (the cost per step does not depend on the
 sweep frequency); the segment lengths are printed. The arithmetic limit is
 flops per member-step x steps per sweep / the measured dense-matmul flop rate.
@@ -26,15 +27,18 @@ import torch
 from freeplayid.simulate import G, Sweep, build_modal_form, simulate_sweeps
 from freeplayid.simulate.resample import design_decimator
 
-KN, DELTA, FULL = 2.35e6, 3e-3, 200.0  # N m/rad, rad, s
+KN, DELTA, FULL = 2.35e6, 3e-3, 200.0  # N m/rad, rad, s (stand-in model)
 CH = ("uz_top_left", "uz_lower_right")
 
 
 def load_model():
+    global KN, DELTA
     try:
-        from freeplayid.model import default_fin
+        from freeplayid.model import default_fin, default_fin_parameters
 
-        return default_fin(), "default_fin()"
+        hinge = default_fin_parameters()
+        KN, DELTA = hinge["kn"], hinge["delta"]
+        return default_fin(), f"default_fin() at kn = {KN:g} N m/rad, delta = {DELTA:g} rad"
     except ImportError:
         sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
         from conftest import standin_fin

@@ -105,6 +105,9 @@ class BackboneModel:
         Mode of the backbone (0: lowest).
     hb_harmonics : int
         Odd harmonics of the harmonic-balance backbone.
+    equal_hinges : bool
+        DFA with every hinge at the largest hinge's kappa (one eigen-batch per curve instead of a
+        Newton solve): the cheap model of the multi-start phase.
     """
 
     def __init__(
@@ -116,6 +119,7 @@ class BackboneModel:
         s: np.ndarray | None = None,
         mode: int = 0,
         hb_harmonics: int = 5,
+        equal_hinges: bool = False,
     ) -> None:
         if backbone not in BACKBONES:
             raise ValueError(f"`backbone` must be one of {BACKBONES}, got {backbone!r}")
@@ -131,6 +135,7 @@ class BackboneModel:
         self.s = amplitude_grid(400, s_min=1.0002, s_max=2000.0) if s is None else np.asarray(s)
         self.mode = mode
         self.hb_harmonics = hb_harmonics
+        self.equal_hinges = equal_hinges
         self._cache: dict[float, tuple[np.ndarray, np.ndarray]] = {}
         self.n_curves = 0
 
@@ -141,7 +146,14 @@ class BackboneModel:
         if hit is not None:
             return hit
         if self.backbone == "dfa":
-            bc = dfa_backbone(self.system, kn=key, delta=1.0, mode=self.mode, s=self.s)
+            bc = dfa_backbone(
+                self.system,
+                kn=key,
+                delta=1.0,
+                mode=self.mode,
+                s=self.s,
+                equal_hinges=self.equal_hinges,
+            )
         else:
             bc = hb_backbone(
                 self.system,
@@ -306,12 +318,26 @@ def fit_backbone(
             max_nfev=400,
         )
 
+    # Multi-start phase on the cheap equal-hinge DFA (one eigen-batch per curve, 200 points),
+    # then the winner is polished on the consistent (unequal-hinge) DFA backbone.
+    scout = dfa_model
+    if len(starts) > 1 and system.n_hinges > 1:
+        scout = BackboneModel(
+            system,
+            ch,
+            backbone="dfa",
+            mode=mode,
+            equal_hinges=True,
+            s=amplitude_grid(200, s_min=1.0005, s_max=2000.0),
+        )
     runs = []
     for k0, d0 in starts:
-        sol = solve(dfa_model, np.log([k0, d0]))
+        sol = solve(scout, np.log([k0, d0]))
         runs.append((2 * sol.cost, sol, (k0, d0)))
     runs.sort(key=lambda r: r[0])
     _, sol, start = runs[0]
+    if scout is not dfa_model:
+        sol = solve(dfa_model, sol.x)
     active = dfa_model
     if backbone == "hb":
         active = BackboneModel(system, ch, backbone="hb", mode=mode)

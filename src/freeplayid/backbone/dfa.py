@@ -172,45 +172,61 @@ def dfa_backbone(
     g = Linv @ B  # (n, h): hinge vectors in the transformed coordinates
 
     k_, m_, h = kn.size, s.size, B.shape[1]
+    # flatten the (kn, s) batch to P points; Newton then works on the unconverged ones only
+    kn_p = np.repeat(kn, m_)
+    s_p = np.tile(s, k_)
 
-    def solve(kappa):
-        """Eigen-solution for given hinge kappas, and the kappas it implies (the map F)."""
-        A = Kt + np.einsum("k,kmj,aj,bj->kmab", kn, kappa, g, g)  # (k, m, n, n)
+    def solve(kappa, idx):
+        """Eigen-solution for the hinge kappas of points ``idx``, and the kappas it implies."""
+        A = Kt + np.einsum("p,pj,aj,bj->pab", kn_p[idx], kappa, g, g)  # (P, n, n)
         lam, psi = np.linalg.eigh(A)
-        vec = psi[..., mode]  # (k, m, n), transformed coordinates
-        theta = np.abs(vec @ g)  # (k, m, h): |b_j^T phi| up to a common scale
+        vec = psi[..., mode]  # (P, n), transformed coordinates
+        theta = np.abs(vec @ g)  # (P, h): |b_j^T phi| up to a common scale
         ratio = theta / theta.max(axis=-1, keepdims=True)
         with np.errstate(divide="ignore"):
-            implied = kappa_of_ratio(1.0 / (s[None, :, None] * ratio))
-        return lam[..., mode], vec, theta, implied
+            implied = kappa_of_ratio(1.0 / (s_p[idx, None] * ratio))
+        return lam[:, mode], vec, theta, implied
 
-    # Newton on G(kappa) = kappa - F(kappa) = 0, batched over (kn, s), with a forward-difference
-    # Jacobian (h extra eigen-batches per iteration) and a fall-back to the relaxed fixed point.
-    kappa = np.broadcast_to(kappa_of_ratio(1.0 / s)[None, :, None], (k_, m_, h)).copy()
-    lam, vec, theta, implied = solve(kappa)
-    converged = np.full((k_, m_), equal_hinges or h == 1)
-    eps = 1e-7
-    for _ in range(0 if (equal_hinges or h == 1) else max_iter):
-        G = kappa - implied
-        converged = np.max(np.abs(G), axis=-1) <= tol
-        if converged.all():
-            break
-        J = np.empty((k_, m_, h, h))
-        for j in range(h):
-            kp = kappa.copy()
-            kp[..., j] += eps
-            J[..., :, j] = ((kp - solve(kp)[3]) - G) / eps
-        try:
-            step = -np.linalg.solve(J, G[..., None])[..., 0]
-        except np.linalg.LinAlgError:
-            step = -0.5 * G
-        bad = ~np.all(np.isfinite(step), axis=-1, keepdims=True)
-        step = np.where(bad, -0.5 * G, step)
-        kappa = np.clip(kappa + np.where(converged[..., None], 0.0, step), 0.0, 1.0)
-        lam, vec, theta, implied = solve(kappa)
-    else:
-        if not (equal_hinges or h == 1):
-            converged = np.max(np.abs(kappa - implied), axis=-1) <= tol
+    # Newton on G(kappa) = kappa - F(kappa) = 0 with a forward-difference Jacobian (h extra
+    # eigen-batches per iteration) and a fall-back to the relaxed fixed point
+    P = kn_p.size
+    everything = np.arange(P)
+    kappa = np.repeat(kappa_of_ratio(1.0 / s_p)[:, None], h, axis=1)
+    lam, vec, theta, implied = solve(kappa, everything)
+    converged = np.full(P, equal_hinges or h == 1)
+    if not (equal_hinges or h == 1):
+        eps = 1e-7
+        active = everything
+        for _ in range(max_iter):
+            G = kappa[active] - implied[active]
+            done = np.max(np.abs(G), axis=-1) <= tol
+            converged[active[done]] = True
+            active, G = active[~done], G[~done]
+            if active.size == 0:
+                break
+            ka = kappa[active]
+            J = np.empty((active.size, h, h))
+            for j in range(h):
+                kp = ka.copy()
+                kp[:, j] += eps
+                J[:, :, j] = ((kp - solve(kp, active)[3]) - G) / eps
+            try:
+                step = -np.linalg.solve(J, G[..., None])[..., 0]
+            except np.linalg.LinAlgError:
+                step = -0.5 * G
+            bad = ~np.all(np.isfinite(step), axis=-1, keepdims=True)
+            step = np.where(bad, -0.5 * G, step)
+            kappa[active] = np.clip(ka + step, 0.0, 1.0)
+            la, ve, th, im = solve(kappa[active], active)
+            lam[active], vec[active], theta[active], implied[active] = la, ve, th, im
+        else:
+            G = kappa[active] - implied[active]
+            converged[active] = np.max(np.abs(G), axis=-1) <= tol
+    kappa = kappa.reshape(k_, m_, h)
+    lam = lam.reshape(k_, m_)
+    vec = vec.reshape(k_, m_, -1)
+    theta = theta.reshape(k_, m_, h)
+    converged = converged.reshape(k_, m_)
 
     phi = vec @ Linv  # (k, m, n): back to physical coordinates, phi = L^-T psi
     scale = s[None, :] / theta.max(axis=-1)  # for delta = 1: Theta_max = s
