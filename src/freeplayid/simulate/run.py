@@ -257,10 +257,11 @@ def simulate_sweeps(
     eta0 = np.outer(G_lv * base_state[0], form.x0_per_ub)
     v0 = np.outer(G_lv * base_state[1], form.v0_per_vb)
     if engine == "numba":
-        from .kernel import NumbaDecimator, NumbaRK4
+        from .kernel import NumbaRK4
 
-        eng = NumbaRK4(form, kn_a, dl_a, lv_a, eta0, v0, h=h, quantity=quantity, dtype=dtype)
-        dec = NumbaDecimator(taps, m, dtype=eng.nd)
+        eng = NumbaRK4(form, kn_a, dl_a, lv_a, eta0, v0, h=h, quantity=quantity, dtype=dtype,
+                       taps=taps, factor=m)
+        dec = None  # the kernel decimates on the fly
         width = len(channels)
     else:
         eng = TorchRK4(form, kn_a, dl_a, lv_a, eta0, v0, h=h, quantity=quantity, dtype=dtype,
@@ -282,9 +283,9 @@ def simulate_sweeps(
     while i0 < n_steps:
         L = min(chunk, n_steps - i0)
         s_half = np.sin(sweep.phase((i0 + 0.5 * np.arange(2 * L + 1)) * h))
-        rec = eng.run(s_half)  # (batch, C, L) tensor, or (L, C, padded batch) array for numba
+        rec = eng.run(s_half)  # (batch, C, L) tensor; numba: decimated (L_out, C, padded batch)
         if engine == "numba":
-            outs.append(dec.push(rec))
+            outs.append(rec)
         else:
             outs.append(dec.push(rec.reshape(batch * len(channels), L)))
         sig = _base_signals(sweep, i0, L, h, s_half, base_state)
