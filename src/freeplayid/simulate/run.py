@@ -25,6 +25,7 @@ DEFAULT_OMEGA_DT = 1.5
 ENGINES = ("auto", "torch", "numba")
 _UNITS = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s^2"}
 _CHUNK_ELEMENTS = 1 << 24  # recorded values per chunk (memory bound of the chunked loop)
+_MAX_CHUNK_STEPS = 1 << 16  # steps per chunk at most (sin/base arrays of a chunk stay small)
 
 
 @dataclass(frozen=True)
@@ -269,7 +270,8 @@ def simulate_sweeps(
         dec = StreamingDecimator(taps, m, dtype=dtype, device=device)
         width = form.n_modes
     dec_base = StreamingDecimator(taps, m, dtype=torch.float64, device=torch.device("cpu"))
-    chunk = max(m, (_CHUNK_ELEMENTS // max(1, batch * width)) // m * m)
+    # steps per chunk: bounded by the recorded values (torch) and by the per-chunk sweep arrays
+    chunk = max(m, min(_CHUNK_ELEMENTS // max(1, batch * width), _MAX_CHUNK_STEPS) // m * m)
 
     if progress is None:
         progress = n_steps * batch > 5e8 and sys.stderr.isatty()
