@@ -17,7 +17,7 @@ import numpy as np
 from .engines import BLOWUP, MODES
 from .formulation import ModalForm
 
-__all__ = ["NumbaRK4", "NumbaDecimator"]
+__all__ = ["NumbaRK4"]
 
 BLOCK = 64  # members per block: 4 AVX-512 float32 vectors; block state ~ 8 x 12 x 64 words
 
@@ -56,11 +56,18 @@ def _accel(eta, v, s, kn, dl, lev, lam, cm, cdiag, diag, D, g, th, acc):
 
 @numba.njit(parallel=True, fastmath=True, cache=True)
 def rk4_chunk(eta, v, kn, dl, lev, lam, cm, cdiag, diag, D, g, S, mode, s_half, coef, out,
-              alive):
+              taps, m, half, w0, ring, gi0):
+    # RK4 steps gi0 .. gi0 + L - 1 with the anti-aliasing FIR fused in: the recorded value of
+    # step gi (padded filter index j = gi + half) is added to every open output k with
+    # k m <= j <= k m + ntap - 1 (weight taps[j - k m]) in a ring of accumulators kept in
+    # `ring` between chunks; output k is written to `out` once j = k m + ntap - 1. At gi = 0
+    # the value also stands for the padding j < half (the state at rest), with weights w0[k].
     N, B = eta.shape
     H = D.shape[1]
     C = S.shape[0]
-    L = out.shape[0]
+    L = (s_half.shape[0] - 1) // 2
+    R = ring.shape[0]
+    ntap = taps.shape[0]
     dt = eta.dtype
     nblk = (B + BLOCK - 1) // BLOCK
     for blk in numba.prange(nblk):
@@ -84,6 +91,13 @@ def rk4_chunk(eta, v, kn, dl, lev, lam, cm, cdiag, diag, D, g, S, mode, s_half, 
             for b in range(BLOCK):
                 e[i, b] = eta[i, b0 + b]
                 w[i, b] = v[i, b0 + b]
+        val = np.empty((C, BLOCK), dt)
+        acc_r = np.empty((R, C, BLOCK), dt)
+        for r in range(R):
+            for c in range(C):
+                for b in range(BLOCK):
+                    acc_r[r, c, b] = ring[r, c, b0 + b]
+        n_emit = 0
         h = coef[0]
         h2 = coef[1]
         h6 = coef[2]
@@ -97,11 +111,36 @@ def rk4_chunk(eta, v, kn, dl, lev, lam, cm, cdiag, diag, D, g, S, mode, s_half, 
             src = e if mode == 0 else (w if mode == 1 else k)
             for c in range(C):
                 for b in range(BLOCK):
-                    out[step, c, b0 + b] = 0.0
+                    val[c, b] = 0.0
                 for i in range(N):
                     sc = S[c, i]
                     for b in range(BLOCK):
-                        out[step, c, b0 + b] += sc * src[i, b]
+                        val[c, b] += sc * src[i, b]
+            gi = gi0 + step
+            j = gi + half
+            if gi == 0:
+                for kk in range(w0.shape[0]):
+                    wk = w0[kk]
+                    r = kk % R
+                    for c in range(C):
+                        for b in range(BLOCK):
+                            acc_r[r, c, b] += wk * val[c, b]
+            else:
+                k_lo = max(0, (j - ntap + m) // m)
+                for kk in range(k_lo, j // m + 1):
+                    wk = taps[j - kk * m]
+                    r = kk % R
+                    for c in range(C):
+                        for b in range(BLOCK):
+                            acc_r[r, c, b] += wk * val[c, b]
+            jd = j - ntap + 1
+            if jd >= 0 and jd % m == 0:
+                r = (jd // m) % R
+                for c in range(C):
+                    for b in range(BLOCK):
+                        out[n_emit, c, b0 + b] = acc_r[r, c, b]
+                        acc_r[r, c, b] = 0.0
+                n_emit += 1
             for i in range(N):
                 for b in range(BLOCK):
                     se[i, b] = w[i, b]
@@ -135,30 +174,6 @@ def rk4_chunk(eta, v, kn, dl, lev, lam, cm, cdiag, diag, D, g, S, mode, s_half, 
                 eta[i, b0 + b] = e[i, b]
                 v[i, b0 + b] = w[i, b]
 
-@numba.njit(parallel=True, fastmath=True, cache=True)
-def fir_decimate(buf, h, m, out):
-    # out[k, c, b] = sum_j h[j] buf[k m + j, c, b]; members innermost (SIMD). One thread takes a
-    # column of BLOCK members of one channel through all outputs, so the tap window of that
-    # column (N x BLOCK words) stays in cache while it slides by m rows per output.
-    K, C, B = out.shape
-    N = h.shape[0]
-    nblk = B // BLOCK
-    for cb in numba.prange(C * nblk):
-        c = cb // nblk
-        b0 = (cb % nblk) * BLOCK
-        acc = np.empty(BLOCK, out.dtype)
-        for k in range(K):
-            base = k * m
-            for b in range(BLOCK):
-                acc[b] = 0.0
-            for j in range(N):
-                hj = h[j]
-                for b in range(BLOCK):
-                    acc[b] += hj * buf[base + j, c, b0 + b]
-            for b in range(BLOCK):
-                out[k, c, b0 + b] = acc[b]
-
-
 class NumbaRK4:
     """Compiled CPU engine with the interface of :class:`.engines.TorchRK4`.
 
@@ -166,7 +181,8 @@ class NumbaRK4:
     dtype (float32 or float64).
     """
 
-    def __init__(self, form: ModalForm, kn, delta, level_g, eta0, v0, *, h, quantity, dtype):
+    def __init__(self, form: ModalForm, kn, delta, level_g, eta0, v0, *, h, quantity, dtype,
+                 taps, factor):
         import torch
 
         if dtype in (torch.float32, np.float32):
@@ -192,17 +208,35 @@ class NumbaRK4:
         self.eta, self.v = p2(eta0), p2(v0)
         self.coef = a([h, 0.5 * h, h / 6.0, 2.0])
         self.alive = np.ones(len(self.kn), dtype=np.bool_)
-        self._kernel = rk4_chunk
+        # fused decimation (see rk4_chunk): taps, ring of open outputs, start-padding weights
+        self.taps = a(taps)
+        self.m = int(factor)
+        self.half = (len(taps) - 1) // 2
+        self.w0 = a([np.sum(taps[: self.half - k * self.m + 1])
+                     for k in range(self.half // self.m + 1)])
+        self.ring = np.zeros((len(taps) // self.m + 2, len(form.S), len(self.kn)), dtype=nd)
+        self.gi = 0
 
     def run(self, s_half: np.ndarray) -> np.ndarray:
-        """Integrate one chunk; returns the recorded channels, shape (L, C, padded batch)."""
+        """Integrate one chunk and decimate on the fly.
+
+        Returns
+        -------
+        ndarray, shape (L_out, C, padded batch)
+            The output samples completed in this chunk (in order over the calls).
+        """
         L = (len(s_half) - 1) // 2
-        out = np.empty((L, self.S.shape[0], self.kn.shape[0]), dtype=self.nd)  # padded batch
-        self._kernel(
+        m, half, gi0 = self.m, self.half, self.gi
+        k_first = max(0, -(-(gi0 - half) // m))
+        k_last = (gi0 + L - 1 - half) // m
+        out = np.empty((max(0, k_last - k_first + 1), self.S.shape[0], self.kn.shape[0]),
+                       dtype=self.nd)
+        rk4_chunk(
             self.eta, self.v, self.kn, self.dl, self.lev, self.lam, self.cm, self.cdiag,
             self.diag, self.D, self.g, self.S, self.mode, np.asarray(s_half, dtype=self.nd),
-            self.coef, out, self.alive,
+            self.coef, out, self.taps, m, half, self.w0, self.ring, gi0,
         )
+        self.gi += L
         # divergence check once per chunk, outside the fast-math kernel (which may assume that
         # no NaN occurs); a diverged member is frozen at rest with no load
         with np.errstate(invalid="ignore"):
@@ -217,39 +251,3 @@ class NumbaRK4:
     @property
     def diverged(self) -> np.ndarray:
         return ~self.alive[: self.batch]
-
-
-class NumbaDecimator:
-    """:class:`.resample.StreamingDecimator` for (L, C, batch) arrays, compiled, members in SIMD.
-
-    Parameters
-    ----------
-    taps : ndarray, shape (2 K m + 1,)
-    factor : int
-    dtype : numpy float dtype of the samples.
-    """
-
-    def __init__(self, taps: np.ndarray, factor: int, *, dtype) -> None:
-        self.h = np.ascontiguousarray(taps, dtype=dtype)
-        self.m = int(factor)
-        self.half = (len(taps) - 1) // 2
-        self.buffer: np.ndarray | None = None
-        self._fir = fir_decimate
-
-    def push(self, x: np.ndarray) -> np.ndarray:
-        """Feed x, shape (L, C, padded batch); return the completed outputs (L_out, C, batch).
-
-        The batch must be a multiple of ``BLOCK`` (as :class:`NumbaRK4` returns it).
-        """
-        if self.buffer is None:
-            buf = np.concatenate([np.repeat(x[:1], self.half, axis=0), x], axis=0)
-        else:
-            buf = np.concatenate([self.buffer, x], axis=0)
-        N = self.h.shape[0]
-        n_out = (buf.shape[0] - N) // self.m + 1 if buf.shape[0] >= N else 0
-        out = np.empty((max(n_out, 0),) + buf.shape[1:], dtype=buf.dtype)
-        if n_out > 0:
-            self._fir(buf, self.h, self.m, out)
-            buf = buf[n_out * self.m :]
-        self.buffer = buf
-        return out

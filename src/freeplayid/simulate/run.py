@@ -25,6 +25,7 @@ DEFAULT_OMEGA_DT = 1.5
 ENGINES = ("auto", "torch", "numba")
 _UNITS = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s^2"}
 _CHUNK_ELEMENTS = 1 << 24  # recorded values per chunk (memory bound of the chunked loop)
+_MAX_CHUNK_STEPS = 1 << 16  # steps per chunk at most (sin/base arrays of a chunk stay small)
 
 
 @dataclass(frozen=True)
@@ -257,10 +258,11 @@ def simulate_sweeps(
     eta0 = np.outer(G_lv * base_state[0], form.x0_per_ub)
     v0 = np.outer(G_lv * base_state[1], form.v0_per_vb)
     if engine == "numba":
-        from .kernel import NumbaDecimator, NumbaRK4
+        from .kernel import NumbaRK4
 
-        eng = NumbaRK4(form, kn_a, dl_a, lv_a, eta0, v0, h=h, quantity=quantity, dtype=dtype)
-        dec = NumbaDecimator(taps, m, dtype=eng.nd)
+        eng = NumbaRK4(form, kn_a, dl_a, lv_a, eta0, v0, h=h, quantity=quantity, dtype=dtype,
+                       taps=taps, factor=m)
+        dec = None  # the kernel decimates on the fly
         width = len(channels)
     else:
         eng = TorchRK4(form, kn_a, dl_a, lv_a, eta0, v0, h=h, quantity=quantity, dtype=dtype,
@@ -268,7 +270,8 @@ def simulate_sweeps(
         dec = StreamingDecimator(taps, m, dtype=dtype, device=device)
         width = form.n_modes
     dec_base = StreamingDecimator(taps, m, dtype=torch.float64, device=torch.device("cpu"))
-    chunk = max(m, (_CHUNK_ELEMENTS // max(1, batch * width)) // m * m)
+    # steps per chunk: bounded by the recorded values (torch) and by the per-chunk sweep arrays
+    chunk = max(m, min(_CHUNK_ELEMENTS // max(1, batch * width), _MAX_CHUNK_STEPS) // m * m)
 
     if progress is None:
         progress = n_steps * batch > 5e8 and sys.stderr.isatty()
@@ -282,9 +285,9 @@ def simulate_sweeps(
     while i0 < n_steps:
         L = min(chunk, n_steps - i0)
         s_half = np.sin(sweep.phase((i0 + 0.5 * np.arange(2 * L + 1)) * h))
-        rec = eng.run(s_half)  # (batch, C, L) tensor, or (L, C, padded batch) array for numba
+        rec = eng.run(s_half)  # (batch, C, L) tensor; numba: decimated (L_out, C, padded batch)
         if engine == "numba":
-            outs.append(dec.push(rec))
+            outs.append(rec)
         else:
             outs.append(dec.push(rec.reshape(batch * len(channels), L)))
         sig = _base_signals(sweep, i0, L, h, s_half, base_state)
