@@ -125,3 +125,26 @@ def test_inconsistent_points_are_flagged_not_hidden():
     )
     bc = dfa_backbone(weak, kn=4.0e3, delta=2e-3, s=np.array([1.1, 1.3, 20.0]))
     assert not bc.converged[0, 0] and bc.converged[0, -1]
+
+
+def test_backbone_comparison_figure_draws_every_curve():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from freeplayid.plots import plot_backbone_comparison
+
+    s = np.array([1.1, 1.5, 2.0, 4.0])
+    bc = dfa_backbone(sdof_system(), kn=1.0, delta=1.0, s=s)
+    fig, ax = plt.subplots()
+    peak = np.linspace(1.05, 4.0, 20)
+    plot_backbone_comparison(
+        ax,
+        [("DFA", bc.channel("x")[0], bc.frequency_hz[0])],
+        exact=(peak, 1.0 / (1.0 + 2.0 / (np.pi * (peak - 1.0)))),
+    )
+    lines = ax.get_lines()
+    assert len(lines) == 2
+    np.testing.assert_allclose(lines[1].get_ydata(), 2 * np.pi * bc.frequency_hz[0])
+    plt.close(fig)

@@ -117,3 +117,35 @@ def plot_sweep_response(ax, time, signal, *, sweep=None, label=None, units="", t
         sec.set_xlabel("sweep frequency [Hz]", fontsize=8)
         ax._freq_axis = True
     return ax
+
+
+# ------------------------------------------------------------------------------------------------
+# backbone: DFA and harmonic balance against the exact SDOF backbone (paper Fig. 3)
+# ------------------------------------------------------------------------------------------------
+
+
+def plot_backbone_comparison(ax, curves, *, exact=None, delta=1.0, omega_n=1.0):
+    """Backbone curves as frequency ratio w / w_n against peak amplitude / delta.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+    curves : sequence of (label, amplitude, frequency_hz)
+        amplitude [m] (peak or first harmonic, as labelled), shape (m,); frequency [Hz], (m,).
+    exact : (amplitude, omega), optional
+        Exact backbone: peak amplitude [m] and angular frequency [rad/s].
+    delta : float [m]
+        Gap used to normalise the amplitude axis.
+    omega_n : float [rad/s]
+        Contact (closed-gap) natural frequency used to normalise the frequency axis.
+    """
+    if exact is not None:
+        a, w = exact
+        ax.plot(np.asarray(a) / delta, np.asarray(w) / omega_n, "k-", lw=2.5, alpha=0.35,
+                label="exact")
+    for label, a, f in curves:
+        ax.plot(np.asarray(a) / delta, 2 * np.pi * np.asarray(f) / omega_n, lw=1.2, label=label)
+    ax.set_xlabel("amplitude / delta")
+    ax.set_ylabel("frequency / closed-gap frequency")
+    ax.legend(fontsize="small")
+    return ax
