@@ -56,3 +56,30 @@ def test_simulate_script_end_to_end(tmp_path):
     ds = read_dataset(run / "dataset")
     assert ds.quantity == "acceleration" and ds.units == "g" and len(ds.runs) == 2
     assert ds.runs[0].data.shape == (1, 513) and ds.channels == {"acc_x": "x"}
+
+
+@pytest.mark.parametrize("debug", [[], ["debug=fast"]])
+def test_compose_identify(debug):
+    with initialize_config_dir(config_dir=str(CONF), version_base="1.3"):
+        cfg = compose(config_name="identify", overrides=debug + ["data=some/manifest.yaml"])
+    assert cfg.data == "some/manifest.yaml" and cfg.init == "multistart"
+    assert cfg.backbone in ("dfa", "hb")
+    import inspect
+
+    from freeplayid.signal import extract_backbone_points
+
+    assert set(cfg.extraction) <= set(inspect.signature(extract_backbone_points).parameters)
+    if debug:  # fast: a 3 x 3 start grid and no bootstrap
+        assert cfg.multistart.n == 3 and cfg.n_bootstrap == 0
+    else:
+        assert cfg.multistart.n == 5
+
+
+def test_identify_defaults_to_the_bundled_example():
+    from freeplayid.tasks import bundled_example
+
+    with initialize_config_dir(config_dir=str(CONF), version_base="1.3"):
+        cfg = compose(config_name="identify")
+    assert cfg.data is None
+    assert bundled_example() == ROOT / "examples" / "fin_sweeps" / "manifest.yaml"
+    assert bundled_example().is_file()

@@ -332,8 +332,13 @@ def fit_backbone(
         )
     runs = []
     for k0, d0 in starts:
-        sol = solve(scout, np.log([k0, d0]))
+        try:
+            sol = solve(scout, np.log([k0, d0]))
+        except ValueError:  # a start that runs off to kn or delta = inf/0 is a lost start
+            continue
         runs.append((2 * sol.cost, sol, (k0, d0)))
+    if not runs:
+        raise ValueError(f"every start of the fit diverged (starts: {starts})")
     runs.sort(key=lambda r: r[0])
     _, sol, start = runs[0]
     if scout is not dfa_model:

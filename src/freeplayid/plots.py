@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["plot_backbone_points", "plot_sweep_response"]
+__all__ = ["plot_backbone_points", "plot_fit_residuals", "plot_sweep_response"]
 
 
 # ------------------------------------------------------------------------------------------------
@@ -81,6 +81,44 @@ def plot_backbone_points(
     ax.set_xlabel("frequency [Hz]")
     ax.set_ylabel(f"first-harmonic displacement [{amplitude_unit}]")
     if legend:
+        ax.legend(fontsize="small")
+    return ax
+
+
+def plot_fit_residuals(ax, f_hz, residuals, *, labels=None):
+    """Relative frequency residuals of a backbone fit, one marker per fitting point.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+    f_hz : array_like, shape (p,) [Hz]
+        Measured frequency of each point.
+    residuals : array_like, shape (p,) [-]
+        (f_BC - f) / f of each point (``FitResult.residuals``); drawn in percent.
+    labels : sequence of str, shape (p,), optional
+        Group of each point (e.g. its channel); one marker colour and legend entry per group.
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+        ``ax``.
+    """
+    f = np.asarray(f_hz, dtype=float)
+    r = 100 * np.asarray(residuals, dtype=float)
+    if f.shape != r.shape:
+        raise ValueError(
+            f"`f_hz` and `residuals` must have the same shape, got {f.shape} and {r.shape}"
+        )
+    groups = [None] * f.size if labels is None else list(labels)
+    if len(groups) != f.size:
+        raise ValueError(f"`labels` must have {f.size} entries, got {len(groups)}")
+    for g in dict.fromkeys(groups):
+        sel = np.array([x == g for x in groups])
+        ax.plot(f[sel], r[sel], "o", ms=6, mec="k", label=g)
+    ax.axhline(0.0, color="k", lw=0.8)
+    ax.set_xlabel("fitting-point frequency [Hz]")
+    ax.set_ylabel("residual (f_BC - f) / f [%]")
+    if labels is not None:
         ax.legend(fontsize="small")
     return ax
 

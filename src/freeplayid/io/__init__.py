@@ -5,5 +5,8 @@ Linear model files (`.npz`) are read and written by :func:`freeplayid.model.load
 """
 
 from .dataset import Dataset, DatasetError, Run, read_dataset, write_dataset
+from .uff import read_uff, write_uff
 
-__all__ = ["Dataset", "DatasetError", "Run", "read_dataset", "write_dataset"]
+__all__ = [
+    "Dataset", "DatasetError", "Run", "read_dataset", "write_dataset", "read_uff", "write_uff",
+]

@@ -18,18 +18,27 @@ reader never sees a manifest that points at a missing or half-written file.
 
 from __future__ import annotations
 
+import gzip
 import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import scipy.constants
 import yaml
 
 __all__ = ["Dataset", "DatasetError", "Run", "read_dataset", "write_dataset"]
 
 QUANTITIES = ("displacement", "velocity", "acceleration")
 UNITS = {"displacement": ("m",), "velocity": ("m/s",), "acceleration": ("g", "m/s^2")}
+# the one place where data-set units become SI: factor to m, m/s or m/s^2
+SI_SCALE = {"m": 1.0, "m/s": 1.0, "m/s^2": 1.0, "g": scipy.constants.g}
+MANIFEST_KEYS = ("name", "model", "quantity", "units", "sample_rate", "channels",
+                 "base_channel", "truth", "runs")
+RUN_KEYS = ("file", "level_g", "sweep")
+SWEEP_KEYS = ("start_hz", "stop_hz", "rate_hz_per_s")
+UFF_SUFFIXES = (".uff", ".unv")
 
 
 class DatasetError(ValueError):
@@ -53,6 +62,8 @@ class Run:
         Optional hint ``{start_hz, stop_hz, rate_hz_per_s}``.
     base : ndarray, shape (T,), or None
         The base (control) channel, if the data set has one.
+    reason : str
+        Empty for a usable run; else why it is rejected (e.g. NaN samples), set by the reader.
     """
 
     file: str
@@ -61,6 +72,7 @@ class Run:
     level_g: float | None = None
     sweep: dict | None = None
     base: np.ndarray | None = None
+    reason: str = ""
 
 
 @dataclass(frozen=True)
@@ -79,6 +91,10 @@ class Dataset:
         CSV column -> model DOF name, in column order.
     runs : tuple of Run
     base_channel : str or None
+    truth : dict or None
+        ``{"kn": [N m/rad], "delta": [rad]}`` of a simulated data set (informational).
+    path : Path or None
+        Absolute path of the manifest read.
     """
 
     name: str
@@ -89,6 +105,17 @@ class Dataset:
     channels: dict
     runs: tuple
     base_channel: str | None = None
+    truth: dict | None = None
+    path: Path | None = None
+
+    @property
+    def si_scale(self) -> float:
+        """Factor from the data set's units to SI (m, m/s or m/s^2); 9.80665 for g."""
+        return SI_SCALE[self.units]
+
+    def to_si(self, values) -> np.ndarray:
+        """``values`` in the data set's units -> SI units of its quantity (m, m/s, m/s^2)."""
+        return np.asarray(values, dtype=float) * self.si_scale
 
 
 def _atomic_write_text(path: Path, text: str) -> None:
@@ -118,6 +145,9 @@ def write_dataset(
     system=None,
     model_file: str = "model.npz",
     base_channel: str | None = None,
+    truth: Mapping[str, float] | None = None,
+    float_format: str = "%.10g",
+    time_format: str | None = None,
 ) -> Path:
     """Write a data set folder and return the path of its ``manifest.yaml``.
 
@@ -138,6 +168,12 @@ def write_dataset(
     model_file : str
     base_channel : str, optional
         Column name of ``Run.base`` (each run must then carry it).
+    truth : mapping, optional
+        ``{"kn": [N m/rad], "delta": [rad]}`` of a simulated data set (informational; the
+        identification report compares with it).
+    float_format, time_format : str
+        printf formats of the data columns and of the time column (default: ``float_format``);
+        fewer digits make smaller files (4-5 significant digits are plenty for noisy data).
     """
     _check_quantity_units(quantity, units, "")
     if not (np.isfinite(sample_rate) and sample_rate > 0):
@@ -166,9 +202,10 @@ def write_dataset(
             header.append(base_channel)
             table.append(np.asarray(run.base, dtype=float))
         path = folder / run.file
-        tmp = path.with_name(path.name + ".tmp")
+        tmp = path.with_name(".tmp-" + path.name)  # same suffix: a .csv.gz is written gzipped
+        fmt = [time_format or float_format] + [float_format] * (len(table) - 1)
         np.savetxt(tmp, np.column_stack(table), delimiter=",", header=",".join(header),
-                   comments="", fmt="%.10g")
+                   comments="", fmt=fmt)
         os.replace(tmp, path)
         entry = {"file": run.file}
         if run.level_g is not None:
@@ -190,78 +227,244 @@ def write_dataset(
     )
     if base_channel is not None:
         manifest["base_channel"] = base_channel
+    if truth is not None:
+        manifest["truth"] = {k: float(v) for k, v in dict(truth).items()}
     manifest["runs"] = entries
     out = folder / "manifest.yaml"
     _atomic_write_text(out, yaml.safe_dump(manifest, sort_keys=False))
     return out
 
 
-def read_dataset(path: str | os.PathLike) -> Dataset:
-    """Read a data set from its folder or ``manifest.yaml``.
+def _check_keys(entry, allowed, where: str) -> None:
+    unknown = sorted(set(entry) - set(allowed))
+    if unknown:
+        raise DatasetError(f"{where}unknown field(s) {unknown}; allowed: {list(allowed)}")
+
+
+def _number(value, where: str, *, positive: bool = True) -> float:
+    ok = isinstance(value, (int, float)) and not isinstance(value, bool)
+    if not ok or not np.isfinite(value) or (positive and value <= 0):
+        need = "a finite number > 0" if positive else "a finite number"
+        raise DatasetError(f"{where} must be {need}, got {value!r}")
+    return float(value)
+
+
+def _read_csv(path: Path, need: Sequence[str]) -> dict[str, np.ndarray]:
+    """The needed columns of one CSV (or gzipped ``.csv.gz``) run file as float arrays."""
+    opener = gzip.open if path.suffix.lower() == ".gz" else open
+    try:
+        with opener(path, "rt") as fh:
+            header = [h.strip() for h in fh.readline().strip().split(",")]
+    except (OSError, UnicodeDecodeError) as exc:
+        raise DatasetError(f"{path}: not a readable CSV text file ({exc})") from None
+    dup = sorted({h for h in header if header.count(h) > 1})
+    if dup:
+        raise DatasetError(f"{path}: duplicate column name(s) {dup}")
+    missing = [c for c in need if c not in header]
+    if missing:
+        raise DatasetError(
+            f"{path}: column(s) {missing} not in the header; the header has {header} "
+            "(the manifest's `channels` keys, `base_channel` and 'time' must be columns)"
+        )
+    cols = [header.index(c) for c in need]
+    try:
+        table = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2, usecols=cols)
+    except ValueError as exc:  # numpy names the row and column of the bad value
+        raise DatasetError(f"{path}: non-numeric value ({exc}); columns: {list(need)}") from None
+    return {c: table[:, k] for k, c in enumerate(need)}
+
+
+def _check_time(t: np.ndarray, fs: float | None, where: str) -> float:
+    """Validate a time column [s]; return the sample rate [Hz] it implies (or ``fs``)."""
+    if t.size < 16:
+        raise DatasetError(f"{where}: {t.size} samples; a sweep run needs many more")
+    if not np.all(np.isfinite(t)):
+        k = int(np.flatnonzero(~np.isfinite(t))[0])
+        raise DatasetError(f"{where}: column 'time' has a non-finite value at data row {k + 1}")
+    steps = np.diff(t)
+    if np.any(steps <= 0):
+        k = int(np.flatnonzero(steps <= 0)[0])
+        raise DatasetError(
+            f"{where}: column 'time' must increase strictly; data rows {k + 1}-{k + 2} go "
+            f"{t[k]:.9g} -> {t[k + 1]:.9g} s"
+        )
+    # rate from a straight-line fit, robust to rounding of the printed times
+    k = np.arange(t.size)
+    step = float(np.polyfit(k, t, 1)[0])
+    dev = np.abs(t - (t[0] + k * step))
+    if dev.max() > 0.25 * step:
+        j = int(np.argmax(dev))
+        raise DatasetError(
+            f"{where}: column 'time' is not uniformly sampled (data row {j + 1} is off the "
+            f"{1 / step:.6g} Hz grid by {dev[j] / step:.2f} samples); resample the record"
+        )
+    if fs is not None and abs(1.0 / step - fs) > 1e-3 * fs:
+        raise DatasetError(
+            f"{where}: column 'time' implies {1 / step:.6g} Hz but the data set's sample rate "
+            f"is {fs:g} Hz (the manifest's `sample_rate`, else the first run's time column)"
+        )
+    return fs if fs is not None else 1.0 / step
+
+
+def _nonfinite_reason(columns: Mapping[str, np.ndarray], t: np.ndarray) -> str:
+    for name, x in columns.items():
+        bad = ~np.isfinite(x)
+        if np.any(bad):
+            k = int(np.flatnonzero(bad)[0])
+            return (
+                f"non-finite values (NaN/inf) in column {name!r}: {int(bad.sum())} samples, "
+                f"first at t = {t[k]:.6g} s"
+            )
+    return ""
+
+
+def read_dataset(path: str | os.PathLike, *, check_model: bool = True) -> Dataset:
+    """Read and validate a data set from its folder or ``manifest.yaml`` (DESIGN.md §3).
+
+    CSV run files, and UFF dataset-58 files (a run ``file`` ending in ``.uff`` or ``.unv``,
+    channel names = the records' ID line 1, see :func:`freeplayid.io.read_uff`) are accepted.
+
+    Parameters
+    ----------
+    path : path
+        The data-set folder or its manifest.
+    check_model : bool
+        Load the manifest's model file and check that every channel names one of its DOFs.
+
+    Returns
+    -------
+    Dataset
+        Run data in the data set's units (:meth:`Dataset.to_si` converts). A run with NaN or
+        inf samples in a channel or the base column is kept with ``Run.reason`` saying so
+        (a rejected run, not an error), so one broken record does not stop a campaign.
 
     Raises
     ------
     DatasetError
-        Naming the file and field: missing manifest or run file, unknown quantity/units,
-        missing CSV column, non-uniform time column.
+        Naming the file, the run, the field or column and the allowed values: missing manifest,
+        run or model file, unknown fields, bad quantity/units, channels not in the model,
+        missing or non-numeric columns, a non-monotonic or non-uniform time column, a time
+        column that disagrees with ``sample_rate``, no runs.
     """
     path = Path(path)
     manifest_path = path / "manifest.yaml" if path.is_dir() else path
     if not manifest_path.is_file():
-        raise DatasetError(f"{manifest_path}: manifest not found")
+        raise DatasetError(
+            f"{manifest_path}: manifest not found (give a data-set folder or its manifest.yaml)"
+        )
     where = f"{manifest_path}: "
     try:
         m = yaml.safe_load(manifest_path.read_text())
     except yaml.YAMLError as exc:
         raise DatasetError(f"{where}not valid YAML ({exc})") from None
     if not isinstance(m, dict):
-        raise DatasetError(f"{where}must be a mapping")
+        raise DatasetError(f"{where}must be a YAML mapping of the fields {list(MANIFEST_KEYS)}")
+    _check_keys(m, MANIFEST_KEYS, where)
     for key in ("quantity", "units", "channels", "runs"):
         if key not in m:
             raise DatasetError(f"{where}missing field `{key}`")
     _check_quantity_units(m["quantity"], m["units"], where)
     channels = m["channels"]
-    if not isinstance(channels, dict) or not channels:
-        raise DatasetError(f"{where}`channels` must map CSV columns to DOF names")
-    base_channel = m.get("base_channel")
-    root = manifest_path.parent
-    runs = []
-    fs = m.get("sample_rate")
-    for k, entry in enumerate(m["runs"]):
-        f = root / entry["file"]
-        if not f.is_file():
-            raise DatasetError(f"{where}`runs[{k}].file` {entry['file']!r} not found")
-        with open(f) as fh:
-            header = fh.readline().strip().split(",")
-        table = np.loadtxt(f, delimiter=",", skiprows=1, ndmin=2)
-        need = ["time", *channels] + ([base_channel] if base_channel else [])
-        missing = [c for c in need if c not in header]
-        if missing:
-            raise DatasetError(f"{f}: missing column(s) {missing}; header is {header}")
-        t = table[:, header.index("time")]
-        if fs is None:
-            steps = np.diff(t)
-            if len(steps) == 0 or np.ptp(steps) > 1e-6 * np.mean(steps):
-                raise DatasetError(f"{f}: 'time' is not uniformly sampled and no sample_rate")
-            fs = 1.0 / float(np.mean(steps))
-        runs.append(
-            Run(
-                file=entry["file"],
-                time=t,
-                data=np.stack([table[:, header.index(c)] for c in channels]),
-                level_g=entry.get("level_g"),
-                sweep=entry.get("sweep"),
-                base=table[:, header.index(base_channel)] if base_channel else None,
-            )
+    if not isinstance(channels, dict) or not channels or not all(
+        isinstance(k, str) and isinstance(v, str) for k, v in channels.items()
+    ):
+        raise DatasetError(
+            f"{where}`channels` must map CSV column names to model DOF names, got {channels!r}"
         )
+    base_channel = m.get("base_channel")
+    if base_channel is not None and (not isinstance(base_channel, str) or base_channel in
+                                     channels or base_channel == "time"):
+        raise DatasetError(
+            f"{where}`base_channel` must be a column name other than 'time' and the channels "
+            f"{list(channels)}, got {base_channel!r}"
+        )
+    if "time" in channels:
+        raise DatasetError(f"{where}`channels` must not use the column name 'time'")
+    fs = m.get("sample_rate")
+    if fs is not None:
+        fs = _number(fs, f"{where}`sample_rate` [Hz]")
+    truth = m.get("truth")
+    if truth is not None:
+        if not isinstance(truth, dict):
+            raise DatasetError(f"{where}`truth` must be a mapping {{kn, delta}}, got {truth!r}")
+        _check_keys(truth, ("kn", "delta"), f"{where}`truth`: ")
+        truth = {k: _number(v, f"{where}`truth.{k}`") for k, v in truth.items()}
+    root = manifest_path.parent
     model = m.get("model")
+    model_path = None
+    if model is not None:
+        if not isinstance(model, str):
+            raise DatasetError(f"{where}`model` must be a file name, got {model!r}")
+        model_path = (root / model).resolve()
+        if not model_path.is_file():
+            raise DatasetError(f"{where}`model` file {model!r} not found (looked at {model_path})")
+        if check_model:
+            from ..model.system import SystemFileError, load_system
+
+            try:
+                dofs = load_system(model_path).dof_names
+            except SystemFileError as exc:
+                raise DatasetError(f"{where}`model`: {exc}") from None
+            unknown = {c: d for c, d in channels.items() if d not in dofs}
+            if unknown:
+                raise DatasetError(
+                    f"{where}`channels` map to DOF(s) the model {model!r} does not have: "
+                    f"{unknown}; its DOFs are {list(dofs)}"
+                )
+    entries = m["runs"]
+    if not isinstance(entries, list) or not entries:
+        raise DatasetError(f"{where}`runs` must be a non-empty list of {{file, ...}} entries")
+    runs = []
+    seen = set()
+    for k, entry in enumerate(entries):
+        at = f"{where}`runs[{k}]`"
+        if not isinstance(entry, dict) or "file" not in entry:
+            raise DatasetError(f"{at} must be a mapping with a `file`, got {entry!r}")
+        _check_keys(entry, RUN_KEYS, f"{at}: ")
+        name = entry["file"]
+        if not isinstance(name, str) or name in seen:
+            raise DatasetError(f"{at}.file must be a file name used once, got {name!r}")
+        seen.add(name)
+        f = root / name
+        if not f.is_file():
+            raise DatasetError(f"{at}.file {name!r} not found (looked at {f})")
+        level = entry.get("level_g")
+        if level is not None:
+            level = _number(level, f"{at}.level_g [g]")
+        sweep = entry.get("sweep")
+        if sweep is not None:
+            if not isinstance(sweep, dict):
+                raise DatasetError(f"{at}.sweep must be a mapping of {list(SWEEP_KEYS)}")
+            _check_keys(sweep, SWEEP_KEYS, f"{at}.sweep: ")
+            miss = [s_ for s_ in SWEEP_KEYS if s_ not in sweep]
+            if miss:
+                raise DatasetError(f"{at}.sweep misses {miss}; it needs {list(SWEEP_KEYS)}")
+            sweep = {s_: _number(sweep[s_], f"{at}.sweep.{s_}") for s_ in SWEEP_KEYS}
+            if sweep["start_hz"] == sweep["stop_hz"]:
+                raise DatasetError(f"{at}.sweep: `start_hz` and `stop_hz` must differ")
+        need = ["time", *channels] + ([base_channel] if base_channel else [])
+        if f.suffix.lower() in UFF_SUFFIXES:
+            from .uff import read_uff
+
+            cols = read_uff(f, columns=need[1:])
+        else:
+            cols = _read_csv(f, need)
+        t = cols["time"]
+        fs = _check_time(t, fs, str(f))
+        data = np.stack([cols[c] for c in channels])
+        base = cols[base_channel] if base_channel else None
+        reason = _nonfinite_reason({c: cols[c] for c in need[1:]}, t)
+        runs.append(Run(file=name, time=t, data=data, level_g=level, sweep=sweep, base=base,
+                        reason=reason))
     return Dataset(
         name=str(m.get("name", "")),
-        model=(root / model).resolve() if model else None,
+        model=model_path,
         quantity=m["quantity"],
         units=m["units"],
         sample_rate=float(fs),
         channels=dict(channels),
         runs=tuple(runs),
         base_channel=base_channel,
+        truth=truth,
+        path=manifest_path.resolve(),
     )

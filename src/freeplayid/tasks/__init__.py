@@ -6,6 +6,10 @@ This is the only package that imports Hydra/OmegaConf.
 """
 
 from .common import build_system, run_dir, write_metrics
+from .identify import IdentificationError, bundled_example, identify
 from .simulate import simulate
 
-__all__ = ["build_system", "run_dir", "write_metrics", "simulate"]
+__all__ = [
+    "build_system", "run_dir", "write_metrics", "simulate", "identify", "IdentificationError",
+    "bundled_example",
+]

@@ -71,6 +71,7 @@ def simulate(cfg: DictConfig) -> dict:
     manifest = write_dataset(
         out / cfg.output_dir, name=cfg.name, quantity=cfg.quantity, units=units,
         sample_rate=res.sample_rate, channels=channels, runs=runs, system=system,
+        truth={"kn": float(cfg.kn), "delta": float(cfg.delta)},
     )
     if cfg.plot:
         import matplotlib

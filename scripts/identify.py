@@ -1,0 +1,27 @@
+"""Identify hinge freeplay (kn, delta) from a measured sine-sweep data set (DESIGN.md §3).
+
+    python scripts/identify.py                              # the bundled example data set
+    python scripts/identify.py data=PATH/manifest.yaml      # your data set
+    python scripts/identify.py data=PATH backbone=hb n_bootstrap=200 debug=fast
+"""
+
+import sys
+
+import hydra
+from omegaconf import DictConfig
+
+from freeplayid import tasks
+from freeplayid.io import DatasetError
+from freeplayid.model import SystemFileError
+
+
+@hydra.main(version_base="1.3", config_path="../conf", config_name="identify")
+def main(cfg: DictConfig) -> dict:
+    try:
+        return tasks.identify(cfg)
+    except (DatasetError, SystemFileError, tasks.IdentificationError) as exc:
+        sys.exit(f"identify: {exc}")  # a data problem: the message says what and where
+
+
+if __name__ == "__main__":
+    main()
