@@ -231,11 +231,7 @@ class NumbaRK4:
         k_last = (gi0 + L - 1 - half) // m
         out = np.empty((max(0, k_last - k_first + 1), self.S.shape[0], self.kn.shape[0]),
                        dtype=self.nd)
-        rk4_chunk(
-            self.eta, self.v, self.kn, self.dl, self.lev, self.lam, self.cm, self.cdiag,
-            self.diag, self.D, self.g, self.S, self.mode, np.asarray(s_half, dtype=self.nd),
-            self.coef, out, self.taps, m, half, self.w0, self.ring, gi0,
-        )
+        self._kernel(s_half, out, m, half, gi0)
         self.gi += L
         # divergence check once per chunk, outside the fast-math kernel (which may assume that
         # no NaN occurs); a diverged member is frozen at rest with no load
@@ -247,6 +243,13 @@ class NumbaRK4:
             self.eta[:, bad] = 0.0
             self.v[:, bad] = 0.0
         return out  # padded batch: the caller keeps the first `batch` members
+
+    def _kernel(self, s_half, out, m, half, gi0):
+        rk4_chunk(
+            self.eta, self.v, self.kn, self.dl, self.lev, self.lam, self.cm, self.cdiag,
+            self.diag, self.D, self.g, self.S, self.mode, np.asarray(s_half, dtype=self.nd),
+            self.coef, out, self.taps, m, half, self.w0, self.ring, gi0,
+        )
 
     @property
     def diverged(self) -> np.ndarray:

@@ -12,6 +12,7 @@ import torch
 from ..model.system import FreeplaySystem
 from .engines import TorchRK4
 from .formulation import METHODS, ModalTruncation, build_modal_form, rk4_step_limit
+from .quasistatic import QuasiStatic, condense_modal_form
 from .resample import StreamingDecimator, design_decimator
 from .sweep import G, Sweep
 
@@ -61,6 +62,8 @@ class SweepResult:
         Fastest closed-hinge eigenvalue magnitude that set the step.
     truncation : ModalTruncation or None
         What modal truncation dropped, with its error estimate.
+    quasi_static : QuasiStatic or None
+        What quasi-static condensation of the fast modes did (``quasi_static_hz``).
     """
 
     time: np.ndarray
@@ -79,6 +82,7 @@ class SweepResult:
     engine: str
     omega_max: float
     truncation: ModalTruncation | None = None
+    quasi_static: QuasiStatic | None = None
 
     @property
     def steps_per_sample(self) -> int:
@@ -140,6 +144,7 @@ def simulate_sweeps(
     omega_dt: float = DEFAULT_OMEGA_DT,
     steps_per_sample: int | None = None,
     cutoff_hz: float | None = None,
+    quasi_static_hz: float | None = None,
     large_mass_ratio: float = 1e6,
     progress: bool | None = None,
     cuda_graphs: bool | None = None,
@@ -182,6 +187,13 @@ def simulate_sweeps(
     cutoff_hz : float [Hz], optional
         Modal truncation: drop closed-hinge modes above this frequency (a stiff model then runs
         at the step of the kept modes); the dropped modes' quasi-static response is added back.
+    quasi_static_hz : float [Hz], optional
+        Quasi-static condensation (``quasistatic.py``, docs/simulate.md): open-hinge modes above
+        this frequency are massless and undamped, the hinge moments solve the exact algebraic
+        piecewise-linear equation, and only the slower modes are integrated (their step). The
+        fast modes' quasi-static response is in the outputs (for velocity and acceleration
+        without its hinge-moment part). numba engine and ``method="relative"`` only; not with
+        ``cutoff_hz``.
     large_mass_ratio : float [-]
     progress : bool, optional
         tqdm progress bar; default: on for long runs on an interactive terminal.
@@ -234,10 +246,24 @@ def simulate_sweeps(
     if engine == "numba" and device.type != "cpu":
         raise ValueError(f"`engine`='numba' runs on the CPU only, got device {device}")
 
+    qs = None
+    if quasi_static_hz is not None:
+        if engine != "numba":
+            raise NotImplementedError(
+                f"`quasi_static_hz` is implemented in the numba engine only, got engine={engine!r}"
+            )
+        if cutoff_hz is not None:
+            raise ValueError("`quasi_static_hz` and `cutoff_hz` cannot be combined")
+        if method != "relative":
+            raise ValueError(f"`quasi_static_hz` needs method='relative', got {method!r}")
     form = build_modal_form(
         system, channels=channels, quantity=quantity, frame=frame, method=method,
         kn_max=float(kn_a.max()), cutoff_hz=cutoff_hz, large_mass_ratio=large_mass_ratio,
     )
+    if quasi_static_hz is not None:
+        qs = condense_modal_form(form, threshold_hz=quasi_static_hz, quantity=quantity,
+                                 kn_max=float(kn_a.max()))
+        form = qs.slow
     if steps_per_sample is None:
         h_max = rk4_step_limit(form.omega_max, omega_dt=omega_dt)
         m = max(1, math.ceil(1.0 / (sample_rate * h_max) - 1e-9))
@@ -260,8 +286,14 @@ def simulate_sweeps(
     if engine == "numba":
         from .kernel import NumbaRK4
 
-        eng = NumbaRK4(form, kn_a, dl_a, lv_a, eta0, v0, h=h, quantity=quantity, dtype=dtype,
-                       taps=taps, factor=m)
+        if qs is None:
+            eng = NumbaRK4(form, kn_a, dl_a, lv_a, eta0, v0, h=h, quantity=quantity, dtype=dtype,
+                           taps=taps, factor=m)
+        else:
+            from .kernel_qs import NumbaQSRK4
+
+            eng = NumbaQSRK4(qs, kn_a, dl_a, lv_a, eta0, v0, h=h, quantity=quantity,
+                             dtype=dtype, taps=taps, factor=m)
         dec = None  # the kernel decimates on the fly
         width = len(channels)
     else:
@@ -328,4 +360,5 @@ def simulate_sweeps(
         engine=engine,
         omega_max=form.omega_max,
         truncation=form.truncation,
+        quasi_static=None if qs is None else qs.info,
     )
