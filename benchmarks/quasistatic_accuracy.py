@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import time
+from pathlib import Path
 
 import numpy as np
 import torch
@@ -22,6 +23,7 @@ from freeplayid.simulate import Sweep, simulate_sweeps
 
 CH = ("uz_top_left", "uz_lower_right")
 LEVELS = [0.6, 0.8, 1.0, 1.2]  # g
+FMT = {"float": lambda x: f"{x:+.1e}"}
 
 
 def points(r, quantity, frame, sweep):
@@ -40,6 +42,7 @@ def main() -> None:
     p.add_argument("--start", type=float, default=36.0)
     p.add_argument("--stop", type=float, default=48.0)
     p.add_argument("--float32", action="store_true")
+    p.add_argument("--cache", default="", help="folder to keep the full-model points in")
     p.add_argument("--thresholds", type=float, nargs="+", default=[1500.0, 1000.0, 600.0])
     a = p.parse_args()
     system, hinge = default_fin(), default_fin_parameters()
@@ -50,9 +53,15 @@ def main() -> None:
         kw = dict(kn=hinge["kn"], delta=hinge["delta"], level_g=LEVELS, sweep=sw, channels=CH,
                   quantity=quantity, frame=frame, dtype=dt, progress=False)
         t0 = time.perf_counter()
-        ref = points(simulate_sweeps(system, **kw), quantity, frame, sw)
+        cache = Path(a.cache) / f"ref_{quantity}_{sw.start_hz:g}_{sw.stop_hz:g}_{str(dt)[6:]}.npy"
+        if a.cache and cache.exists():
+            ref = np.load(cache)
+        else:
+            ref = points(simulate_sweeps(system, **kw), quantity, frame, sw)
+            if a.cache:
+                np.save(cache, ref)
         print(f"\n{quantity}/{frame}: full model {time.perf_counter() - t0:.1f} s; "
-              f"peaks f [Hz] {np.round(ref[:, 0], 3).tolist()}")
+              f"peaks f [Hz] {np.round(ref[:, 0], 3).tolist()}", flush=True)
         for th in a.thresholds:
             t0 = time.perf_counter()
             r = simulate_sweeps(system, **kw, quasi_static_hz=th)
@@ -62,8 +71,9 @@ def main() -> None:
             ea = np.abs(pt[:, 1] / ref[:, 1] - 1)
             print(f"  qs {th:6.0f} Hz ({r.quasi_static.slow}/{r.quasi_static.total} modes, "
                   f"dt {r.dt * 1e6:.0f} us, {el:.1f} s): max |df/f| {ef.max():.2e}, "
-                  f"max |dA/A| {ea.max():.2e}  (per point dA/A "
-                  f"{np.array2string(pt[:, 1] / ref[:, 1] - 1, precision=1)})")
+                  f"max |dA/A| {ea.max():.2e}\n    per point df/f "
+                  f"{np.array2string(pt[:, 0] / ref[:, 0] - 1, formatter=FMT)}\n    dA/A "
+                  f"{np.array2string(pt[:, 1] / ref[:, 1] - 1, formatter=FMT)}", flush=True)
 
 
 if __name__ == "__main__":

@@ -96,33 +96,33 @@ def _consistent(tv, c, st, b, d, tol):
 
 
 @numba.njit(fastmath=True, inline="always", cache=True)
-def _accel_qs(eta, v, s, kn, dl, lev, lam, cm, cdiag, diag, D, g, F, e, gam, st, c, fo, acc, A,
-              tv, A3, T, tol):
-    N, H = D.shape
-    for j in range(H):
-        ej = e[j] * s
-        for b in range(BLOCK):
-            c[j, b] = ej * lev[b]
-        for k in range(N):
-            dk = D[k, j]
-            gk = gam[j, k]
-            for b in range(BLOCK):
-                c[j, b] += dk * eta[k, b] - gk * v[k, b]
+def _hinge_states(F, c, st, kn, dl, A, tv, A3, T, bad, tol):
+    # solution T of (QS) and its contact state st (updated in place) for every member
+    H = F.shape[0]
     # every member in its previous contact state (vectorised); the few whose state changed (the
     # solution is inconsistent with it) go through the scalar active set
     _solve_block(F, c, st, kn, dl, A3, T)
+    # violation of the assumed state, branch-free: open |theta| <= delta, closed s theta >= delta
+    nbad = 0.0
     for b in range(BLOCK):
+        bad[b] = 0.0
+    for j in range(H):
+        for b in range(BLOCK):
+            x = T[j, b]
+            sj = st[j, b]
+            p = abs(sj)
+            t = tol * (dl[b] + abs(c[j, b]))
+            bad[b] += ((1.0 - p) * max(abs(x) - dl[b] - t, 0.0)
+                       + p * max(dl[b] - t - sj * x, 0.0))
+    for b in range(BLOCK):
+        nbad += bad[b]
+    if nbad == 0.0:
+        return
+    for b in range(BLOCK):
+        if bad[b] == 0.0:
+            continue
         knb = kn[b]
         d = dl[b]
-        ok = True
-        for j in range(H):
-            x = T[j, b]
-            t = tol * (d + abs(c[j, b]))
-            sj = st[j, b]
-            ok = ok and (x >= d - t if sj > 0.5 else (x <= -d + t if sj < -0.5
-                                                         else abs(x) <= d + t))
-        if ok:
-            continue
         for j in range(H):
             x = T[j, b]
             st[j, b] = 1.0 if x > d else (-1.0 if x < -d else 0.0)
@@ -146,6 +146,22 @@ def _accel_qs(eta, v, s, kn, dl, lev, lam, cm, cdiag, diag, D, g, F, e, gam, st,
                     break
         for j in range(H):
             T[j, b] = tv[j]
+
+
+@numba.njit(fastmath=True, inline="always", cache=True)
+def _accel_qs(eta, v, s, kn, dl, lev, lam, cm, cdiag, diag, D, g, F, e, gam, st, c, fo, acc, A,
+              tv, A3, T, bad, tol):
+    N, H = D.shape
+    for j in range(H):
+        ej = e[j] * s
+        for b in range(BLOCK):
+            c[j, b] = ej * lev[b]
+        for k in range(N):
+            dk = D[k, j]
+            gk = gam[j, k]
+            for b in range(BLOCK):
+                c[j, b] += dk * eta[k, b] - gk * v[k, b]
+    _hinge_states(F, c, st, kn, dl, A, tv, A3, T, bad, tol)
     for j in range(H):
         for b in range(BLOCK):
             sj = st[j, b]
@@ -200,6 +216,7 @@ def rk4_qs_chunk(eta, v, stp, kn, dl, lev, lam, cm, cdiag, diag, D, g, F, e, gam
         tv = np.empty(H, dt)
         A3 = np.empty((H, H, BLOCK), dt)
         T = np.empty((H, BLOCK), dt)
+        bad = np.empty(BLOCK, dt)
         knb = np.empty(BLOCK, dt)
         dlb = np.empty(BLOCK, dt)
         lvb = np.empty(BLOCK, dt)
@@ -230,7 +247,7 @@ def rk4_qs_chunk(eta, v, stp, kn, dl, lev, lam, cm, cdiag, diag, D, g, F, e, gam
             s1 = s_half[2 * step + 1]
             s2 = s_half[2 * step + 2]
             _accel_qs(e_, w, s0, knb, dlb, lvb, lam, cm, cdiag, diag, D, g, F, e, gam, st, cc, fo,
-                      k, A, tv, A3, T, tol)
+                      k, A, tv, A3, T, bad, tol)
             src = e_ if mode == 0 else (w if mode == 1 else k)
             for c in range(C):
                 for b in range(BLOCK):
@@ -279,7 +296,7 @@ def rk4_qs_chunk(eta, v, stp, kn, dl, lev, lam, cm, cdiag, diag, D, g, F, e, gam
                     et[i, b] = e_[i, b] + h2 * w[i, b]
                     vt[i, b] = w[i, b] + h2 * k[i, b]
             _accel_qs(et, vt, s1, knb, dlb, lvb, lam, cm, cdiag, diag, D, g, F, e, gam, st, cc, fo,
-                      k, A, tv, A3, T, tol)
+                      k, A, tv, A3, T, bad, tol)
             for i in range(N):
                 for b in range(BLOCK):
                     se[i, b] += two * vt[i, b]
@@ -287,7 +304,7 @@ def rk4_qs_chunk(eta, v, stp, kn, dl, lev, lam, cm, cdiag, diag, D, g, F, e, gam
                     et[i, b] = e_[i, b] + h2 * vt[i, b]
                     vt[i, b] = w[i, b] + h2 * k[i, b]
             _accel_qs(et, vt, s1, knb, dlb, lvb, lam, cm, cdiag, diag, D, g, F, e, gam, st, cc, fo,
-                      k, A, tv, A3, T, tol)
+                      k, A, tv, A3, T, bad, tol)
             for i in range(N):
                 for b in range(BLOCK):
                     se[i, b] += two * vt[i, b]
@@ -295,7 +312,7 @@ def rk4_qs_chunk(eta, v, stp, kn, dl, lev, lam, cm, cdiag, diag, D, g, F, e, gam
                     et[i, b] = e_[i, b] + h * vt[i, b]
                     vt[i, b] = w[i, b] + h * k[i, b]
             _accel_qs(et, vt, s2, knb, dlb, lvb, lam, cm, cdiag, diag, D, g, F, e, gam, st, cc, fo,
-                      k, A, tv, A3, T, tol)
+                      k, A, tv, A3, T, bad, tol)
             for i in range(N):
                 for b in range(BLOCK):
                     e_[i, b] += h6 * (se[i, b] + vt[i, b])
