@@ -216,6 +216,7 @@ class NumbaRK4:
                      for k in range(self.half // self.m + 1)])
         self.ring = np.zeros((len(taps) // self.m + 2, len(form.S), len(self.kn)), dtype=nd)
         self.gi = 0
+        self.width = len(form.S)  # output channels of the kernel
 
     def run(self, s_half: np.ndarray) -> np.ndarray:
         """Integrate one chunk and decimate on the fly.
@@ -229,7 +230,7 @@ class NumbaRK4:
         m, half, gi0 = self.m, self.half, self.gi
         k_first = max(0, -(-(gi0 - half) // m))
         k_last = (gi0 + L - 1 - half) // m
-        out = np.empty((max(0, k_last - k_first + 1), self.S.shape[0], self.kn.shape[0]),
+        out = np.empty((max(0, k_last - k_first + 1), self.width, self.kn.shape[0]),
                        dtype=self.nd)
         self._kernel(s_half, out, m, half, gi0)
         self.gi += L

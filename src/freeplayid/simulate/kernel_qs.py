@@ -189,11 +189,14 @@ def _accel_qs(eta, v, s, kn, dl, lev, lam, cm, cdiag, diag, D, g, F, e, gam, st,
 @numba.njit(parallel=True, fastmath=True, cache=True)
 def rk4_qs_chunk(eta, v, stp, kn, dl, lev, lam, cm, cdiag, diag, D, g, F, e, gam, S, hout, vout,
                  mode, s_half, coef, out, taps, m, half, w0, ring, gi0):
-    # kernel.rk4_chunk with the condensed hinge moments; the displacement output adds the fast
-    # modes' quasi-static response, hout @ f + vout @ eta' (both 0 for the other quantities)
+    # kernel.rk4_chunk with the condensed hinge moments; the fast modes' quasi-static response
+    # q = hout @ f + vout @ eta' is added to the displacement output (mode 0), else recorded in
+    # the extra output channels C .. 2C-1 (the caller differentiates it)
     N, B = eta.shape
     H = D.shape[1]
     C = S.shape[0]
+    CO = out.shape[1]
+    off = 0 if mode == 0 else C
     L = (s_half.shape[0] - 1) // 2
     R = ring.shape[0]
     ntap = taps.shape[0]
@@ -231,10 +234,10 @@ def rk4_qs_chunk(eta, v, stp, kn, dl, lev, lam, cm, cdiag, diag, D, g, F, e, gam
             for b in range(BLOCK):
                 e_[i, b] = eta[i, b0 + b]
                 w[i, b] = v[i, b0 + b]
-        val = np.empty((C, BLOCK), dt)
-        acc_r = np.empty((R, C, BLOCK), dt)
+        val = np.zeros((CO, BLOCK), dt)
+        acc_r = np.empty((R, CO, BLOCK), dt)
         for r in range(R):
-            for c in range(C):
+            for c in range(CO):
                 for b in range(BLOCK):
                     acc_r[r, c, b] = ring[r, c, b0 + b]
         n_emit = 0
@@ -256,21 +259,25 @@ def rk4_qs_chunk(eta, v, stp, kn, dl, lev, lam, cm, cdiag, diag, D, g, F, e, gam
                     sc = S[c, i]
                     for b in range(BLOCK):
                         val[c, b] += sc * src[i, b]
+            for c in range(C):
+                if off > 0:
+                    for b in range(BLOCK):
+                        val[off + c, b] = 0.0
                 for j in range(H):
                     hc = hout[c, j]
                     for b in range(BLOCK):
-                        val[c, b] += hc * fo[j, b]
+                        val[off + c, b] += hc * fo[j, b]
                 for i in range(N):
                     vc = vout[c, i]
                     for b in range(BLOCK):
-                        val[c, b] += vc * w[i, b]
+                        val[off + c, b] += vc * w[i, b]
             gi = gi0 + step
             j = gi + half
             if gi == 0:
                 for kk in range(w0.shape[0]):
                     wk = w0[kk]
                     r = kk % R
-                    for c in range(C):
+                    for c in range(CO):
                         for b in range(BLOCK):
                             acc_r[r, c, b] += wk * val[c, b]
             else:
@@ -278,13 +285,13 @@ def rk4_qs_chunk(eta, v, stp, kn, dl, lev, lam, cm, cdiag, diag, D, g, F, e, gam
                 for kk in range(k_lo, j // m + 1):
                     wk = taps[j - kk * m]
                     r = kk % R
-                    for c in range(C):
+                    for c in range(CO):
                         for b in range(BLOCK):
                             acc_r[r, c, b] += wk * val[c, b]
             jd = j - ntap + 1
             if jd >= 0 and jd % m == 0:
                 r = (jd // m) % R
-                for c in range(C):
+                for c in range(CO):
                     for b in range(BLOCK):
                         out[n_emit, c, b0 + b] = acc_r[r, c, b]
                         acc_r[r, c, b] = 0.0
@@ -335,6 +342,9 @@ class NumbaQSRK4(NumbaRK4):
         self.F, self.e, self.gam = a(qs.F), a(qs.e), a(qs.Gam)
         self.hout, self.vout = a(qs.hinge_out), a(qs.vel_out)
         self.st = np.zeros((qs.F.shape[0], len(self.kn)), dtype=self.nd)
+        # velocity/acceleration: C extra channels carry the fast part to be differentiated
+        self.width = len(qs.slow.S) * (1 if self.mode == 0 else 2)
+        self.ring = np.zeros((self.ring.shape[0], self.width, len(self.kn)), dtype=self.nd)
         tol = 1e-5 if self.nd == np.float32 else 1e-11  # contact-state consistency (round-off)
         self.coef = a(list(self.coef[:4]) + [tol])
 

@@ -33,7 +33,9 @@ mode-acceleration argument), their own damping C_ff eta_f' and the coupling C_sf
 slow equations. Outputs: the fast part of a displacement channel is ``S_f eta_f`` as above
 (base-load part through the residual-flexibility gain, hinge part ``hinge_out @ f``, damping part
 ``vel_out @ eta_s'``); for velocity and acceleration the base-load part is exact (derivatives of
-sin phase) and the rest, derivatives of quasi-static responses, is neglected.
+sin phase) and the rest, ``q = hinge_out @ f + vel_out @ eta_s'``, is recorded as extra channels,
+decimated like the others and differentiated at the output rate (5-point stencils: relative
+error (omega dt)^4 / 30 ~ 2e-5 at 50 Hz and 2048 Hz, on a small part of the signal).
 
 The RK4 step of the slow subsystem is bounded by the Jacobians of every contact state, with the
 condensed hinge stiffness and damping ``Q = kn P (I + kn F P)^-1``,
@@ -92,10 +94,10 @@ class QuasiStaticForm:
     Gam : ndarray, shape (h, N_s) [rad s per modal unit]
         Hinge rotation of the fast modes per slow velocity (their damping load).
     hinge_out : ndarray, shape (C, h)
-        Output of the fast modes per hinge moment, ``-S_f lam_f^-1 D_f`` (displacement only;
-        zeros for velocity and acceleration, where it is neglected).
+        Displacement output of the fast modes per hinge moment, ``-S_f lam_f^-1 D_f`` (for
+        velocity and acceleration the kernel records it apart and the caller differentiates it).
     vel_out : ndarray, shape (C, N_s)
-        Output of the fast modes per slow velocity, ``-S_f lam_f^-1 C_fs`` (displacement only).
+        Displacement output of the fast modes per slow velocity, ``-S_f lam_f^-1 C_fs``.
     info : QuasiStatic
     """
 
@@ -151,9 +153,6 @@ def condense_modal_form(form: ModalForm, *, threshold_hz: float, quantity: str,
     Cfs = form.Cm[np.ix_(fast, slow)]
     Gam = Df.T @ (Cfs / lam_f[:, None])
     vel_out = -Sf @ (Cfs / lam_f[:, None])
-    if quantity != "displacement":
-        hinge_out = np.zeros_like(hinge_out)
-        vel_out = np.zeros_like(vel_out)
     static_coef = form.static_coef + Sf @ (form.g[fast] / lam_f)
     Css = form.Cm[np.ix_(slow, slow)]
     Csf = form.Cm[np.ix_(slow, fast)]
