@@ -110,6 +110,10 @@ def main() -> None:
     p.add_argument("--quick", action="store_true", help="short segments: a smoke run")
     p.add_argument("--cutoff-hz", type=float, default=600.0,
                    help="modal truncation row (numba, float32) [Hz]")
+    p.add_argument("--quasi-static-hz", type=float, nargs="*", default=[1500.0, 1000.0],
+                   help="quasi-static condensation rows (numba, batch 1024) [Hz]")
+    p.add_argument("--only-numba", action="store_true",
+                   help="numba rows only (full model and its quasi-static/truncation variants)")
     args = p.parse_args()
     q = args.quick
     torch.set_num_threads(os.cpu_count() or 1)
@@ -124,7 +128,7 @@ def main() -> None:
     seg = 0.05 if q else 0.5
     rows.append(("scipy solve_ivp RK45 (rtol 1e-6), 1 sweep", "float64", 1, seg,
                  time_scipy(system, seg), None))
-    for dt in (torch.float32, torch.float64):
+    for dt in (() if args.only_numba else (torch.float32, torch.float64)):
         for b in (1, 256, 1024):
             seg = (0.005 if q else 0.05) * (4 if b == 1 else 1)
             rate, r = time_sim(system, b, seg, engine="torch", dtype=dt)
@@ -140,10 +144,18 @@ def main() -> None:
         import numba  # noqa: F401
 
         for dt in (torch.float32, torch.float64):
-            for b in (256, 1024, 4096):
+            for b in ((1024,) if args.only_numba else (256, 1024, 4096)):
                 seg = max((0.1 if q else 2.0) * 1024 / b, 0.05)
                 rate, r = time_sim(system, b, seg, engine="numba", dtype=dt)
                 rows.append((f"numba kernel, batch {b}", str(dt)[6:], b, seg, rate, r))
+                # quasi-static condensation, same run (A/B under the same load)
+                for fq in args.quasi_static_hz:
+                    rate, r = time_sim(system, b, seg, engine="numba", dtype=dt,
+                                       quasi_static_hz=fq)
+                    qs = r.quasi_static
+                    rows.append((f"numba kernel, batch {b}, quasi-static above {fq:g} Hz "
+                                 f"({qs.slow}/{qs.total} integrated)", str(dt)[6:], b, seg,
+                                 rate, r))
         b = 1024
         rate, r = time_sim(system, b, 0.1 if q else 2.0, engine="numba", dtype=torch.float32,
                            cutoff_hz=args.cutoff_hz)
@@ -162,9 +174,10 @@ def main() -> None:
     print(head)
     print("-" * len(head))
     for name, dt, _b, seg, rate, r in rows:
-        if r is None:
-            print(f"{name:<72} {dt:<8} {'adaptive':>8} {seg:>7.3g} {rate:>10.4g} {1:>9.3g} "
-                  f"{'':>8}")
+        if r is None or r.quasi_static is not None:
+            print(f"{name:<72} {dt:<8} "
+                  f"{'adaptive' if r is None else f'{r.dt * 1e6:.2f}':>8} {seg:>7.3g} "
+                  f"{rate:>10.4g} {rate / scipy_rate:>9.3g} {'':>8}")
             continue
         f = build_modal_form(system, channels=CH, quantity="acceleration", frame="absolute",
                              kn_max=KN, cutoff_hz=r.truncation.cutoff_hz if r.truncation else None)
@@ -173,7 +186,8 @@ def main() -> None:
         print(f"{name:<72} {dt:<8} {r.dt * 1e6:>8.2f} {seg:>7.3g} {rate:>10.4g} "
               f"{rate / scipy_rate:>9.3g} {100 * rate / limit:>7.1f}%")
     best = max((row for row in rows[1:] if "CUDA" not in row[0]),
-               key=lambda row: row[4] if row[5].truncation is None else 0)
+               key=lambda row: row[4] if row[5].truncation is None
+               and row[5].quasi_static is None else 0)
     f = build_modal_form(system, channels=CH, quantity="acceleration", frame="absolute",
                          kn_max=KN)
     limit = mm[best[1]] / (flops_per_step(f, len(CH), best[5].steps_per_sample) * FULL

@@ -6,6 +6,7 @@ at the output sample rate. See docs/simulate.md.
 """
 
 from .formulation import ModalForm, ModalTruncation, build_modal_form, rk4_step_limit
+from .quasistatic import QuasiStatic
 from .resample import StreamingDecimator, design_decimator
 from .run import DEFAULT_OMEGA_DT, SweepResult, simulate_sweeps
 from .sweep import G, Sweep
@@ -17,6 +18,7 @@ __all__ = [
     "SweepResult",
     "ModalForm",
     "ModalTruncation",
+    "QuasiStatic",
     "build_modal_form",
     "rk4_step_limit",
     "design_decimator",

@@ -222,6 +222,7 @@ class NumbaRK4:
                      for k in range(self.half // self.m + 1)])
         self.ring = np.zeros((len(taps) // self.m + 2, len(form.S), len(self.kn)), dtype=nd)
         self.gi = 0
+        self.width = len(form.S)  # output channels of the kernel
 
     def run(self, s_half: np.ndarray) -> np.ndarray:
         """Integrate one chunk and decimate on the fly.
@@ -235,13 +236,9 @@ class NumbaRK4:
         m, half, gi0 = self.m, self.half, self.gi
         k_first = max(0, -(-(gi0 - half) // m))
         k_last = (gi0 + L - 1 - half) // m
-        out = np.empty((max(0, k_last - k_first + 1), self.S.shape[0], self.kn.shape[0]),
+        out = np.empty((max(0, k_last - k_first + 1), self.width, self.kn.shape[0]),
                        dtype=self.nd)
-        rk4_chunk(
-            self.eta, self.v, self.kn, self.dl, self.lev, self.lam, self.cm, self.cdiag,
-            self.diag, self.D, self.g, self.S, self.mode, np.asarray(s_half, dtype=self.nd),
-            self.coef, out, self.taps, m, half, self.w0, self.ring, gi0,
-        )
+        self._kernel(s_half, out, m, half, gi0)
         self.gi += L
         # divergence check once per chunk, outside the fast-math kernel (which may assume that
         # no NaN occurs); a diverged member is frozen at rest with no load
@@ -253,6 +250,13 @@ class NumbaRK4:
             self.eta[:, bad] = 0.0
             self.v[:, bad] = 0.0
         return out  # padded batch: the caller keeps the first `batch` members
+
+    def _kernel(self, s_half, out, m, half, gi0):
+        rk4_chunk(
+            self.eta, self.v, self.kn, self.dl, self.lev, self.lam, self.cm, self.cdiag,
+            self.diag, self.D, self.g, self.S, self.mode, np.asarray(s_half, dtype=self.nd),
+            self.coef, out, self.taps, m, half, self.w0, self.ring, gi0,
+        )
 
     @property
     def diverged(self) -> np.ndarray:

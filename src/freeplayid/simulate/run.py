@@ -12,6 +12,7 @@ import torch
 from ..model.system import FreeplaySystem
 from .engines import TorchRK4
 from .formulation import METHODS, ModalTruncation, build_modal_form, rk4_step_limit
+from .quasistatic import QuasiStatic, condense_modal_form
 from .resample import StreamingDecimator, design_decimator
 from .sweep import G, Sweep
 
@@ -61,6 +62,8 @@ class SweepResult:
         Fastest closed-hinge eigenvalue magnitude that set the step.
     truncation : ModalTruncation or None
         What modal truncation dropped, with its error estimate.
+    quasi_static : QuasiStatic or None
+        What quasi-static condensation of the fast modes did (``quasi_static_hz``).
     """
 
     time: np.ndarray
@@ -79,6 +82,7 @@ class SweepResult:
     engine: str
     omega_max: float
     truncation: ModalTruncation | None = None
+    quasi_static: QuasiStatic | None = None
 
     @property
     def steps_per_sample(self) -> int:
@@ -98,6 +102,22 @@ def _as_batch(name: str, value, *, minimum: float | None) -> np.ndarray:
     if minimum is not None and np.any(a < minimum):
         raise ValueError(f"`{name}` must be >= {minimum}, got {value!r}")
     return a
+
+
+def _differentiate(x: np.ndarray, dt: float, order: int) -> np.ndarray:
+    """First or second time derivative along the last axis (5-point central stencils, error
+    (omega dt)^4 / 30 relative; np.gradient at the two samples of each end)."""
+    d = np.gradient(x, dt, axis=-1)
+    if order == 2:
+        d = np.gradient(d, dt, axis=-1)
+    if x.shape[-1] < 5:
+        return d
+    xm2, xm1, x0, xp1, xp2 = (x[..., k: x.shape[-1] - 4 + k] for k in range(5))
+    if order == 1:
+        d[..., 2:-2] = (xm2 - 8.0 * xm1 + 8.0 * xp1 - xp2) / (12.0 * dt)
+    else:
+        d[..., 2:-2] = (-xm2 + 16.0 * xm1 - 30.0 * x0 + 16.0 * xp1 - xp2) / (12.0 * dt * dt)
+    return d
 
 
 def _base_signals(sweep: Sweep, t0_index: int, L: int, h: float, s_half: np.ndarray, state):
@@ -140,6 +160,7 @@ def simulate_sweeps(
     omega_dt: float = DEFAULT_OMEGA_DT,
     steps_per_sample: int | None = None,
     cutoff_hz: float | None = None,
+    quasi_static_hz: float | None = None,
     large_mass_ratio: float = 1e6,
     progress: bool | None = None,
     cuda_graphs: bool | None = None,
@@ -182,6 +203,13 @@ def simulate_sweeps(
     cutoff_hz : float [Hz], optional
         Modal truncation: drop closed-hinge modes above this frequency (a stiff model then runs
         at the step of the kept modes); the dropped modes' quasi-static response is added back.
+    quasi_static_hz : float [Hz], optional
+        Quasi-static condensation (``quasistatic.py``, docs/simulate.md): open-hinge modes above
+        this frequency are massless (of their damping, only the slow velocities' load is kept),
+        the hinge moments solve the exact algebraic piecewise-linear equation, and only the
+        slower modes are integrated (their step). The fast modes' quasi-static response is in
+        the outputs (for velocity and acceleration differentiated at the output rate). numba
+        engine and ``method="relative"`` only; not with ``cutoff_hz``.
     large_mass_ratio : float [-]
     progress : bool, optional
         tqdm progress bar; default: on for long runs on an interactive terminal.
@@ -234,10 +262,24 @@ def simulate_sweeps(
     if engine == "numba" and device.type != "cpu":
         raise ValueError(f"`engine`='numba' runs on the CPU only, got device {device}")
 
+    qs = None
+    if quasi_static_hz is not None:
+        if engine != "numba":
+            raise NotImplementedError(
+                f"`quasi_static_hz` is implemented in the numba engine only, got engine={engine!r}"
+            )
+        if cutoff_hz is not None:
+            raise ValueError("`quasi_static_hz` and `cutoff_hz` cannot be combined")
+        if method != "relative":
+            raise ValueError(f"`quasi_static_hz` needs method='relative', got {method!r}")
     form = build_modal_form(
         system, channels=channels, quantity=quantity, frame=frame, method=method,
         kn_max=float(kn_a.max()), cutoff_hz=cutoff_hz, large_mass_ratio=large_mass_ratio,
     )
+    if quasi_static_hz is not None:
+        qs = condense_modal_form(form, threshold_hz=quasi_static_hz, quantity=quantity,
+                                 kn_max=float(kn_a.max()))
+        form = qs.slow
     if steps_per_sample is None:
         h_max = rk4_step_limit(form.omega_max, omega_dt=omega_dt)
         m = max(1, math.ceil(1.0 / (sample_rate * h_max) - 1e-9))
@@ -260,8 +302,14 @@ def simulate_sweeps(
     if engine == "numba":
         from .kernel import NumbaRK4
 
-        eng = NumbaRK4(form, kn_a, dl_a, lv_a, eta0, v0, h=h, quantity=quantity, dtype=dtype,
-                       taps=taps, factor=m)
+        if qs is None:
+            eng = NumbaRK4(form, kn_a, dl_a, lv_a, eta0, v0, h=h, quantity=quantity, dtype=dtype,
+                           taps=taps, factor=m)
+        else:
+            from .kernel_qs import NumbaQSRK4
+
+            eng = NumbaQSRK4(qs, kn_a, dl_a, lv_a, eta0, v0, h=h, quantity=quantity,
+                             dtype=dtype, taps=taps, factor=m)
         dec = None  # the kernel decimates on the fly
         width = len(channels)
     else:
@@ -302,6 +350,11 @@ def simulate_sweeps(
     if engine == "numba":
         y = np.concatenate(outs, axis=0)[:n_out, :, :batch]
         y = np.ascontiguousarray(y.transpose(2, 1, 0))
+        if y.shape[1] > len(channels):  # quasi-static: + derivative of the fast part
+            C = len(channels)
+            order = 1 if quantity == "velocity" else 2
+            y = y[:, :C] + _differentiate(y[:, C:].astype(float), 1.0 / sample_rate,
+                                          order).astype(y.dtype)
     else:
         y = torch.cat(outs, dim=1)[:, :n_out].reshape(batch, len(channels), n_out)
         y = y.cpu().numpy()
@@ -328,4 +381,5 @@ def simulate_sweeps(
         engine=engine,
         omega_max=form.omega_max,
         truncation=form.truncation,
+        quasi_static=None if qs is None else qs.info,
     )

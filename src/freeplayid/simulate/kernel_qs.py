@@ -1,0 +1,358 @@
+"""Compiled CPU kernel of the quasi-statically condensed model (``quasistatic.py``).
+
+The RK4 step, the layout (members innermost, blocks of ``BLOCK`` per thread) and the fused
+anti-aliasing FIR are those of ``kernel.py``; the hinge moments are the solution of the algebraic
+hinge equation (QS) ``theta + F f(theta) = c``, ``c = D^T eta + e a - Gam eta'``, instead of
+``f(D^T eta)``. (QS) is solved per member (scalar code, a branchy active set) by semismooth
+Newton over the contact states, started from the member's previous state (kept between stages,
+steps and chunks), with the exhaustive search over the 3^h states as the fallback; each state is
+a linear h x h solve.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from .kernel import BLOCK, NumbaRK4
+from .quasistatic import QuasiStaticForm
+
+__all__ = ["NumbaQSRK4"]
+
+
+@numba.njit(fastmath=True, inline="always", cache=True)
+def _solve_state(F, c, st, b, kn, d, A, tv):
+    # (I + kn F P) theta = c + kn F P s delta, P = diag|s|: elimination without pivoting (the
+    # leading minors are >= 1), result in tv
+    H = F.shape[0]
+    for i in range(H):
+        r = c[i, b]
+        for j in range(H):
+            sj = st[j, b]
+            a = kn * F[i, j] * abs(sj)
+            A[i, j] = a + (1.0 if i == j else 0.0)
+            r += a * sj * d
+        tv[i] = r
+    for k in range(H):
+        piv = 1.0 / A[k, k]
+        for i in range(k + 1, H):
+            m = A[i, k] * piv
+            for j in range(k + 1, H):
+                A[i, j] -= m * A[k, j]
+            tv[i] -= m * tv[k]
+    for i in range(H - 1, -1, -1):
+        r = tv[i]
+        for j in range(i + 1, H):
+            r -= A[i, j] * tv[j]
+        tv[i] = r / A[i, i]
+
+
+@numba.njit(fastmath=True, inline="always", cache=True)
+def _solve_block(F, c, st, kn, dl, A3, T):
+    # _solve_state for every member of the block at once (each in its own state), vectorised
+    # over the members: the elimination has no pivoting, so no branch
+    H = F.shape[0]
+    for i in range(H):
+        for b in range(BLOCK):
+            T[i, b] = c[i, b]
+        for j in range(H):
+            fij = F[i, j]
+            one = 1.0 if i == j else 0.0
+            for b in range(BLOCK):
+                sj = st[j, b]
+                a = fij * kn[b] * abs(sj)
+                A3[i, j, b] = a + one
+                T[i, b] += a * sj * dl[b]
+    for k in range(H):
+        for i in range(k + 1, H):
+            for b in range(BLOCK):
+                m = A3[i, k, b] / A3[k, k, b]
+                for j in range(k + 1, H):
+                    A3[i, j, b] -= m * A3[k, j, b]
+                T[i, b] -= m * T[k, b]
+    for i in range(H - 1, -1, -1):
+        for b in range(BLOCK):
+            r = T[i, b]
+            for j in range(i + 1, H):
+                r -= A3[i, j, b] * T[j, b]
+            T[i, b] = r / A3[i, i, b]
+
+
+@numba.njit(fastmath=True, inline="always", cache=True)
+def _consistent(tv, c, st, b, d, tol):
+    H = tv.shape[0]
+    ok = True
+    for j in range(H):
+        x = tv[j]
+        t = tol * (d + abs(c[j, b]))
+        sj = st[j, b]
+        if sj > 0.5:
+            ok = ok and x >= d - t
+        elif sj < -0.5:
+            ok = ok and x <= -d + t
+        else:
+            ok = ok and abs(x) <= d + t
+    return ok
+
+
+@numba.njit(fastmath=True, inline="always", cache=True)
+def _hinge_states(F, c, st, kn, dl, A, tv, A3, T, bad, tol):
+    # solution T of (QS) and its contact state st (updated in place) for every member
+    H = F.shape[0]
+    # every member in its previous contact state (vectorised); the few whose state changed (the
+    # solution is inconsistent with it) go through the scalar active set
+    _solve_block(F, c, st, kn, dl, A3, T)
+    # violation of the assumed state, branch-free: open |theta| <= delta, closed s theta >= delta
+    nbad = 0.0
+    for b in range(BLOCK):
+        bad[b] = 0.0
+    for j in range(H):
+        for b in range(BLOCK):
+            x = T[j, b]
+            sj = st[j, b]
+            p = abs(sj)
+            t = tol * (dl[b] + abs(c[j, b]))
+            bad[b] += ((1.0 - p) * max(abs(x) - dl[b] - t, 0.0)
+                       + p * max(dl[b] - t - sj * x, 0.0))
+    for b in range(BLOCK):
+        nbad += bad[b]
+    if nbad == 0.0:
+        return
+    for b in range(BLOCK):
+        if bad[b] == 0.0:
+            continue
+        knb = kn[b]
+        d = dl[b]
+        for j in range(H):
+            x = T[j, b]
+            st[j, b] = 1.0 if x > d else (-1.0 if x < -d else 0.0)
+        done = False
+        for _ in range(H + 3):  # active set (semismooth Newton) from the previous state
+            _solve_state(F, c, st, b, knb, d, A, tv)
+            if _consistent(tv, c, st, b, d, tol):
+                done = True
+                break
+            for j in range(H):
+                x = tv[j]
+                st[j, b] = 1.0 if x > d else (-1.0 if x < -d else 0.0)
+        if not done:  # exhaustive fallback
+            for idx in range(3**H):
+                t = idx
+                for j in range(H):
+                    st[j, b] = float(t % 3 - 1)
+                    t //= 3
+                _solve_state(F, c, st, b, knb, d, A, tv)
+                if _consistent(tv, c, st, b, d, tol):
+                    break
+        for j in range(H):
+            T[j, b] = tv[j]
+
+
+@numba.njit(fastmath=True, inline="always", cache=True)
+def _accel_qs(eta, v, s, kn, dl, lev, lam, cm, cdiag, diag, D, g, F, e, gam, st, c, fo, acc, A,
+              tv, A3, T, bad, tol):
+    N, H = D.shape
+    for j in range(H):
+        ej = e[j] * s
+        for b in range(BLOCK):
+            c[j, b] = ej * lev[b]
+        for k in range(N):
+            dk = D[k, j]
+            gk = gam[j, k]
+            for b in range(BLOCK):
+                c[j, b] += dk * eta[k, b] - gk * v[k, b]
+    _hinge_states(F, c, st, kn, dl, A, tv, A3, T, bad, tol)
+    for j in range(H):
+        for b in range(BLOCK):
+            sj = st[j, b]
+            fo[j, b] = kn[b] * abs(sj) * (T[j, b] - sj * dl[b])
+    for i in range(N):
+        gi = g[i] * s
+        li = lam[i]
+        for b in range(BLOCK):
+            acc[i, b] = gi * lev[b] - li * eta[i, b]
+        if diag:
+            ci = cdiag[i]
+            for b in range(BLOCK):
+                acc[i, b] -= ci * v[i, b]
+        else:
+            for k in range(N):
+                cc = cm[i, k]
+                for b in range(BLOCK):
+                    acc[i, b] -= cc * v[k, b]
+        for j in range(H):
+            dd = D[i, j]
+            for b in range(BLOCK):
+                acc[i, b] -= dd * fo[j, b]
+
+
+@numba.njit(parallel=True, fastmath=True, cache=True)
+def rk4_qs_chunk(eta, v, stp, kn, dl, lev, lam, cm, cdiag, diag, D, g, F, e, gam, S, hout, vout,
+                 mode, s_half, coef, out, taps, m, half, w0, ring, gi0):
+    # kernel.rk4_chunk with the condensed hinge moments; the fast modes' quasi-static response
+    # q = hout @ f + vout @ eta' is added to the displacement output (mode 0), else recorded in
+    # the extra output channels C .. 2C-1 (the caller differentiates it)
+    N, B = eta.shape
+    H = D.shape[1]
+    C = S.shape[0]
+    CO = out.shape[1]
+    off = 0 if mode == 0 else C
+    L = (s_half.shape[0] - 1) // 2
+    R = ring.shape[0]
+    ntap = taps.shape[0]
+    dt = eta.dtype
+    tol = coef[4]
+    nblk = (B + BLOCK - 1) // BLOCK
+    for blk in numba.prange(nblk):
+        b0 = blk * BLOCK
+        e_ = np.empty((N, BLOCK), dt)
+        w = np.empty((N, BLOCK), dt)
+        et = np.empty((N, BLOCK), dt)
+        vt = np.empty((N, BLOCK), dt)
+        se = np.zeros((N, BLOCK), dt)
+        sv = np.zeros((N, BLOCK), dt)
+        k = np.empty((N, BLOCK), dt)
+        cc = np.empty((H, BLOCK), dt)
+        fo = np.empty((H, BLOCK), dt)
+        st = np.empty((H, BLOCK), dt)
+        A = np.empty((H, H), dt)
+        tv = np.empty(H, dt)
+        A3 = np.empty((H, H, BLOCK), dt)
+        T = np.empty((H, BLOCK), dt)
+        bad = np.empty(BLOCK, dt)
+        knb = np.empty(BLOCK, dt)
+        dlb = np.empty(BLOCK, dt)
+        lvb = np.empty(BLOCK, dt)
+        for b in range(BLOCK):
+            knb[b] = kn[b0 + b]
+            dlb[b] = dl[b0 + b]
+            lvb[b] = lev[b0 + b]
+        for j in range(H):
+            for b in range(BLOCK):
+                st[j, b] = stp[j, b0 + b]
+        for i in range(N):
+            for b in range(BLOCK):
+                e_[i, b] = eta[i, b0 + b]
+                w[i, b] = v[i, b0 + b]
+        val = np.zeros((CO, BLOCK), dt)
+        acc_r = np.empty((R, CO, BLOCK), dt)
+        for r in range(R):
+            for c in range(CO):
+                for b in range(BLOCK):
+                    acc_r[r, c, b] = ring[r, c, b0 + b]
+        n_emit = 0
+        h = coef[0]
+        h2 = coef[1]
+        h6 = coef[2]
+        two = coef[3]
+        for step in range(L):
+            s0 = s_half[2 * step]
+            s1 = s_half[2 * step + 1]
+            s2 = s_half[2 * step + 2]
+            _accel_qs(e_, w, s0, knb, dlb, lvb, lam, cm, cdiag, diag, D, g, F, e, gam, st, cc, fo,
+                      k, A, tv, A3, T, bad, tol)
+            src = e_ if mode == 0 else (w if mode == 1 else k)
+            for c in range(C):
+                for b in range(BLOCK):
+                    val[c, b] = 0.0
+                for i in range(N):
+                    sc = S[c, i]
+                    for b in range(BLOCK):
+                        val[c, b] += sc * src[i, b]
+            for c in range(C):
+                if off > 0:
+                    for b in range(BLOCK):
+                        val[off + c, b] = 0.0
+                for j in range(H):
+                    hc = hout[c, j]
+                    for b in range(BLOCK):
+                        val[off + c, b] += hc * fo[j, b]
+                for i in range(N):
+                    vc = vout[c, i]
+                    for b in range(BLOCK):
+                        val[off + c, b] += vc * w[i, b]
+            gi = gi0 + step
+            j = gi + half
+            if gi == 0:
+                for kk in range(w0.shape[0]):
+                    wk = w0[kk]
+                    r = kk % R
+                    for c in range(CO):
+                        for b in range(BLOCK):
+                            acc_r[r, c, b] += wk * val[c, b]
+            else:
+                k_lo = max(0, (j - ntap + m) // m)
+                for kk in range(k_lo, j // m + 1):
+                    wk = taps[j - kk * m]
+                    r = kk % R
+                    for c in range(CO):
+                        for b in range(BLOCK):
+                            acc_r[r, c, b] += wk * val[c, b]
+            jd = j - ntap + 1
+            if jd >= 0 and jd % m == 0:
+                r = (jd // m) % R
+                for c in range(CO):
+                    for b in range(BLOCK):
+                        out[n_emit, c, b0 + b] = acc_r[r, c, b]
+                        acc_r[r, c, b] = 0.0
+                n_emit += 1
+            for i in range(N):
+                for b in range(BLOCK):
+                    se[i, b] = w[i, b]
+                    sv[i, b] = k[i, b]
+                    et[i, b] = e_[i, b] + h2 * w[i, b]
+                    vt[i, b] = w[i, b] + h2 * k[i, b]
+            _accel_qs(et, vt, s1, knb, dlb, lvb, lam, cm, cdiag, diag, D, g, F, e, gam, st, cc, fo,
+                      k, A, tv, A3, T, bad, tol)
+            for i in range(N):
+                for b in range(BLOCK):
+                    se[i, b] += two * vt[i, b]
+                    sv[i, b] += two * k[i, b]
+                    et[i, b] = e_[i, b] + h2 * vt[i, b]
+                    vt[i, b] = w[i, b] + h2 * k[i, b]
+            _accel_qs(et, vt, s1, knb, dlb, lvb, lam, cm, cdiag, diag, D, g, F, e, gam, st, cc, fo,
+                      k, A, tv, A3, T, bad, tol)
+            for i in range(N):
+                for b in range(BLOCK):
+                    se[i, b] += two * vt[i, b]
+                    sv[i, b] += two * k[i, b]
+                    et[i, b] = e_[i, b] + h * vt[i, b]
+                    vt[i, b] = w[i, b] + h * k[i, b]
+            _accel_qs(et, vt, s2, knb, dlb, lvb, lam, cm, cdiag, diag, D, g, F, e, gam, st, cc, fo,
+                      k, A, tv, A3, T, bad, tol)
+            for i in range(N):
+                for b in range(BLOCK):
+                    e_[i, b] += h6 * (se[i, b] + vt[i, b])
+                    w[i, b] += h6 * (sv[i, b] + k[i, b])
+        for i in range(N):
+            for b in range(BLOCK):
+                eta[i, b0 + b] = e_[i, b]
+                v[i, b0 + b] = w[i, b]
+        for j in range(H):
+            for b in range(BLOCK):
+                stp[j, b0 + b] = st[j, b]
+
+
+class NumbaQSRK4(NumbaRK4):
+    """:class:`.kernel.NumbaRK4` for a :class:`.quasistatic.QuasiStaticForm`."""
+
+    def __init__(self, qs: QuasiStaticForm, kn, delta, level_g, eta0, v0, **kw):
+        super().__init__(qs.slow, kn, delta, level_g, eta0, v0, **kw)
+        a = lambda x: np.ascontiguousarray(np.asarray(x, dtype=self.nd))  # noqa: E731
+        self.F, self.e, self.gam = a(qs.F), a(qs.e), a(qs.Gam)
+        self.hout, self.vout = a(qs.hinge_out), a(qs.vel_out)
+        self.st = np.zeros((qs.F.shape[0], len(self.kn)), dtype=self.nd)
+        # velocity/acceleration: C extra channels carry the fast part to be differentiated
+        self.width = len(qs.slow.S) * (1 if self.mode == 0 else 2)
+        self.ring = np.zeros((self.ring.shape[0], self.width, len(self.kn)), dtype=self.nd)
+        tol = 1e-5 if self.nd == np.float32 else 1e-11  # contact-state consistency (round-off)
+        self.coef = a(list(self.coef[:4]) + [tol])
+
+    def _kernel(self, s_half, out, m, half, gi0):
+        rk4_qs_chunk(
+            self.eta, self.v, self.st, self.kn, self.dl, self.lev, self.lam, self.cm, self.cdiag,
+            self.diag, self.D, self.g, self.F, self.e, self.gam, self.S, self.hout,
+            self.vout, self.mode,
+            np.asarray(s_half, dtype=self.nd), self.coef, out, self.taps, m, half, self.w0,
+            self.ring, gi0,
+        )
