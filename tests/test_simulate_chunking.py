@@ -20,3 +20,17 @@ def test_chunk_boundaries_do_not_change_the_record(monkeypatch, engine):
     chunked = simulate_sweeps(system, **kw).signals
     assert np.abs(whole).max() > 0
     np.testing.assert_allclose(chunked, whole, rtol=0, atol=1e-9 * np.abs(whole).max())
+
+
+def test_quasi_static_kernel_chunk_boundaries_do_not_change_the_record(monkeypatch):
+    from freeplayid.model import default_fin
+
+    kw = dict(kn=480.0, delta=3e-3, level_g=[1.0], sweep=Sweep(40.0, 41.0, 2.0),
+              channels=["uz_top_left"], sample_rate=256.0, dtype=torch.float64, engine="numba",
+              frame="relative", quasi_static_hz=1500.0)
+    fin = default_fin()
+    whole = simulate_sweeps(fin, **kw).signals
+    monkeypatch.setattr(run_module, "_MAX_CHUNK_STEPS", 200)
+    chunked = simulate_sweeps(fin, **kw).signals
+    assert np.abs(whole).max() > 0
+    np.testing.assert_allclose(chunked, whole, rtol=0, atol=1e-9 * np.abs(whole).max())

@@ -331,6 +331,11 @@ def rk4_qs_chunk(eta, v, stp, kn, dl, lev, lam, cm, cdiag, diag, D, g, F, e, gam
         for j in range(H):
             for b in range(BLOCK):
                 stp[j, b0 + b] = st[j, b]
+        # the open outputs carry over to the next chunk (see kernel.rk4_chunk)
+        for r in range(R):
+            for c in range(CO):
+                for b in range(BLOCK):
+                    ring[r, c, b0 + b] = acc_r[r, c, b]
 
 
 class NumbaQSRK4(NumbaRK4):
