@@ -173,6 +173,12 @@ def rk4_chunk(eta, v, kn, dl, lev, lam, cm, cdiag, diag, D, g, S, mode, s_half, 
             for b in range(BLOCK):
                 eta[i, b0 + b] = e[i, b]
                 v[i, b0 + b] = w[i, b]
+        # the open outputs carry over to the next chunk (without this every chunk boundary
+        # drops the partial sums: a glitch to ~0 and a filter-length recovery in the record)
+        for r in range(R):
+            for c in range(C):
+                for b in range(BLOCK):
+                    ring[r, c, b0 + b] = acc_r[r, c, b]
 
 class NumbaRK4:
     """Compiled CPU engine with the interface of :class:`.engines.TorchRK4`.
