@@ -258,10 +258,11 @@ def report(fin, state) -> None:
         j = bc.dof_names.index(ch)
         plot_backbone_points(ax, pts["acceleration"], channel=ch,
                              backbone=(bc.frequency_hz[0], bc.amplitude[0, :, j]),
-                             legend=ch == CHANNELS[0])
+                             legend=False)
         ax.set_xlim(SWEEP.start_hz, SWEEP.stop_hz)
         ax.set_ylim(0, 1.15e3 * max(p.amplitude_m for p in pts["acceleration"].used(ch)))
         ax.set_title(f"{ch}: identified DFA backbone (dashed)", fontsize=9)
+    axes[0].legend(fontsize=7, loc="lower left", bbox_to_anchor=(0.0, 0.08))
     fig.tight_layout()
     fig.savefig(FIGS / "results_backbone.png", dpi=90)
     plt.close(fig)
@@ -294,6 +295,9 @@ def report(fin, state) -> None:
         f"- runtime: {runtime:.0f} s on {platform.machine()}, {os.cpu_count()} CPU cores (shared "
         f"with other jobs, `nice`), Python {platform.python_version()}, torch {torch.__version__},"
         f" numba {numba.__version__}",
+        *(["- text and figures rewritten with `--report-only` from the run's checkpoint (all "
+            "numbers from that run; the date and commit above are the rewrite's)"]
+          if state.get("rewritten") else []),
         "- stages [s]: " + "; ".join(f"{k} {v:.0f}" for k, v in timing.items()),
         "",
         "## Setup",
@@ -442,7 +446,46 @@ def report(fin, state) -> None:
     wk = max((err(f.kn, KN) for f in ws), key=abs)
     out.append(f"| acceleration, δ = 1–5 mrad (levels ∝ δ), worst | {wd:+.2f} | {wk:+.2f} | "
                f"{BOUND_FREE['delta']:g} / {BOUND_FREE['kn']:g} |")
-    out.append("")
+    # ---- findings (numbers from the state) ------------------------------------------------------
+    acc_dev = [100.0 * (q.f_hz / true_bc_frequency(fin, DELTA, q.channel, q.amplitude_m) - 1)
+               for q in pts["acceleration"].used()]
+    p08 = {q.channel: q for q in pts["acceleration"].points if q.run == "0.8 g"}
+    f5 = clear["fixed", CLEARANCES[-1]][2]
+    low5 = min(q.f_hz for q in clear["fixed", CLEARANCES[-1]][1].used())
+    out += [
+        "",
+        "## Findings",
+        "",
+        f"- **Systematic offset.** The noise-free acceleration points lie {min(acc_dev):+.2f} to "
+        f"{max(acc_dev):+.2f} % (mean {np.mean(acc_dev):+.2f} %) in frequency from the true DFA "
+        "backbone: the damped, swept peak sits below the undamped backbone (ζ = 3 %). The fit "
+        f"absorbs it mostly in kn ({err(fits['acceleration'].kn, KN):+.2f} %). This bias, not "
+        "the noise, is why the worst kn error with 0.2–0.3 g noise "
+        f"({summary[0.2][3]:+.2f} / {summary[0.3][3]:+.2f} %) exceeds the paper's 0.5 % while "
+        "meeting the issue's 2 %.",
+        f"- **Flat top at 0.8 g.** The 0.8 g curve has two maxima of equal height within 0.05 %: "
+        f"the smooth top and a spike just before the jump. The tl channel picks "
+        f"{p08['uz_top_left'].f_hz:.3f} Hz, the lr channel {p08['uz_lower_right'].f_hz:.3f} Hz "
+        "(f*/f_BC − 1 of opposite sign, ±0.2 %). Either is a valid 'peak'; small noise flips the "
+        "choice, which is the main source of the seed-to-seed scatter.",
+        f"- **DFA vs harmonic balance.** The harmonic-balance backbone is closer to the exact "
+        "backbone near contact, so the damping offset above is no longer partly cancelled by the "
+        f"DFA's own low bias: δ {err(fit_hb.delta, DELTA):+.2f} %, kn {err(fit_hb.kn, KN):+.2f} % "
+        f"(DFA: {err(fits['acceleration'].delta, DELTA):+.2f} %, "
+        f"{err(fits['acceleration'].kn, KN):+.2f} %). Both meet the bounds.",
+        f"- **Large gap, fixed levels.** At δ = {1e3 * CLEARANCES[-1]:g} mrad with 0.6–1.4 g "
+        f"(level/δ equivalent to {0.6 * DELTA / CLEARANCES[-1]:.2f}–"
+        f"{1.4 * DELTA / CLEARANCES[-1]:.2f} g at 3 mrad) the lowest level stays in the gap and "
+        f"the lowest used point is at {low5:.2f} Hz, close to contact (Θ/δ ≈ 2), where the DFA "
+        f"frequency error grows (−1.2 % at Θ = 2δ for the SDOF oscillator): δ error "
+        f"{err(f5.delta, CLEARANCES[-1]):+.2f} %. With levels scaled to δ (case a) the same gap "
+        "meets the bound. Keep level/δ ≳ 0.2 g/mrad (peaks ≥ 40 Hz on this fin).",
+        f"- **Library issues met** (worked around here, reported): the default multi-start of "
+        f"`fit_backbone` raised ValueError ('`kn` must be finite and > 0', exp overflow/underflow "
+        f"of an unbounded LM step from one start) in {len(state['fallbacks'])} of the fits; the "
+        "0.4 g displacement run is rejected as 'too noisy' instead of 'no jump in band'.",
+        "",
+    ]
     (DOCS / "results.md").write_text("\n".join(out), encoding="utf-8")
     print(f"wrote {DOCS / 'results.md'} in {runtime:.0f} s", file=sys.stderr)
 
@@ -451,6 +494,7 @@ if __name__ == "__main__":
     if "--report-only" in sys.argv:  # rewrite the report from the last run's checkpoint
         with open(CHECKPOINT, "rb") as fh:
             saved = pickle.load(fh)
+        saved["rewritten"] = True
         par = default_fin_parameters()
         KN, DELTA = float(par["kn"]), float(par["delta"])
         report(default_fin(), saved)
