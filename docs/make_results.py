@@ -56,7 +56,9 @@ def git_commit() -> str:
         return subprocess.run(args, cwd=DOCS, capture_output=True, text=True).stdout.strip()
 
     sha = run("git", "rev-parse", "--short", "HEAD")
-    dirty = run("git", "status", "--porcelain", "--untracked-files=no")
+    # the outputs this script writes do not count as uncommitted changes of its inputs
+    dirty = run("git", "status", "--porcelain", "--untracked-files=no", "--", ".",
+                ":!docs/results.md", ":!docs/figures/results_*.png")
     return sha + (" (+ uncommitted changes)" if dirty else "")
 
 
