@@ -264,7 +264,7 @@ def report(fin, state) -> None:
         ax.set_xlim(SWEEP.start_hz, SWEEP.stop_hz)
         ax.set_ylim(0, 1.15e3 * max(p.amplitude_m for p in pts["acceleration"].used(ch)))
         ax.set_title(f"{ch}: identified DFA backbone (dashed)", fontsize=9)
-    axes[0].legend(fontsize=7, loc="lower left", bbox_to_anchor=(0.0, 0.08))
+    axes[1].legend(*axes[0].get_legend_handles_labels(), fontsize=7, loc="upper left")
     fig.tight_layout()
     fig.savefig(FIGS / "results_backbone.png", dpi=90)
     plt.close(fig)
