@@ -4,7 +4,13 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["plot_backbone_points", "plot_fit_residuals", "plot_sweep_response"]
+__all__ = [
+    "plot_backbone_comparison",
+    "plot_backbone_points",
+    "plot_fit_residuals",
+    "plot_identification_errors",
+    "plot_sweep_response",
+]
 
 
 # ------------------------------------------------------------------------------------------------
@@ -179,11 +185,57 @@ def plot_backbone_comparison(ax, curves, *, exact=None, delta=1.0, omega_n=1.0):
     """
     if exact is not None:
         a, w = exact
-        ax.plot(np.asarray(a) / delta, np.asarray(w) / omega_n, "k-", lw=2.5, alpha=0.35,
-                label="exact")
+        ax.plot(
+            np.asarray(a) / delta, np.asarray(w) / omega_n, "k-", lw=2.5, alpha=0.35, label="exact"
+        )
     for label, a, f in curves:
         ax.plot(np.asarray(a) / delta, 2 * np.pi * np.asarray(f) / omega_n, lw=1.2, label=label)
     ax.set_xlabel("amplitude / delta")
     ax.set_ylabel("frequency / closed-gap frequency")
+    ax.legend(fontsize="small")
+    return ax
+
+
+# ------------------------------------------------------------------------------------------------
+# studies: identification errors over an ablation axis (docs/results.md)
+# ------------------------------------------------------------------------------------------------
+
+
+def plot_identification_errors(ax, x, errors, *, bounds=None, xlabel="", title=None):
+    """Identification errors [%] of repeated trials (e.g. noise seeds) at each value of an axis.
+
+    Every trial is a dot, the mean a line; bounds are drawn as symmetric dashed lines.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+    x : array_like, shape (n,)
+        Axis values (e.g. noise std [g]).
+    errors : sequence of n array_like, each shape (trials_i,) [%]
+        Signed relative errors of the trials at each x.
+    bounds : mapping of str to float [%], optional
+        Label -> bound; drawn at +-bound.
+    xlabel, title : str
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+        ``ax``.
+    """
+    x = np.asarray(x, dtype=float)
+    if len(errors) != x.size:
+        raise ValueError(f"`errors` must have one entry per x value ({x.size}), got {len(errors)}")
+    for xi, e in zip(x, errors, strict=True):
+        e = np.asarray(e, dtype=float)
+        ax.plot(np.full(e.size, xi), e, "o", color="C0", ms=4, alpha=0.7)
+    ax.plot(x, [np.mean(e) for e in errors], "-", color="C0", label="mean")
+    for i, (label, b) in enumerate((bounds or {}).items()):
+        ax.axhline(b, ls="--", color=f"C{i + 1}", lw=1, label=label)
+        ax.axhline(-b, ls="--", color=f"C{i + 1}", lw=1)
+    ax.axhline(0.0, color="k", lw=0.5)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel("error [%]")
+    if title:
+        ax.set_title(title, fontsize=9)
     ax.legend(fontsize="small")
     return ax
