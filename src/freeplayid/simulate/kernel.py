@@ -54,6 +54,67 @@ def _accel(eta, v, s, kn, dl, lev, lam, cm, cdiag, diag, D, g, th, acc):
             for b in range(BLOCK):
                 acc[i, b] -= d * th[j, b]
 
+# ------------------------------------------------------------------ anti-aliasing FIR ring
+# The decimating FIR of the output is fused into the step loop: each recorded step value is added
+# to the open outputs it contributes to (a ring of accumulators per member block); an output is
+# emitted when its last tap arrives. The ring persists between chunks (`ring`), so a chunk
+# boundary changes nothing. Shared by both kernels (kernel_qs.py).
+
+
+@numba.njit(fastmath=True, inline="always", cache=True)
+def _ring_load(ring, acc_r, b0):
+    """Open outputs of the member block starting at b0: ring -> acc_r (R, channels, BLOCK)."""
+    for r in range(acc_r.shape[0]):
+        for c in range(acc_r.shape[1]):
+            for b in range(BLOCK):
+                acc_r[r, c, b] = ring[r, c, b0 + b]
+
+
+@numba.njit(fastmath=True, inline="always", cache=True)
+def _ring_store(ring, acc_r, b0):
+    """Open outputs back to the ring for the next chunk: acc_r -> ring."""
+    for r in range(acc_r.shape[0]):
+        for c in range(acc_r.shape[1]):
+            for b in range(BLOCK):
+                ring[r, c, b0 + b] = acc_r[r, c, b]
+
+
+@numba.njit(fastmath=True, inline="always", cache=True)
+def _fir_push(acc_r, val, gi, half, ntap, m, taps, w0, out, n_emit, b0):
+    """Add the recorded value of global step ``gi`` to its open outputs; emit a completed one.
+
+    ``val`` (channels, BLOCK); ``w0`` are the summed weights of the constant pre-history at
+    gi = 0. Returns the updated count of outputs emitted in this chunk.
+    """
+    R = acc_r.shape[0]
+    C = acc_r.shape[1]
+    j = gi + half
+    if gi == 0:
+        for kk in range(w0.shape[0]):
+            wk = w0[kk]
+            r = kk % R
+            for c in range(C):
+                for b in range(BLOCK):
+                    acc_r[r, c, b] += wk * val[c, b]
+    else:
+        k_lo = max(0, (j - ntap + m) // m)
+        for kk in range(k_lo, j // m + 1):
+            wk = taps[j - kk * m]
+            r = kk % R
+            for c in range(C):
+                for b in range(BLOCK):
+                    acc_r[r, c, b] += wk * val[c, b]
+    jd = j - ntap + 1
+    if jd >= 0 and jd % m == 0:
+        r = (jd // m) % R
+        for c in range(C):
+            for b in range(BLOCK):
+                out[n_emit, c, b0 + b] = acc_r[r, c, b]
+                acc_r[r, c, b] = 0.0
+        n_emit += 1
+    return n_emit
+
+
 @numba.njit(parallel=True, fastmath=True, cache=True)
 def rk4_chunk(eta, v, kn, dl, lev, lam, cm, cdiag, diag, D, g, S, mode, s_half, coef, out,
               taps, m, half, w0, ring, gi0):
@@ -93,10 +154,7 @@ def rk4_chunk(eta, v, kn, dl, lev, lam, cm, cdiag, diag, D, g, S, mode, s_half, 
                 w[i, b] = v[i, b0 + b]
         val = np.empty((C, BLOCK), dt)
         acc_r = np.empty((R, C, BLOCK), dt)
-        for r in range(R):
-            for c in range(C):
-                for b in range(BLOCK):
-                    acc_r[r, c, b] = ring[r, c, b0 + b]
+        _ring_load(ring, acc_r, b0)
         n_emit = 0
         h = coef[0]
         h2 = coef[1]
@@ -116,31 +174,7 @@ def rk4_chunk(eta, v, kn, dl, lev, lam, cm, cdiag, diag, D, g, S, mode, s_half, 
                     sc = S[c, i]
                     for b in range(BLOCK):
                         val[c, b] += sc * src[i, b]
-            gi = gi0 + step
-            j = gi + half
-            if gi == 0:
-                for kk in range(w0.shape[0]):
-                    wk = w0[kk]
-                    r = kk % R
-                    for c in range(C):
-                        for b in range(BLOCK):
-                            acc_r[r, c, b] += wk * val[c, b]
-            else:
-                k_lo = max(0, (j - ntap + m) // m)
-                for kk in range(k_lo, j // m + 1):
-                    wk = taps[j - kk * m]
-                    r = kk % R
-                    for c in range(C):
-                        for b in range(BLOCK):
-                            acc_r[r, c, b] += wk * val[c, b]
-            jd = j - ntap + 1
-            if jd >= 0 and jd % m == 0:
-                r = (jd // m) % R
-                for c in range(C):
-                    for b in range(BLOCK):
-                        out[n_emit, c, b0 + b] = acc_r[r, c, b]
-                        acc_r[r, c, b] = 0.0
-                n_emit += 1
+            n_emit = _fir_push(acc_r, val, gi0 + step, half, ntap, m, taps, w0, out, n_emit, b0)
             for i in range(N):
                 for b in range(BLOCK):
                     se[i, b] = w[i, b]
@@ -175,10 +209,7 @@ def rk4_chunk(eta, v, kn, dl, lev, lam, cm, cdiag, diag, D, g, S, mode, s_half, 
                 v[i, b0 + b] = w[i, b]
         # the open outputs carry over to the next chunk (without this every chunk boundary
         # drops the partial sums: a glitch to ~0 and a filter-length recovery in the record)
-        for r in range(R):
-            for c in range(C):
-                for b in range(BLOCK):
-                    ring[r, c, b0 + b] = acc_r[r, c, b]
+        _ring_store(ring, acc_r, b0)
 
 class NumbaRK4:
     """Compiled CPU engine with the interface of :class:`.engines.TorchRK4`.

@@ -14,7 +14,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from .kernel import BLOCK, NumbaRK4
+from .kernel import BLOCK, NumbaRK4, _fir_push, _ring_load, _ring_store
 from .quasistatic import QuasiStaticForm
 
 __all__ = ["NumbaQSRK4"]
@@ -236,10 +236,7 @@ def rk4_qs_chunk(eta, v, stp, kn, dl, lev, lam, cm, cdiag, diag, D, g, F, e, gam
                 w[i, b] = v[i, b0 + b]
         val = np.zeros((CO, BLOCK), dt)
         acc_r = np.empty((R, CO, BLOCK), dt)
-        for r in range(R):
-            for c in range(CO):
-                for b in range(BLOCK):
-                    acc_r[r, c, b] = ring[r, c, b0 + b]
+        _ring_load(ring, acc_r, b0)
         n_emit = 0
         h = coef[0]
         h2 = coef[1]
@@ -271,31 +268,7 @@ def rk4_qs_chunk(eta, v, stp, kn, dl, lev, lam, cm, cdiag, diag, D, g, F, e, gam
                     vc = vout[c, i]
                     for b in range(BLOCK):
                         val[off + c, b] += vc * w[i, b]
-            gi = gi0 + step
-            j = gi + half
-            if gi == 0:
-                for kk in range(w0.shape[0]):
-                    wk = w0[kk]
-                    r = kk % R
-                    for c in range(CO):
-                        for b in range(BLOCK):
-                            acc_r[r, c, b] += wk * val[c, b]
-            else:
-                k_lo = max(0, (j - ntap + m) // m)
-                for kk in range(k_lo, j // m + 1):
-                    wk = taps[j - kk * m]
-                    r = kk % R
-                    for c in range(CO):
-                        for b in range(BLOCK):
-                            acc_r[r, c, b] += wk * val[c, b]
-            jd = j - ntap + 1
-            if jd >= 0 and jd % m == 0:
-                r = (jd // m) % R
-                for c in range(CO):
-                    for b in range(BLOCK):
-                        out[n_emit, c, b0 + b] = acc_r[r, c, b]
-                        acc_r[r, c, b] = 0.0
-                n_emit += 1
+            n_emit = _fir_push(acc_r, val, gi0 + step, half, ntap, m, taps, w0, out, n_emit, b0)
             for i in range(N):
                 for b in range(BLOCK):
                     se[i, b] = w[i, b]
@@ -332,10 +305,7 @@ def rk4_qs_chunk(eta, v, stp, kn, dl, lev, lam, cm, cdiag, diag, D, g, F, e, gam
             for b in range(BLOCK):
                 stp[j, b0 + b] = st[j, b]
         # the open outputs carry over to the next chunk (see kernel.rk4_chunk)
-        for r in range(R):
-            for c in range(CO):
-                for b in range(BLOCK):
-                    ring[r, c, b0 + b] = acc_r[r, c, b]
+        _ring_store(ring, acc_r, b0)
 
 
 class NumbaQSRK4(NumbaRK4):
