@@ -1,8 +1,19 @@
 """Neural inverse model: a set network from backbone fitting points to (kn, delta).
 
 ``points``: the flat point-set layout of many identification cases (:class:`PointSets`).
+``network``: the normalisation, the padding collate and the DeepSets network (torch only).
+``lightning``: training (LightningModule, DataModule, :func:`train_inverse_model`).
+``inference``: :func:`load_inverse_model` -> :class:`InverseModel` -> :class:`InversePrediction`.
 """
 
+from .inference import InverseModel, InverseModelError, InversePrediction, load_inverse_model
+from .lightning import InverseModule, PointSetDataModule, train_inverse_model
+from .network import InverseNet, Normalisation, collate_point_sets
 from .points import PointSets, point_sets_from_records
 
-__all__ = ["PointSets", "point_sets_from_records"]
+__all__ = [
+    "PointSets", "point_sets_from_records",
+    "Normalisation", "collate_point_sets", "InverseNet",
+    "InverseModule", "PointSetDataModule", "train_inverse_model",
+    "InverseModel", "InversePrediction", "InverseModelError", "load_inverse_model",
+]

@@ -56,7 +56,8 @@ class PointSets:
             raise ValueError(f"`delta` must have shape ({n},), got {self.delta.shape}")
         for name in ("channel", "amplitude", "frequency"):
             if getattr(self, name).shape != (p,):
-                raise ValueError(f"`{name}` must have shape ({p},), got {getattr(self, name).shape}")
+                got = getattr(self, name).shape
+                raise ValueError(f"`{name}` must have shape ({p},), got {got}")
         if p and (np.any(np.diff(self.case) < 0) or self.case[0] < 0 or self.case[-1] >= n):
             raise ValueError("`case` must be non-decreasing and index the N cases")
         if p and (self.channel.min() < 0 or self.channel.max() >= len(self.channels)):

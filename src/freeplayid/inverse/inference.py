@@ -1,0 +1,179 @@
+"""Inference with a trained inverse model: :func:`load_inverse_model` -> :class:`InverseModel`.
+
+The checkpoint (``best.ckpt`` of :func:`~.lightning.train_inverse_model`) carries the channels, the
+fingerprint of the linear model the training cases came from, the normalisation and free metadata;
+a checkpoint made for another linear model is refused.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from .lightning import _CKPT_KEY, _CKPT_VERSION, InverseModule
+from .network import Normalisation, collate_point_sets
+from .points import PointSets, point_sets_from_records
+
+__all__ = ["InverseModelError", "InversePrediction", "InverseModel", "load_inverse_model"]
+
+
+class InverseModelError(ValueError):
+    """An inverse-model checkpoint is missing, not ours, or made for another linear model."""
+
+
+@dataclass(frozen=True)
+class InversePrediction:
+    """Inverse-model estimates of N cases.
+
+    Attributes
+    ----------
+    kn : ndarray, shape (N,) [N m/rad]
+        ``exp`` of the predicted mean of log kn (the median of the predicted log-normal).
+    delta : ndarray, shape (N,) [rad]
+        Likewise for delta.
+    log_kn_std, log_delta_std : ndarray, shape (N,) [-]
+        Predicted standard deviation of log kn, log delta (natural log).
+    """
+
+    kn: np.ndarray
+    delta: np.ndarray
+    log_kn_std: np.ndarray
+    log_delta_std: np.ndarray
+
+
+class InverseModel:
+    """Inference wrapper of a trained :class:`InverseModule` (see :func:`load_inverse_model`)."""
+
+    def __init__(self, module: InverseModule, *, path: str | os.PathLike | None = None):
+        if not isinstance(module, InverseModule):
+            raise TypeError(f"`module` must be an InverseModule, got {type(module).__name__}")
+        self.module = module
+        self.path = None if path is None else Path(path)
+
+    @property
+    def channels(self) -> tuple[str, ...]:
+        return self.module.channels
+
+    @property
+    def fingerprint(self) -> str:
+        return self.module.fingerprint
+
+    @property
+    def extra(self) -> dict | None:
+        return self.module.extra
+
+    @property
+    def norm(self) -> Normalisation:
+        return self.module.norm
+
+    def predict(self, ps: PointSets, *, batch_size: int = 4096) -> InversePrediction:
+        """Estimates of every case of ``ps``.
+
+        Raises
+        ------
+        ValueError
+            ``ps.channels`` differ from the model's, or cases have no points (named).
+        """
+        if ps.channels != self.channels:
+            raise ValueError(f"`ps.channels` must be the model's channels {list(self.channels)}, "
+                             f"got {list(ps.channels)}")
+        empty = np.flatnonzero(ps.n_points == 0)
+        if empty.size:
+            raise ValueError(f"cases {empty[:20].tolist()}{' ...' if empty.size > 20 else ''} "
+                             "have no points; the inverse model needs >= 1 point per case")
+        net = self.module.net
+        device = next(net.parameters()).device
+        was_training = net.training
+        net.eval()
+        means, log_vars = [], []
+        try:
+            with torch.inference_mode():
+                for s in range(0, ps.n_cases, batch_size):
+                    b = collate_point_sets(ps, np.arange(s, min(s + batch_size, ps.n_cases)),
+                                           norm=self.norm)
+                    m, lv = net(b["x"].to(device), b["mask"].to(device))
+                    means.append(m.double().cpu().numpy())
+                    log_vars.append(lv.double().cpu().numpy())
+        finally:
+            net.train(was_training)
+        mean = np.concatenate(means) if means else np.zeros((0, 2))
+        log_var = np.concatenate(log_vars) if log_vars else np.zeros((0, 2))
+        log_mean = self.norm.target_mean + mean * self.norm.target_std
+        log_std = np.exp(0.5 * log_var) * self.norm.target_std
+        return InversePrediction(kn=np.exp(log_mean[:, 0]), delta=np.exp(log_mean[:, 1]),
+                                 log_kn_std=log_std[:, 0], log_delta_std=log_std[:, 1])
+
+    def predict_records(self, records: Sequence[dict]) -> tuple[float, float, float, float]:
+        """One case from point records (``channel``, ``amplitude_m``, ``f_hz``; ``used``).
+
+        Returns
+        -------
+        kn [N m/rad], delta [rad], log_kn_std, log_delta_std : float
+
+        Raises
+        ------
+        ValueError
+            A record's channel is not one of :attr:`channels` (listed), or no point is used.
+        """
+        p = self.predict(point_sets_from_records(records, self.channels))
+        return float(p.kn[0]), float(p.delta[0]), float(p.log_kn_std[0]), float(p.log_delta_std[0])
+
+
+def load_inverse_model(path: str | os.PathLike, *, system=None,
+                       map_location: str | torch.device = "cpu") -> InverseModel:
+    """Load an inverse-model checkpoint (``best.ckpt`` of :func:`train_inverse_model`).
+
+    Parameters
+    ----------
+    path : path-like
+    system : FreeplaySystem, optional
+        The linear model the estimates are for; its ``fingerprint()`` must be the checkpoint's.
+    map_location : str or torch.device
+        Device the network is put on.
+
+    Raises
+    ------
+    InverseModelError
+        The file is missing or not a freeplayid inverse-model checkpoint, or ``system`` has
+        another fingerprint than the one the model was trained for.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise InverseModelError(f"inverse model checkpoint {str(path)!r} does not exist")
+    try:
+        # weights_only: a checkpoint holds tensors and plain metadata, so nothing else may load
+        ckpt = torch.load(path, map_location=map_location, weights_only=True)
+    except Exception as e:
+        raise InverseModelError(f"{str(path)!r} is not a freeplayid inverse model checkpoint "
+                                f"(torch.load failed: {type(e).__name__}: {e})") from e
+    if not isinstance(ckpt, dict) or _CKPT_KEY not in ckpt or not {
+        "hyper_parameters", "state_dict"
+    } <= set(ckpt):
+        raise InverseModelError(f"{str(path)!r} is not a freeplayid inverse model checkpoint "
+                                f"(no {_CKPT_KEY!r} entry); train one with scripts/train.py")
+    if ckpt[_CKPT_KEY] > _CKPT_VERSION:
+        raise InverseModelError(f"{str(path)!r} has checkpoint format {ckpt[_CKPT_KEY]}, this "
+                                f"freeplayid reads up to {_CKPT_VERSION}; update freeplayid")
+    hp = ckpt["hyper_parameters"]
+    if system is not None:
+        want = system.fingerprint()
+        if want != hp["fingerprint"]:
+            raise InverseModelError(
+                f"inverse model checkpoint {str(path)!r} was trained for a different linear "
+                f"structure (checkpoint fingerprint {hp['fingerprint']}, model fingerprint "
+                f"{want}); retrain it for this model with `python scripts/train.py model=...` "
+                "or drop `inverse.checkpoint`"
+            )
+    try:
+        module = InverseModule(**hp)
+        module.load_state_dict(ckpt["state_dict"])
+    except (TypeError, ValueError, RuntimeError) as e:  # hand-edited or foreign hparams/weights
+        raise InverseModelError(f"{str(path)!r} holds an inverse model this freeplayid cannot "
+                                f"rebuild ({type(e).__name__}: {e})") from e
+    module.to(map_location).eval()
+    return InverseModel(module, path=path)

@@ -1,0 +1,240 @@
+"""Set network of the inverse model: invariances, learning a known law, checkpoints, refusals."""
+
+import logging
+
+import numpy as np
+import pytest
+import torch
+
+from freeplayid.inverse import (
+    InverseModel,
+    InverseModelError,
+    InverseModule,
+    InverseNet,
+    Normalisation,
+    PointSets,
+    collate_point_sets,
+    load_inverse_model,
+    train_inverse_model,
+)
+from freeplayid.model.small import sdof_system
+
+CHANNELS = ("uz_tip", "uz_root")
+QUIET = dict(enable_progress_bar=False, logger=False)
+# Lightning 2.6 with torch 2.13 (harmless, outside our code)
+pytestmark = pytest.mark.filterwarnings("ignore:`isinstance\\(treespec, LeafSpec\\)` is deprecated")
+
+
+@pytest.fixture(autouse=True)
+def _quiet_lightning(caplog):
+    # "GPU available: ...", "`Trainer.fit` stopped: ..." are info lines; warnings still show
+    caplog.set_level(logging.WARNING, logger="pytorch_lightning")
+    caplog.set_level(logging.WARNING, logger="lightning_fabric")
+
+
+def synthetic_point_sets(n: int, *, seed: int) -> PointSets:
+    """Cases whose points follow a smooth known law with both kn and delta identifiable.
+
+    kn, delta log-uniform; 2..6 points with r = A / delta in [1.5, 6] and
+    ``f = 40 Hz sqrt(kn / 480) sqrt(1 - 1/r)`` (a softening backbone, f -> f_n as A >> delta);
+    channel "uz_root" sees 0.6 of the amplitude at the same frequency.
+    """
+    rng = np.random.default_rng(seed)
+    kn = np.exp(rng.uniform(np.log(240.0), np.log(960.0), n))  # N m/rad
+    delta = np.exp(rng.uniform(np.log(3e-4), np.log(3e-3), n))  # rad
+    case = np.repeat(np.arange(n), rng.integers(2, 7, n))
+    r = rng.uniform(1.5, 6.0, case.size)
+    channel = rng.integers(0, 2, case.size)
+    f = 40.0 * np.sqrt(kn[case] / 480.0) * np.sqrt(1.0 - 1.0 / r)  # Hz
+    amplitude = r * delta[case] * np.where(channel == 1, 0.6, 1.0)  # m
+    return PointSets(channels=CHANNELS, case=case, channel=channel, amplitude=amplitude,
+                     frequency=f, kn=kn, delta=delta)
+
+
+def _padded_batch(seed=0):
+    torch.manual_seed(seed)
+    n = torch.tensor([1, 4, 7, 3])
+    mask = torch.arange(7)[None, :] < n[:, None]
+    x = torch.randn(4, 7, 2 + len(CHANNELS))
+    return x, mask
+
+
+def test_net_is_permutation_invariant():
+    torch.manual_seed(1)
+    net = InverseNet(len(CHANNELS), hidden=16, depth=3)
+    x, mask = _padded_batch()
+    m0, v0 = net(x, mask)
+    x_perm = x.clone()
+    for b in range(x.shape[0]):
+        k = int(mask[b].sum())
+        x_perm[b, :k] = x[b, torch.randperm(k)]
+    m1, v1 = net(x_perm, mask)
+    torch.testing.assert_close(m1, m0, atol=1e-6, rtol=0)
+    torch.testing.assert_close(v1, v0, atol=1e-6, rtol=0)
+    # and it does depend on the points: changing one changes the output
+    x_perm[1, 0] += 1.0
+    assert not torch.allclose(net(x_perm, mask)[0][1], m0[1], atol=1e-4)
+
+
+def test_net_ignores_padding_whatever_it_holds():
+    torch.manual_seed(2)
+    net = InverseNet(len(CHANNELS), hidden=16, depth=2, activation="gelu")
+    x, mask = _padded_batch()
+    alone = [net(x[b:b + 1, : int(mask[b].sum())], mask[b:b + 1, : int(mask[b].sum())])
+             for b in range(4)]
+    # more padding, filled with garbage (huge values, NaN, inf)
+    x_pad = torch.cat([x, torch.zeros(4, 5, x.shape[-1])], dim=1)
+    mask_pad = torch.cat([mask, torch.zeros(4, 5, dtype=torch.bool)], dim=1)
+    x_pad[~mask_pad] = 1e6
+    x_pad[0, 3, 0], x_pad[2, 9, 1] = float("nan"), float("inf")
+    m, v = net(x_pad, mask_pad)
+    for b in range(4):
+        torch.testing.assert_close(m[b], alone[b][0][0], atol=1e-6, rtol=0)
+        torch.testing.assert_close(v[b], alone[b][1][0], atol=1e-6, rtol=0)
+    lo, hi = -14.0, 4.0
+    assert torch.all((v > lo) & (v < hi))
+
+
+def test_collate_normalises_pads_and_marks_unknown_truth():
+    ps = synthetic_point_sets(5, seed=3)
+    norm = Normalisation.from_point_sets(ps)
+    assert norm.log_amplitude_mean == pytest.approx(np.log(ps.amplitude).mean())
+    assert norm.log_kn_std == pytest.approx(np.log(ps.kn).std())
+    unknown = PointSets(**{**ps.__dict__, "kn": np.r_[ps.kn[:4], np.nan]})
+    b = collate_point_sets(unknown, [4, 1], norm=norm.as_dict())
+    n = ps.n_points[[4, 1]]
+    assert b["x"].shape == (2, n.max(), 4) and b["x"].dtype == torch.float32
+    np.testing.assert_array_equal(b["mask"].sum(1).numpy(), n)
+    rows = np.flatnonzero(ps.case == 1)
+    np.testing.assert_allclose(
+        b["x"][1, : n[1], 1].numpy(), (ps.frequency[rows] - norm.frequency_mean)
+        / norm.frequency_std, rtol=1e-5)
+    np.testing.assert_array_equal(b["x"][1, np.arange(n[1]), 2 + ps.channel[rows]].numpy(), 1.0)
+    np.testing.assert_array_equal(b["x"][1, : n[1], 2:].sum(1).numpy(), 1.0)
+    assert torch.all(b["x"][~b["mask"]] == 0)
+    assert torch.isnan(b["y"][0, 0]) and torch.isfinite(b["y"][0, 1])
+    assert b["y"][1, 1] == pytest.approx(
+        (np.log(ps.delta[1]) - norm.log_delta_mean) / norm.log_delta_std, rel=1e-5)
+    with pytest.raises(ValueError, match="`cases` must lie in"):
+        collate_point_sets(ps, [5], norm=norm)
+
+
+def test_tiny_model_learns_a_known_law():
+    ps = synthetic_point_sets(600, seed=0)
+    train, val = ps.subset(np.arange(480)), ps.subset(np.arange(480, 600))
+    module, _, hist = train_inverse_model(
+        train, val, channels=CHANNELS, fingerprint="synthetic", hidden=32, depth=2, lr=1e-2,
+        batch_size=64, max_epochs=10, seed=0, **QUIET)
+    pred = InverseModel(module).predict(val)
+    mae_kn = np.mean(np.abs(np.log(pred.kn / val.kn)))
+    mae_delta = np.mean(np.abs(np.log(pred.delta / val.delta)))
+    base_kn = np.mean(np.abs(np.log(train.kn).mean() - np.log(val.kn)))
+    base_delta = np.mean(np.abs(np.log(train.delta).mean() - np.log(val.delta)))
+    assert mae_kn < 0.5 * base_kn, (mae_kn, base_kn)
+    assert mae_delta < 0.5 * base_delta, (mae_delta, base_delta)
+    # the logged validation MAE is the same quantity, de-normalised
+    best = int(np.argmin(hist["val_loss"]))
+    assert hist["val_mae_log_kn"][best] == pytest.approx(mae_kn, rel=1e-3)
+    assert hist["val_mae_log_delta"][best] == pytest.approx(mae_delta, rel=1e-3)
+    assert len(hist["train_loss"]) == 10 and hist["train_loss"][-1] < hist["train_loss"][0]
+    # the predicted spread is calibrated to within a factor of a few of the actual errors
+    assert 0.3 < np.median(pred.log_kn_std) / mae_kn < 3.0
+
+
+@pytest.fixture(scope="module")
+def trained(tmp_path_factory):
+    out = tmp_path_factory.mktemp("inverse")
+    ps = synthetic_point_sets(120, seed=4)
+    train, val = ps.subset(np.arange(96)), ps.subset(np.arange(96, 120))
+    extra = {"kn_range": np.array([240.0, 960.0]), "dataset": {"n_cases": 120, "seed": 4}}
+    module, _, hist = train_inverse_model(
+        train, val, channels=CHANNELS, fingerprint="0123456789abcdef", hidden=16, depth=2,
+        max_epochs=1, out_dir=out, extra=extra, enable_progress_bar=False, logger=True)
+    return module, out / "best.ckpt", val, hist
+
+
+def test_checkpoint_round_trip(trained):
+    module, path, val, hist = trained
+    assert path.is_file() and (path.parent / "metrics.csv").is_file()
+    assert len(hist["val_loss"]) == 1
+    model = load_inverse_model(path, system=None)
+    assert model.channels == CHANNELS and model.fingerprint == "0123456789abcdef"
+    assert model.extra == {"kn_range": [240.0, 960.0], "dataset": {"n_cases": 120, "seed": 4}}
+    assert model.norm == module.norm == Normalisation.from_point_sets(
+        synthetic_point_sets(120, seed=4).subset(np.arange(96)))
+    p0, p1 = InverseModel(module).predict(val), model.predict(val)
+    for name in ("kn", "delta", "log_kn_std", "log_delta_std"):
+        np.testing.assert_allclose(getattr(p1, name), getattr(p0, name), rtol=1e-6)
+    # Lightning's own loader restores the same module
+    again = InverseModule.load_from_checkpoint(path, map_location="cpu")
+    assert again.channels == CHANNELS and again.norm == module.norm
+    np.testing.assert_allclose(InverseModel(again).predict(val).kn, p0.kn, rtol=1e-6)
+    # one case from records, as the fit uses it
+    kn, delta, s_kn, s_delta = model.predict_records(val.records(3))
+    assert (kn, delta) == pytest.approx((p0.kn[3], p0.delta[3]), rel=1e-6)
+    assert s_kn > 0 and s_delta > 0
+
+
+def test_training_is_reproducible_on_cpu():
+    ps = synthetic_point_sets(80, seed=5)
+    runs = [train_inverse_model(ps.subset(np.arange(64)), ps.subset(np.arange(64, 80)),
+                                channels=CHANNELS, fingerprint="x", hidden=8, depth=2,
+                                max_epochs=2, seed=7, accelerator="cpu", **QUIET)
+            for _ in range(2)]
+    assert runs[0][2] == runs[1][2]
+    for a, b in zip(runs[0][0].parameters(), runs[1][0].parameters()):
+        torch.testing.assert_close(a, b, atol=0, rtol=0)
+
+
+def test_refuses_a_checkpoint_of_another_linear_model(trained):
+    _, path, _, _ = trained
+    system = sdof_system(mass=1.0, stiffness=100.0)
+    with pytest.raises(InverseModelError) as err:
+        load_inverse_model(path, system=system)
+    msg = str(err.value)
+    assert str(path) in msg and "0123456789abcdef" in msg and system.fingerprint() in msg
+    assert "different linear structure" in msg and "scripts/train.py" in msg
+
+
+def test_refuses_files_that_are_not_inverse_checkpoints(tmp_path):
+    text = tmp_path / "notes.ckpt"
+    text.write_text("not a checkpoint")
+    with pytest.raises(InverseModelError, match="notes.ckpt"):
+        load_inverse_model(text)
+    other = tmp_path / "other.ckpt"
+    torch.save({"state_dict": {}, "hyper_parameters": {}}, other)
+    with pytest.raises(InverseModelError, match="other.ckpt.*not a freeplayid inverse"):
+        load_inverse_model(other)
+    with pytest.raises(InverseModelError, match="missing.ckpt.*does not exist"):
+        load_inverse_model(tmp_path / "missing.ckpt")
+
+
+def test_prediction_refuses_unknown_channels_and_empty_cases(trained):
+    _, path, val, _ = trained
+    model = load_inverse_model(path)
+    records = [{"channel": "rx_hinge", "amplitude_m": 1e-3, "f_hz": 40.0}]
+    with pytest.raises(ValueError, match=r"'rx_hinge'.*allowed: \['uz_tip', 'uz_root'\]"):
+        model.predict_records(records)
+    empty = val.subset(np.arange(3))
+    keep = empty.case != 1  # case 1 loses its points
+    empty = PointSets(**{**empty.__dict__, "case": empty.case[keep],
+                         "channel": empty.channel[keep], "amplitude": empty.amplitude[keep],
+                         "frequency": empty.frequency[keep]})
+    with pytest.raises(ValueError, match=r"cases \[1\] have no points"):
+        model.predict(empty)
+
+
+@pytest.mark.gpu
+@pytest.mark.skipif(not torch.cuda.is_available(), reason="needs CUDA")
+def test_trains_and_predicts_on_cuda(tmp_path):
+    ps = synthetic_point_sets(120, seed=6)
+    val = ps.subset(np.arange(96, 120))
+    module, _, _ = train_inverse_model(
+        ps.subset(np.arange(96)), val, channels=CHANNELS, fingerprint="x", hidden=16, depth=2,
+        max_epochs=2, accelerator="gpu", out_dir=tmp_path, **QUIET)
+    on_gpu = load_inverse_model(tmp_path / "best.ckpt", map_location="cuda")
+    on_cpu = load_inverse_model(tmp_path / "best.ckpt")
+    assert next(on_gpu.module.parameters()).is_cuda
+    np.testing.assert_allclose(on_gpu.predict(val).kn, on_cpu.predict(val).kn, rtol=1e-5)
+    np.testing.assert_allclose(InverseModel(module).predict(val).kn, on_cpu.predict(val).kn,
+                               rtol=1e-5)
