@@ -11,6 +11,7 @@ import hydra
 from omegaconf import DictConfig
 
 from freeplayid import tasks
+from freeplayid.inverse import InverseModelError
 from freeplayid.io import DatasetError
 from freeplayid.model import SystemFileError
 
@@ -19,8 +20,8 @@ from freeplayid.model import SystemFileError
 def main(cfg: DictConfig) -> dict:
     try:
         return tasks.identify(cfg)
-    except (DatasetError, SystemFileError, tasks.IdentificationError) as exc:
-        sys.exit(f"identify: {exc}")  # a data problem: the message says what and where
+    except (DatasetError, SystemFileError, InverseModelError, tasks.IdentificationError) as exc:
+        sys.exit(f"identify: {exc}")  # a data or checkpoint problem: the message says where
 
 
 if __name__ == "__main__":

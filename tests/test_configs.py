@@ -62,7 +62,7 @@ def test_simulate_script_end_to_end(tmp_path):
 def test_compose_identify(debug):
     with initialize_config_dir(config_dir=str(CONF), version_base="1.3"):
         cfg = compose(config_name="identify", overrides=debug + ["data=some/manifest.yaml"])
-    assert cfg.data == "some/manifest.yaml" and cfg.init == "multistart"
+    assert cfg.data == "some/manifest.yaml" and cfg.inverse.checkpoint is None
     assert cfg.backbone in ("dfa", "hb")
     import inspect
 
@@ -83,3 +83,43 @@ def test_identify_defaults_to_the_bundled_example():
     assert cfg.data is None
     assert bundled_example() == ROOT / "examples" / "fin_sweeps" / "manifest.yaml"
     assert bundled_example().is_file()
+
+
+PRIMARIES = sorted(p.stem for p in CONF.glob("*.yaml"))
+EXPERIMENTS = sorted(p.stem for p in (CONF / "experiment").glob("*.yaml"))
+
+
+def test_every_script_has_a_primary_config_and_experiments_exist():
+    scripts = sorted(p.stem for p in (ROOT / "scripts").glob("*.py"))
+    assert scripts == PRIMARIES == ["compare", "identify", "simulate", "train"]
+    assert {"noise", "clearance"} <= set(EXPERIMENTS)
+    for name in PRIMARIES:  # experiments are selected with +experiment=, never by default
+        assert "experiment" not in (CONF / f"{name}.yaml").read_text()
+
+
+@pytest.mark.parametrize("debug", [[], ["debug=fast"]])
+@pytest.mark.parametrize("experiment", [None] + EXPERIMENTS)
+@pytest.mark.parametrize("primary", PRIMARIES)
+def test_every_primary_composes_with_every_experiment(primary, experiment, debug):
+    over = debug + ([f"+experiment={experiment}"] if experiment else [])
+    with initialize_config_dir(config_dir=str(CONF), version_base="1.3"):
+        cfg = compose(config_name=primary, overrides=over)
+    if primary not in ("train", "compare"):
+        return
+    from freeplayid.inverse.dataset import BankSpec, CaseSpec
+    from freeplayid.simulate import Sweep
+
+    bank = dict(cfg.dataset.bank)
+    bank["sweep"] = Sweep(**cfg.dataset.bank.sweep)
+    bank_spec = BankSpec(channels=("uz_top_left",), **bank)  # the values are valid specs
+    case_spec = CaseSpec(**cfg.dataset.cases)
+    assert case_spec.axis == {"noise": "noise_g", "clearance": "delta"}.get(experiment,
+                                                                           case_spec.axis)
+    if experiment == "noise":
+        assert case_spec.values == (0.0, 0.1, 0.2, 0.3)
+    assert len(cfg.dataset.split) == 3 and abs(sum(cfg.dataset.split) - 1) < 1e-12
+    if debug:  # seconds: a few short sweeps, a few epochs
+        assert bank_spec.n_kn * bank_spec.n_ratios <= 24 and bank_spec.sweep.duration <= 30
+        assert cfg.training.max_epochs <= 5
+    if primary == "compare":
+        assert cfg.multistart.n >= 1 and cfg.inverse.checkpoint is None

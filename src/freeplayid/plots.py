@@ -6,6 +6,10 @@ import numpy as np
 
 __all__ = [
     "plot_backbone_comparison",
+    "plot_compare_cost",
+    "plot_compare_errors",
+    "plot_inverse_predictions",
+    "plot_learning_curves",
     "plot_backbone_points",
     "plot_fit_residuals",
     "plot_identification_errors",
@@ -239,3 +243,129 @@ def plot_identification_errors(ax, x, errors, *, bounds=None, xlabel="", title=N
         ax.set_title(title, fontsize=9)
     ax.legend(fontsize="small")
     return ax
+
+
+# ------------------------------------------------------------------------------------------------
+# inverse model: learning curves, predictions against truth, and the comparison study
+# ------------------------------------------------------------------------------------------------
+
+_METHOD_STYLE = {
+    "network": ("tab:purple", "network alone"),
+    "network+fit": ("tab:green", "network-initialised fit"),
+    "single-start": ("tab:orange", "single-start fit"),
+    "multi-start": ("tab:blue", "multi-start fit"),
+}
+
+
+def _axis_label(axis_name: str, value: float) -> str:
+    if axis_name == "delta":
+        return f"{1e3 * value:g} mrad"
+    if axis_name == "noise_g":
+        return f"{value:g} g"
+    return f"{value:g}"
+
+
+def plot_learning_curves(ax, history: dict):
+    """Training and validation loss per epoch (Gaussian NLL of the normalised log-parameters).
+
+    ``history``: lists ``train_loss`` and ``val_loss`` (one value per epoch).
+    """
+    for key, style in (("train_loss", "-"), ("val_loss", "--")):
+        v = np.asarray(history.get(key, []), dtype=float)
+        if v.size:
+            ax.plot(np.arange(1, v.size + 1), v, style, label=key.replace("_", " "))
+    val = np.asarray(history.get("val_loss", []), dtype=float)
+    if val.size and np.isfinite(val).any():
+        i = int(np.nanargmin(val))
+        ax.plot(i + 1, val[i], "o", color="k", label=f"best (epoch {i + 1})")
+    ax.set_xlabel("epoch")
+    ax.set_ylabel("Gaussian NLL [-]")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8)
+
+
+def plot_inverse_predictions(ax, truth, estimate, log_std, *, groups=None, group_name="",
+                             quantity="kn"):
+    """Network estimate against truth (log-log) with +-2 sigma bars, one colour per group.
+
+    Parameters
+    ----------
+    truth, estimate : array_like, shape (N,)
+        [N m/rad] for kn, [rad] for delta.
+    log_std : array_like, shape (N,) [-]
+        Predicted standard deviation of the natural log.
+    groups : array_like, shape (N,), optional
+        Ablation-axis value of each case.
+    """
+    truth, estimate, log_std = (np.asarray(a, dtype=float) for a in (truth, estimate, log_std))
+    groups = np.zeros(truth.size) if groups is None else np.asarray(groups, dtype=float)
+    scale, unit = (1e3, "mrad") if quantity == "delta" else (1.0, "N m/rad")
+    for g in np.unique(groups):
+        m = groups == g
+        lo = estimate[m] * (1 - np.exp(-2 * log_std[m]))
+        hi = estimate[m] * (np.exp(2 * log_std[m]) - 1)
+        ax.errorbar(scale * truth[m], scale * estimate[m], yerr=scale * np.vstack([lo, hi]),
+                    fmt="o", ms=3, lw=0.6, alpha=0.7,
+                    label=_axis_label(group_name, g) if groups.size else None)
+    lim = scale * np.array([truth.min(), truth.max()])
+    ax.plot(lim, lim, "k-", lw=0.8, label="exact")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    name = "δ" if quantity == "delta" else "kn"
+    ax.set_xlabel(f"true {name} [{unit}]")
+    ax.set_ylabel(f"network {name} [{unit}]")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=7, title=group_name or None, title_fontsize=7)
+
+
+def plot_compare_errors(ax, rows, *, quantity="delta", axis_name=""):
+    """Absolute relative error of each method per axis value (box plots, log scale).
+
+    ``rows``: the per-case rows of :func:`freeplayid.inverse.study.fit_cases` and
+    :func:`~freeplayid.inverse.study.network_rows` (``method``, ``axis_value``,
+    ``delta_error``, ``kn_error``).
+    """
+    methods = [m for m in _METHOD_STYLE if any(r["method"] == m for r in rows)]
+    values = sorted({r["axis_value"] for r in rows})
+    width = 0.8 / max(len(methods), 1)
+    for j, m in enumerate(methods):
+        data = []
+        for v in values:
+            e = np.abs([r[f"{quantity}_error"] for r in rows
+                        if r["method"] == m and r["axis_value"] == v])
+            data.append(np.clip(np.where(np.isfinite(e), e, 10.0), 1e-6, 10.0))
+        pos = np.arange(len(values)) + (j - (len(methods) - 1) / 2) * width
+        bp = ax.boxplot(data, positions=pos, widths=0.9 * width, patch_artist=True,
+                        showfliers=True, flierprops={"markersize": 2})
+        for patch in bp["boxes"]:
+            patch.set_facecolor(_METHOD_STYLE[m][0])
+            patch.set_alpha(0.6)
+        ax.plot([], [], "s", color=_METHOD_STYLE[m][0], label=_METHOD_STYLE[m][1])
+    ax.set_xticks(np.arange(len(values)), [_axis_label(axis_name, v) for v in values])
+    ax.set_yscale("log")
+    name = "δ" if quantity == "delta" else "kn"
+    ax.set_ylabel(f"|{name} error| [-]")
+    ax.set_xlabel(axis_name)
+    ax.grid(True, axis="y", which="both", alpha=0.3)
+    ax.legend(fontsize=7)
+
+
+def plot_compare_cost(ax, summary, *, key="success_rate", axis_name=""):
+    """Grouped bars of a summary column (``success_rate`` or ``evaluations_mean``) per method."""
+    methods = [m for m in _METHOD_STYLE if any(r["method"] == m for r in summary)]
+    values = sorted({r["axis_value"] for r in summary})
+    width = 0.8 / max(len(methods), 1)
+    for j, m in enumerate(methods):
+        y = [next((r[key] for r in summary if r["method"] == m and r["axis_value"] == v), np.nan)
+             for v in values]
+        y = 100 * np.asarray(y) if key == "success_rate" else np.asarray(y)
+        pos = np.arange(len(values)) + (j - (len(methods) - 1) / 2) * width
+        ax.bar(pos, y, width=width, color=_METHOD_STYLE[m][0], label=_METHOD_STYLE[m][1])
+    ax.set_xticks(np.arange(len(values)), [_axis_label(axis_name, v) for v in values])
+    ax.set_xlabel(axis_name)
+    ax.set_ylabel({"success_rate": "success rate [%]",
+                   "evaluations_mean": "objective evaluations per case"}.get(key, key))
+    if key == "evaluations_mean":
+        ax.set_yscale("log")
+    ax.grid(True, axis="y", alpha=0.3)
+    ax.legend(fontsize=7)

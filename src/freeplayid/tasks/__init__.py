@@ -6,10 +6,12 @@ This is the only package that imports Hydra/OmegaConf.
 """
 
 from .common import build_system, run_dir, write_metrics
+from .compare import compare
 from .identify import IdentificationError, bundled_example, identify
 from .simulate import simulate
+from .train import train
 
 __all__ = [
     "build_system", "run_dir", "write_metrics", "simulate", "identify", "IdentificationError",
-    "bundled_example",
+    "bundled_example", "train", "compare",
 ]

@@ -21,8 +21,6 @@ from .common import run_dir, write_metrics
 
 __all__ = ["identify", "IdentificationError", "bundled_example"]
 
-INITS = ("multistart",)  # "inverse" arrives with the neural inverse model
-
 
 class IdentificationError(ValueError):
     """The data set is valid but does not support an identification (e.g. too few points)."""
@@ -79,6 +77,27 @@ def _extract(ds, cfg: DictConfig):
     pts = BackbonePoints(tuple(points), tuple(rejected), tuple(curves), ds.quantity,
                          ex.get("method", "acmp"))
     return pts, rejected
+
+
+def _load_inverse(cfg: DictConfig, system):
+    """The inverse model of ``inverse.checkpoint``, checked against ``system``, or None."""
+    if not (cfg.get("inverse") and cfg.inverse.get("checkpoint")):
+        return None
+    from hydra.utils import to_absolute_path
+
+    from ..inverse import load_inverse_model
+
+    return load_inverse_model(Path(to_absolute_path(str(cfg.inverse.checkpoint))), system=system)
+
+
+def _inverse_estimate(model, records: list[dict]) -> dict:
+    """The inverse model's estimate of (kn, delta) from the points (the fit's start)."""
+    kn, delta, s_kn, s_delta = model.predict_records(records)
+    est = {"kn": float(kn), "delta": float(delta), "log_kn_std": float(s_kn),
+           "log_delta_std": float(s_delta), "checkpoint": str(model.path)}
+    print(f"inverse model: kn = {kn:.4g} N·m/rad (x/÷ {np.exp(s_kn):.3f}), "
+          f"delta = {delta:.4g} rad (x/÷ {np.exp(s_delta):.3f})")
+    return est
 
 
 def _backbone_overlay(system, fit, dofs: dict, backbone: str, mode: int):
@@ -187,8 +206,6 @@ def identify(cfg: DictConfig) -> dict:
     from ..model import load_system
 
     t0 = time.perf_counter()
-    if cfg.init not in INITS:
-        raise ValueError(f"`init` must be one of {INITS}, got {cfg.init!r}")
     if cfg.backbone not in ("dfa", "hb"):
         raise ValueError(f"`backbone` must be one of ('dfa', 'hb'), got {cfg.backbone!r}")
     data_path = _data_path(cfg)
@@ -196,6 +213,7 @@ def identify(cfg: DictConfig) -> dict:
     if ds.model is None:
         raise DatasetError(f"{ds.path}: missing field `model` (the linear model file, .npz)")
     system = load_system(ds.model)
+    inverse_model = _load_inverse(cfg, system)  # a wrong checkpoint fails before the extraction
     pts, rejected = _extract(ds, cfg)
     used = pts.used()
     if len(used) < 2:
@@ -206,10 +224,16 @@ def identify(cfg: DictConfig) -> dict:
         )
     records = [{"channel": ds.channels[p.channel], "amplitude_m": p.amplitude_m, "f_hz": p.f_hz}
                for p in used]
-    ms = cfg.multistart
-    starts = multistart_grid(int(ms.n), kn_range=tuple(ms.kn_range),
-                             delta_range=tuple(ms.delta_range))
-    fit = fit_backbone(records, system, init=starts, init_label=cfg.init,
+    inverse = None
+    if inverse_model is not None:
+        inverse = _inverse_estimate(inverse_model, records)
+        starts, label = (inverse["kn"], inverse["delta"]), "inverse"
+    else:
+        ms = cfg.multistart
+        starts = multistart_grid(int(ms.n), kn_range=tuple(ms.kn_range),
+                                 delta_range=tuple(ms.delta_range))
+        label = "multistart"
+    fit = fit_backbone(records, system, init=starts, init_label=label,
                        backbone=cfg.backbone, mode=int(cfg.mode),
                        n_bootstrap=int(cfg.n_bootstrap), seed=int(cfg.seed))
     runtime = time.perf_counter() - t0
@@ -230,6 +254,8 @@ def identify(cfg: DictConfig) -> dict:
         "init": fit.init,
         "runtime_s": runtime,
     }
+    if inverse is not None:
+        result["inverse_estimate"] = inverse
     if fit.kn_ci95_bootstrap is not None:
         result["kn_ci95_bootstrap"] = list(fit.kn_ci95_bootstrap)
         result["delta_ci95_bootstrap"] = list(fit.delta_ci95_bootstrap)

@@ -1,0 +1,141 @@
+"""Studies on held-out simulated cases: the network alone and the fits it is compared with.
+
+Methods compared on the same cases (``METHODS``):
+
+- ``network``: the inverse model's estimate, no fit;
+- ``network+fit``: one backbone fit started from the network's estimate;
+- ``single-start``: one fit started from a fixed guess (the centre of the priors);
+- ``multi-start``: the pure-fitting baseline, a grid of starts (the best optimum wins).
+
+Errors are relative, ``estimate / truth - 1``; a case succeeds when ``|delta error| <
+success_delta`` and ``|kn error| < success_kn``. The cost of a fit is its number of objective
+(residual-vector) evaluations, finite-difference Jacobians included.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+
+import numpy as np
+
+from ..model.system import FreeplaySystem
+from .points import PointSets
+
+__all__ = ["METHODS", "fit_cases", "summarise", "network_rows"]
+
+METHODS = ("network", "network+fit", "single-start", "multi-start")
+
+
+def network_rows(ps: PointSets, kn, delta, *, wall_s: float) -> list[dict]:
+    """Per-case rows of the network-alone method (``wall_s``: total prediction time [s])."""
+    per = wall_s / max(ps.n_cases, 1)
+    return [_row(ps, i, "network", kn[i], delta[i], 0, per, True) for i in range(ps.n_cases)]
+
+
+def _row(ps, i, method, kn, delta, n_eval, wall, ok) -> dict:
+    return {
+        "case": int(i), "method": method,
+        "axis_value": float(ps.meta["axis_value"][i]) if "axis_value" in ps.meta else np.nan,
+        "noise_g": float(ps.meta["noise_g"][i]) if "noise_g" in ps.meta else np.nan,
+        "kn_true": float(ps.kn[i]), "delta_true": float(ps.delta[i]),
+        "kn": float(kn), "delta": float(delta),
+        "kn_error": float(kn / ps.kn[i] - 1), "delta_error": float(delta / ps.delta[i] - 1),
+        "n_evaluations": int(n_eval), "wall_s": float(wall), "converged": bool(ok),
+        "n_points": int(ps.n_points[i]),
+    }
+
+
+def _fit_one(records, system, init, label, backbone):
+    from ..fit import fit_backbone
+
+    t0 = time.perf_counter()
+    try:
+        r = fit_backbone(records, system, init=init, init_label=label, backbone=backbone)
+    except ValueError:  # every start diverged: a failed case, not a failed study
+        return np.nan, np.nan, 0, time.perf_counter() - t0, False
+    return r.kn, r.delta, r.n_evaluations, time.perf_counter() - t0, r.success
+
+
+def fit_cases(
+    ps: PointSets,
+    system: FreeplaySystem,
+    *,
+    network_estimate: tuple[np.ndarray, np.ndarray] | None,
+    single_start: tuple[float, float],
+    multistart: Sequence[tuple[float, float]],
+    backbone: str = "dfa",
+    n_jobs: int = 1,
+    progress: bool = True,
+) -> list[dict]:
+    """Run the fitting methods on every case of ``ps``; one row per (case, method).
+
+    Parameters
+    ----------
+    network_estimate : (kn (N,), delta (N,)) or None
+        Starts of ``network+fit``; None skips that method.
+    single_start : (kn [N m/rad], delta [rad])
+    multistart : list of (kn, delta)
+        The baseline's starts.
+    n_jobs : int
+        Worker processes (joblib; -1: all cores). The per-fit wall time is measured in the
+        worker, so it stays comparable between methods.
+    """
+    from joblib import Parallel, delayed
+    from tqdm import tqdm
+
+    jobs = []
+    for i in range(ps.n_cases):
+        rec = ps.records(i)
+        if network_estimate is not None:
+            init = (float(network_estimate[0][i]), float(network_estimate[1][i]))
+            jobs.append((i, "network+fit", rec, init, "inverse"))
+        jobs.append((i, "single-start", rec, tuple(single_start), "given"))
+        jobs.append((i, "multi-start", rec, list(multistart), "multistart"))
+    out = Parallel(n_jobs=n_jobs, batch_size=1)(
+        delayed(_fit_one)(rec, system, init, label, backbone)
+        for _, _, rec, init, label in tqdm(jobs, desc="fits", unit="fit", disable=not progress)
+    )
+    return [_row(ps, i, m, *res) for (i, m, *_), res in zip(jobs, out, strict=True)]
+
+
+def summarise(
+    rows: Sequence[dict],
+    *,
+    success_delta: float = 0.01,
+    success_kn: float = 0.02,
+) -> list[dict]:
+    """Per (axis value, method): error distributions, success rate, cost.
+
+    Returns
+    -------
+    list of dict
+        ``axis_value``, ``method``, ``n``, ``delta_err_median``, ``delta_err_p95``,
+        ``kn_err_median``, ``kn_err_p95`` (absolute relative errors), ``success_rate``,
+        ``evaluations_mean``, ``wall_s_mean``.
+    """
+    out = []
+    values = sorted({r["axis_value"] for r in rows})
+    methods = [m for m in METHODS if any(r["method"] == m for r in rows)]
+    for v in values:
+        for m in methods:
+            sel = [r for r in rows if r["axis_value"] == v and r["method"] == m]
+            if not sel:
+                continue
+            de = np.abs([r["delta_error"] for r in sel])
+            ke = np.abs([r["kn_error"] for r in sel])
+            de = np.where(np.isfinite(de), de, np.inf)
+            ke = np.where(np.isfinite(ke), ke, np.inf)
+            ok = (de < success_delta) & (ke < success_kn)
+            out.append({
+                "axis_value": v, "method": m, "n": len(sel),
+                "delta_err_median": float(np.median(de)),
+                # "higher": a failed fit (inf) stays visible instead of turning into NaN
+                "delta_err_p95": float(np.percentile(de, 95, method="higher")),
+                "kn_err_median": float(np.median(ke)),
+                "kn_err_p95": float(np.percentile(ke, 95, method="higher")),
+                "success_rate": float(ok.mean()),
+                "evaluations_mean": float(np.mean([r["n_evaluations"] for r in sel])),
+                "wall_s_mean": float(np.mean([r["wall_s"] for r in sel])),
+            })
+    return out

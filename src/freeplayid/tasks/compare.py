@@ -1,0 +1,165 @@
+"""`compare` task: inverse-initialised fitting against pure fitting on held-out simulated cases.
+
+Per value of the ablation axis (noise level or clearance): the network alone, the fit started
+from the network's estimate, a single-start fit from the centre of the priors and the
+multi-start baseline, on the same test cases (kn values never seen in training). Writes
+``compare.csv`` (one row per case and method), ``compare.md`` (the summary table),
+``compare_errors.png``, ``compare_cost.png`` and ``metrics.json``.
+"""
+
+from __future__ import annotations
+
+import csv
+import time
+from pathlib import Path
+
+import numpy as np
+from omegaconf import DictConfig, OmegaConf
+
+from .common import run_dir, write_metrics
+from .train import prepare_cases, train_network
+
+__all__ = ["compare"]
+
+
+def _pick(test, per_value: int) -> np.ndarray:
+    """Up to ``per_value`` test cases per axis value, spread over the kn values."""
+    axis = test.meta["axis_value"]
+    keep = []
+    for v in np.unique(axis):
+        idx = np.flatnonzero(axis == v)
+        take = np.unique(np.linspace(0, idx.size - 1, min(per_value, idx.size)).round().astype(int))
+        keep.extend(idx[take].tolist())
+    return np.array(sorted(keep), dtype=int)
+
+
+def _markdown(summary: list[dict], axis: str, bounds: dict) -> str:
+    unit = "g" if axis == "noise_g" else "mrad"
+    scale = 1.0 if axis == "noise_g" else 1e3
+    head = (f"| {axis.replace('_g', '')} [{unit}] | method | cases | δ err median / p95 [%] | "
+            f"kn err median / p95 [%] | success [%] | evaluations | wall [s] |")
+    lines = [
+        f"Success: |δ error| < {100 * bounds['delta']:g} % and |kn error| < "
+        f"{100 * bounds['kn']:g} %. Errors are absolute relative errors on held-out kn values; "
+        "evaluations count objective (residual vector) calls, Jacobians included.",
+        "", head, "|---|---|---|---|---|---|---|---|",
+    ]
+    for r in summary:
+        lines.append(
+            f"| {scale * r['axis_value']:g} | {r['method']} | {r['n']} | "
+            f"{100 * r['delta_err_median']:.3g} / {100 * r['delta_err_p95']:.3g} | "
+            f"{100 * r['kn_err_median']:.3g} / {100 * r['kn_err_p95']:.3g} | "
+            f"{100 * r['success_rate']:.0f} | {r['evaluations_mean']:.0f} | "
+            f"{r['wall_s_mean']:.3f} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def _figures(out: Path, rows: list[dict], summary: list[dict], axis: str) -> list[str]:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from ..plots import plot_compare_cost, plot_compare_errors
+
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
+    for ax, q in zip(axes, ("delta", "kn"), strict=True):
+        plot_compare_errors(ax, rows, quantity=q, axis_name=axis)
+    fig.tight_layout()
+    fig.savefig(out / "compare_errors.png", dpi=110)
+    plt.close(fig)
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.0))
+    plot_compare_cost(axes[0], summary, key="success_rate", axis_name=axis)
+    plot_compare_cost(axes[1], summary, key="evaluations_mean", axis_name=axis)
+    fig.tight_layout()
+    fig.savefig(out / "compare_cost.png", dpi=110)
+    plt.close(fig)
+    return ["compare_errors.png", "compare_cost.png"]
+
+
+def compare(cfg: DictConfig) -> dict:
+    """Run the comparison study; write the tables, figures and ``metrics.json``.
+
+    Returns
+    -------
+    dict
+        The metrics: the summary per axis value and method, and the acceptance figures
+        (network-alone share within bounds, success rates, evaluation ratio).
+    """
+    from hydra.utils import to_absolute_path
+
+    from ..fit import multistart_grid
+    from ..inverse import load_inverse_model
+    from ..inverse.study import fit_cases, network_rows, summarise
+
+    t0 = time.perf_counter()
+    out = run_dir()
+    data = prepare_cases(cfg)
+    if cfg.inverse.checkpoint:
+        ckpt = Path(to_absolute_path(str(cfg.inverse.checkpoint)))
+    else:
+        print("no inverse.checkpoint given: training one on the cached data set")
+        ckpt = train_network(cfg, data, out)
+    model = load_inverse_model(ckpt, system=data.system)
+    test = data.test.subset(_pick(data.test, int(cfg.compare.cases_per_value)))
+    t1 = time.perf_counter()
+    pred = model.predict(test)
+    t_net = time.perf_counter() - t1
+    axis = str(cfg.dataset.cases.axis)
+    cases = cfg.dataset.cases
+    if cfg.compare.single_start:
+        single = tuple(float(v) for v in cfg.compare.single_start)
+    else:  # the centre of the priors, on log scale
+        d_rng = cases.values if axis == "delta" else cases.delta_range
+        single = (float(np.sqrt(np.prod(cfg.dataset.bank.kn_range))),
+                  float(np.sqrt(min(d_rng) * max(d_rng))))
+    ms = cfg.multistart
+    starts = multistart_grid(int(ms.n), kn_range=tuple(ms.kn_range),
+                             delta_range=tuple(ms.delta_range))
+    rows = network_rows(test, pred.kn, pred.delta, wall_s=t_net)
+    rows += fit_cases(test, data.system, network_estimate=(pred.kn, pred.delta),
+                      single_start=single, multistart=starts, backbone=str(cfg.compare.backbone),
+                      n_jobs=int(cfg.compare.n_jobs))
+    bounds = OmegaConf.to_container(cfg.success)
+    summary = summarise(rows, success_delta=bounds["delta"], success_kn=bounds["kn"])
+
+    with open(out / "compare.csv", "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+    with open(out / "compare_summary.csv", "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=list(summary[0]))
+        w.writeheader()
+        w.writerows(summary)
+    table = _markdown(summary, axis, bounds)
+    (out / "compare.md").write_text(f"# Comparison over {axis}\n\n" + table)
+    figures = _figures(out, rows, summary, axis) if cfg.plot else []
+
+    def total(method, key):
+        return float(np.mean([r[key] for r in summary if r["method"] == method]))
+
+    nb = OmegaConf.to_container(cfg.network_bounds)
+    de = np.abs(pred.delta / test.delta - 1)
+    ke = np.abs(pred.kn / test.kn - 1)
+    metrics = {
+        "axis": axis, "checkpoint": str(ckpt), "n_cases": test.n_cases,
+        "single_start": list(single), "n_multistart": len(starts),
+        "summary": summary,
+        "network_within_bounds": float(np.mean((de < nb["delta"]) & (ke < nb["kn"]))),
+        "success_network_fit": total("network+fit", "success_rate"),
+        "success_multistart": total("multi-start", "success_rate"),
+        "success_single_start": total("single-start", "success_rate"),
+        "evaluation_ratio_multistart_to_network_fit":
+            total("multi-start", "evaluations_mean") / total("network+fit", "evaluations_mean"),
+        "figures": figures,
+        "runtime_s": time.perf_counter() - t0,
+    }
+    write_metrics(out, metrics)
+    print(table)
+    print(f"network alone within bounds: {100 * metrics['network_within_bounds']:.1f} %; "
+          f"success network+fit {100 * metrics['success_network_fit']:.1f} % vs multi-start "
+          f"{100 * metrics['success_multistart']:.1f} % with "
+          f"{metrics['evaluation_ratio_multistart_to_network_fit']:.1f}x fewer evaluations")
+    print(f"{metrics['runtime_s']:.1f} s -> {out}")
+    return metrics

@@ -1,0 +1,158 @@
+"""Simulated data sets of the inverse model: cache, resume, scale invariance, splits, errors."""
+
+import numpy as np
+import pytest
+
+from freeplayid.inverse import dataset as ds
+from freeplayid.inverse.dataset import (
+    DELTA_REF,
+    BankSpec,
+    CaseSpec,
+    build_cases,
+    simulate_bank,
+    split_by_kn,
+)
+from freeplayid.model.small import sdof_system
+from freeplayid.signal import extract_backbone_points
+from freeplayid.simulate import Sweep, simulate_sweeps
+
+# SDOF freeplay oscillator (conf/model/sdof.yaml values): closed-gap frequency near 50 Hz.
+MASS, DAMPING = 23.8, 598.0  # [kg], [N s/m]
+SWEEP = Sweep(30.0, 62.0, 2.0)  # [Hz], [Hz], [Hz/s]: 16 s
+
+
+@pytest.fixture(scope="module")
+def system():
+    return sdof_system(mass=MASS, damping=DAMPING)
+
+
+def _spec(**kw):
+    base = dict(sweep=SWEEP, sample_rate=256.0, channels=("x",), kn_range=(2.0e6, 3.0e6),
+                ratio_range=(2.5e3, 8.0e3), n_kn=4, n_ratios=3, seed=3, dtype="float64",
+                chunk_sweeps=5)
+    base.update(kw)
+    return BankSpec(**base)
+
+
+@pytest.fixture(scope="module")
+def bank(system, tmp_path_factory):
+    cache = tmp_path_factory.mktemp("cache")
+    return simulate_bank(system, _spec(), cache_dir=cache, progress=False), cache
+
+
+def test_bank_is_cached_and_resumes(system, bank, monkeypatch):
+    b, cache = bank
+    assert b.signals.shape[:3] == (4, 3, 1) and not b.diverged.any()
+    folder = cache / f"bank-{b.key}"
+    chunks = sorted(folder.glob("chunk-*.npz"))
+    assert len(chunks) == 3  # 12 sweeps in chunks of 5
+    # a finished bank loads without simulating
+    monkeypatch.setattr("freeplayid.simulate.simulate_sweeps",
+                        lambda *a, **k: pytest.fail("simulated again"))
+    again = simulate_bank(system, _spec(), cache_dir=cache, progress=False)
+    np.testing.assert_array_equal(again.signals, b.signals)
+    monkeypatch.undo()
+    # an interrupted bank simulates only the missing chunk, and gets the same records
+    chunks[1].unlink()
+    calls = []
+    real = simulate_sweeps
+
+    def counting(*a, **k):
+        calls.append(np.size(k["kn"]))
+        return real(*a, **k)
+
+    monkeypatch.setattr("freeplayid.simulate.simulate_sweeps", counting)
+    resumed = simulate_bank(system, _spec(), cache_dir=cache, progress=False)
+    assert calls == [5]
+    np.testing.assert_allclose(resumed.signals, b.signals, rtol=0, atol=1e-12)
+
+
+def test_bank_key_depends_on_what_defines_the_data(system):
+    k = _spec().key(system)
+    assert _spec(chunk_sweeps=7).key(system) == k  # how the work is cut does not matter
+    assert _spec(seed=4).key(system) != k
+    assert _spec(sweep=Sweep(30.0, 62.0, 1.0)).key(system) != k
+    assert _spec().key(sdof_system(mass=MASS, damping=2 * DAMPING)) != k
+
+
+def test_noise_free_case_equals_a_direct_simulation(system, bank):
+    """Scale invariance: a case at delta is the reference record scaled, same extraction."""
+    b, cache = bank
+    spec = CaseSpec(axis="delta", values=(2.5e-3,), noise_g=0.0, cases_per_value=1,
+                    runs=(3, 3), n_jobs=1)
+    ps = build_cases(b, spec, cache_dir=cache, progress=False)
+    i = 0
+    k = int(ps.meta["kn_index"][i])
+    delta = ps.delta[i]
+    levels = b.ratio[k] * delta
+    res = simulate_sweeps(system, kn=b.kn[k], delta=delta, level_g=levels, sweep=SWEEP,
+                          channels=["x"], frame="relative", sample_rate=256.0,
+                          dtype=__import__("torch").float64, progress=False)
+    direct = extract_backbone_points(list(res.signals), 256.0, quantity="acceleration",
+                                     channel_names=["x"], run_names=["a", "b", "c"], sweep=SWEEP,
+                                     method="lockin")
+    used = [p for p in direct.points if p.used]
+    rows = ps.case == i
+    assert len(used) == rows.sum() >= 2
+    np.testing.assert_allclose(ps.amplitude[rows], [p.amplitude_m for p in used], rtol=1e-6)
+    np.testing.assert_allclose(ps.frequency[rows], [p.f_hz for p in used], rtol=1e-9)
+    assert np.isclose(ps.kn[i], b.kn[k])
+
+
+def test_noisy_cases_are_seeded_cached_and_labelled(system, bank, monkeypatch):
+    b, cache = bank
+    spec = CaseSpec(axis="noise_g", values=(0.0, 0.5), delta_range=(1e-4, 2e-4),
+                    cases_per_value=2, runs=(2, 3), n_jobs=1, seed=5)
+    ps = build_cases(b, spec, cache_dir=cache, progress=False)
+    assert set(np.unique(ps.meta["noise_g"])) <= {0.0, 0.5}
+    assert np.all((ps.delta >= 1e-4) & (ps.delta <= 2e-4))
+    assert np.all(ps.n_points >= 2)
+    # noisy points differ from the clean ones of the same sweeps, but not by much
+    noisy = ps.meta["noise_g"] == 0.5
+    assert noisy.any()
+    assert np.all(ps.meta["level_max_g"] <= b.ratio.max() * 2e-4 + 1e-12)
+    monkeypatch.setattr(ds, "_noisy_case", lambda *a: pytest.fail("extracted again"))
+    again = build_cases(b, spec, cache_dir=cache, progress=False)
+    np.testing.assert_array_equal(again.amplitude, ps.amplitude)
+
+
+def test_split_by_kn_keeps_kn_values_apart(bank):
+    b, cache = bank
+    spec = CaseSpec(axis="noise_g", values=(0.0,), cases_per_value=3, runs=(2, 3), n_jobs=1,
+                    delta_range=(1e-4, 2e-4))
+    ps = build_cases(b, spec, cache_dir=cache, progress=False)
+    parts = split_by_kn(ps, 4, (0.5, 0.25, 0.25))
+    sets = [set(p.meta["kn_index"].tolist()) for p in parts]
+    assert sets[0] <= {0, 1} and sets[1] <= {2} and sets[2] <= {3}  # a kn may lose its cases
+    assert sets[0] and (sets[1] or sets[2])
+    assert sum(p.n_cases for p in parts) == ps.n_cases
+    with pytest.raises(ValueError, match="fractions"):
+        split_by_kn(ps, 4, (0.5, 0.6))
+
+
+@pytest.mark.parametrize(("kw", "match"), [
+    (dict(axis="level"), "axis"),
+    (dict(values=()), "values"),
+    (dict(axis="delta", values=(0.0,)), "clearance"),
+    (dict(runs=(3, 2)), "runs"),
+    (dict(delta_range=(2e-3, 1e-3)), "delta_range"),
+    (dict(noise_g=-0.1), "noise_g"),
+])
+def test_case_spec_errors_name_the_field(kw, match):
+    args = dict(axis="noise_g", values=(0.0, 0.1))
+    args.update(kw)
+    with pytest.raises(ValueError, match=match):
+        CaseSpec(**args)
+
+
+def test_bank_spec_errors(system):
+    with pytest.raises(ValueError, match="kn_range"):
+        _spec(kn_range=(3e6, 2e6))
+    with pytest.raises(ValueError, match="dtype"):
+        _spec(dtype="float16")
+    with pytest.raises(ValueError, match="not DOFs of the model"):
+        simulate_bank(system, _spec(channels=("uz_tip",)), cache_dir="unused", progress=False)
+
+
+def test_reference_gap_is_the_documented_one():
+    assert DELTA_REF == 1e-3

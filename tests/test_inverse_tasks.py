@@ -1,0 +1,96 @@
+"""End to end: train.py and compare.py with debug=fast, identify.py started by the network."""
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _run(script, args, cwd, timeout=600):
+    env = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
+    proc = subprocess.run([sys.executable, str(ROOT / "scripts" / script), *args], cwd=cwd,
+                          env=env, capture_output=True, text=True, timeout=timeout)
+    return proc
+
+
+@pytest.fixture(scope="module")
+def trained(tmp_path_factory):
+    """A debug=fast training run of the default fin (its cached data set is shared)."""
+    tmp = tmp_path_factory.mktemp("train")
+    run = tmp / "run"
+    proc = _run("train.py", ["debug=fast", f"dataset.cache_dir={tmp / 'datasets'}",
+                             f"hydra.run.dir={run}"], tmp)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    return tmp, run
+
+
+def test_train_writes_checkpoint_metrics_and_curves(trained):
+    tmp, run = trained
+    m = json.loads((run / "metrics.json").read_text())
+    assert m["axis"] == "noise_g" and m["n_train"] > 0 and m["n_test"] > 0
+    assert set(m["network"]["per_value"]) == {"0", "0.1", "0.2", "0.3"}
+    assert 0.0 <= m["network"]["overall"]["within_bounds"] <= 1.0
+    assert m["epochs"] == 5
+    for f in ("checkpoint.ckpt", "learning_curves.png", "predictions.png"):
+        assert (run / f).stat().st_size > 0
+    from freeplayid.inverse import load_inverse_model
+    from freeplayid.model import default_fin
+
+    model = load_inverse_model(run / "checkpoint.ckpt", system=default_fin())
+    assert model.channels == ("uz_top_left", "uz_lower_right")
+    assert model.extra["dataset"]["cases"]["axis"] == "noise_g"
+
+
+def test_identify_starts_from_the_network(trained, tmp_path):
+    _, run = trained
+    out = tmp_path / "id"
+    proc = _run("identify.py", ["debug=fast", f"inverse.checkpoint={run / 'checkpoint.ckpt'}",
+                                "plot=false", f"hydra.run.dir={out}"], tmp_path)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    res = json.loads((out / "identification.json").read_text())
+    assert res["init"] == "inverse" and res["inverse_estimate"]["kn"] > 0
+    # the example's truth: kn 480 N m/rad, delta 3 mrad (the multi-start result is -0.5 / -0.2 %)
+    assert abs(res["kn"] / 480.0 - 1) < 0.02 and abs(res["delta"] / 3e-3 - 1) < 0.01
+    m = json.loads((out / "metrics.json").read_text())
+    assert m["n_evaluations"] < 200  # one start, not a grid
+
+
+def test_identify_refuses_a_checkpoint_of_another_model(trained, tmp_path):
+    """A data set of another structure (an SDOF model) with the fin's checkpoint: a clear exit."""
+    _, run = trained
+    sim = tmp_path / "sim"
+    proc = _run("simulate.py", ["model=sdof", "debug=fast", "plot=false",
+                                f"hydra.run.dir={sim}"], tmp_path)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    proc = _run("identify.py", [f"data={sim / 'dataset'}", "plot=false",
+                                f"inverse.checkpoint={run / 'checkpoint.ckpt'}",
+                                f"hydra.run.dir={tmp_path / 'id'}"], tmp_path)
+    assert proc.returncode != 0
+    assert "different linear structure" in proc.stderr and "checkpoint.ckpt" in proc.stderr
+    assert "Traceback" not in proc.stderr
+    assert not (tmp_path / "id" / "identification.json").exists()
+
+
+def test_compare_writes_tables_and_figures(trained):
+    tmp, run = trained
+    out = tmp / "compare"
+    proc = _run("compare.py", ["debug=fast", "compare.cases_per_value=1", "compare.n_jobs=1",
+                               f"dataset.cache_dir={tmp / 'datasets'}",
+                               f"inverse.checkpoint={run / 'checkpoint.ckpt'}",
+                               f"hydra.run.dir={out}"], tmp)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    m = json.loads((out / "metrics.json").read_text())
+    methods = {r["method"] for r in m["summary"]}
+    assert methods == {"network", "network+fit", "single-start", "multi-start"}
+    assert m["evaluation_ratio_multistart_to_network_fit"] > 1.0
+    rows = (out / "compare.csv").read_text().splitlines()
+    assert len(rows) == 1 + 4 * m["n_cases"]
+    table = (out / "compare.md").read_text()
+    assert "multi-start" in table and "| noise [g] |" in table
+    for f in ("compare_errors.png", "compare_cost.png", "compare_summary.csv"):
+        assert (out / f).stat().st_size > 0
