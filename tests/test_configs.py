@@ -123,3 +123,13 @@ def test_every_primary_composes_with_every_experiment(primary, experiment, debug
         assert cfg.training.max_epochs <= 5
     if primary == "compare":
         assert cfg.multistart.n >= 1 and cfg.inverse.checkpoint is None
+
+
+def test_multiruns_can_use_the_joblib_launcher():
+    """`python scripts/compare.py -m ... hydra/launcher=joblib` (the README's local multirun)."""
+    pytest.importorskip("hydra_plugins.hydra_joblib_launcher")
+    with initialize_config_dir(config_dir=str(CONF), version_base="1.3"):
+        cfg = compose(config_name="compare", overrides=["+experiment=noise",
+                                                         "hydra/launcher=joblib"],
+                      return_hydra_config=True)
+    assert cfg.hydra.launcher._target_.endswith("JoblibLauncher")

@@ -263,9 +263,12 @@ def fit_backbone(
         to the base), frequency [Hz]. Records with ``used = False`` are skipped.
     system : FreeplaySystem
         The linear model (M, K, hinges).
-    init : (kn, delta) or list of them, optional
+    init : (kn, delta), list of them, or an inverse model, optional
         Start(s). Default: the multi-start baseline :func:`multistart_grid` (25 starts spanning
         kn in [1e3, 1e8] N m/rad and delta in [1e-4, 1e-2] rad); the best optimum wins.
+        An object with ``predict_records(records) -> (kn, delta, ...)`` (a
+        :class:`freeplayid.inverse.InverseModel`) gives one start from the points themselves
+        (``init_label`` "inverse").
     init_label : str, optional
         What produced ``init`` ("inverse", "given"); recorded in the result.
     backbone : {"dfa", "hb"}
@@ -283,6 +286,11 @@ def fit_backbone(
     if backbone not in BACKBONES:
         raise ValueError(f"`backbone` must be one of {BACKBONES}, got {backbone!r}")
     ch, amp, f = _points_as_arrays(points)
+    if hasattr(init, "predict_records"):  # the neural inverse model: its estimate is the start
+        records = [{"channel": c, "amplitude_m": a, "f_hz": q}
+                   for c, a, q in zip(ch.tolist(), amp.tolist(), f.tolist(), strict=True)]
+        init = tuple(float(v) for v in init.predict_records(records)[:2])
+        init_label = init_label or "inverse"
     if init is None:
         starts, label = multistart_grid(), "multistart"
     else:
