@@ -156,3 +156,16 @@ def test_bank_spec_errors(system):
 
 def test_reference_gap_is_the_documented_one():
     assert DELTA_REF == 1e-3
+
+
+def test_clearance_cases_draw_delta_in_a_bin_around_each_value(bank):
+    spec = CaseSpec(axis="delta", values=(4e-3, 1e-3, 2e-3), cases_per_value=3, runs=(2, 3),
+                    n_jobs=1, noise_g=0.0)
+    np.testing.assert_allclose(spec.delta_bins(),
+                               [1e-3 / 2**0.5, 2**0.5 * 1e-3, 8**0.5 * 1e-3, 2**0.5 * 4e-3])
+    b, cache = bank
+    ps = build_cases(b, spec, cache_dir=cache, progress=False)
+    edges = spec.delta_bins()
+    for v, lo, hi in zip((1e-3, 2e-3, 4e-3), edges[:-1], edges[1:], strict=True):
+        d = ps.delta[ps.meta["axis_value"] == v]
+        assert d.size and np.all((d >= lo) & (d <= hi)) and np.unique(d).size == d.size

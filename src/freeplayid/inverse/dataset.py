@@ -221,7 +221,8 @@ class CaseSpec:
     axis : {"noise_g", "delta"}
         The ablation axis; every kn of the bank gets ``cases_per_value`` cases per value.
     values : tuple of float
-        Noise std [g] (axis "noise_g") or clearance delta [rad] (axis "delta").
+        Noise std [g] (axis "noise_g") or clearance delta [rad] (axis "delta"; each case draws
+        its delta log-uniform in the bin around its value, :meth:`delta_bins`).
     noise_g : float [g]
         Noise std when the axis is "delta".
     delta_range : (float, float) [rad]
@@ -270,7 +271,22 @@ class CaseSpec:
     def key(self, bank: SweepBank) -> str:
         d = asdict(self)
         d.pop("n_jobs")
+        if self.axis == "delta":  # clearances are drawn in a bin around each value (format 2)
+            d["delta_sampling"] = "bin"
         return _digest({"cases": d, "bank": bank.key, "format": _FORMAT})
+
+    def delta_bins(self) -> np.ndarray:
+        """Edges [rad], shape (len(values) + 1,), of the clearance bins (axis "delta").
+
+        Sorted values, edges at the geometric midpoints, the outer edges mirrored: a case of
+        value v draws its delta log-uniform in v's bin, so the network never sees a prior made
+        of a few point masses (it would learn to snap to them).
+        """
+        v = np.log(np.sort(np.asarray(self.values, dtype=float)))
+        if v.size == 1:
+            return np.exp(v[0] + np.array([-0.1, 0.1]))
+        mid = 0.5 * (v[1:] + v[:-1])
+        return np.exp(np.concatenate([[2 * v[0] - mid[0]], mid, [2 * v[-1] - mid[-1]]]))
 
 
 def _extract(signals, fs, sweep, channels, extraction, names) -> list[tuple[int, float, float]]:
@@ -323,12 +339,16 @@ def build_cases(
     if lo > r_n:
         raise ValueError(f"`runs` low {lo} exceeds the bank's {r_n} sweeps per kn")
     rng = np.random.default_rng(spec.seed)
+    if spec.axis == "delta":
+        edges = np.log(spec.delta_bins())
+        order = np.argsort(spec.values)
+        bin_of = {spec.values[j]: (edges[i], edges[i + 1]) for i, j in enumerate(order)}
     plan = []  # (kn index, axis value, delta, noise_g, run indices, case seed)
     for k in range(k_n):
         for v in spec.values:
             for _ in range(int(spec.cases_per_value)):
                 if spec.axis == "delta":
-                    delta, noise = v, spec.noise_g
+                    delta, noise = float(np.exp(rng.uniform(*bin_of[v]))), spec.noise_g
                 else:
                     delta = float(np.exp(rng.uniform(*np.log(spec.delta_range))))
                     noise = v

@@ -111,7 +111,7 @@ def compare(cfg: DictConfig) -> dict:
     if cfg.compare.single_start:
         single = tuple(float(v) for v in cfg.compare.single_start)
     else:  # the centre of the priors, on log scale
-        d_rng = cases.values if axis == "delta" else cases.delta_range
+        d_rng = cases["values"] if axis == "delta" else cases["delta_range"]
         single = (float(np.sqrt(np.prod(cfg.dataset.bank.kn_range))),
                   float(np.sqrt(min(d_rng) * max(d_rng))))
     ms = cfg.multistart
