@@ -122,10 +122,11 @@ class PointSets:
 
     def save(self, path) -> None:
         """Write an ``.npz`` (atomically: a temporary file renamed)."""
+        import os
         from pathlib import Path
 
         path = Path(path)
-        tmp = path.with_name(path.name + ".tmp.npz")
+        tmp = path.with_name(f"{path.name}.{os.getpid()}.tmp.npz")
         np.savez(tmp, channels=np.array(self.channels, dtype=str), case=self.case,
                  channel=self.channel, amplitude=self.amplitude, frequency=self.frequency,
                  kn=self.kn, delta=self.delta, meta_keys=np.array(sorted(self.meta), dtype=str),
