@@ -92,7 +92,12 @@ def _load_inverse(cfg: DictConfig, system):
 
 def _inverse_estimate(model, records: list[dict]) -> dict:
     """The inverse model's estimate of (kn, delta) from the points (the fit's start)."""
-    kn, delta, s_kn, s_delta = model.predict_records(records)
+    from ..inverse import InverseModelError
+
+    try:
+        kn, delta, s_kn, s_delta = model.predict_records(records)
+    except ValueError as exc:  # e.g. a channel the network was not trained on
+        raise InverseModelError(f"{model.path}: {exc}") from None
     est = {"kn": float(kn), "delta": float(delta), "log_kn_std": float(s_kn),
            "log_delta_std": float(s_delta), "checkpoint": str(model.path)}
     print(f"inverse model: kn = {kn:.4g} N·m/rad (x/÷ {np.exp(s_kn):.3f}), "
