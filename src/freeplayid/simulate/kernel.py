@@ -17,11 +17,23 @@ import numpy as np
 from .engines import BLOWUP, MODES
 from .formulation import ModalForm
 
-__all__ = ["NumbaRK4"]
+__all__ = ["NumbaRK4", "FASTMATH"]
 
 BLOCK = 64  # members per block: 4 AVX-512 float32 vectors; block state ~ 8 x 12 x 64 words
 
-@numba.njit(fastmath=True, inline="always", cache=True)
+# Fast-math flags of the kernels: only those that leave every finite result as written (operands
+# and results are neither NaN nor inf; a diverged member is caught outside the kernel). Not
+# `fastmath=True`: numba compiles a prange body twice, on its own (the code that a process runs
+# right after compiling) and linked into the calling function, where LLVM optimises it again (the
+# code that the on-disk cache stores and every later process runs). With re-association and FMA
+# contraction the two copies round differently (quasi-static kernel, float32: 868 vs 1064 FMA
+# instructions), and the freeplay dynamics amplify a last-bit difference to the size of the
+# signal: a cached and a freshly compiled kernel gave different sweeps. Without them both copies
+# compute the IEEE result of the operations in source order (tests/test_simulate_determinism.py).
+FASTMATH = {"nnan", "ninf"}
+
+
+@numba.njit(fastmath=FASTMATH, inline="always", cache=True)
 def _accel(eta, v, s, kn, dl, lev, lam, cm, cdiag, diag, D, g, th, acc):
     N, H = D.shape
     for j in range(H):
@@ -61,7 +73,7 @@ def _accel(eta, v, s, kn, dl, lev, lam, cm, cdiag, diag, D, g, th, acc):
 # boundary changes nothing. Shared by both kernels (kernel_qs.py).
 
 
-@numba.njit(fastmath=True, inline="always", cache=True)
+@numba.njit(fastmath=FASTMATH, inline="always", cache=True)
 def _ring_load(ring, acc_r, b0):
     """Open outputs of the member block starting at b0: ring -> acc_r (R, channels, BLOCK)."""
     for r in range(acc_r.shape[0]):
@@ -70,7 +82,7 @@ def _ring_load(ring, acc_r, b0):
                 acc_r[r, c, b] = ring[r, c, b0 + b]
 
 
-@numba.njit(fastmath=True, inline="always", cache=True)
+@numba.njit(fastmath=FASTMATH, inline="always", cache=True)
 def _ring_store(ring, acc_r, b0):
     """Open outputs back to the ring for the next chunk: acc_r -> ring."""
     for r in range(acc_r.shape[0]):
@@ -79,7 +91,7 @@ def _ring_store(ring, acc_r, b0):
                 ring[r, c, b0 + b] = acc_r[r, c, b]
 
 
-@numba.njit(fastmath=True, inline="always", cache=True)
+@numba.njit(fastmath=FASTMATH, inline="always", cache=True)
 def _fir_push(acc_r, val, gi, half, ntap, m, taps, w0, out, n_emit, b0):
     """Add the recorded value of global step ``gi`` to its open outputs; emit a completed one.
 
@@ -115,7 +127,7 @@ def _fir_push(acc_r, val, gi, half, ntap, m, taps, w0, out, n_emit, b0):
     return n_emit
 
 
-@numba.njit(parallel=True, fastmath=True, cache=True)
+@numba.njit(parallel=True, fastmath=FASTMATH, cache=True)
 def rk4_chunk(eta, v, kn, dl, lev, lam, cm, cdiag, diag, D, g, S, mode, s_half, coef, out,
               taps, m, half, w0, ring, gi0):
     # RK4 steps gi0 .. gi0 + L - 1 with the anti-aliasing FIR fused in: the recorded value of

@@ -11,16 +11,49 @@ a linear h x h solve.
 
 from __future__ import annotations
 
+import hashlib
+import warnings
+from pathlib import Path
+
 import numba
 import numpy as np
 
-from .kernel import BLOCK, NumbaRK4, _fir_push, _ring_load, _ring_store
+from . import kernel
+from .kernel import BLOCK, FASTMATH, NumbaRK4, _fir_push, _ring_load, _ring_store
 from .quasistatic import QuasiStaticForm
 
-__all__ = ["NumbaQSRK4"]
+__all__ = ["NumbaQSRK4", "KERNEL_SOURCE_SHA256", "kernel_source_digest"]
+
+# numba's on-disk cache of rk4_qs_chunk is keyed on this file alone, but the kernel inlines BLOCK,
+# FASTMATH and the FIR ring helpers of kernel.py: after a change there numba would go on loading
+# the kernel compiled from the old kernel.py, silently. This is the digest of the kernel.py that
+# this file goes with (tests/test_simulate_determinism.py checks it), so that a change of kernel.py
+# comes with a change of this file, which invalidates the cache; on a mismatch the kernel is
+# compiled without the cache.
+KERNEL_SOURCE_SHA256 = "d22e04eaff1405a9b77c7c274b35f330263cffc362dc2c4140b7e155a95225a5"
 
 
-@numba.njit(fastmath=True, inline="always", cache=True)
+def kernel_source_digest() -> str:
+    """sha256 (hex) of the source of ``kernel.py``, line endings normalised; "" if unreadable."""
+    try:
+        src = Path(kernel.__file__).read_bytes()
+    except OSError:
+        return ""
+    return hashlib.sha256(src.replace(b"\r\n", b"\n")).hexdigest()
+
+
+_CACHE = kernel_source_digest() == KERNEL_SOURCE_SHA256
+if not _CACHE:
+    warnings.warn(
+        "kernel.py does not match kernel_qs.KERNEL_SOURCE_SHA256: the quasi-static kernel is "
+        "compiled without numba's on-disk cache (update the digest to "
+        f"{kernel_source_digest()!r})",
+        RuntimeWarning,
+        stacklevel=1,
+    )
+
+
+@numba.njit(fastmath=FASTMATH, inline="always", cache=True)
 def _solve_state(F, c, st, b, kn, d, A, tv):
     # (I + kn F P) theta = c + kn F P s delta, P = diag|s|: elimination without pivoting (the
     # leading minors are >= 1), result in tv
@@ -47,7 +80,7 @@ def _solve_state(F, c, st, b, kn, d, A, tv):
         tv[i] = r / A[i, i]
 
 
-@numba.njit(fastmath=True, inline="always", cache=True)
+@numba.njit(fastmath=FASTMATH, inline="always", cache=True)
 def _solve_block(F, c, st, kn, dl, A3, T):
     # _solve_state for every member of the block at once (each in its own state), vectorised
     # over the members: the elimination has no pivoting, so no branch
@@ -78,7 +111,7 @@ def _solve_block(F, c, st, kn, dl, A3, T):
             T[i, b] = r / A3[i, i, b]
 
 
-@numba.njit(fastmath=True, inline="always", cache=True)
+@numba.njit(fastmath=FASTMATH, inline="always", cache=True)
 def _consistent(tv, c, st, b, d, tol):
     H = tv.shape[0]
     ok = True
@@ -95,7 +128,7 @@ def _consistent(tv, c, st, b, d, tol):
     return ok
 
 
-@numba.njit(fastmath=True, inline="always", cache=True)
+@numba.njit(fastmath=FASTMATH, inline="always", cache=True)
 def _hinge_states(F, c, st, kn, dl, A, tv, A3, T, bad, tol):
     # solution T of (QS) and its contact state st (updated in place) for every member
     H = F.shape[0]
@@ -148,7 +181,7 @@ def _hinge_states(F, c, st, kn, dl, A, tv, A3, T, bad, tol):
             T[j, b] = tv[j]
 
 
-@numba.njit(fastmath=True, inline="always", cache=True)
+@numba.njit(fastmath=FASTMATH, inline="always", cache=True)
 def _accel_qs(eta, v, s, kn, dl, lev, lam, cm, cdiag, diag, D, g, F, e, gam, st, c, fo, acc, A,
               tv, A3, T, bad, tol):
     N, H = D.shape
@@ -186,7 +219,7 @@ def _accel_qs(eta, v, s, kn, dl, lev, lam, cm, cdiag, diag, D, g, F, e, gam, st,
                 acc[i, b] -= dd * fo[j, b]
 
 
-@numba.njit(parallel=True, fastmath=True, cache=True)
+@numba.njit(parallel=True, fastmath=FASTMATH, cache=_CACHE)
 def rk4_qs_chunk(eta, v, stp, kn, dl, lev, lam, cm, cdiag, diag, D, g, F, e, gam, S, hout, vout,
                  mode, s_half, coef, out, taps, m, half, w0, ring, gi0):
     # kernel.rk4_chunk with the condensed hinge moments; the fast modes' quasi-static response

@@ -1,0 +1,314 @@
+"""The compiled kernels compute the IEEE result of their source, whichever compiled copy runs.
+
+numba compiles a prange body twice (on its own: the code that runs right after a compile; and
+linked into the caller: the code of the on-disk cache). With value-changing fast-math flags the
+two copies rounded differently and a cached and a freshly compiled quasi-static kernel gave
+different sweeps (1 ulp at the 7th sample, then up to the signal's size: freeplay dynamics
+amplify it). The fast tests hold every compiled copy to a NumPy evaluation of the same operations
+in the same order, bit for bit (float64); the slow one compares a fresh compile with a cache load
+directly.
+"""
+
+import os
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+
+from freeplayid.simulate import build_modal_form, design_decimator, rk4_step_limit
+from freeplayid.simulate.engines import MODES, numba_available
+from freeplayid.simulate.quasistatic import condense_modal_form
+
+pytestmark = pytest.mark.skipif(not numba_available(), reason="numba not installed")
+
+CH = ("uz_top_left", "uz_lower_right")
+QS_HZ = 1500.0  # [Hz] condensation threshold of the default fin (6 of 12 modes slow)
+
+
+# ----------------------------------------------------------------------------- NumPy references
+# Transcriptions of kernel.py / kernel_qs.py over the whole (padded) batch: every kernel line is
+# elementwise over the members, so a member's arithmetic is the same in both; the only member
+# reduction (the count of members whose contact state changed) only decides whether to look.
+def _solve_state(F, c, st, b, kn, d):
+    H = F.shape[0]
+    A = np.empty((H, H))
+    tv = np.empty(H)
+    for i in range(H):
+        r = c[i, b]
+        for j in range(H):
+            sj = st[j, b]
+            a = kn * F[i, j] * abs(sj)
+            A[i, j] = a + (1.0 if i == j else 0.0)
+            r += a * sj * d
+        tv[i] = r
+    for k in range(H):
+        piv = 1.0 / A[k, k]
+        for i in range(k + 1, H):
+            m = A[i, k] * piv
+            for j in range(k + 1, H):
+                A[i, j] -= m * A[k, j]
+            tv[i] -= m * tv[k]
+    for i in range(H - 1, -1, -1):
+        r = tv[i]
+        for j in range(i + 1, H):
+            r -= A[i, j] * tv[j]
+        tv[i] = r / A[i, i]
+    return tv
+
+
+def _consistent(tv, c, st, b, d, tol):
+    ok = True
+    for j in range(len(tv)):
+        x, t, sj = tv[j], tol * (d + abs(c[j, b])), st[j, b]
+        if sj > 0.5:
+            ok = ok and x >= d - t
+        elif sj < -0.5:
+            ok = ok and x <= -d + t
+        else:
+            ok = ok and abs(x) <= d + t
+    return ok
+
+
+def _hinge_states(F, c, st, kn, dl, tol, count):
+    H = F.shape[0]
+    T = np.empty_like(c)
+    A3 = np.empty((H, H) + c.shape[1:])
+    for i in range(H):
+        T[i] = c[i]
+        for j in range(H):
+            a = F[i, j] * kn * np.abs(st[j])
+            A3[i, j] = a + (1.0 if i == j else 0.0)
+            T[i] = T[i] + a * st[j] * dl
+    for k in range(H):
+        for i in range(k + 1, H):
+            m = A3[i, k] / A3[k, k]
+            for j in range(k + 1, H):
+                A3[i, j] = A3[i, j] - m * A3[k, j]
+            T[i] = T[i] - m * T[k]
+    for i in range(H - 1, -1, -1):
+        r = T[i].copy()
+        for j in range(i + 1, H):
+            r = r - A3[i, j] * T[j]
+        T[i] = r / A3[i, i]
+    bad = np.zeros(c.shape[1])
+    for j in range(H):
+        x, sj = T[j], st[j]
+        p = np.abs(sj)
+        t = tol * (dl + np.abs(c[j]))
+        bad = bad + ((1.0 - p) * np.maximum(np.abs(x) - dl - t, 0.0)
+                     + p * np.maximum(dl - t - sj * x, 0.0))
+    for b in np.flatnonzero(bad != 0.0):
+        count["changed"] += 1
+        d = dl[b]
+        st[:, b] = np.where(T[:, b] > d, 1.0, np.where(T[:, b] < -d, -1.0, 0.0))
+        for _ in range(H + 3):
+            tv = _solve_state(F, c, st, b, kn[b], d)
+            if _consistent(tv, c, st, b, d, tol):
+                break
+            st[:, b] = np.where(tv > d, 1.0, np.where(tv < -d, -1.0, 0.0))
+        else:
+            count["exhaustive"] += 1
+            for idx in range(3**H):
+                for j in range(H):
+                    st[j, b] = float(idx % 3 - 1)
+                    idx //= 3
+                tv = _solve_state(F, c, st, b, kn[b], d)
+                if _consistent(tv, c, st, b, d, tol):
+                    break
+        T[:, b] = tv
+    return T
+
+
+def _accel(eng, eta, v, s, qs, count):
+    """Modal acceleration and hinge moments (kernel._accel / kernel_qs._accel_qs)."""
+    N, H = eng.D.shape
+    kn, dl, lev = eng.kn, eng.dl, eng.lev
+    fo = np.empty((H, eta.shape[1]))
+    if qs:
+        c = np.empty_like(fo)
+        for j in range(H):
+            c[j] = eng.e[j] * s * lev
+            for k in range(N):
+                c[j] = c[j] + (eng.D[k, j] * eta[k] - eng.gam[j, k] * v[k])
+        T = _hinge_states(eng.F, c, eng.st, kn, dl, eng.coef[4], count)
+        for j in range(H):
+            fo[j] = kn * np.abs(eng.st[j]) * (T[j] - eng.st[j] * dl)
+    else:
+        for j in range(H):
+            x = np.zeros_like(fo[j])
+            for k in range(N):
+                x = x + eng.D[k, j] * eta[k]
+            fo[j] = kn * (x - np.minimum(np.maximum(x, -dl), dl))
+    acc = np.empty_like(eta)
+    for i in range(N):
+        acc[i] = eng.g[i] * s * lev - eng.lam[i] * eta[i]
+        if eng.diag:
+            acc[i] = acc[i] - eng.cdiag[i] * v[i]
+        else:
+            for k in range(N):
+                acc[i] = acc[i] - eng.cm[i, k] * v[k]
+        for j in range(H):
+            acc[i] = acc[i] - eng.D[i, j] * fo[j]
+    return acc, fo
+
+
+def _reference_chunk(eng, s_half, qs, count):
+    """One ``eng.run(s_half)`` in NumPy: updates eng's state and returns the emitted outputs."""
+    h, h2, h6, two = eng.coef[:4]
+    C = eng.S.shape[0]
+    off = C if qs and eng.mode != 0 else 0
+    R, ntap, m, half = eng.ring.shape[0], len(eng.taps), eng.m, eng.half
+    e, w = eng.eta, eng.v
+    rows = []
+    for step in range((len(s_half) - 1) // 2):
+        s0, s1, s2 = s_half[2 * step: 2 * step + 3]
+        k, fo = _accel(eng, e, w, s0, qs, count)
+        src = (e, w, k)[eng.mode]
+        val = np.zeros((eng.width,) + e.shape[1:])
+        for c in range(C):
+            for i in range(len(e)):
+                val[c] = val[c] + eng.S[c, i] * src[i]
+            if qs:
+                for j in range(fo.shape[0]):
+                    val[off + c] = val[off + c] + eng.hout[c, j] * fo[j]
+                for i in range(len(e)):
+                    val[off + c] = val[off + c] + eng.vout[c, i] * w[i]
+        # kernel._fir_push
+        gi = eng.gi + step
+        j = gi + half
+        if gi == 0:
+            for kk in range(len(eng.w0)):
+                eng.ring[kk % R] = eng.ring[kk % R] + eng.w0[kk] * val
+        else:
+            for kk in range(max(0, (j - ntap + m) // m), j // m + 1):
+                eng.ring[kk % R] = eng.ring[kk % R] + eng.taps[j - kk * m] * val
+        jd = j - ntap + 1
+        if jd >= 0 and jd % m == 0:
+            rows.append(eng.ring[(jd // m) % R].copy())
+            eng.ring[(jd // m) % R] = 0.0
+        # RK4 stages
+        se, sv = w.copy(), k.copy()
+        et, vt = e + h2 * w, w + h2 * k
+        k = _accel(eng, et, vt, s1, qs, count)[0]
+        se, sv = se + two * vt, sv + two * k
+        et, vt = e + h2 * vt, w + h2 * k
+        k = _accel(eng, et, vt, s1, qs, count)[0]
+        se, sv = se + two * vt, sv + two * k
+        et, vt = e + h * vt, w + h * k
+        k = _accel(eng, et, vt, s2, qs, count)[0]
+        e, w = e + h6 * (se + vt), w + h6 * (sv + k)
+    eng.eta, eng.v = e, w
+    eng.gi += (len(s_half) - 1) // 2
+    return np.array(rows).reshape((-1,) + eng.ring.shape[1:])
+
+
+# ----------------------------------------------------------------------------- tests
+def _engine(system, kn, qs, quantity, batch, seed):
+    """A float64 numba engine of the default fin with a random batch in every contact state."""
+    from freeplayid.simulate.kernel import NumbaRK4
+    from freeplayid.simulate.kernel_qs import NumbaQSRK4
+
+    rng = np.random.default_rng(seed)
+    kn = kn * rng.uniform(0.5, 2.0, batch)  # [N m/rad]
+    form = build_modal_form(system, channels=CH, quantity=quantity, frame="relative",
+                            kn_max=kn.max())
+    if qs:
+        qform = condense_modal_form(form, threshold_hz=QS_HZ, quantity=quantity,
+                                    kn_max=kn.max())
+        form = qform.slow
+    m = 2  # FIR of 81 taps: outputs from step 40 on
+    h = rk4_step_limit(form.omega_max, omega_dt=2.0)
+    delta = rng.uniform(1e-3, 4e-3, batch)  # [rad]
+    level = rng.uniform(0.3, 1.5, batch)  # [g]
+    # modal states with hinge rotations of 0-4 delta (open, closed on either side) and modal
+    # velocities of their frequencies
+    eta = rng.normal(size=(batch, form.n_modes))
+    theta = np.abs(eta @ form.D).max(1)
+    eta *= (rng.uniform(0.0, 4.0, batch) * delta / theta)[:, None]
+    v = rng.normal(size=eta.shape) * np.sqrt(form.lam) * np.abs(eta).mean(1, keepdims=True)
+    kw = dict(h=h, quantity=quantity, dtype=np.float64, taps=design_decimator(m), factor=m)
+    if qs:
+        return NumbaQSRK4(qform, kn, delta, level, eta, v, **kw), h
+    return NumbaRK4(form, kn, delta, level, eta, v, **kw), h
+
+
+@pytest.fixture(scope="module")
+def default_fin_model():
+    from freeplayid.model import default_fin, default_fin_parameters
+
+    return default_fin(), default_fin_parameters()
+
+
+@pytest.mark.parametrize("qs,quantity", [(True, "displacement"), (True, "acceleration"),
+                                         (False, "acceleration")])
+def test_kernel_is_its_ieee_arithmetic(default_fin_model, qs, quantity):
+    system, hinge = default_fin_model
+    # 100 members: two blocks, the second padded; two chunks: the start-up path of the FIR
+    # (gi = 0), the ring carried over a chunk boundary, emitted outputs
+    eng, h = _engine(system, hinge["kn"], qs, quantity, 100, seed=5)
+    ref, _ = _engine(system, hinge["kn"], qs, quantity, 100, seed=5)
+    assert ref.mode == MODES[quantity]
+    count = {"changed": 0, "exhaustive": 0}
+    t0 = 0.0
+    for L in (24, 40):
+        s_half = np.sin(2 * np.pi * 40.0 * (t0 + 0.5 * h * np.arange(2 * L + 1)))
+        t0 += L * h
+        out = eng.run(s_half)
+        out_ref = _reference_chunk(ref, s_half, qs, count)
+        np.testing.assert_array_equal(out, out_ref)
+        np.testing.assert_array_equal(eng.eta, ref.eta)
+        np.testing.assert_array_equal(eng.v, ref.v)
+        np.testing.assert_array_equal(eng.ring, ref.ring)
+        if qs:
+            np.testing.assert_array_equal(eng.st, ref.st)
+    assert len(out) > 0
+    if qs:
+        # the contact states changed, through the scalar active-set solve
+        assert count["changed"] > 50, count
+
+
+@pytest.mark.slow
+def test_cached_kernel_equals_fresh_compile(tmp_path):
+    # ~2-4 min: one compile of the quasi-static kernel into an empty cache, then a second process
+    # that loads it; both run the same float32 sweep (chaotic enough that any rounding
+    # difference grows to the signal's size: 122-256 of 256 members differed before the fix)
+    code = textwrap.dedent("""
+        import sys, numpy as np, torch
+        from freeplayid.model import default_fin
+        from freeplayid.simulate import Sweep, simulate_sweeps
+        from freeplayid.simulate.kernel_qs import rk4_qs_chunk
+        r = simulate_sweeps(default_fin(), kn=480.0, delta=3e-3,
+                            level_g=np.linspace(0.6, 1.2, 128), sweep=Sweep(38.0, 46.0, 4.0),
+                            channels=("uz_top_left", "uz_lower_right"), dtype=torch.float32,
+                            engine="numba", quantity="acceleration", frame="absolute",
+                            quasi_static_hz=1500.0)
+        np.save(sys.argv[1], r.signals)
+        print(sum(rk4_qs_chunk.stats.cache_hits.values()))
+    """)
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    path = os.pathsep.join([os.path.join(root, "src")] + os.environ.get("PYTHONPATH", "").split(
+        os.pathsep))
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache"), "PYTHONPATH": path}
+    hits = []
+    for name in ("fresh", "cached"):
+        p = subprocess.run([sys.executable, "-c", code, str(tmp_path / f"{name}.npy")], env=env,
+                           capture_output=True, text=True, check=True, cwd=root)
+        hits.append(int(p.stdout.split()[-1]))
+    fresh, cached = (np.load(tmp_path / f"{n}.npy") for n in ("fresh", "cached"))
+    assert hits[0] == 0 and hits[1] > 0, hits
+    assert np.isfinite(fresh).all() and np.abs(fresh).max() > 50.0
+    np.testing.assert_array_equal(fresh, cached)
+
+
+def test_quasi_static_kernel_records_the_kernel_py_it_inlines():
+    # numba keys the cached quasi-static kernel on kernel_qs.py alone; it inlines helpers of
+    # kernel.py, so an edit of kernel.py must come with an edit of this digest (else the cache
+    # would serve the kernel compiled from the old kernel.py)
+    from freeplayid.simulate import kernel_qs
+
+    digest = kernel_qs.kernel_source_digest()
+    assert digest == kernel_qs.KERNEL_SOURCE_SHA256, (
+        f"kernel.py changed: set KERNEL_SOURCE_SHA256 = {digest!r} in kernel_qs.py")
+    assert kernel_qs._CACHE
