@@ -317,13 +317,16 @@ def build_cases(
 ) -> PointSets:
     """Identification cases of ``bank`` drawn as ``spec`` says (cached, resumable).
 
+    Cases are planned kn-major (every kn of the bank, every axis value, ``cases_per_value``
+    draws), extracted in chunks of 256 cases written to ``cache_dir/cases-<key>/`` and kept
+    when they have at least two used points. ``spec.json`` there records how many were planned
+    and dropped.
+
     Returns
     -------
     PointSets
-        Cases with at least two used points; ``meta`` holds ``kn_index`` (the bank's kn),
-        ``noise_g``, ``axis_value``, ``n_runs``, ``level_max_g`` and ``n_dropped`` is not a
-        case field: cases with fewer than two points are dropped and counted in
-        ``meta["n_dropped"]`` of the cache's ``spec.json``.
+        The kept cases; ``meta`` holds per case ``kn_index`` (index into ``bank.kn``),
+        ``axis_value``, ``noise_g`` [g], ``n_runs`` and ``level_max_g`` [g].
     """
     from joblib import Parallel, delayed
     from tqdm import tqdm
