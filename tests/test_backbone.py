@@ -148,3 +148,31 @@ def test_backbone_comparison_figure_draws_every_curve():
     assert len(lines) == 2
     np.testing.assert_allclose(lines[1].get_ydata(), 2 * np.pi * bc.frequency_hz[0])
     plt.close(fig)
+
+
+def test_hb_continuation_caught_on_an_internal_resonance_falls_back_to_dfa():
+    """Default fin, kn = 720: 5 x f meets the second mode (252 Hz) at f = 50.5 Hz. The HB
+    continuation then stays on that branch (frequency flat in s) instead of the fundamental;
+    those points must be flagged, warned about and replaced by the DFA ones."""
+    import warnings
+
+    from freeplayid.model import default_fin
+
+    fin = default_fin()
+    s = np.geomspace(1.05, 20.0, 60)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        hb = hb_backbone(fin, kn=720.0, delta=3e-3, s=s, n_harmonics=5)
+    msgs = [str(w.message) for w in caught if "internal resonance" in str(w.message)]
+    assert msgs and "harmonic [5]" in msgs[0]
+    dfa = dfa_backbone(fin, kn=720.0, delta=3e-3, s=s)
+    f, fd = hb.frequency_hz[0], dfa.frequency_hz[0]
+    locked = ~hb.converged[0]
+    assert locked[:10].all() and not locked[-10:].any()
+    np.testing.assert_allclose(f[locked], fd[locked], rtol=1e-12)
+    assert np.all(np.diff(f) > -1e-6 * f[1:])  # the hardening backbone rises with s again
+    # with harmonics 1 and 3 only, 3 f stays far from every mode in this band: no fallback
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        hb2 = hb_backbone(fin, kn=720.0, delta=3e-3, s=s, n_harmonics=2)
+    assert hb2.converged[0].all()

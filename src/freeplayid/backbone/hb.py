@@ -164,6 +164,26 @@ def hb_backbone(
             stacklevel=2,
         )
     hinge_amp = np.abs(y1 @ B)  # first-harmonic hinge amplitudes, (m, h)
+    locked = _internal_resonance(system, kn, mode, s, freq, start.frequency_hz[0], orders)
+    if locked.any():
+        # Caught on a k:1 internal resonance: the continuation follows the branch where the k-th
+        # harmonic drives another mode, not the fundamental backbone. Those points are replaced
+        # by the consistent DFA ones and flagged unconverged.
+        k_hit = sorted({int(k) for k in orders[1:]
+                        if np.any(_near_mode(system, kn, mode, k * freq[locked]))})
+        warnings.warn(
+            f"hb_backbone: at kn = {kn:g} the continuation locked onto an internal resonance "
+            f"(harmonic {k_hit} x {np.nanmedian(freq[locked]):.2f} Hz = a linear mode) for "
+            f"s in [{s[locked].min():.4g}, {s[locked].max():.4g}] ({locked.sum()} of {m} "
+            "points); the DFA backbone is used there. Fewer harmonics (n_harmonics) move the "
+            "resonance out of a band.",
+            stacklevel=2,
+        )
+        freq[locked] = start.frequency_hz[0, locked]
+        amp1[locked] = start.amplitude[0, locked]
+        peak[locked] = start.amplitude[0, locked]
+        hinge_amp[locked] = start.hinge_amplitude[0, locked]
+        conv[locked] = False
     return BackboneCurve(
         frequency_hz=freq[None],
         amplitude=amp1[None],
@@ -176,6 +196,49 @@ def hb_backbone(
         converged=conv[None],
         peak_amplitude=peak[None],
     )
+
+
+def _linear_frequencies(system: FreeplaySystem, kn: float, mode: int) -> np.ndarray:
+    """Natural frequencies [Hz] with the hinges open and closed, the backbone's mode left out."""
+    out = []
+    for k in (0.0, kn):
+        w2 = scipy.linalg.eigh(system.closed_stiffness(k), system.M, eigvals_only=True)
+        f = np.sqrt(np.clip(w2, 0.0, None)) / (2 * np.pi)
+        out.append(np.delete(f, mode))
+    return np.concatenate(out)
+
+
+def _near_mode(system, kn, mode, f, tol=0.03) -> np.ndarray:
+    """Whether each frequency in ``f`` [Hz] lies within ``tol`` of a linear mode (not ``mode``)."""
+    lin = _linear_frequencies(system, kn, mode)
+    lin = lin[lin > 0]
+    if lin.size == 0:
+        return np.zeros(np.shape(f), dtype=bool)
+    f = np.asarray(f, dtype=float)
+    return np.min(np.abs(f[..., None] - lin) / lin, axis=-1) < tol
+
+
+def _internal_resonance(system, kn, mode, s, f_hb, f_dfa, orders) -> np.ndarray:
+    """Points (m,) where the HB continuation sits on a k:1 internal resonance.
+
+    The fundamental freeplay backbone hardens: its frequency rises with s wherever the DFA one
+    does. A stretch where the HB frequency stays flat (slope in ln s below 20 % of the DFA's,
+    where the DFA still rises by more than 2 % per unit ln s) and a harmonic k >= 3 of it lies
+    within 3 % of another linear mode is the branch of that internal resonance.
+    """
+    if s.size < 3 or orders.size < 2:
+        return np.zeros(s.size, dtype=bool)
+    ls = np.log(s)
+    g_h = np.gradient(np.nan_to_num(f_hb), ls)
+    g_d = np.gradient(f_dfa, ls)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        flat = (g_d > 0.02 * f_dfa) & (g_h < 0.2 * g_d)
+    if not flat.any():
+        return flat
+    hit = np.zeros(s.size, dtype=bool)
+    for k in orders[1:]:
+        hit |= _near_mode(system, kn, mode, k * np.nan_to_num(f_hb))
+    return flat & hit
 
 
 def _signed_mode(system: FreeplaySystem, kn: float, kappa: np.ndarray, mode: int) -> np.ndarray:
