@@ -111,3 +111,21 @@ def test_bundled_example_within_2_percent(tmp_path):
     m = json.loads((run / "metrics.json").read_text())
     assert abs(m["kn_rel_error"]) < 0.02 and abs(m["delta_rel_error"]) < 0.02
     assert m["runtime_s"] < 60
+
+
+def test_identify_refuses_points_at_one_resonance(tmp_path):
+    """The bundled example cut to one resonating run: two channels, one frequency -> a clear
+    message instead of an arbitrary (kn, delta)."""
+    import shutil
+
+    import yaml
+
+    data = tmp_path / "one_run"
+    shutil.copytree(ROOT / "examples" / "fin_sweeps", data)
+    manifest = yaml.safe_load((data / "manifest.yaml").read_text())
+    manifest["runs"] = [r for r in manifest["runs"] if r["level_g"] in (0.4, 1.0)]
+    (data / "manifest.yaml").write_text(yaml.safe_dump(manifest))
+    proc, run = _identify(tmp_path, f"data={data}", "debug=fast", "plot=false")
+    assert proc.returncode != 0 and "Traceback" not in proc.stderr
+    assert "one resonance" in proc.stderr and "sweep_1.00g" in proc.stderr
+    assert not (run / "identification.json").exists()

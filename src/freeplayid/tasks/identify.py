@@ -227,6 +227,14 @@ def identify(cfg: DictConfig) -> dict:
             f"{ds.path}: {len(used)} usable fitting point(s), at least 2 are needed "
             f"(rejected runs: {why}); add runs at higher levels that resonate in the band"
         )
+    from ..fit import count_resonances
+
+    if count_resonances([p.f_hz for p in used]) < 2:
+        raise IdentificationError(
+            f"{ds.path}: the {len(used)} usable points lie at one resonance (within 0.5 %: "
+            f"{used[0].f_hz:.3f} Hz, run {used[0].run}): kn and delta need resonances at two "
+            "or more levels; add runs at other levels that resonate in the band"
+        )
     records = [{"channel": ds.channels[p.channel], "amplitude_m": p.amplitude_m, "f_hz": p.f_hz}
                for p in used]
     inverse = None
