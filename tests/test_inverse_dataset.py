@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+import torch
 
 from freeplayid.inverse import dataset as ds
 from freeplayid.inverse.dataset import (
@@ -87,7 +88,7 @@ def test_noise_free_case_equals_a_direct_simulation(system, bank):
     levels = b.ratio[k] * delta
     res = simulate_sweeps(system, kn=b.kn[k], delta=delta, level_g=levels, sweep=SWEEP,
                           channels=["x"], frame="relative", sample_rate=256.0,
-                          dtype=__import__("torch").float64, progress=False)
+                          dtype=torch.float64, progress=False)
     direct = extract_backbone_points(list(res.signals), 256.0, quantity="acceleration",
                                      channel_names=["x"], run_names=["a", "b", "c"], sweep=SWEEP,
                                      method="lockin")

@@ -9,6 +9,7 @@ value of the ablation axis, and write ``checkpoint.ckpt``, ``metrics.json``,
 
 from __future__ import annotations
 
+import json
 import shutil
 import time
 from dataclasses import dataclass
@@ -98,7 +99,7 @@ def train_network(cfg: DictConfig, data: StudyData, out: Path) -> Path:
         raise RuntimeError(f"training wrote no checkpoint under {out / 'lightning'}")
     target = out / "checkpoint.ckpt"
     shutil.copyfile(best, target)
-    (out / "history.json").write_text(__import__("json").dumps(history, indent=1))
+    (out / "history.json").write_text(json.dumps(history, indent=1))
     return target
 
 
@@ -160,8 +161,6 @@ def train(cfg: DictConfig) -> dict:
         The metrics (also in ``metrics.json``): case counts, the data-set cache keys, and the
         network-alone errors on the held-out cases per axis value.
     """
-    import json
-
     from ..inverse import load_inverse_model
 
     t0 = time.perf_counter()
