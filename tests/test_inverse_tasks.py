@@ -34,7 +34,9 @@ def test_train_writes_checkpoint_metrics_and_curves(trained):
     m = json.loads((run / "metrics.json").read_text())
     assert m["axis"] == "noise_g" and m["n_train"] > 0 and m["n_test"] > 0
     assert set(m["network"]["per_value"]) == {"0", "0.1", "0.2", "0.3"}
-    assert 0.0 <= m["network"]["overall"]["within_bounds"] <= 1.0
+    overall = m["network"]["overall"]
+    for key in ("within_bounds", "delta_within_2sigma", "kn_within_2sigma"):
+        assert 0.0 <= overall[key] <= 1.0
     assert m["epochs"] == 5
     for f in ("checkpoint.ckpt", "learning_curves.png", "predictions.png"):
         assert (run / f).stat().st_size > 0

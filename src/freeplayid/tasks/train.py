@@ -108,6 +108,10 @@ def network_metrics(test, pred, *, bounds: dict) -> dict:
     de = np.abs(pred.delta / test.delta - 1)
     ke = np.abs(pred.kn / test.kn - 1)
     inside = (de < bounds["delta"]) & (ke < bounds["kn"])
+    # calibration: share of cases whose truth lies within the predicted +-2 sigma (ln scale);
+    # 95 % for a calibrated Gaussian
+    z_d = np.abs(np.log(pred.delta / test.delta)) / pred.log_delta_std
+    z_k = np.abs(np.log(pred.kn / test.kn)) / pred.log_kn_std
 
     def block(sel):
         return {
@@ -117,6 +121,8 @@ def network_metrics(test, pred, *, bounds: dict) -> dict:
             "kn_err_median": float(np.median(ke[sel])),
             "kn_err_p90": float(np.percentile(ke[sel], 90)),
             "within_bounds": float(inside[sel].mean()),
+            "delta_within_2sigma": float(np.mean(z_d[sel] < 2)),
+            "kn_within_2sigma": float(np.mean(z_k[sel] < 2)),
         }
 
     axis = test.meta["axis_value"]
