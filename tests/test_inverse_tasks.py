@@ -60,6 +60,7 @@ def test_identify_starts_from_the_network(trained, tmp_path):
     assert abs(res["kn"] / 480.0 - 1) < 0.02 and abs(res["delta"] / 3e-3 - 1) < 0.01
     m = json.loads((out / "metrics.json").read_text())
     assert m["n_evaluations"] < 200  # one start, not a grid
+    assert "Start from the inverse model" in (out / "report.md").read_text()
 
 
 def test_identify_refuses_a_checkpoint_of_another_model(trained, tmp_path):

@@ -169,6 +169,12 @@ def _report(ds, data_path, result: dict, fit, truth_err: dict | None, figures) -
         row = f"| {name} [{unit}] | {result[name]:.5g} | {_ci(result[name + '_ci95'])} |"
         lines.append(row + (f" {_ci(boot)} |" if boot else ""))
     lines += ["", f"Residual RMS (relative frequency): {result['residual_rms']:.3e}"]
+    est = result.get("inverse_estimate")
+    if est:
+        lines += ["", f"Start from the inverse model (`{est['checkpoint']}`): kn = "
+                  f"{est['kn']:.5g} N·m/rad (×/÷ {math.exp(est['log_kn_std']):.3f}), delta = "
+                  f"{est['delta']:.5g} rad (×/÷ {math.exp(est['log_delta_std']):.3f}); the fit "
+                  f"took {fit.n_evaluations} objective evaluations."]
     if truth_err:
         lines += ["", "## Against the data set's truth", "",
                   "| parameter | truth | identified | error |", "|---|---|---|---|"]
