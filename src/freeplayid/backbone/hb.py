@@ -164,13 +164,14 @@ def hb_backbone(
             stacklevel=2,
         )
     hinge_amp = np.abs(y1 @ B)  # first-harmonic hinge amplitudes, (m, h)
-    locked = _internal_resonance(system, kn, mode, s, freq, start.frequency_hz[0], orders)
+    lin = _linear_frequencies(system, kn, mode)
+    locked = _internal_resonance(lin, s, freq, start.frequency_hz[0], orders)
     if locked.any():
         # Caught on a k:1 internal resonance: the continuation follows the branch where the k-th
         # harmonic drives another mode, not the fundamental backbone. Those points are replaced
         # by the consistent DFA ones and flagged unconverged.
         k_hit = sorted({int(k) for k in orders[1:]
-                        if np.any(_near_mode(system, kn, mode, k * freq[locked]))})
+                        if np.any(_near_mode(lin, k * freq[locked]))})
         warnings.warn(
             f"hb_backbone: at kn = {kn:g} the continuation locked onto an internal resonance "
             f"(harmonic {k_hit} x {np.nanmedian(freq[locked]):.2f} Hz = a linear mode) for "
@@ -208,9 +209,8 @@ def _linear_frequencies(system: FreeplaySystem, kn: float, mode: int) -> np.ndar
     return np.concatenate(out)
 
 
-def _near_mode(system, kn, mode, f, tol=0.03) -> np.ndarray:
-    """Whether each frequency in ``f`` [Hz] lies within ``tol`` of a linear mode (not ``mode``)."""
-    lin = _linear_frequencies(system, kn, mode)
+def _near_mode(lin, f, tol=0.03) -> np.ndarray:
+    """Whether each frequency in ``f`` [Hz] lies within ``tol`` of one of ``lin`` [Hz]."""
     lin = lin[lin > 0]
     if lin.size == 0:
         return np.zeros(np.shape(f), dtype=bool)
@@ -218,8 +218,10 @@ def _near_mode(system, kn, mode, f, tol=0.03) -> np.ndarray:
     return np.min(np.abs(f[..., None] - lin) / lin, axis=-1) < tol
 
 
-def _internal_resonance(system, kn, mode, s, f_hb, f_dfa, orders) -> np.ndarray:
+def _internal_resonance(lin, s, f_hb, f_dfa, orders) -> np.ndarray:
     """Points (m,) where the HB continuation sits on a k:1 internal resonance.
+
+    ``lin``: the other linear modes' frequencies [Hz] (:func:`_linear_frequencies`).
 
     The fundamental freeplay backbone hardens: its frequency rises with s wherever the DFA one
     does. A stretch where the HB frequency stays flat (slope in ln s below 20 % of the DFA's,
@@ -237,7 +239,7 @@ def _internal_resonance(system, kn, mode, s, f_hb, f_dfa, orders) -> np.ndarray:
         return flat
     hit = np.zeros(s.size, dtype=bool)
     for k in orders[1:]:
-        hit |= _near_mode(system, kn, mode, k * np.nan_to_num(f_hb))
+        hit |= _near_mode(lin, k * np.nan_to_num(f_hb))
     return flat & hit
 
 
