@@ -267,8 +267,18 @@ class NumbaRK4:
         self.gi = 0
         self.width = len(form.S)  # output channels of the kernel
 
-    def run(self, s_half: np.ndarray) -> np.ndarray:
+    def emitted(self, L: int) -> int:
+        """Number of output samples the next chunk of ``L`` steps completes."""
+        m, half, gi0 = self.m, self.half, self.gi
+        k_first = max(0, -(-(gi0 - half) // m))
+        k_last = (gi0 + L - 1 - half) // m
+        return max(0, k_last - k_first + 1)
+
+    def run(self, s_half: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
         """Integrate one chunk and decimate on the fly.
+
+        ``out``, optional: a C-contiguous (``emitted(L)``, width, padded batch) array (e.g. a
+        slice of the whole record) that receives the outputs, so that no chunk is copied.
 
         Returns
         -------
@@ -277,10 +287,12 @@ class NumbaRK4:
         """
         L = (len(s_half) - 1) // 2
         m, half, gi0 = self.m, self.half, self.gi
-        k_first = max(0, -(-(gi0 - half) // m))
-        k_last = (gi0 + L - 1 - half) // m
-        out = np.empty((max(0, k_last - k_first + 1), self.width, self.kn.shape[0]),
-                       dtype=self.nd)
+        shape = (self.emitted(L), self.width, self.kn.shape[0])
+        if out is None:
+            out = np.empty(shape, dtype=self.nd)
+        elif out.shape != shape or out.dtype != self.nd or not out.flags.c_contiguous:
+            raise ValueError(f"`out` must be a C-contiguous {np.dtype(self.nd)} array of shape "
+                             f"{shape}, got {out.dtype} {out.shape}")
         self._kernel(s_half, out, m, half, gi0)
         self.gi += L
         # divergence check once per chunk, outside the fast-math kernel (which may assume that

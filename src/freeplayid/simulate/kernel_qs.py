@@ -30,7 +30,7 @@ __all__ = ["NumbaQSRK4", "KERNEL_SOURCE_SHA256", "kernel_source_digest"]
 # this file goes with (tests/test_simulate_determinism.py checks it), so that a change of kernel.py
 # comes with a change of this file, which invalidates the cache; on a mismatch the kernel is
 # compiled without the cache.
-KERNEL_SOURCE_SHA256 = "d22e04eaff1405a9b77c7c274b35f330263cffc362dc2c4140b7e155a95225a5"
+KERNEL_SOURCE_SHA256 = "64651a50b57040721a99591620042c8381182fedfc6ede56ba03f0cee19d6ec1"
 
 
 def kernel_source_digest() -> str:

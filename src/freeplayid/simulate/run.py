@@ -104,20 +104,15 @@ def _as_batch(name: str, value, *, minimum: float | None) -> np.ndarray:
     return a
 
 
-def _differentiate(x: np.ndarray, dt: float, order: int) -> np.ndarray:
-    """First or second time derivative along the last axis (5-point central stencils, error
-    (omega dt)^4 / 30 relative; np.gradient at the two samples of each end)."""
-    d = np.gradient(x, dt, axis=-1)
-    if order == 2:
-        d = np.gradient(d, dt, axis=-1)
-    if x.shape[-1] < 5:
-        return d
-    xm2, xm1, x0, xp1, xp2 = (x[..., k: x.shape[-1] - 4 + k] for k in range(5))
-    if order == 1:
-        d[..., 2:-2] = (xm2 - 8.0 * xm1 + 8.0 * xp1 - xp2) / (12.0 * dt)
-    else:
-        d[..., 2:-2] = (-xm2 + 16.0 * xm1 - 30.0 * x0 + 16.0 * xp1 - xp2) / (12.0 * dt * dt)
-    return d
+def _chunk_emissions(n_steps: int, chunk: int, m: int, half: int):
+    """Output samples completed by each chunk of the step loop (``NumbaRK4.emitted``)."""
+    i0 = 0
+    while i0 < n_steps:
+        L = min(chunk, n_steps - i0)
+        k_first = max(0, -(-(i0 - half) // m))
+        k_last = (i0 + L - 1 - half) // m
+        yield max(0, k_last - k_first + 1)
+        i0 += L
 
 
 def _base_signals(sweep: Sweep, t0_index: int, L: int, h: float, s_half: np.ndarray, state):
@@ -329,14 +324,20 @@ def simulate_sweeps(
 
         bar = tqdm(total=round(sweep.duration, 3), unit="s", desc=f"sweeps x{batch} ({engine})")
     outs, base_outs = [], []
+    if engine == "numba":  # the whole decimated record; each chunk writes its slice in place
+        n_rec = sum(_chunk_emissions(n_steps, chunk, m, eng.half))
+        record = np.empty((n_rec, eng.width, len(eng.kn)), dtype=eng.nd)
+        pos = 0
     i0 = 0
     while i0 < n_steps:
         L = min(chunk, n_steps - i0)
         s_half = np.sin(sweep.phase((i0 + 0.5 * np.arange(2 * L + 1)) * h))
-        rec = eng.run(s_half)  # (batch, C, L) tensor; numba: decimated (L_out, C, padded batch)
-        if engine == "numba":
-            outs.append(rec)
-        else:
+        if engine == "numba":  # decimated (L_out, C, padded batch)
+            k = eng.emitted(L)
+            eng.run(s_half, out=record[pos: pos + k])
+            pos += k
+        else:  # (batch, C, L) tensor
+            rec = eng.run(s_half)
             outs.append(dec.push(rec.reshape(batch * len(channels), L)))
         sig = _base_signals(sweep, i0, L, h, s_half, base_state)
         q = ("displacement", "velocity", "acceleration").index(quantity)
@@ -347,21 +348,26 @@ def simulate_sweeps(
             bar.update(round(min(i0 * h, sweep.duration) - bar.n, 3))
     if bar is not None:
         bar.close()
+    base = torch.cat(base_outs, dim=1)[:, :n_out].numpy()
     if engine == "numba":
-        y = np.concatenate(outs, axis=0)[:n_out, :, :batch]
-        y = np.ascontiguousarray(y.transpose(2, 1, 0))
-        if y.shape[1] > len(channels):  # quasi-static: + derivative of the fast part
-            C = len(channels)
+        # one compiled pass: transpose to (batch, C, T), base terms, and for the quasi-static
+        # model's velocity/acceleration the derivative of the fast part (extra channels)
+        from .assemble import assemble_record
+
+        order = 0
+        if record.shape[1] > len(channels):
             order = 1 if quantity == "velocity" else 2
-            y = y[:, :C] + _differentiate(y[:, C:].astype(float), 1.0 / sample_rate,
-                                          order).astype(y.dtype)
+        y = assemble_record(record, n_out=n_out, batch=batch, channels=len(channels),
+                            order=order, sample_rate=sample_rate, base_coef=form.base_coef,
+                            static_coef=form.static_coef, base=base, level_g=lv_a)
+        del record
     else:
         y = torch.cat(outs, dim=1)[:, :n_out].reshape(batch, len(channels), n_out)
         y = y.cpu().numpy()
-    base = torch.cat(base_outs, dim=1)[:, :n_out].numpy()
-    extra = (form.base_coef[None, :, None] * base[0] + form.static_coef[None, :, None] * base[1])
-    if np.any(extra):
-        y = y + (lv_a[:, None, None] * extra).astype(y.dtype)
+        extra = (form.base_coef[None, :, None] * base[0]
+                 + form.static_coef[None, :, None] * base[1])
+        if np.any(extra):
+            y = y + (lv_a[:, None, None] * extra).astype(y.dtype)
     diverged = np.asarray(eng.diverged, dtype=bool)
     y[diverged] = np.nan
     return SweepResult(
