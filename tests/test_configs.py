@@ -58,6 +58,28 @@ def test_simulate_script_end_to_end(tmp_path):
     assert ds.runs[0].data.shape == (1, 513) and ds.channels == {"acc_x": "x"}
 
 
+def test_simulate_script_quasi_static_option(tmp_path):
+    """quasi_static_hz reaches the simulator (on the CPU whatever the device default) and is
+    reported; the data set is written as usual."""
+    run = tmp_path / "run"
+    cmd = [sys.executable, str(ROOT / "scripts" / "simulate.py"), "debug=fast",
+           "quasi_static_hz=1000", "plot=false", f"hydra.run.dir={run}"]
+    import os
+
+    proc = subprocess.run(cmd, cwd=tmp_path, env={**os.environ, "PYTHONPATH": str(ROOT / "src")},
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    metrics = json.loads((run / "metrics.json").read_text())
+    qs = metrics["quasi_static"]
+    assert qs["threshold_hz"] == 1000.0 and (qs["integrated"], qs["total"]) == (5, 12)
+    assert min(qs["condensed_hz"]) > 1000.0 and metrics["engine"] == "numba"
+    assert metrics["n_diverged"] == 0
+
+    from freeplayid.io import read_dataset
+
+    assert len(read_dataset(run / "dataset").runs) == 2
+
+
 @pytest.mark.parametrize("debug", [[], ["debug=fast"]])
 def test_compose_identify(debug):
     with initialize_config_dir(config_dir=str(CONF), version_base="1.3"):

@@ -74,6 +74,9 @@ def test_bank_key_depends_on_what_defines_the_data(system):
     assert _spec(seed=4).key(system) != k
     assert _spec(sweep=Sweep(30.0, 62.0, 1.0)).key(system) != k
     assert _spec().key(sdof_system(mass=MASS, damping=2 * DAMPING)) != k
+    assert _spec(quasi_static_hz=1000.0).key(system) != k
+    # banks simulated before the quasi_static_hz option keep their key (and their cache)
+    assert k == "2f4f02d46f21"
 
 
 def test_noise_free_case_equals_a_direct_simulation(system, bank):
@@ -151,6 +154,8 @@ def test_bank_spec_errors(system):
         _spec(kn_range=(3e6, 2e6))
     with pytest.raises(ValueError, match="dtype"):
         _spec(dtype="float16")
+    with pytest.raises(ValueError, match="quasi_static_hz"):
+        _spec(quasi_static_hz=0.0)
     with pytest.raises(ValueError, match="not DOFs of the model"):
         simulate_bank(system, _spec(channels=("uz_tip",)), cache_dir="unused", progress=False)
 
@@ -170,3 +175,20 @@ def test_clearance_cases_draw_delta_in_a_bin_around_each_value(bank):
     for v, lo, hi in zip((1e-3, 2e-3, 4e-3), edges[:-1], edges[1:], strict=True):
         d = ps.delta[ps.meta["axis_value"] == v]
         assert d.size and np.all((d >= lo) & (d <= hi)) and np.unique(d).size == d.size
+
+
+def test_bank_quasi_static_option_reaches_the_simulator(tmp_path):
+    from freeplayid.model import default_fin
+
+    fin = default_fin()
+    spec = BankSpec(sweep=Sweep(40.0, 42.0, 2.0), sample_rate=256.0, channels=("uz_top_left",),
+                    kn_range=(480.0, 481.0), ratio_range=(300.0, 301.0), n_kn=1, n_ratios=1,
+                    dtype="float64", quasi_static_hz=1000.0)
+    b = simulate_bank(fin, spec, cache_dir=tmp_path, progress=False)
+    kw = dict(kn=b.kn[0], delta=DELTA_REF, level_g=b.ratio[0, 0] * DELTA_REF,
+              sweep=spec.sweep, channels=["uz_top_left"], frame="relative",
+              sample_rate=256.0, dtype=torch.float64)
+    qs = simulate_sweeps(fin, quasi_static_hz=1000.0, **kw).signals[0, 0]
+    full = simulate_sweeps(fin, **kw).signals[0, 0]
+    np.testing.assert_allclose(b.signals[0, 0, 0], qs, rtol=0, atol=1e-6 * np.abs(qs).max())
+    assert np.abs(qs - full).max() > 1e-5 * np.abs(full).max()  # the option changed the model
