@@ -211,8 +211,7 @@ def simulate_bank(
         res = simulate_sweeps(
             system, kn=flat_kn[sl], delta=DELTA_REF, level_g=flat_s[sl] * DELTA_REF,
             sweep=spec.sweep, channels=list(spec.channels), quantity="acceleration",
-            frame="relative", sample_rate=spec.sample_rate, dtype=dtype,
-            device="cpu" if device is None and spec.quasi_static_hz else device,
+            frame="relative", sample_rate=spec.sample_rate, dtype=dtype, device=device,
             progress=progress, quasi_static_hz=spec.quasi_static_hz,
         )
         _atomic_savez(folder / f"chunk-{i:04d}.npz", time=res.time,

@@ -176,7 +176,7 @@ def simulate_sweeps(
         Base excitation in relative coordinates or by a seismic mass ``large_mass_ratio`` times
         the structure's mass driven by the force M_L a_g (the paper's method).
     device : str or torch.device, optional
-        Default: CUDA if available, else CPU.
+        Default: CUDA if available, else CPU; the CPU with ``quasi_static_hz`` (numba only).
     dtype : torch.float32 or torch.float64
     engine : {"auto", "torch", "numba"}
         "auto": the compiled numba kernel on CPU when numba is installed, else torch.
@@ -237,8 +237,10 @@ def simulate_sweeps(
     kn_a, dl_a, lv_a = (x.reshape(-1) for x in (kn_a, dl_a, lv_a))
     batch = kn_a.shape[0]
 
-    device = torch.device(device if device is not None else
-                          ("cuda" if torch.cuda.is_available() else "cpu"))
+    if device is None:
+        use_cuda = torch.cuda.is_available() and quasi_static_hz is None
+        device = "cuda" if use_cuda else "cpu"
+    device = torch.device(device)
     if engine == "auto":
         from .engines import numba_available
 

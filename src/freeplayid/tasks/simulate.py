@@ -48,15 +48,11 @@ def simulate(cfg: DictConfig) -> dict:
         raise ValueError(
             f"`noise_std_g` applies to acceleration data, got quantity={cfg.quantity!r}"
         )
-    qs_hz = cfg.get("quasi_static_hz")
-    device = cfg.device
-    if qs_hz is not None and device is None:
-        device = "cpu"  # the condensation runs in the numba CPU engine only
     res = simulate_sweeps(
         system, kn=float(cfg.kn), delta=float(cfg.delta), level_g=levels, sweep=sweep,
         channels=tuple(channels.values()), quantity=cfg.quantity, frame=cfg.frame,
-        sample_rate=float(cfg.sample_rate), method=cfg.method, device=device, dtype=dtype,
-        cutoff_hz=cfg.cutoff_hz, quasi_static_hz=qs_hz,
+        sample_rate=float(cfg.sample_rate), method=cfg.method, device=cfg.device, dtype=dtype,
+        cutoff_hz=cfg.cutoff_hz, quasi_static_hz=cfg.get("quasi_static_hz"),
     )
     data = res.signals.astype(np.float64)
     if cfg.quantity == "acceleration" and units == "g":
