@@ -20,6 +20,7 @@ import pytest
 from freeplayid.simulate import build_modal_form, design_decimator, rk4_step_limit
 from freeplayid.simulate.engines import MODES, numba_available
 from freeplayid.simulate.quasistatic import condense_modal_form
+from freeplayid.simulate.resample import derivative_taps
 
 pytestmark = pytest.mark.skipif(not numba_available(), reason="numba not installed")
 
@@ -155,10 +156,10 @@ def _accel(eng, eta, v, s, qs, count):
 
 
 def _reference_chunk(eng, s_half, qs, count):
-    """One ``eng.run(s_half)`` in NumPy: updates eng's state and returns the emitted outputs."""
+    """One ``eng.run(s_half)`` in NumPy: updates eng's state and returns the emitted outputs
+    (padded batch, channels, samples)."""
     h, h2, h6, two = eng.coef[:4]
     C = eng.S.shape[0]
-    off = C if qs and eng.mode != 0 else 0
     R, ntap, m, half = eng.ring.shape[0], len(eng.taps), eng.m, eng.half
     e, w = eng.eta, eng.v
     rows = []
@@ -167,23 +168,30 @@ def _reference_chunk(eng, s_half, qs, count):
         k, fo = _accel(eng, e, w, s0, qs, count)
         src = (e, w, k)[eng.mode]
         val = np.zeros((eng.width,) + e.shape[1:])
+        valf = np.zeros_like(val)
+        dst = val if eng.mode == 0 else valf
         for c in range(C):
             for i in range(len(e)):
                 val[c] = val[c] + eng.S[c, i] * src[i]
             if qs:
                 for j in range(fo.shape[0]):
-                    val[off + c] = val[off + c] + eng.hout[c, j] * fo[j]
+                    dst[c] = dst[c] + eng.hout[c, j] * fo[j]
                 for i in range(len(e)):
-                    val[off + c] = val[off + c] + eng.vout[c, i] * w[i]
-        # kernel._fir_push
+                    dst[c] = dst[c] + eng.vout[c, i] * w[i]
+        # kernel._fir_add (kernel_qs._fir_add2 for the fast part's derivative)
+        two_src = qs and eng.mode != 0
         gi = eng.gi + step
         j = gi + half
         if gi == 0:
-            for kk in range(len(eng.w0)):
-                eng.ring[kk % R] = eng.ring[kk % R] + eng.w0[kk] * val
+            pairs = [(kk, eng.w0[kk], eng.w0d[kk] if two_src else 0.0)
+                     for kk in range(len(eng.w0))]
         else:
-            for kk in range(max(0, (j - ntap + m) // m), j // m + 1):
-                eng.ring[kk % R] = eng.ring[kk % R] + eng.taps[j - kk * m] * val
+            pairs = [(kk, eng.taps[j - kk * m], eng.taps_d[j - kk * m] if two_src else 0.0)
+                     for kk in range(max(0, (j - ntap + m) // m), j // m + 1)]
+        for kk, wk, wd in pairs:
+            add = wk * val + wd * valf if two_src else wk * val
+            eng.ring[kk % R] = eng.ring[kk % R] + add
+        # kernel._fir_emit
         jd = j - ntap + 1
         if jd >= 0 and jd % m == 0:
             rows.append(eng.ring[(jd // m) % R].copy())
@@ -201,7 +209,7 @@ def _reference_chunk(eng, s_half, qs, count):
         e, w = e + h6 * (se + vt), w + h6 * (sv + k)
     eng.eta, eng.v = e, w
     eng.gi += (len(s_half) - 1) // 2
-    return np.array(rows).reshape((-1,) + eng.ring.shape[1:])
+    return np.array(rows).reshape((-1,) + eng.ring.shape[1:]).transpose(2, 1, 0)
 
 
 # ----------------------------------------------------------------------------- tests
@@ -230,6 +238,9 @@ def _engine(system, kn, qs, quantity, batch, seed):
     v = rng.normal(size=eta.shape) * np.sqrt(form.lam) * np.abs(eta).mean(1, keepdims=True)
     kw = dict(h=h, quantity=quantity, dtype=np.float64, taps=design_decimator(m), factor=m)
     if qs:
+        if quantity != "displacement":
+            kw["taps"], taps_d = derivative_taps(kw["taps"], m, h, MODES[quantity])
+            kw["taps_d"] = taps_d
         return NumbaQSRK4(qform, kn, delta, level, eta, v, **kw), h
     return NumbaRK4(form, kn, delta, level, eta, v, **kw), h
 

@@ -92,11 +92,11 @@ def _ring_store(ring, acc_r, b0):
 
 
 @numba.njit(fastmath=FASTMATH, inline="always", cache=True)
-def _fir_push(acc_r, val, gi, half, ntap, m, taps, w0, out, n_emit, b0):
-    """Add the recorded value of global step ``gi`` to its open outputs; emit a completed one.
+def _fir_add(acc_r, val, gi, half, ntap, m, taps, w0):
+    """Add the recorded value of global step ``gi`` to its open outputs.
 
     ``val`` (channels, BLOCK); ``w0`` are the summed weights of the constant pre-history at
-    gi = 0. Returns the updated count of outputs emitted in this chunk.
+    gi = 0 (the value at gi = 0 also stands for the padding j < half, the state at rest).
     """
     R = acc_r.shape[0]
     C = acc_r.shape[1]
@@ -109,31 +109,46 @@ def _fir_push(acc_r, val, gi, half, ntap, m, taps, w0, out, n_emit, b0):
                 for b in range(BLOCK):
                     acc_r[r, c, b] += wk * val[c, b]
     else:
-        k_lo = max(0, (j - ntap + m) // m)
-        for kk in range(k_lo, j // m + 1):
+        for kk in range(max(0, (j - ntap + m) // m), j // m + 1):
             wk = taps[j - kk * m]
             r = kk % R
             for c in range(C):
                 for b in range(BLOCK):
                     acc_r[r, c, b] += wk * val[c, b]
-    jd = j - ntap + 1
-    if jd >= 0 and jd % m == 0:
-        r = (jd // m) % R
+
+
+@numba.njit(fastmath=FASTMATH, inline="always", cache=True)
+def _fir_emit(acc_r, gi, half, ntap, m, out, col, b0):
+    """Emit the output that step ``gi`` completed, if any, to ``out[b0 + b, c, col]``.
+
+    Only the members of ``out`` are written (not the padding of the last block) and only the
+    samples inside it (not the filter's tail). Returns 1 if an output was completed, else 0.
+    """
+    R = acc_r.shape[0]
+    C = acc_r.shape[1]
+    jd = gi + half - ntap + 1
+    if jd < 0 or jd % m != 0:
+        return 0
+    r = (jd // m) % R
+    nb = min(BLOCK, out.shape[0] - b0)
+    if col < out.shape[2]:
         for c in range(C):
-            for b in range(BLOCK):
-                out[n_emit, c, b0 + b] = acc_r[r, c, b]
-                acc_r[r, c, b] = 0.0
-        n_emit += 1
-    return n_emit
+            for b in range(nb):
+                out[b0 + b, c, col] = acc_r[r, c, b]
+    for c in range(C):
+        for b in range(BLOCK):
+            acc_r[r, c, b] = 0.0
+    return 1
 
 
 @numba.njit(parallel=True, fastmath=FASTMATH, cache=True)
 def rk4_chunk(eta, v, kn, dl, lev, lam, cm, cdiag, diag, D, g, S, mode, s_half, coef, out,
-              taps, m, half, w0, ring, gi0):
+              col0, taps, m, half, w0, ring, gi0):
     # RK4 steps gi0 .. gi0 + L - 1 with the anti-aliasing FIR fused in: the recorded value of
     # step gi (padded filter index j = gi + half) is added to every open output k with
     # k m <= j <= k m + ntap - 1 (weight taps[j - k m]) in a ring of accumulators kept in
-    # `ring` between chunks; output k is written to `out` once j = k m + ntap - 1. At gi = 0
+    # `ring` between chunks; output k is written to `out[:, :, col0 + n]` (out: members,
+    # channels, samples; n counts this chunk's outputs) once j = k m + ntap - 1. At gi = 0
     # the value also stands for the padding j < half (the state at rest), with weights w0[k].
     N, B = eta.shape
     H = D.shape[1]
@@ -186,7 +201,8 @@ def rk4_chunk(eta, v, kn, dl, lev, lam, cm, cdiag, diag, D, g, S, mode, s_half, 
                     sc = S[c, i]
                     for b in range(BLOCK):
                         val[c, b] += sc * src[i, b]
-            n_emit = _fir_push(acc_r, val, gi0 + step, half, ntap, m, taps, w0, out, n_emit, b0)
+            _fir_add(acc_r, val, gi0 + step, half, ntap, m, taps, w0)
+            n_emit += _fir_emit(acc_r, gi0 + step, half, ntap, m, out, col0 + n_emit, b0)
             for i in range(N):
                 for b in range(BLOCK):
                     se[i, b] = w[i, b]
@@ -264,7 +280,8 @@ class NumbaRK4:
         self.w0 = a([np.sum(taps[: self.half - k * self.m + 1])
                      for k in range(self.half // self.m + 1)])
         self.ring = np.zeros((len(taps) // self.m + 2, len(form.S), len(self.kn)), dtype=nd)
-        self.gi = 0
+        self.gi = 0  # steps integrated
+        self.outputs = 0  # output samples completed
         self.width = len(form.S)  # output channels of the kernel
 
     def emitted(self, L: int) -> int:
@@ -277,24 +294,38 @@ class NumbaRK4:
     def run(self, s_half: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
         """Integrate one chunk and decimate on the fly.
 
-        ``out``, optional: a C-contiguous (``emitted(L)``, width, padded batch) array (e.g. a
-        slice of the whole record) that receives the outputs, so that no chunk is copied.
+        Parameters
+        ----------
+        s_half : ndarray, shape (2 L + 1,)
+            sin(phase) at the half steps of the chunk's L steps.
+        out : ndarray, shape (n_members, width, n_samples), optional
+            The whole signal array (C-contiguous, the engine's dtype, ``n_members`` <= the
+            padded batch): the outputs this chunk completes go to its columns
+            ``outputs .. outputs + emitted(L) - 1`` (the count so far, over the calls), those
+            at or past ``n_samples`` (the filter's tail) are dropped. Without it the chunk's
+            outputs are returned alone, for every padded member.
 
         Returns
         -------
-        ndarray, shape (L_out, C, padded batch)
-            The output samples completed in this chunk (in order over the calls).
+        ndarray
+            ``out``, or a new (padded batch, width, ``emitted(L)``) array.
         """
         L = (len(s_half) - 1) // 2
         m, half, gi0 = self.m, self.half, self.gi
-        shape = (self.emitted(L), self.width, self.kn.shape[0])
+        n_new = self.emitted(L)
         if out is None:
-            out = np.empty(shape, dtype=self.nd)
-        elif out.shape != shape or out.dtype != self.nd or not out.flags.c_contiguous:
-            raise ValueError(f"`out` must be a C-contiguous {np.dtype(self.nd)} array of shape "
-                             f"{shape}, got {out.dtype} {out.shape}")
-        self._kernel(s_half, out, m, half, gi0)
+            out = np.empty((self.kn.shape[0], self.width, n_new), dtype=self.nd)
+            col0 = 0
+        else:
+            if (out.ndim != 3 or out.shape[0] > self.kn.shape[0] or out.shape[1] != self.width
+                    or out.dtype != self.nd or not out.flags.c_contiguous):
+                raise ValueError(
+                    f"`out` must be a C-contiguous {np.dtype(self.nd)} array of shape (<= "
+                    f"{self.kn.shape[0]}, {self.width}, n_samples), got {out.dtype} {out.shape}")
+            col0 = self.outputs
+        self._kernel(s_half, out, col0, m, half, gi0)
         self.gi += L
+        self.outputs += n_new
         # divergence check once per chunk, outside the fast-math kernel (which may assume that
         # no NaN occurs); a diverged member is frozen at rest with no load
         with np.errstate(invalid="ignore"):
@@ -304,13 +335,13 @@ class NumbaRK4:
             self.lev[bad] = 0.0
             self.eta[:, bad] = 0.0
             self.v[:, bad] = 0.0
-        return out  # padded batch: the caller keeps the first `batch` members
+        return out
 
-    def _kernel(self, s_half, out, m, half, gi0):
+    def _kernel(self, s_half, out, col0, m, half, gi0):
         rk4_chunk(
             self.eta, self.v, self.kn, self.dl, self.lev, self.lam, self.cm, self.cdiag,
             self.diag, self.D, self.g, self.S, self.mode, np.asarray(s_half, dtype=self.nd),
-            self.coef, out, self.taps, m, half, self.w0, self.ring, gi0,
+            self.coef, out, col0, self.taps, m, half, self.w0, self.ring, gi0,
         )
 
     @property

@@ -19,7 +19,7 @@ import numba
 import numpy as np
 
 from . import kernel
-from .kernel import BLOCK, FASTMATH, NumbaRK4, _fir_push, _ring_load, _ring_store
+from .kernel import BLOCK, FASTMATH, NumbaRK4, _fir_add, _fir_emit, _ring_load, _ring_store
 from .quasistatic import QuasiStaticForm
 
 __all__ = ["NumbaQSRK4", "KERNEL_SOURCE_SHA256", "kernel_source_digest"]
@@ -30,7 +30,7 @@ __all__ = ["NumbaQSRK4", "KERNEL_SOURCE_SHA256", "kernel_source_digest"]
 # this file goes with (tests/test_simulate_determinism.py checks it), so that a change of kernel.py
 # comes with a change of this file, which invalidates the cache; on a mismatch the kernel is
 # compiled without the cache.
-KERNEL_SOURCE_SHA256 = "64651a50b57040721a99591620042c8381182fedfc6ede56ba03f0cee19d6ec1"
+KERNEL_SOURCE_SHA256 = "5848d5034cf26c3eea3f775f7a17af72912dacf14296d3d4971d24ff46ae20ef"
 
 
 def kernel_source_digest() -> str:
@@ -219,17 +219,40 @@ def _accel_qs(eta, v, s, kn, dl, lev, lam, cm, cdiag, diag, D, g, F, e, gam, st,
                 acc[i, b] -= dd * fo[j, b]
 
 
+@numba.njit(fastmath=FASTMATH, inline="always", cache=True)
+def _fir_add2(acc_r, val, valf, gi, half, ntap, m, taps, tapsd, w0, w0d):
+    # kernel._fir_add of val through `taps` plus valf through `tapsd` (the fast part, whose
+    # derivative the derivative taps take), in one pass over the open outputs
+    R = acc_r.shape[0]
+    C = acc_r.shape[1]
+    j = gi + half
+    if gi == 0:
+        for kk in range(w0.shape[0]):
+            wk = w0[kk]
+            wd = w0d[kk]
+            r = kk % R
+            for c in range(C):
+                for b in range(BLOCK):
+                    acc_r[r, c, b] += wk * val[c, b] + wd * valf[c, b]
+    else:
+        for kk in range(max(0, (j - ntap + m) // m), j // m + 1):
+            wk = taps[j - kk * m]
+            wd = tapsd[j - kk * m]
+            r = kk % R
+            for c in range(C):
+                for b in range(BLOCK):
+                    acc_r[r, c, b] += wk * val[c, b] + wd * valf[c, b]
+
+
 @numba.njit(parallel=True, fastmath=FASTMATH, cache=_CACHE)
 def rk4_qs_chunk(eta, v, stp, kn, dl, lev, lam, cm, cdiag, diag, D, g, F, e, gam, S, hout, vout,
-                 mode, s_half, coef, out, taps, m, half, w0, ring, gi0):
+                 mode, s_half, coef, out, col0, taps, tapsd, m, half, w0, w0d, ring, gi0):
     # kernel.rk4_chunk with the condensed hinge moments; the fast modes' quasi-static response
-    # q = hout @ f + vout @ eta' is added to the displacement output (mode 0), else recorded in
-    # the extra output channels C .. 2C-1 (the caller differentiates it)
+    # q = hout @ f + vout @ eta' is added to the displacement output (mode 0), else filtered
+    # through the derivative taps `tapsd` (its derivative, decimated) into the same outputs
     N, B = eta.shape
     H = D.shape[1]
     C = S.shape[0]
-    CO = out.shape[1]
-    off = 0 if mode == 0 else C
     L = (s_half.shape[0] - 1) // 2
     R = ring.shape[0]
     ntap = taps.shape[0]
@@ -267,8 +290,9 @@ def rk4_qs_chunk(eta, v, stp, kn, dl, lev, lam, cm, cdiag, diag, D, g, F, e, gam
             for b in range(BLOCK):
                 e_[i, b] = eta[i, b0 + b]
                 w[i, b] = v[i, b0 + b]
-        val = np.zeros((CO, BLOCK), dt)
-        acc_r = np.empty((R, CO, BLOCK), dt)
+        val = np.empty((C, BLOCK), dt)
+        valf = np.empty((C, BLOCK), dt)
+        acc_r = np.empty((R, C, BLOCK), dt)
         _ring_load(ring, acc_r, b0)
         n_emit = 0
         h = coef[0]
@@ -289,19 +313,24 @@ def rk4_qs_chunk(eta, v, stp, kn, dl, lev, lam, cm, cdiag, diag, D, g, F, e, gam
                     sc = S[c, i]
                     for b in range(BLOCK):
                         val[c, b] += sc * src[i, b]
+            dst = val if mode == 0 else valf
             for c in range(C):
-                if off > 0:
+                if mode != 0:
                     for b in range(BLOCK):
-                        val[off + c, b] = 0.0
+                        valf[c, b] = 0.0
                 for j in range(H):
                     hc = hout[c, j]
                     for b in range(BLOCK):
-                        val[off + c, b] += hc * fo[j, b]
+                        dst[c, b] += hc * fo[j, b]
                 for i in range(N):
                     vc = vout[c, i]
                     for b in range(BLOCK):
-                        val[off + c, b] += vc * w[i, b]
-            n_emit = _fir_push(acc_r, val, gi0 + step, half, ntap, m, taps, w0, out, n_emit, b0)
+                        dst[c, b] += vc * w[i, b]
+            if mode == 0:
+                _fir_add(acc_r, val, gi0 + step, half, ntap, m, taps, w0)
+            else:
+                _fir_add2(acc_r, val, valf, gi0 + step, half, ntap, m, taps, tapsd, w0, w0d)
+            n_emit += _fir_emit(acc_r, gi0 + step, half, ntap, m, out, col0 + n_emit, b0)
             for i in range(N):
                 for b in range(BLOCK):
                     se[i, b] = w[i, b]
@@ -342,25 +371,35 @@ def rk4_qs_chunk(eta, v, stp, kn, dl, lev, lam, cm, cdiag, diag, D, g, F, e, gam
 
 
 class NumbaQSRK4(NumbaRK4):
-    """:class:`.kernel.NumbaRK4` for a :class:`.quasistatic.QuasiStaticForm`."""
+    """:class:`.kernel.NumbaRK4` for a :class:`.quasistatic.QuasiStaticForm`.
 
-    def __init__(self, qs: QuasiStaticForm, kn, delta, level_g, eta0, v0, **kw):
+    For velocity and acceleration, ``taps_d`` (from :func:`.resample.derivative_taps`, the same
+    length as ``taps``) decimate the derivative of the fast part (``hinge_out @ f + vel_out @
+    eta'``) into the same outputs.
+    """
+
+    def __init__(self, qs: QuasiStaticForm, kn, delta, level_g, eta0, v0, *, taps_d=None, **kw):
         super().__init__(qs.slow, kn, delta, level_g, eta0, v0, **kw)
         a = lambda x: np.ascontiguousarray(np.asarray(x, dtype=self.nd))  # noqa: E731
         self.F, self.e, self.gam = a(qs.F), a(qs.e), a(qs.Gam)
         self.hout, self.vout = a(qs.hinge_out), a(qs.vel_out)
         self.st = np.zeros((qs.F.shape[0], len(self.kn)), dtype=self.nd)
-        # velocity/acceleration: C extra channels carry the fast part to be differentiated
-        self.width = len(qs.slow.S) * (1 if self.mode == 0 else 2)
-        self.ring = np.zeros((self.ring.shape[0], self.width, len(self.kn)), dtype=self.nd)
+        if self.mode == 0:
+            taps_d = np.zeros_like(self.taps)  # the fast part goes through `taps` as it is
+        elif taps_d is None or len(taps_d) != len(self.taps):
+            raise ValueError(f"velocity and acceleration need `taps_d` of length "
+                             f"{len(self.taps)} (resample.derivative_taps)")
+        self.taps_d = a(taps_d)
+        self.w0d = a([np.sum(taps_d[: self.half - k * self.m + 1])
+                      for k in range(self.half // self.m + 1)])
         tol = 1e-5 if self.nd == np.float32 else 1e-11  # contact-state consistency (round-off)
         self.coef = a(list(self.coef[:4]) + [tol])
 
-    def _kernel(self, s_half, out, m, half, gi0):
+    def _kernel(self, s_half, out, col0, m, half, gi0):
         rk4_qs_chunk(
             self.eta, self.v, self.st, self.kn, self.dl, self.lev, self.lam, self.cm, self.cdiag,
             self.diag, self.D, self.g, self.F, self.e, self.gam, self.S, self.hout,
             self.vout, self.mode,
-            np.asarray(s_half, dtype=self.nd), self.coef, out, self.taps, m, half, self.w0,
-            self.ring, gi0,
+            np.asarray(s_half, dtype=self.nd), self.coef, out, col0, self.taps, self.taps_d, m,
+            half, self.w0, self.w0d, self.ring, gi0,
         )

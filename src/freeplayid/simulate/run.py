@@ -13,7 +13,7 @@ from ..model.system import FreeplaySystem
 from .engines import TorchRK4
 from .formulation import METHODS, ModalTruncation, build_modal_form, rk4_step_limit
 from .quasistatic import QuasiStatic, condense_modal_form
-from .resample import StreamingDecimator, design_decimator
+from .resample import StreamingDecimator, derivative_taps, design_decimator
 from .sweep import G, Sweep
 
 __all__ = ["simulate_sweeps", "SweepResult", "DEFAULT_OMEGA_DT"]
@@ -276,6 +276,10 @@ def simulate_sweeps(
     h = 1.0 / (sample_rate * m)
 
     taps = design_decimator(m)
+    taps_d = None
+    if qs is not None and quantity != "displacement":
+        # the fast part's derivative is decimated by the same fused FIR (resample.derivative_taps)
+        taps, taps_d = derivative_taps(taps, m, h, 1 if quantity == "velocity" else 2)
     n_out = int(math.floor(sweep.duration * sample_rate + 1e-9)) + 1
     look = (len(taps) - 1) // 2 // m + 1  # filter look-ahead (+1: the polyphase block padding)
     n_steps = (n_out - 1 + look) * m + 1  # recorded step-rate samples t_0 .. t_{n_steps-1}
@@ -295,7 +299,7 @@ def simulate_sweeps(
             from .kernel_qs import NumbaQSRK4
 
             eng = NumbaQSRK4(qs, kn_a, dl_a, lv_a, eta0, v0, h=h, quantity=quantity,
-                             dtype=dtype, taps=taps, factor=m)
+                             dtype=dtype, taps=taps, taps_d=taps_d, factor=m)
         dec = None  # the kernel decimates on the fly
         width = len(channels)
     else:
@@ -315,18 +319,15 @@ def simulate_sweeps(
 
         bar = tqdm(total=round(sweep.duration, 3), unit="s", desc=f"sweeps x{batch} ({engine})")
     outs, base_outs = [], []
-    if engine == "numba":  # the whole decimated record; each chunk writes its slice in place
+    if engine == "numba":  # each chunk writes its outputs into the signals, in place
         n_rec = eng.emitted(n_steps)  # the chunks' outputs are contiguous: as one chunk
-        record = np.empty((n_rec, eng.width, len(eng.kn)), dtype=eng.nd)
-        pos = 0
+        y = np.empty((batch, len(channels), n_out), dtype=eng.nd)
     i0 = 0
     while i0 < n_steps:
         L = min(chunk, n_steps - i0)
         s_half = np.sin(sweep.phase((i0 + 0.5 * np.arange(2 * L + 1)) * h))
-        if engine == "numba":  # decimated (L_out, C, padded batch)
-            k = eng.emitted(L)
-            eng.run(s_half, out=record[pos: pos + k])
-            pos += k
+        if engine == "numba":  # decimated, into y[:, :, outputs ...]
+            eng.run(s_half, out=y)
         else:  # (batch, C, L) tensor
             rec = eng.run(s_half)
             outs.append(dec.push(rec.reshape(batch * len(channels), L)))
@@ -339,21 +340,15 @@ def simulate_sweeps(
             bar.update(round(min(i0 * h, sweep.duration) - bar.n, 3))
     if bar is not None:
         bar.close()
-    if engine == "numba" and pos != n_rec:
-        raise AssertionError(f"numba record: {pos} outputs written, {n_rec} allocated")
+    if engine == "numba" and (eng.outputs != n_rec or n_rec < n_out):
+        raise AssertionError(f"numba engine: {eng.outputs} outputs, {n_rec} expected, "
+                             f"{n_out} kept")
     base = torch.cat(base_outs, dim=1)[:, :n_out].numpy()
     if engine == "numba":
-        # one compiled pass: transpose to (batch, C, T), base terms, and for the quasi-static
-        # model's velocity/acceleration the derivative of the fast part (extra channels)
-        from .assemble import assemble_record
+        from .assemble import add_base_terms
 
-        order = 0
-        if record.shape[1] > len(channels):
-            order = 1 if quantity == "velocity" else 2
-        y = assemble_record(record, n_out=n_out, batch=batch, channels=len(channels),
-                            order=order, sample_rate=sample_rate, base_coef=form.base_coef,
-                            static_coef=form.static_coef, base=base, level_g=lv_a)
-        del record
+        add_base_terms(y, base_coef=form.base_coef, static_coef=form.static_coef, base=base,
+                       level_g=lv_a)
     else:
         y = torch.cat(outs, dim=1)[:, :n_out].reshape(batch, len(channels), n_out)
         y = y.cpu().numpy()
