@@ -28,6 +28,47 @@ CH = ("uz_top_left", "uz_lower_right")
 QS_HZ = 1500.0  # [Hz] condensation threshold of the default fin (6 of 12 modes slow)
 
 
+# ----------------------------------------------------------------------------- exact fma
+# kernel._fma is llvm.fma: a * b + c rounded once. numpy has no fma, so it is emulated in float64
+# by error-free transformations (Dekker's product, Knuth's sum) and the round-to-odd sum of
+# Boldo & Melquiond ("Emulation of FMA and correctly rounded sums: proved algorithms using
+# rounding to odd", IEEE Trans. Computers 57, 2008), exact when nothing over- or underflows;
+# test_fma_emulation_is_correctly_rounded checks it against exact rational arithmetic.
+def _two_sum(a, b):
+    s = a + b
+    bb = s - a
+    return s, (a - (s - bb)) + (b - bb)
+
+
+def _split(a):
+    t = 134217729.0 * a  # 2**27 + 1
+    hi = t - (t - a)
+    return hi, a - hi
+
+
+def _two_prod(a, b):
+    p = a * b
+    ah, al = _split(a)
+    bh, bl = _split(b)
+    return p, ((ah * bh - p) + ah * bl + al * bh) + al * bl
+
+
+def _sum_odd(a, b):
+    """a + b rounded to odd: truncated, then the last bit set if inexact."""
+    s, e = _two_sum(a, b)
+    s, e = np.asarray(s, dtype=np.float64), np.asarray(e, dtype=np.float64)
+    even = (s.view(np.int64) & 1) == 0
+    toward = np.where(e > 0, np.inf, -np.inf)
+    return np.where((e != 0) & even, np.nextafter(s, toward), s)
+
+
+def _fma(a, b, c):
+    a, b, c = (np.asarray(x, dtype=np.float64) for x in (a, b, c))
+    uh, ul = _two_prod(a, b)
+    th, tl = _two_sum(c, uh)
+    return th + _sum_odd(tl, ul)
+
+
 # ----------------------------------------------------------------------------- NumPy references
 # Transcriptions of kernel.py / kernel_qs.py over the whole (padded) batch: every kernel line is
 # elementwise over the members, so a member's arithmetic is the same in both; the only member
@@ -81,17 +122,17 @@ def _hinge_states(F, c, st, kn, dl, tol, count):
         for j in range(H):
             a = F[i, j] * kn * np.abs(st[j])
             A3[i, j] = a + (1.0 if i == j else 0.0)
-            T[i] = T[i] + a * st[j] * dl
+            T[i] = _fma(a * st[j], dl, T[i])
     for k in range(H):
         for i in range(k + 1, H):
             m = A3[i, k] / A3[k, k]
             for j in range(k + 1, H):
-                A3[i, j] = A3[i, j] - m * A3[k, j]
-            T[i] = T[i] - m * T[k]
+                A3[i, j] = _fma(-m, A3[k, j], A3[i, j])
+            T[i] = _fma(-m, T[k], T[i])
     for i in range(H - 1, -1, -1):
         r = T[i].copy()
         for j in range(i + 1, H):
-            r = r - A3[i, j] * T[j]
+            r = _fma(-A3[i, j], T[j], r)
         T[i] = r / A3[i, i]
     bad = np.zeros(c.shape[1])
     for j in range(H):
@@ -132,7 +173,7 @@ def _accel(eng, eta, v, s, qs, count):
         for j in range(H):
             c[j] = eng.e[j] * s * lev
             for k in range(N):
-                c[j] = c[j] + (eng.D[k, j] * eta[k] - eng.gam[j, k] * v[k])
+                c[j] = _fma(-eng.gam[j, k], v[k], _fma(eng.D[k, j], eta[k], c[j]))
         T = _hinge_states(eng.F, c, eng.st, kn, dl, eng.coef[4], count)
         for j in range(H):
             fo[j] = kn * np.abs(eng.st[j]) * (T[j] - eng.st[j] * dl)
@@ -140,18 +181,18 @@ def _accel(eng, eta, v, s, qs, count):
         for j in range(H):
             x = np.zeros_like(fo[j])
             for k in range(N):
-                x = x + eng.D[k, j] * eta[k]
+                x = _fma(eng.D[k, j], eta[k], x)
             fo[j] = kn * (x - np.minimum(np.maximum(x, -dl), dl))
     acc = np.empty_like(eta)
     for i in range(N):
-        acc[i] = eng.g[i] * s * lev - eng.lam[i] * eta[i]
+        acc[i] = _fma(-eng.lam[i], eta[i], eng.g[i] * s * lev)
         if eng.diag:
-            acc[i] = acc[i] - eng.cdiag[i] * v[i]
+            acc[i] = _fma(-eng.cdiag[i], v[i], acc[i])
         else:
             for k in range(N):
-                acc[i] = acc[i] - eng.cm[i, k] * v[k]
+                acc[i] = _fma(-eng.cm[i, k], v[k], acc[i])
         for j in range(H):
-            acc[i] = acc[i] - eng.D[i, j] * fo[j]
+            acc[i] = _fma(-eng.D[i, j], fo[j], acc[i])
     return acc, fo
 
 
@@ -172,12 +213,12 @@ def _reference_chunk(eng, s_half, qs, count):
         dst = val if eng.mode == 0 else valf
         for c in range(C):
             for i in range(len(e)):
-                val[c] = val[c] + eng.S[c, i] * src[i]
+                val[c] = _fma(eng.S[c, i], src[i], val[c])
             if qs:
                 for j in range(fo.shape[0]):
-                    dst[c] = dst[c] + eng.hout[c, j] * fo[j]
+                    dst[c] = _fma(eng.hout[c, j], fo[j], dst[c])
                 for i in range(len(e)):
-                    dst[c] = dst[c] + eng.vout[c, i] * w[i]
+                    dst[c] = _fma(eng.vout[c, i], w[i], dst[c])
         # kernel._fir_add (kernel_qs._fir_add2 for the fast part's derivative)
         two_src = qs and eng.mode != 0
         gi = eng.gi + step
@@ -189,8 +230,8 @@ def _reference_chunk(eng, s_half, qs, count):
             pairs = [(kk, eng.taps[j - kk * m], eng.taps_d[j - kk * m] if two_src else 0.0)
                      for kk in range(max(0, (j - ntap + m) // m), j // m + 1)]
         for kk, wk, wd in pairs:
-            add = wk * val + wd * valf if two_src else wk * val
-            eng.ring[kk % R] = eng.ring[kk % R] + add
+            r = _fma(wk, val, eng.ring[kk % R])
+            eng.ring[kk % R] = _fma(wd, valf, r) if two_src else r
         # kernel._fir_emit
         jd = j - ntap + 1
         if jd >= 0 and jd % m == 0:
@@ -198,21 +239,36 @@ def _reference_chunk(eng, s_half, qs, count):
             eng.ring[(jd // m) % R] = 0.0
         # RK4 stages
         se, sv = w.copy(), k.copy()
-        et, vt = e + h2 * w, w + h2 * k
+        et, vt = _fma(h2, w, e), _fma(h2, k, w)
         k = _accel(eng, et, vt, s1, qs, count)[0]
-        se, sv = se + two * vt, sv + two * k
-        et, vt = e + h2 * vt, w + h2 * k
+        se, sv = _fma(two, vt, se), _fma(two, k, sv)
+        et, vt = _fma(h2, vt, e), _fma(h2, k, w)
         k = _accel(eng, et, vt, s1, qs, count)[0]
-        se, sv = se + two * vt, sv + two * k
-        et, vt = e + h * vt, w + h * k
+        se, sv = _fma(two, vt, se), _fma(two, k, sv)
+        et, vt = _fma(h, vt, e), _fma(h, k, w)
         k = _accel(eng, et, vt, s2, qs, count)[0]
-        e, w = e + h6 * (se + vt), w + h6 * (sv + k)
+        e, w = _fma(h6, se + vt, e), _fma(h6, sv + k, w)
     eng.eta, eng.v = e, w
     eng.gi += (len(s_half) - 1) // 2
     return np.array(rows).reshape((-1,) + eng.ring.shape[1:]).transpose(2, 1, 0)
 
 
 # ----------------------------------------------------------------------------- tests
+def test_fma_emulation_is_correctly_rounded():
+    from fractions import Fraction
+
+    rng = np.random.default_rng(0)
+    n = 3000
+    a = rng.normal(size=n) * 2.0 ** rng.integers(-30, 30, n)
+    b = rng.normal(size=n) * 2.0 ** rng.integers(-30, 30, n)
+    c = -a * b * (1 + rng.choice([0.0, 2.0**-52, -(2.0**-53), 1e-9, 1.0], n))  # cancellation
+    c[::7] = rng.normal(size=len(c[::7]))
+    got = _fma(a, b, c)
+    want = [float(Fraction(x) * Fraction(y) + Fraction(z)) for x, y, z in zip(a, b, c)]
+    np.testing.assert_array_equal(got, want)  # Fraction -> float rounds to nearest, ties even
+    assert np.any(got != a * b + c)  # cases where the fused and the unfused results differ
+
+
 def _engine(system, kn, qs, quantity, batch, seed):
     """A float64 numba engine of the default fin with a random batch in every contact state."""
     from freeplayid.simulate.kernel import NumbaRK4

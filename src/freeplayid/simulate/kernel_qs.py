@@ -19,7 +19,8 @@ import numba
 import numpy as np
 
 from . import kernel
-from .kernel import BLOCK, FASTMATH, NumbaRK4, _fir_add, _fir_emit, _ring_load, _ring_store
+from .kernel import (BLOCK, FASTMATH, NumbaRK4, _fir_add, _fir_emit, _fma, _ring_load,
+                     _ring_store)
 from .quasistatic import QuasiStaticForm
 
 __all__ = ["NumbaQSRK4", "KERNEL_SOURCE_SHA256", "kernel_source_digest"]
@@ -30,7 +31,7 @@ __all__ = ["NumbaQSRK4", "KERNEL_SOURCE_SHA256", "kernel_source_digest"]
 # this file goes with (tests/test_simulate_determinism.py checks it), so that a change of kernel.py
 # comes with a change of this file, which invalidates the cache; on a mismatch the kernel is
 # compiled without the cache.
-KERNEL_SOURCE_SHA256 = "5848d5034cf26c3eea3f775f7a17af72912dacf14296d3d4971d24ff46ae20ef"
+KERNEL_SOURCE_SHA256 = "36115eb7445bab7a64cef424114769c797d4ca64001f5d6f2f3ae4394c12b980"
 
 
 def kernel_source_digest() -> str:
@@ -95,19 +96,19 @@ def _solve_block(F, c, st, kn, dl, A3, T):
                 sj = st[j, b]
                 a = fij * kn[b] * abs(sj)
                 A3[i, j, b] = a + one
-                T[i, b] += a * sj * dl[b]
+                T[i, b] = _fma(a * sj, dl[b], T[i, b])
     for k in range(H):
         for i in range(k + 1, H):
             for b in range(BLOCK):
                 m = A3[i, k, b] / A3[k, k, b]
                 for j in range(k + 1, H):
-                    A3[i, j, b] -= m * A3[k, j, b]
-                T[i, b] -= m * T[k, b]
+                    A3[i, j, b] = _fma(-m, A3[k, j, b], A3[i, j, b])
+                T[i, b] = _fma(-m, T[k, b], T[i, b])
     for i in range(H - 1, -1, -1):
         for b in range(BLOCK):
             r = T[i, b]
             for j in range(i + 1, H):
-                r -= A3[i, j, b] * T[j, b]
+                r = _fma(-A3[i, j, b], T[j, b], r)
             T[i, b] = r / A3[i, i, b]
 
 
@@ -193,7 +194,7 @@ def _accel_qs(eta, v, s, kn, dl, lev, lam, cm, cdiag, diag, D, g, F, e, gam, st,
             dk = D[k, j]
             gk = gam[j, k]
             for b in range(BLOCK):
-                c[j, b] += dk * eta[k, b] - gk * v[k, b]
+                c[j, b] = _fma(-gk, v[k, b], _fma(dk, eta[k, b], c[j, b]))
     _hinge_states(F, c, st, kn, dl, A, tv, A3, T, bad, tol)
     for j in range(H):
         for b in range(BLOCK):
@@ -203,20 +204,20 @@ def _accel_qs(eta, v, s, kn, dl, lev, lam, cm, cdiag, diag, D, g, F, e, gam, st,
         gi = g[i] * s
         li = lam[i]
         for b in range(BLOCK):
-            acc[i, b] = gi * lev[b] - li * eta[i, b]
+            acc[i, b] = _fma(-li, eta[i, b], gi * lev[b])
         if diag:
             ci = cdiag[i]
             for b in range(BLOCK):
-                acc[i, b] -= ci * v[i, b]
+                acc[i, b] = _fma(-ci, v[i, b], acc[i, b])
         else:
             for k in range(N):
                 cc = cm[i, k]
                 for b in range(BLOCK):
-                    acc[i, b] -= cc * v[k, b]
+                    acc[i, b] = _fma(-cc, v[k, b], acc[i, b])
         for j in range(H):
             dd = D[i, j]
             for b in range(BLOCK):
-                acc[i, b] -= dd * fo[j, b]
+                acc[i, b] = _fma(-dd, fo[j, b], acc[i, b])
 
 
 @numba.njit(fastmath=FASTMATH, inline="always", cache=True)
@@ -233,7 +234,7 @@ def _fir_add2(acc_r, val, valf, gi, half, ntap, m, taps, tapsd, w0, w0d):
             r = kk % R
             for c in range(C):
                 for b in range(BLOCK):
-                    acc_r[r, c, b] += wk * val[c, b] + wd * valf[c, b]
+                    acc_r[r, c, b] = _fma(wd, valf[c, b], _fma(wk, val[c, b], acc_r[r, c, b]))
     else:
         for kk in range(max(0, (j - ntap + m) // m), j // m + 1):
             wk = taps[j - kk * m]
@@ -241,7 +242,7 @@ def _fir_add2(acc_r, val, valf, gi, half, ntap, m, taps, tapsd, w0, w0d):
             r = kk % R
             for c in range(C):
                 for b in range(BLOCK):
-                    acc_r[r, c, b] += wk * val[c, b] + wd * valf[c, b]
+                    acc_r[r, c, b] = _fma(wd, valf[c, b], _fma(wk, val[c, b], acc_r[r, c, b]))
 
 
 @numba.njit(parallel=True, fastmath=FASTMATH, cache=_CACHE)
@@ -312,7 +313,7 @@ def rk4_qs_chunk(eta, v, stp, kn, dl, lev, lam, cm, cdiag, diag, D, g, F, e, gam
                 for i in range(N):
                     sc = S[c, i]
                     for b in range(BLOCK):
-                        val[c, b] += sc * src[i, b]
+                        val[c, b] = _fma(sc, src[i, b], val[c, b])
             dst = val if mode == 0 else valf
             for c in range(C):
                 if mode != 0:
@@ -321,11 +322,11 @@ def rk4_qs_chunk(eta, v, stp, kn, dl, lev, lam, cm, cdiag, diag, D, g, F, e, gam
                 for j in range(H):
                     hc = hout[c, j]
                     for b in range(BLOCK):
-                        dst[c, b] += hc * fo[j, b]
+                        dst[c, b] = _fma(hc, fo[j, b], dst[c, b])
                 for i in range(N):
                     vc = vout[c, i]
                     for b in range(BLOCK):
-                        dst[c, b] += vc * w[i, b]
+                        dst[c, b] = _fma(vc, w[i, b], dst[c, b])
             if mode == 0:
                 _fir_add(acc_r, val, gi0 + step, half, ntap, m, taps, w0)
             else:
@@ -335,30 +336,30 @@ def rk4_qs_chunk(eta, v, stp, kn, dl, lev, lam, cm, cdiag, diag, D, g, F, e, gam
                 for b in range(BLOCK):
                     se[i, b] = w[i, b]
                     sv[i, b] = k[i, b]
-                    et[i, b] = e_[i, b] + h2 * w[i, b]
-                    vt[i, b] = w[i, b] + h2 * k[i, b]
+                    et[i, b] = _fma(h2, w[i, b], e_[i, b])
+                    vt[i, b] = _fma(h2, k[i, b], w[i, b])
             _accel_qs(et, vt, s1, knb, dlb, lvb, lam, cm, cdiag, diag, D, g, F, e, gam, st, cc, fo,
                       k, A, tv, A3, T, bad, tol)
             for i in range(N):
                 for b in range(BLOCK):
-                    se[i, b] += two * vt[i, b]
-                    sv[i, b] += two * k[i, b]
-                    et[i, b] = e_[i, b] + h2 * vt[i, b]
-                    vt[i, b] = w[i, b] + h2 * k[i, b]
+                    se[i, b] = _fma(two, vt[i, b], se[i, b])
+                    sv[i, b] = _fma(two, k[i, b], sv[i, b])
+                    et[i, b] = _fma(h2, vt[i, b], e_[i, b])
+                    vt[i, b] = _fma(h2, k[i, b], w[i, b])
             _accel_qs(et, vt, s1, knb, dlb, lvb, lam, cm, cdiag, diag, D, g, F, e, gam, st, cc, fo,
                       k, A, tv, A3, T, bad, tol)
             for i in range(N):
                 for b in range(BLOCK):
-                    se[i, b] += two * vt[i, b]
-                    sv[i, b] += two * k[i, b]
-                    et[i, b] = e_[i, b] + h * vt[i, b]
-                    vt[i, b] = w[i, b] + h * k[i, b]
+                    se[i, b] = _fma(two, vt[i, b], se[i, b])
+                    sv[i, b] = _fma(two, k[i, b], sv[i, b])
+                    et[i, b] = _fma(h, vt[i, b], e_[i, b])
+                    vt[i, b] = _fma(h, k[i, b], w[i, b])
             _accel_qs(et, vt, s2, knb, dlb, lvb, lam, cm, cdiag, diag, D, g, F, e, gam, st, cc, fo,
                       k, A, tv, A3, T, bad, tol)
             for i in range(N):
                 for b in range(BLOCK):
-                    e_[i, b] += h6 * (se[i, b] + vt[i, b])
-                    w[i, b] += h6 * (sv[i, b] + k[i, b])
+                    e_[i, b] = _fma(h6, (se[i, b] + vt[i, b]), e_[i, b])
+                    w[i, b] = _fma(h6, (sv[i, b] + k[i, b]), w[i, b])
         for i in range(N):
             for b in range(BLOCK):
                 eta[i, b0 + b] = e_[i, b]

@@ -192,7 +192,7 @@ def simulate_sweeps(
         this frequency are massless (of their damping, only the slow velocities' load is kept),
         the hinge moments solve the exact algebraic piecewise-linear equation, and only the
         slower modes are integrated (their step). The fast modes' quasi-static response is in
-        the outputs (for velocity and acceleration differentiated at the output rate). numba
+        the outputs (for velocity and acceleration differentiated inside the decimating FIR). numba
         engine and ``method="relative"`` only; not with ``cutoff_hz``.
     large_mass_ratio : float [-]
     progress : bool, optional
