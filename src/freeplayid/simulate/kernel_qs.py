@@ -19,8 +19,7 @@ import numba
 import numpy as np
 
 from . import kernel
-from .kernel import (BLOCK, FASTMATH, NumbaRK4, _fir_add, _fir_emit, _fma, _ring_load,
-                     _ring_store)
+from .kernel import BLOCK, FASTMATH, NumbaRK4, _fir_add, _fir_emit, _fma, _ring_load, _ring_store
 from .quasistatic import QuasiStaticForm
 
 __all__ = ["NumbaQSRK4", "KERNEL_SOURCE_SHA256", "kernel_source_digest"]
