@@ -75,8 +75,9 @@ def test_bank_key_depends_on_what_defines_the_data(system):
     assert _spec(sweep=Sweep(30.0, 62.0, 1.0)).key(system) != k
     assert _spec().key(sdof_system(mass=MASS, damping=2 * DAMPING)) != k
     assert _spec(quasi_static_hz=1000.0).key(system) != k
-    # banks simulated before the quasi_static_hz option keep their key (and their cache)
-    assert k == "2f4f02d46f21"
+    # an unset quasi_static_hz is left out of the digest: banks simulated before the option kept
+    # their key (2f4f02d46f21 in format 1, before and after it); pinned here in format 2
+    assert k == "e85ce73bbad0"
 
 
 def test_noise_free_case_equals_a_direct_simulation(system, bank):

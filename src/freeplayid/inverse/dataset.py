@@ -43,7 +43,10 @@ __all__ = [
 
 DELTA_REF = 1e-3  # [rad] gap of the stored bank records (levels s * DELTA_REF)
 AXES = ("noise_g", "delta")  # ablation axes of a case set
-_FORMAT = 1  # bump when the cached layout or the meaning of a spec field changes
+# bump when the cached layout, the meaning of a spec field or the simulated numbers change
+# (2: 2026-11-21, the numba kernels fuse their multiply-adds and the quasi-static model takes the
+# derivative of its fast part inside the decimating FIR)
+_FORMAT = 2
 
 
 def _digest(obj) -> str:
