@@ -308,10 +308,22 @@ def default_fin_model():
     return default_fin(), default_fin_parameters()
 
 
-@pytest.mark.parametrize("qs,quantity", [(True, "displacement"), (True, "acceleration"),
-                                         (False, "acceleration")])
-def test_kernel_is_its_ieee_arithmetic(default_fin_model, qs, quantity):
+# the default fin's two hinges take kernel_qs._solve_block2; one hinge (the mid one dropped) and
+# three (a third spring from q1 to the base) the general elimination kernel_qs._solve_block
+HINGES = {2: None, 1: (("rx_left_out", "rx_left_in"),),
+          3: (("rx_left_out", "rx_left_in"), ("rx_mid_out", "rx_mid_in"), ("q1", ""))}
+
+
+@pytest.mark.parametrize("qs,quantity,hinges", [(True, "displacement", 2),
+                                                (True, "acceleration", 2),
+                                                (False, "acceleration", 2),
+                                                (True, "acceleration", 1),
+                                                (True, "acceleration", 3)])
+def test_kernel_is_its_ieee_arithmetic(default_fin_model, qs, quantity, hinges):
     system, hinge = default_fin_model
+    if HINGES[hinges] is not None:
+        system = system.replace(hinge_pairs=HINGES[hinges])
+    assert system.n_hinges == hinges
     # 100 members: two blocks, the second padded; two chunks: the start-up path of the FIR
     # (gi = 0), the ring carried over a chunk boundary, emitted outputs
     eng, h = _engine(system, hinge["kn"], qs, quantity, 100, seed=5)

@@ -112,6 +112,51 @@ def _solve_block(F, c, st, kn, dl, A3, T):
 
 
 @numba.njit(fastmath=FASTMATH, inline="always", cache=True)
+def _solve_block2(F, c, st, kn, dl, T, bad, tol):
+    # _solve_block and the violation check of _hinge_states for two hinges, one pass over the
+    # members with the 2 x 2 system in registers: the same operations in the same order, so the
+    # same T and violations bit for bit (tests/test_simulate_determinism.py); returns their sum
+    f00 = F[0, 0]
+    f01 = F[0, 1]
+    f10 = F[1, 0]
+    f11 = F[1, 1]
+    one = T.dtype.type(1.0)  # typed: in float32, `a + 1.0` would be float64
+    zero = T.dtype.type(0.0)
+    nbad = 0.0
+    for b in range(BLOCK):
+        k = kn[b]
+        d = dl[b]
+        s0 = st[0, b]
+        s1 = st[1, b]
+        p0 = abs(s0)
+        p1 = abs(s1)
+        c0 = c[0, b]
+        c1 = c[1, b]
+        a00 = f00 * k * p0
+        a01 = f01 * k * p1
+        a10 = f10 * k * p0
+        a11 = f11 * k * p1
+        t0 = _fma(a01 * s1, d, _fma(a00 * s0, d, c0))
+        t1 = _fma(a11 * s1, d, _fma(a10 * s0, d, c1))
+        u00 = a00 + one
+        u01 = a01 + zero
+        m = (a10 + zero) / u00
+        u11 = _fma(-m, u01, a11 + one)
+        t1 = _fma(-m, t0, t1) / u11
+        t0 = _fma(-u01, t1, t0) / u00
+        T[0, b] = t0
+        T[1, b] = t1
+        e0 = tol * (d + abs(c0))
+        e1 = tol * (d + abs(c1))
+        v = ((1.0 - p0) * max(abs(t0) - d - e0, 0.0) + p0 * max(d - e0 - s0 * t0, 0.0))
+        v = v + ((1.0 - p1) * max(abs(t1) - d - e1, 0.0) + p1 * max(d - e1 - s1 * t1, 0.0))
+        bad[b] = v
+    for b in range(BLOCK):  # a separate loop: a reduction (no reassociation) would keep the
+        nbad += bad[b]      # one above from being vectorised
+    return nbad
+
+
+@numba.njit(fastmath=FASTMATH, inline="always", cache=True)
 def _consistent(tv, c, st, b, d, tol):
     H = tv.shape[0]
     ok = True
@@ -134,21 +179,25 @@ def _hinge_states(F, c, st, kn, dl, A, tv, A3, T, bad, tol):
     H = F.shape[0]
     # every member in its previous contact state (vectorised); the few whose state changed (the
     # solution is inconsistent with it) go through the scalar active set
-    _solve_block(F, c, st, kn, dl, A3, T)
-    # violation of the assumed state, branch-free: open |theta| <= delta, closed s theta >= delta
-    nbad = 0.0
-    for b in range(BLOCK):
-        bad[b] = 0.0
-    for j in range(H):
+    if H == 2:
+        nbad = _solve_block2(F, c, st, kn, dl, T, bad, tol)
+    else:
+        _solve_block(F, c, st, kn, dl, A3, T)
+        # violation of the assumed state, branch-free: open |theta| <= delta, closed s theta >=
+        # delta
+        nbad = 0.0
         for b in range(BLOCK):
-            x = T[j, b]
-            sj = st[j, b]
-            p = abs(sj)
-            t = tol * (dl[b] + abs(c[j, b]))
-            bad[b] += ((1.0 - p) * max(abs(x) - dl[b] - t, 0.0)
-                       + p * max(dl[b] - t - sj * x, 0.0))
-    for b in range(BLOCK):
-        nbad += bad[b]
+            bad[b] = 0.0
+        for j in range(H):
+            for b in range(BLOCK):
+                x = T[j, b]
+                sj = st[j, b]
+                p = abs(sj)
+                t = tol * (dl[b] + abs(c[j, b]))
+                bad[b] += ((1.0 - p) * max(abs(x) - dl[b] - t, 0.0)
+                           + p * max(dl[b] - t - sj * x, 0.0))
+        for b in range(BLOCK):
+            nbad += bad[b]
     if nbad == 0.0:
         return
     for b in range(BLOCK):
