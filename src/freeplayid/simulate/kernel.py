@@ -301,12 +301,17 @@ class NumbaRK4:
         self.taps = a(taps)
         self.m = int(factor)
         self.half = (len(taps) - 1) // 2
-        self.w0 = a([np.sum(taps[: self.half - k * self.m + 1])
-                     for k in range(self.half // self.m + 1)])
+        self.w0 = self.start_weights(taps)
         self.ring = np.zeros((len(taps) // self.m + 2, len(form.S), len(self.kn)), dtype=nd)
         self.gi = 0  # steps integrated
         self.outputs = 0  # output samples completed
         self.width = len(form.S)  # output channels of the kernel
+
+    def start_weights(self, taps) -> np.ndarray:
+        """Summed weights of ``taps`` over the constant pre-history (steps before the first) that
+        output k sees, k = 0 .. half // m (see ``_fir_add``)."""
+        w = [np.sum(taps[: self.half - k * self.m + 1]) for k in range(self.half // self.m + 1)]
+        return np.ascontiguousarray(np.asarray(w, dtype=self.nd))
 
     def emitted(self, L: int) -> int:
         """Number of output samples the next chunk of ``L`` steps completes."""

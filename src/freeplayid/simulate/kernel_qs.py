@@ -30,7 +30,7 @@ __all__ = ["NumbaQSRK4", "KERNEL_SOURCE_SHA256", "kernel_source_digest"]
 # this file goes with (tests/test_simulate_determinism.py checks it), so that a change of kernel.py
 # comes with a change of this file, which invalidates the cache; on a mismatch the kernel is
 # compiled without the cache.
-KERNEL_SOURCE_SHA256 = "36115eb7445bab7a64cef424114769c797d4ca64001f5d6f2f3ae4394c12b980"
+KERNEL_SOURCE_SHA256 = "6d1b4e1e500e32c214816aebfe38863b196508a6d347936427fb13f1eadc4ba4"
 
 
 def kernel_source_digest() -> str:
@@ -439,8 +439,7 @@ class NumbaQSRK4(NumbaRK4):
             raise ValueError(f"velocity and acceleration need `taps_d` of length "
                              f"{len(self.taps)} (resample.derivative_taps)")
         self.taps_d = a(taps_d)
-        self.w0d = a([np.sum(taps_d[: self.half - k * self.m + 1])
-                      for k in range(self.half // self.m + 1)])
+        self.w0d = self.start_weights(taps_d)
         tol = 1e-5 if self.nd == np.float32 else 1e-11  # contact-state consistency (round-off)
         self.coef = a(list(self.coef[:4]) + [tol])
 
