@@ -112,17 +112,24 @@ def _solve_block(F, c, st, kn, dl, A3, T):
 
 
 @numba.njit(fastmath=FASTMATH, inline="always", cache=True)
+def _violation(x, s, d, e):
+    # how far theta = x violates contact state s (open |x| <= d, closed s x >= d), tolerance e;
+    # branch-free, 0 when consistent
+    p = abs(s)
+    return (1.0 - p) * max(abs(x) - d - e, 0.0) + p * max(d - e - s * x, 0.0)
+
+
+@numba.njit(fastmath=FASTMATH, inline="always", cache=True)
 def _solve_block2(F, c, st, kn, dl, T, bad, tol):
     # _solve_block and the violation check of _hinge_states for two hinges, one pass over the
     # members with the 2 x 2 system in registers: the same operations in the same order, so the
-    # same T and violations bit for bit (tests/test_simulate_determinism.py); returns their sum
+    # same T and violations bit for bit (tests/test_simulate_determinism.py)
     f00 = F[0, 0]
     f01 = F[0, 1]
     f10 = F[1, 0]
     f11 = F[1, 1]
     one = T.dtype.type(1.0)  # typed: in float32, `a + 1.0` would be float64
     zero = T.dtype.type(0.0)
-    nbad = 0.0
     for b in range(BLOCK):
         k = kn[b]
         d = dl[b]
@@ -146,14 +153,8 @@ def _solve_block2(F, c, st, kn, dl, T, bad, tol):
         t0 = _fma(-u01, t1, t0) / u00
         T[0, b] = t0
         T[1, b] = t1
-        e0 = tol * (d + abs(c0))
-        e1 = tol * (d + abs(c1))
-        v = ((1.0 - p0) * max(abs(t0) - d - e0, 0.0) + p0 * max(d - e0 - s0 * t0, 0.0))
-        v = v + ((1.0 - p1) * max(abs(t1) - d - e1, 0.0) + p1 * max(d - e1 - s1 * t1, 0.0))
-        bad[b] = v
-    for b in range(BLOCK):  # a separate loop: a reduction (no reassociation) would keep the
-        nbad += bad[b]      # one above from being vectorised
-    return nbad
+        v = _violation(t0, s0, d, tol * (d + abs(c0)))
+        bad[b] = v + _violation(t1, s1, d, tol * (d + abs(c1)))
 
 
 @numba.njit(fastmath=FASTMATH, inline="always", cache=True)
@@ -180,24 +181,17 @@ def _hinge_states(F, c, st, kn, dl, A, tv, A3, T, bad, tol):
     # every member in its previous contact state (vectorised); the few whose state changed (the
     # solution is inconsistent with it) go through the scalar active set
     if H == 2:
-        nbad = _solve_block2(F, c, st, kn, dl, T, bad, tol)
+        _solve_block2(F, c, st, kn, dl, T, bad, tol)
     else:
         _solve_block(F, c, st, kn, dl, A3, T)
-        # violation of the assumed state, branch-free: open |theta| <= delta, closed s theta >=
-        # delta
-        nbad = 0.0
         for b in range(BLOCK):
             bad[b] = 0.0
         for j in range(H):
             for b in range(BLOCK):
-                x = T[j, b]
-                sj = st[j, b]
-                p = abs(sj)
-                t = tol * (dl[b] + abs(c[j, b]))
-                bad[b] += ((1.0 - p) * max(abs(x) - dl[b] - t, 0.0)
-                           + p * max(dl[b] - t - sj * x, 0.0))
-        for b in range(BLOCK):
-            nbad += bad[b]
+                bad[b] += _violation(T[j, b], st[j, b], dl[b], tol * (dl[b] + abs(c[j, b])))
+    nbad = 0.0
+    for b in range(BLOCK):  # a loop of its own: a reduction (no reassociation) inside the ones
+        nbad += bad[b]      # above would keep them from being vectorised
     if nbad == 0.0:
         return
     for b in range(BLOCK):
