@@ -1,4 +1,4 @@
-"""Identify hinge freeplay (kn, delta) from a measured sine-sweep data set (DESIGN.md §3).
+"""Identify hinge freeplay (kn, delta) from a measured sine-sweep data set (docs/identify.md).
 
     python scripts/identify.py                              # the bundled example data set
     python scripts/identify.py data=PATH/manifest.yaml      # your data set
@@ -10,17 +10,14 @@ import sys
 import hydra
 from omegaconf import DictConfig
 
-from freeplayid import tasks
-from freeplayid.inverse import InverseModelError
-from freeplayid.io import DatasetError
-from freeplayid.model import SystemFileError
+from freeplayid import InputError, tasks
 
 
 @hydra.main(version_base="1.3", config_path="../conf", config_name="identify")
 def main(cfg: DictConfig) -> dict:
     try:
         return tasks.identify(cfg)
-    except (DatasetError, SystemFileError, InverseModelError, tasks.IdentificationError) as exc:
+    except InputError as exc:
         sys.exit(f"identify: {exc}")  # a data or checkpoint problem: the message says where
 
 

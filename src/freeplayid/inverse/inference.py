@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from ..errors import InputError
 from .lightning import _CKPT_KEY, _CKPT_VERSION, InverseModule
 from .network import Normalisation, collate_point_sets
 from .points import PointSets, point_sets_from_records
@@ -22,7 +23,7 @@ from .points import PointSets, point_sets_from_records
 __all__ = ["InverseModelError", "InversePrediction", "InverseModel", "load_inverse_model"]
 
 
-class InverseModelError(ValueError):
+class InverseModelError(InputError):
     """An inverse-model checkpoint is missing, not ours, or made for another linear model."""
 
 

@@ -28,6 +28,8 @@ import numpy as np
 import scipy.constants
 import yaml
 
+from ..errors import InputError
+
 __all__ = ["Dataset", "DatasetError", "Run", "read_dataset", "write_dataset"]
 
 QUANTITIES = ("displacement", "velocity", "acceleration")
@@ -41,7 +43,7 @@ SWEEP_KEYS = ("start_hz", "stop_hz", "rate_hz_per_s")
 UFF_SUFFIXES = (".uff", ".unv")
 
 
-class DatasetError(ValueError):
+class DatasetError(InputError):
     """A data set does not satisfy the contract of DESIGN.md §3."""
 
 

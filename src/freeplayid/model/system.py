@@ -18,13 +18,15 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import InputError
+
 __all__ = ["FreeplaySystem", "load_system", "save_system", "SystemFileError"]
 
 _REQUIRED_KEYS = ("M", "K", "dof_names", "hinge_pairs")
 _OPTIONAL_KEYS = ("C", "base_influence")
 
 
-class SystemFileError(ValueError):
+class SystemFileError(InputError):
     """A linear model file does not satisfy the `.npz` contract (DESIGN.md §3)."""
 
 

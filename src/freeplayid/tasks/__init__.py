@@ -7,11 +7,11 @@ This is the only package that imports Hydra/OmegaConf.
 
 from .common import build_system, run_dir, write_metrics
 from .compare import compare
-from .identify import IdentificationError, bundled_example, identify
+from .identify import bundled_example, identify
 from .simulate import simulate
 from .train import train
 
 __all__ = [
-    "build_system", "run_dir", "write_metrics", "simulate", "identify", "IdentificationError",
+    "build_system", "run_dir", "write_metrics", "simulate", "identify",
     "bundled_example", "train", "compare",
 ]
