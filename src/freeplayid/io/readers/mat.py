@@ -37,17 +37,26 @@ def read(path: Path, columns: Sequence[str]) -> dict[str, np.ndarray]:
     import scipy.io
 
     try:
+        classes = {name: cls for name, _, cls in scipy.io.whosmat(path)}  # headers only
+        missing = [c for c in need if c not in classes]
+        if missing:
+            raise DatasetError(
+                f"{path}: variable(s) {missing} not found; the file has {list(classes)} (the "
+                "manifest's `channels` keys, `base_channel` and 'time' must be variables)"
+            )
+        for c in need:  # loadmat would give a logical as uint8: check the MATLAB class
+            _check_class(classes[c], path, c)
         found = scipy.io.loadmat(path, variable_names=need)
+    except DatasetError:
+        raise
     except Exception as exc:  # scipy raises several types on corrupt files
         raise DatasetError(f"{path}: not a readable MAT file ({exc})") from None
-    missing = [c for c in need if c not in found]
-    if missing:
-        names = [w[0] for w in scipy.io.whosmat(path)]
-        raise DatasetError(
-            f"{path}: variable(s) {missing} not found; the file has {names} (the manifest's "
-            "`channels` keys, `base_channel` and 'time' must be variables)"
-        )
     return {c: _vector(found[c], path, c) for c in need}
+
+
+def _check_class(cls: str, path: Path, name: str) -> None:
+    if cls not in _NUMERIC_CLASSES:
+        raise DatasetError(f"{path}: variable {name!r} must be numeric, got MATLAB {cls}")
 
 
 def _vector(value, path: Path, name: str) -> np.ndarray:
@@ -99,8 +108,8 @@ def _read_v73(path: Path, need: Sequence[str]) -> dict[str, np.ndarray]:
             cls = cls.decode() if isinstance(cls, bytes) else str(cls)
             if node.dtype.names and {"real", "imag"} <= set(node.dtype.names):
                 raise DatasetError(f"{path}: variable {c!r} is complex; need a real time history")
-            if cls and cls not in _NUMERIC_CLASSES:
-                raise DatasetError(f"{path}: variable {c!r} must be numeric, got MATLAB {cls}")
+            if cls:
+                _check_class(cls, path, c)
             if node.attrs.get("MATLAB_empty", 0):
                 raise DatasetError(f"{path}: variable {c!r} is empty")
             out[c] = _vector(np.asarray(node[()]), path, c)
