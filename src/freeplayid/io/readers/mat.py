@@ -30,7 +30,7 @@ def read(path: Path, columns: Sequence[str]) -> dict[str, np.ndarray]:
     try:
         with open(path, "rb") as fh:
             major, _ = matfile_version(fh)
-    except (OSError, ValueError) as exc:
+    except Exception as exc:  # OSError, ValueError, MatReadError (empty file)
         raise DatasetError(f"{path}: not a readable MAT file ({exc})") from None
     if major == 2:
         return _read_v73(path, need)
