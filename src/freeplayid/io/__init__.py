@@ -1,11 +1,16 @@
 """Reading and writing the project's files: measured/simulated data sets (DESIGN.md §3).
 
+A data set's run files are read by the reader of their suffix, :data:`freeplayid.io.readers.READERS`
+(CSV, gzipped CSV, UFF 58, MATLAB ``.mat``, NI ``.tdms``); adding a file type is one module there
+and one registry line.
+
 Identification results (``identification.json``): :func:`write_identification` and
 :func:`read_identification`. Linear model files (`.npz`) are read and written by
 :func:`freeplayid.model.load_system` and :func:`freeplayid.model.save_system`.
 """
 
-from .dataset import Dataset, DatasetError, Run, read_dataset, write_dataset
+from .dataset import Dataset, Run, read_dataset, write_dataset
+from .errors import DatasetError
 from .result import ResultFileError, read_identification, write_identification
 from .uff import read_uff, write_uff
 

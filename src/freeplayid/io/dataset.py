@@ -1,16 +1,21 @@
-"""Measured-data sets: a folder with ``manifest.yaml`` and one CSV per sweep run (DESIGN.md §3).
+"""Measured-data sets: a folder with ``manifest.yaml`` and one file per sweep run (DESIGN.md §3).
 
 ```yaml
 name: fin A, 2026-05 campaign
 model: model.npz                # relative to the manifest
 quantity: acceleration          # displacement | velocity | acceleration
 units: g                        # g | m/s^2 for acceleration; m, m/s otherwise
-sample_rate: 2048               # Hz; if absent, the CSV 'time' column defines it
-channels: {acc_tl: uz_top_left, acc_lr: uz_lower_right}   # CSV column -> model DOF
+sample_rate: 2048               # Hz; if absent, the runs' 'time' column defines it
+channels: {acc_tl: uz_top_left, acc_lr: uz_lower_right}   # run-file column -> model DOF
 base_channel: acc_base          # optional
 runs:
   - {file: sweep_0.60g.csv, level_g: 0.60, sweep: {start_hz: 30, stop_hz: 50, rate_hz_per_s: 0.1}}
 ```
+
+A run file is read by the reader of its suffix (:mod:`freeplayid.io.readers`: CSV, gzipped CSV,
+UFF 58, MATLAB ``.mat``, NI ``.tdms``); every check that does not depend on the file type (the
+time column, non-finite samples) is made here, after the reader, the same for all of them.
+:func:`write_dataset` writes CSV (``.csv`` or ``.csv.gz``).
 
 Every file is written under a temporary name and renamed, and the manifest is written last, so a
 reader never sees a manifest that points at a missing or half-written file.
@@ -18,7 +23,6 @@ reader never sees a manifest that points at a missing or half-written file.
 
 from __future__ import annotations
 
-import gzip
 import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -28,7 +32,9 @@ import numpy as np
 import scipy.constants
 import yaml
 
-from ..errors import InputError
+from .atomic import atomic_write_text
+from .errors import DatasetError
+from .readers import read_run
 
 __all__ = ["Dataset", "DatasetError", "Run", "read_dataset", "write_dataset"]
 
@@ -40,12 +46,7 @@ MANIFEST_KEYS = ("name", "model", "quantity", "units", "sample_rate", "channels"
                  "base_channel", "truth", "runs")
 RUN_KEYS = ("file", "level_g", "sweep")
 SWEEP_KEYS = ("start_hz", "stop_hz", "rate_hz_per_s")
-UFF_SUFFIXES = (".uff", ".unv")
-
-
-class DatasetError(InputError):
-    """A data set does not satisfy the contract of DESIGN.md §3."""
-
+CSV_SUFFIXES = (".csv", ".csv.gz")  # what write_dataset writes
 
 @dataclass(frozen=True)
 class Run:
@@ -54,7 +55,7 @@ class Run:
     Attributes
     ----------
     file : str
-        CSV file name, relative to the manifest.
+        Run file name, relative to the manifest.
     time : ndarray, shape (T,) [s]
     data : ndarray, shape (channel, T) [units of the data set]
         Columns in the order of the data set's ``channels``.
@@ -90,7 +91,7 @@ class Dataset:
     units : str
     sample_rate : float [Hz]
     channels : dict of str -> str
-        CSV column -> model DOF name, in column order.
+        Run-file column -> model DOF name, in column order.
     runs : tuple of Run
     base_channel : str or None
     truth : dict or None
@@ -118,12 +119,6 @@ class Dataset:
     def to_si(self, values) -> np.ndarray:
         """``values`` in the data set's units -> SI units of its quantity (m, m/s, m/s^2)."""
         return np.asarray(values, dtype=float) * self.si_scale
-
-
-def _atomic_write_text(path: Path, text: str) -> None:
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(text)
-    os.replace(tmp, path)
 
 
 def _check_quantity_units(quantity: str, units: str, where: str) -> None:
@@ -165,6 +160,7 @@ def write_dataset(
     channels : mapping CSV column -> DOF name
         Column order = row order of every ``Run.data``.
     runs : sequence of Run
+        Each ``file`` must end in ``.csv`` or ``.csv.gz`` (written gzipped).
     system : FreeplaySystem, optional
         Saved as ``model_file`` next to the manifest (the manifest's ``model`` entry).
     model_file : str
@@ -190,6 +186,11 @@ def write_dataset(
     folder.mkdir(parents=True, exist_ok=True)
     entries = []
     for k, run in enumerate(runs):
+        if not str(run.file).lower().endswith(CSV_SUFFIXES):
+            raise DatasetError(
+                f"`runs[{k}].file` must end in one of {list(CSV_SUFFIXES)} (write_dataset "
+                f"writes CSV), got {run.file!r}"
+            )
         data = np.asarray(run.data, dtype=float)
         t = np.asarray(run.time, dtype=float)
         if data.ndim != 2 or data.shape != (len(cols), t.shape[0]):
@@ -233,7 +234,7 @@ def write_dataset(
         manifest["truth"] = {k: float(v) for k, v in dict(truth).items()}
     manifest["runs"] = entries
     out = folder / "manifest.yaml"
-    _atomic_write_text(out, yaml.safe_dump(manifest, sort_keys=False))
+    atomic_write_text(out, yaml.safe_dump(manifest, sort_keys=False))
     return out
 
 
@@ -249,31 +250,6 @@ def _number(value, where: str, *, positive: bool = True) -> float:
         need = "a finite number > 0" if positive else "a finite number"
         raise DatasetError(f"{where} must be {need}, got {value!r}")
     return float(value)
-
-
-def _read_csv(path: Path, need: Sequence[str]) -> dict[str, np.ndarray]:
-    """The needed columns of one CSV (or gzipped ``.csv.gz``) run file as float arrays."""
-    opener = gzip.open if path.suffix.lower() == ".gz" else open
-    try:
-        with opener(path, "rt") as fh:
-            header = [h.strip() for h in fh.readline().strip().split(",")]
-    except (OSError, UnicodeDecodeError) as exc:
-        raise DatasetError(f"{path}: not a readable CSV text file ({exc})") from None
-    dup = sorted({h for h in header if header.count(h) > 1})
-    if dup:
-        raise DatasetError(f"{path}: duplicate column name(s) {dup}")
-    missing = [c for c in need if c not in header]
-    if missing:
-        raise DatasetError(
-            f"{path}: column(s) {missing} not in the header; the header has {header} "
-            "(the manifest's `channels` keys, `base_channel` and 'time' must be columns)"
-        )
-    cols = [header.index(c) for c in need]
-    try:
-        table = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2, usecols=cols)
-    except ValueError as exc:  # numpy names the row and column of the bad value
-        raise DatasetError(f"{path}: non-numeric value ({exc}); columns: {list(need)}") from None
-    return {c: table[:, k] for k, c in enumerate(need)}
 
 
 def _check_time(t: np.ndarray, fs: float | None, where: str) -> float:
@@ -323,8 +299,11 @@ def _nonfinite_reason(columns: Mapping[str, np.ndarray], t: np.ndarray) -> str:
 def read_dataset(path: str | os.PathLike, *, check_model: bool = True) -> Dataset:
     """Read and validate a data set from its folder or ``manifest.yaml`` (DESIGN.md §3).
 
-    CSV run files, and UFF dataset-58 files (a run ``file`` ending in ``.uff`` or ``.unv``,
-    channel names = the records' ID line 1, see :func:`freeplayid.io.read_uff`) are accepted.
+    A run file is read by the reader of its suffix (:data:`freeplayid.io.readers.READERS`):
+    CSV (``.csv``, ``.csv.gz``), UFF dataset 58 (``.uff``, ``.unv``; channel names = the
+    records' ID line 1, see :func:`freeplayid.io.read_uff`), MATLAB (``.mat``; one vector
+    variable per column) and NI TDMS (``.tdms``; one channel per column). The checks below that
+    concern the time column and the samples are the same for every file type.
 
     Parameters
     ----------
@@ -345,7 +324,8 @@ def read_dataset(path: str | os.PathLike, *, check_model: bool = True) -> Datase
     DatasetError
         Naming the file, the run, the field or column and the allowed values: missing manifest,
         run or model file, unknown fields, bad quantity/units, channels not in the model,
-        missing or non-numeric columns, a non-monotonic or non-uniform time column, a time
+        an unknown run-file suffix (the message lists the valid ones), missing or non-numeric
+        columns (variables, channels, records), a non-monotonic or non-uniform time column, a time
         column that disagrees with ``sample_rate``, no runs.
     """
     path = Path(path)
@@ -371,7 +351,8 @@ def read_dataset(path: str | os.PathLike, *, check_model: bool = True) -> Datase
         isinstance(k, str) and isinstance(v, str) for k, v in channels.items()
     ):
         raise DatasetError(
-            f"{where}`channels` must map CSV column names to model DOF names, got {channels!r}"
+            f"{where}`channels` must map run-file column names to model DOF names, got "
+            f"{channels!r}"
         )
     base_channel = m.get("base_channel")
     if base_channel is not None and (not isinstance(base_channel, str) or base_channel in
@@ -445,12 +426,7 @@ def read_dataset(path: str | os.PathLike, *, check_model: bool = True) -> Datase
             if sweep["start_hz"] == sweep["stop_hz"]:
                 raise DatasetError(f"{at}.sweep: `start_hz` and `stop_hz` must differ")
         need = ["time", *channels] + ([base_channel] if base_channel else [])
-        if f.suffix.lower() in UFF_SUFFIXES:
-            from .uff import read_uff
-
-            cols = read_uff(f, columns=need[1:])
-        else:
-            cols = _read_csv(f, need)
+        cols = read_run(f, need[1:])
         t = cols["time"]
         fs = _check_time(t, fs, str(f))
         data = np.stack([cols[c] for c in channels])

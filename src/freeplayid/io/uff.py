@@ -15,14 +15,14 @@ from pathlib import Path
 
 import numpy as np
 
+from .errors import DatasetError
+
 __all__ = ["read_uff", "write_uff"]
 
 _TIME_RESPONSE = 1  # dataset 58 function type: time response
 
 
-def _error(msg: str):
-    from .dataset import DatasetError
-
+def _error(msg: str) -> DatasetError:
     return DatasetError(msg)
 
 

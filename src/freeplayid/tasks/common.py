@@ -7,6 +7,7 @@ from pathlib import Path
 
 from omegaconf import DictConfig, OmegaConf
 
+from ..io.atomic import atomic_write_text
 from ..model.system import FreeplaySystem
 
 __all__ = ["build_system", "run_dir", "write_metrics", "MODEL_KINDS"]
@@ -63,8 +64,5 @@ def run_dir() -> Path:
 
 def write_metrics(folder: Path, metrics: dict) -> Path:
     """Write ``metrics.json`` (atomically) and return its path."""
-    path = Path(folder) / "metrics.json"
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(json.dumps(metrics, indent=2, sort_keys=True))
-    tmp.replace(path)
-    return path
+    return atomic_write_text(Path(folder) / "metrics.json",
+                             json.dumps(metrics, indent=2, sort_keys=True))

@@ -1,0 +1,11 @@
+"""The one error type of :mod:`freeplayid.io`."""
+
+from __future__ import annotations
+
+from ..errors import InputError
+
+__all__ = ["DatasetError"]
+
+
+class DatasetError(InputError):
+    """A data set does not satisfy the contract of DESIGN.md §3."""
