@@ -1,19 +1,17 @@
 """End-to-end identification on simulated sweeps of the default fin (docs/results.md, reduced).
 
-simulate (absolute acceleration, batched) -> subtract the base -> extract backbone points (ACMP)
--> DFA fit; the identified (kn, delta) must meet the paper's noise-free bounds (Table 2):
-|delta error| < 1 %, |kn error| < 2 %.
+simulate (absolute acceleration, batched) -> the records as a data set -> ``freeplayid.identify``
+(base subtracted, ACMP points, DFA fit); the identified (kn, delta) must meet the paper's
+noise-free bounds (Table 2): |delta error| < 1 %, |kn error| < 2 %.
 """
 
 from __future__ import annotations
 
-import numpy as np
 import pytest
 
-from freeplayid.fit import fit_backbone, multistart_grid
+import freeplayid
 from freeplayid.model import default_fin, default_fin_parameters
-from freeplayid.signal import extract_backbone_points
-from freeplayid.simulate import Sweep, simulate_sweeps
+from freeplayid.simulate import Sweep, simulate_sweeps, sweep_dataset
 
 CHANNELS = ("uz_top_left", "uz_lower_right")
 FS = 2048.0  # [Hz]
@@ -27,16 +25,13 @@ def identify(levels, sweep):
                         channels=CHANNELS, quantity="acceleration", frame="absolute",
                         sample_rate=FS, progress=False)
     assert not r.diverged.any()
-    base = np.stack([sweep.acceleration(r.time, lv) for lv in levels])
-    pts = extract_backbone_points(r.signals.astype(float), FS, quantity="acceleration",
-                                  channel_names=CHANNELS, run_names=[f"{v} g" for v in levels],
-                                  sweep=sweep, base=base)
-    # Starts around the fin's range, not the default 1e3-1e8 grid: with two levels the default
-    # multi-start raises ValueError when one start's unbounded LM step overflows kn = exp(x) to
-    # inf (library bug, reported; docs/make_results.py works around it the same way).
-    fit = fit_backbone(pts, fin, init=multistart_grid(3, kn_range=(1e2, 1e4),
-                                                       delta_range=(1e-3, 1e-2)))
-    return pts, fit, truth
+    # the simulated records as a data set (absolute accelerations, base channel, sweep hints),
+    # identified by the library pipeline a measured data set goes through; starts around the
+    # fin's range
+    res = freeplayid.identify(sweep_dataset(r, run_names=[f"{v} g" for v in levels]), system=fin,
+                              multistart={"n": 3, "kn_range": (1e2, 1e4),
+                                          "delta_range": (1e-3, 1e-2)})
+    return res.points, res.fit, truth
 
 
 def assert_within_bounds(fit, truth):

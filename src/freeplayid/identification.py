@@ -27,7 +27,14 @@ __all__ = ["Identification", "IdentificationError", "identify"]
 
 
 class IdentificationError(InputError):
-    """The data set is valid but does not support an identification (e.g. too few points)."""
+    """The data set is valid but does not support an identification (e.g. too few points).
+
+    ``points`` holds what the extraction found (a ``BackbonePoints``), when it got that far.
+    """
+
+    def __init__(self, message: str, *, points=None) -> None:
+        super().__init__(message)
+        self.points = points
 
 
 @dataclass(frozen=True)
@@ -254,13 +261,15 @@ def _check_enough(pts, rejected: dict, where) -> None:
         why = "; ".join(f"{r}: {w}" for r, w in rejected.items()) or "none rejected"
         raise IdentificationError(
             f"{where}: {len(used)} usable fitting point(s), at least 2 are needed "
-            f"(rejected runs: {why}); add runs at higher levels that resonate in the band"
+            f"(rejected runs: {why}); add runs at higher levels that resonate in the band",
+            points=pts,
         )
     if count_resonances([p.f_hz for p in used]) < 2:
         raise IdentificationError(
             f"{where}: the {len(used)} usable points lie at one resonance (within 0.5 %: "
             f"{used[0].f_hz:.3f} Hz, run {used[0].run}): kn and delta need resonances at two "
-            "or more levels; add runs at other levels that resonate in the band"
+            "or more levels; add runs at other levels that resonate in the band",
+            points=pts,
         )
 
 

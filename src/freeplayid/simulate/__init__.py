@@ -5,6 +5,7 @@ torch engine (CPU or CUDA) or a compiled numba CPU kernel, and returns a :class:
 at the output sample rate. See docs/simulate.md.
 """
 
+from .dataset import sweep_dataset
 from .formulation import ModalForm, ModalTruncation, build_modal_form, rk4_step_limit
 from .quasistatic import QuasiStatic
 from .resample import StreamingDecimator, design_decimator
@@ -15,6 +16,7 @@ __all__ = [
     "G",
     "Sweep",
     "simulate_sweeps",
+    "sweep_dataset",
     "SweepResult",
     "ModalForm",
     "ModalTruncation",
