@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from freeplayid.backbone import dfa_backbone, hb_backbone
-from freeplayid.fit import fit_backbone, multistart_grid
+from freeplayid.fit import FittingPoints, fit_backbone, multistart_grid
 from freeplayid.model import two_dof_system
 
 KN, DELTA = 2.0e4, 1.0e-3
@@ -12,11 +12,11 @@ S = np.array([1.6, 2.0, 3.0, 5.0, 8.0])
 def _points(curve, noise=0.0, seed=0):
     rng = np.random.default_rng(seed)
     f = np.r_[curve.frequency_hz[0], curve.frequency_hz[0]]
-    return {
-        "channel": ["uz_out"] * S.size + ["uz_in"] * S.size,
-        "amplitude": np.r_[curve.channel("uz_out")[0], curve.channel("uz_in")[0]],
-        "f_hz": f * (1 + noise * rng.standard_normal(f.size)),
-    }
+    return FittingPoints(
+        channel=["uz_out"] * S.size + ["uz_in"] * S.size,
+        amplitude_m=np.r_[curve.channel("uz_out")[0], curve.channel("uz_in")[0]],
+        f_hz=f * (1 + noise * rng.standard_normal(f.size)),
+    )
 
 
 def test_fit_recovers_parameters_from_exact_dfa_points():
@@ -52,11 +52,9 @@ def test_hb_backbone_fit_on_harmonic_balance_points_near_contact():
     sys_ = two_dof_system()
     s = np.array([1.2, 1.3, 1.5, 1.8, 2.2])
     hb = hb_backbone(sys_, kn=KN, delta=DELTA, s=s, n_harmonics=5)
-    pts = {
-        "channel": ["uz_out"] * s.size,
-        "amplitude": hb.channel("uz_out")[0],
-        "f_hz": hb.frequency_hz[0],
-    }
+    pts = FittingPoints(
+        channel=["uz_out"] * s.size, amplitude_m=hb.channel("uz_out")[0], f_hz=hb.frequency_hz[0]
+    )
     dfa_fit = fit_backbone(pts, sys_, init=(KN, DELTA))
     hb_fit = fit_backbone(pts, sys_, init=(KN, DELTA), backbone="hb")
     assert abs(hb_fit.delta / DELTA - 1) < 0.25 * abs(dfa_fit.delta / DELTA - 1)
@@ -66,24 +64,25 @@ def test_hb_backbone_fit_on_harmonic_balance_points_near_contact():
 def test_fit_input_errors():
     sys_ = two_dof_system()
     with pytest.raises(ValueError, match="at least 2"):
-        fit_backbone({"channel": ["uz_in"], "amplitude": [1e-3], "f_hz": [5.0]}, sys_)
+        fit_backbone(FittingPoints(channel=["uz_in"], amplitude_m=[1e-3], f_hz=[5.0]), sys_)
     with pytest.raises(ValueError, match="not DOFs"):
-        fit_backbone({"channel": ["x", "x"], "amplitude": [1e-3, 2e-3], "f_hz": [5.0, 6.0]}, sys_)
+        fit_backbone(FittingPoints(channel=["x", "x"], amplitude_m=[1e-3, 2e-3], f_hz=[5.0, 6.0]),
+                     sys_)
     with pytest.raises(ValueError, match="bad points"):
         fit_backbone(
-            {"channel": ["uz_in", "uz_in"], "amplitude": [np.nan, 2e-3], "f_hz": [5.0, 6.0]}, sys_
+            FittingPoints(channel=["uz_in", "uz_in"], amplitude_m=[np.nan, 2e-3], f_hz=[5.0, 6.0]),
+            sys_,
         )
     with pytest.raises(ValueError, match="backbone"):
         fit_backbone(
-            {"channel": ["uz_in", "uz_in"], "amplitude": [1e-3, 2e-3], "f_hz": [5.0, 6.0]},
+            FittingPoints(channel=["uz_in", "uz_in"], amplitude_m=[1e-3, 2e-3], f_hz=[5.0, 6.0]),
             sys_,
             backbone="ihb",
         )
 
 
 def test_validate_modes_passes_for_true_kn_and_fails_for_wrong_kn():
-    from freeplayid.fit import validate_modes
-    from freeplayid.model import modal_analysis
+    from freeplayid.model import modal_analysis, validate_modes
 
     sys_ = two_dof_system()
     ref = modal_analysis(sys_.M, sys_.closed_stiffness(KN))
@@ -107,7 +106,7 @@ def test_points_at_one_resonance_are_flagged():
     assert count_resonances([]) == 0
     sys_ = two_dof_system()
     names = list(sys_.dof_names)
-    pts = {"channel": names[:2], "amplitude": [2e-3, 1e-3], "f_hz": [10.0, 10.001]}
+    pts = FittingPoints(channel=names[:2], amplitude_m=[2e-3, 1e-3], f_hz=[10.0, 10.001])
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:

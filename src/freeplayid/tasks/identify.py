@@ -90,12 +90,12 @@ def _load_inverse(cfg: DictConfig, system):
     return load_inverse_model(Path(to_absolute_path(str(cfg.inverse.checkpoint))), system=system)
 
 
-def _inverse_estimate(model, records: list[dict]) -> dict:
+def _inverse_estimate(model, points) -> dict:
     """The inverse model's estimate of (kn, delta) from the points (the fit's start)."""
     from ..inverse import InverseModelError
 
     try:
-        kn, delta, s_kn, s_delta = model.predict_records(records)
+        kn, delta, s_kn, s_delta = model.predict_points(points)
     except ValueError as exc:  # e.g. a channel the network was not trained on
         raise InverseModelError(f"{model.path}: {exc}") from None
     est = {"kn": float(kn), "delta": float(delta), "log_kn_std": float(s_kn),
@@ -107,10 +107,9 @@ def _inverse_estimate(model, records: list[dict]) -> dict:
 
 def _backbone_overlay(system, fit, dofs: dict, backbone: str, mode: int):
     """Identified backbone: frequency [Hz] (m,) and amplitude [m] (m,) per CSV column."""
-    from ..backbone import dfa_backbone, hb_backbone
+    from ..backbone import backbone_curve
 
-    fn = dfa_backbone if backbone == "dfa" else hb_backbone
-    bc = fn(system, kn=fit.kn, delta=fit.delta, mode=mode)
+    bc = backbone_curve(system, method=backbone, kn=fit.kn, delta=fit.delta, mode=mode)
     f = bc.frequency_hz[0]
     return {col: (f, bc.amplitude[0][:, system.dof_names.index(d)]) for col, d in dofs.items()}
 
@@ -213,12 +212,12 @@ def identify(cfg: DictConfig) -> dict:
     IdentificationError
         Fewer than two usable fitting points (the message lists the rejected runs).
     """
-    from ..fit import fit_backbone, multistart_grid
+    from ..backbone import backbone_method
+    from ..fit import FittingPoints, fit_backbone, multistart_grid
     from ..model import load_system
 
     t0 = time.perf_counter()
-    if cfg.backbone not in ("dfa", "hb"):
-        raise ValueError(f"`backbone` must be one of ('dfa', 'hb'), got {cfg.backbone!r}")
+    backbone_method(cfg.backbone, argument="backbone")
     data_path = _data_path(cfg)
     ds = read_dataset(data_path)
     if ds.model is None:
@@ -241,8 +240,7 @@ def identify(cfg: DictConfig) -> dict:
             f"{used[0].f_hz:.3f} Hz, run {used[0].run}): kn and delta need resonances at two "
             "or more levels; add runs at other levels that resonate in the band"
         )
-    records = [{"channel": ds.channels[p.channel], "amplitude_m": p.amplitude_m, "f_hz": p.f_hz}
-               for p in used]
+    records = FittingPoints.from_extraction(pts, dofs=ds.channels)
     inverse = None
     if inverse_model is not None:
         inverse = _inverse_estimate(inverse_model, records)
