@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from freeplayid.backbone import dfa_backbone, hb_backbone
+from freeplayid.backbone import BACKBONE_METHODS, backbone_curve, dfa_backbone, hb_backbone
 from freeplayid.model import (
     FreeplaySystem,
     describing_function,
@@ -176,3 +176,31 @@ def test_hb_continuation_caught_on_an_internal_resonance_falls_back_to_dfa():
         warnings.simplefilter("error")
         hb2 = hb_backbone(fin, kn=720.0, delta=3e-3, s=s, n_harmonics=2)
     assert hb2.converged[0].all()
+
+
+def _assert_same_curve(a, b):
+    for name in ("frequency_hz", "amplitude", "hinge_amplitude", "kappa", "kn", "delta",
+                 "converged"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
+    assert a.dof_names == b.dof_names and a.method == b.method
+
+
+def test_backbone_curve_dispatches_by_name_to_the_registered_method():
+    sys_ = two_hinge_system()
+    s = np.array([1.2, 2.0, 5.0])
+    by_name = backbone_curve(sys_, method="dfa", kn=[4.0e3, 8.0e3], delta=2e-3, s=s)
+    _assert_same_curve(by_name, dfa_backbone(sys_, kn=[4.0e3, 8.0e3], delta=2e-3, s=s))
+    assert by_name.method == "dfa"
+    # the default method is the DFA; options reach the method
+    _assert_same_curve(backbone_curve(sys_, kn=4.0e3, delta=2e-3, s=s, equal_hinges=True),
+                       dfa_backbone(sys_, kn=4.0e3, delta=2e-3, s=s, equal_hinges=True))
+    hb = backbone_curve(sdof_system(), method="hb", kn=2.0, delta=1e-3, s=s, n_harmonics=3)
+    _assert_same_curve(hb, hb_backbone(sdof_system(), kn=2.0, delta=1e-3, s=s, n_harmonics=3))
+    assert BACKBONE_METHODS["dfa"] is dfa_backbone and BACKBONE_METHODS["hb"] is hb_backbone
+
+
+def test_unknown_backbone_method_lists_the_registered_names():
+    with pytest.raises(ValueError) as err:
+        backbone_curve(two_dof_system(), method="x", kn=1.0, delta=1.0)
+    assert str(err.value) == f"`method` must be one of {sorted(BACKBONE_METHODS)}, got 'x'"
+    assert "['dfa', 'hb']" in str(err.value)  # the two methods of today, in the message

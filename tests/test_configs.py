@@ -8,6 +8,8 @@ from pathlib import Path
 import pytest
 from hydra import compose, initialize_config_dir
 
+from freeplayid.backbone import BACKBONE_METHODS
+
 ROOT = Path(__file__).resolve().parents[1]
 CONF = ROOT / "conf"
 MODELS = sorted(p.stem for p in (CONF / "model").glob("*.yaml"))
@@ -85,7 +87,7 @@ def test_compose_identify(debug):
     with initialize_config_dir(config_dir=str(CONF), version_base="1.3"):
         cfg = compose(config_name="identify", overrides=debug + ["data=some/manifest.yaml"])
     assert cfg.data == "some/manifest.yaml" and cfg.inverse.checkpoint is None
-    assert cfg.backbone in ("dfa", "hb")
+    assert cfg.backbone in BACKBONE_METHODS
     import inspect
 
     from freeplayid.signal import extract_backbone_points

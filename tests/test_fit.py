@@ -1,8 +1,10 @@
+import re
+
 import numpy as np
 import pytest
 
 from freeplayid.backbone import dfa_backbone, hb_backbone
-from freeplayid.fit import fit_backbone, multistart_grid
+from freeplayid.fit import FittingPoints, fit_backbone, multistart_grid
 from freeplayid.model import two_dof_system
 
 KN, DELTA = 2.0e4, 1.0e-3
@@ -12,11 +14,11 @@ S = np.array([1.6, 2.0, 3.0, 5.0, 8.0])
 def _points(curve, noise=0.0, seed=0):
     rng = np.random.default_rng(seed)
     f = np.r_[curve.frequency_hz[0], curve.frequency_hz[0]]
-    return {
-        "channel": ["uz_out"] * S.size + ["uz_in"] * S.size,
-        "amplitude": np.r_[curve.channel("uz_out")[0], curve.channel("uz_in")[0]],
-        "f_hz": f * (1 + noise * rng.standard_normal(f.size)),
-    }
+    return FittingPoints(
+        channel=["uz_out"] * S.size + ["uz_in"] * S.size,
+        amplitude_m=np.r_[curve.channel("uz_out")[0], curve.channel("uz_in")[0]],
+        f_hz=f * (1 + noise * rng.standard_normal(f.size)),
+    )
 
 
 def test_fit_recovers_parameters_from_exact_dfa_points():
@@ -52,11 +54,9 @@ def test_hb_backbone_fit_on_harmonic_balance_points_near_contact():
     sys_ = two_dof_system()
     s = np.array([1.2, 1.3, 1.5, 1.8, 2.2])
     hb = hb_backbone(sys_, kn=KN, delta=DELTA, s=s, n_harmonics=5)
-    pts = {
-        "channel": ["uz_out"] * s.size,
-        "amplitude": hb.channel("uz_out")[0],
-        "f_hz": hb.frequency_hz[0],
-    }
+    pts = FittingPoints(
+        channel=["uz_out"] * s.size, amplitude_m=hb.channel("uz_out")[0], f_hz=hb.frequency_hz[0]
+    )
     dfa_fit = fit_backbone(pts, sys_, init=(KN, DELTA))
     hb_fit = fit_backbone(pts, sys_, init=(KN, DELTA), backbone="hb")
     assert abs(hb_fit.delta / DELTA - 1) < 0.25 * abs(dfa_fit.delta / DELTA - 1)
@@ -66,24 +66,25 @@ def test_hb_backbone_fit_on_harmonic_balance_points_near_contact():
 def test_fit_input_errors():
     sys_ = two_dof_system()
     with pytest.raises(ValueError, match="at least 2"):
-        fit_backbone({"channel": ["uz_in"], "amplitude": [1e-3], "f_hz": [5.0]}, sys_)
+        fit_backbone(FittingPoints(channel=["uz_in"], amplitude_m=[1e-3], f_hz=[5.0]), sys_)
     with pytest.raises(ValueError, match="not DOFs"):
-        fit_backbone({"channel": ["x", "x"], "amplitude": [1e-3, 2e-3], "f_hz": [5.0, 6.0]}, sys_)
+        fit_backbone(FittingPoints(channel=["x", "x"], amplitude_m=[1e-3, 2e-3], f_hz=[5.0, 6.0]),
+                     sys_)
     with pytest.raises(ValueError, match="bad points"):
         fit_backbone(
-            {"channel": ["uz_in", "uz_in"], "amplitude": [np.nan, 2e-3], "f_hz": [5.0, 6.0]}, sys_
+            FittingPoints(channel=["uz_in", "uz_in"], amplitude_m=[np.nan, 2e-3], f_hz=[5.0, 6.0]),
+            sys_,
         )
     with pytest.raises(ValueError, match="backbone"):
         fit_backbone(
-            {"channel": ["uz_in", "uz_in"], "amplitude": [1e-3, 2e-3], "f_hz": [5.0, 6.0]},
+            FittingPoints(channel=["uz_in", "uz_in"], amplitude_m=[1e-3, 2e-3], f_hz=[5.0, 6.0]),
             sys_,
             backbone="ihb",
         )
 
 
 def test_validate_modes_passes_for_true_kn_and_fails_for_wrong_kn():
-    from freeplayid.fit import validate_modes
-    from freeplayid.model import modal_analysis
+    from freeplayid.model import modal_analysis, validate_modes
 
     sys_ = two_dof_system()
     ref = modal_analysis(sys_.M, sys_.closed_stiffness(KN))
@@ -107,7 +108,7 @@ def test_points_at_one_resonance_are_flagged():
     assert count_resonances([]) == 0
     sys_ = two_dof_system()
     names = list(sys_.dof_names)
-    pts = {"channel": names[:2], "amplitude": [2e-3, 1e-3], "f_hz": [10.0, 10.001]}
+    pts = FittingPoints(channel=names[:2], amplitude_m=[2e-3, 1e-3], f_hz=[10.0, 10.001])
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
@@ -115,3 +116,107 @@ def test_points_at_one_resonance_are_flagged():
         except ValueError:
             pass  # the start may also diverge: the warning is what is tested
     assert any("one resonance" in str(w.message) for w in caught)
+
+
+def test_fitting_points_validation_names_the_field_and_the_bad_points():
+    ok = FittingPoints(channel=("a", "b"), amplitude_m=[1e-3, 2e-3], f_hz=[5.0, 6.0])
+    assert ok.channel == ("a", "b") and len(ok) == 2 and ok.run is None
+    assert ok.amplitude_m.dtype == float and not ok.amplitude_m.flags.writeable
+    with pytest.raises(ValueError, match=r"`f_hz` with 3"):
+        FittingPoints(channel=["a", "b"], amplitude_m=[1e-3, 2e-3], f_hz=[5.0, 6.0, 7.0])
+    with pytest.raises(ValueError, match=r"`run` with 1"):
+        FittingPoints(channel=["a", "b"], amplitude_m=[1e-3, 2e-3], f_hz=[5.0, 6.0], run=["r0"])
+    with pytest.raises(ValueError, match="at least 2 fitting points .* got 1"):
+        FittingPoints(channel=["a"], amplitude_m=[1e-3], f_hz=[5.0])
+    with pytest.raises(ValueError, match=r"finite `f_hz` > 0; bad points at indices \[1, 2\]"):
+        FittingPoints(channel=["a"] * 3, amplitude_m=[1e-3] * 3, f_hz=[5.0, np.inf, -1.0])
+    with pytest.raises(ValueError, match=r"finite `amplitude_m` > 0; .* indices \[0\]"):
+        FittingPoints(channel=["a", "b"], amplitude_m=[0.0, 2e-3], f_hz=[5.0, 6.0])
+    with pytest.raises(ValueError, match="`channel` must be a sequence of str"):
+        FittingPoints(channel="ab", amplitude_m=[1e-3, 2e-3], f_hz=[5.0, 6.0])
+    with pytest.raises(ValueError, match=r"`amplitude_m` must be 1-D"):
+        FittingPoints(channel=["a", "b"], amplitude_m=[[1e-3, 2e-3]], f_hz=[5.0, 6.0])
+
+
+def test_fitting_points_from_and_to_records_round_trip():
+    records = [
+        {"channel": "uz_in", "amplitude_m": 1e-3, "f_hz": 5.0, "run": "0.6 g"},
+        {"channel": "uz_out", "amplitude_m": 3e-3, "f_hz": 5.0, "run": "0.6 g", "used": True},
+        {"channel": "uz_out", "amplitude_m": 9.0, "f_hz": -1.0, "run": "0.2 g", "used": False},
+        {"channel": "uz_out", "amplitude_m": 4e-3, "f_hz": 5.5, "run": "0.8 g"},
+    ]
+    pts = FittingPoints.from_records(records)
+    assert pts.channel == ("uz_in", "uz_out", "uz_out") and pts.run == ("0.6 g", "0.6 g", "0.8 g")
+    np.testing.assert_array_equal(pts.amplitude_m, [1e-3, 3e-3, 4e-3])
+    np.testing.assert_array_equal(pts.f_hz, [5.0, 5.0, 5.5])
+    back = pts.to_records()
+    used = [r for r in records if r.get("used", True)]
+    assert back == [{k: v for k, v in r.items() if k != "used"} for r in used]
+    assert FittingPoints.from_records(back) == pts
+    no_run = FittingPoints.from_records([{k: v for k, v in r.items() if k != "run"} for r in back])
+    assert no_run.run is None and no_run != pts and "run" not in no_run.to_records()[0]
+    with pytest.raises(ValueError, match=r"record 1 lacks \['amplitude_m'\]"):
+        FittingPoints.from_records([back[0], {"channel": "uz_in", "amplitude": 1e-3, "f_hz": 5.0}])
+
+
+def _extraction():
+    from freeplayid.signal import BackbonePoint, BackbonePoints
+
+    def pt(run, col, f, a, used=True):
+        return BackbonePoint(run, col, f, a, used, "" if used else "no jump in band", 1.0, 30.0)
+
+    return BackbonePoints(
+        points=(pt("r1", "acc_out", 5.2, 2e-3), pt("r1", "acc_in", 5.2, 1e-3),
+                pt("r2", "acc_out", 5.6, 4e-3), pt("r2", "acc_in", 5.6, 0.0, used=False)),
+        rejected_runs=(), curves=(), quantity="acceleration", method="acmp",
+    )
+
+
+def test_fitting_points_from_extraction_keeps_used_points_mapped_to_dofs():
+    ext = _extraction()
+    dofs = {"acc_out": "uz_out", "acc_in": "uz_in"}
+    pts = FittingPoints.from_extraction(ext, dofs=dofs)
+    assert pts.channel == ("uz_out", "uz_in", "uz_out") and pts.run == ("r1", "r1", "r2")
+    np.testing.assert_array_equal(pts.amplitude_m, [2e-3, 1e-3, 4e-3])
+    np.testing.assert_array_equal(pts.f_hz, [5.2, 5.2, 5.6])
+    used = [r for r in ext.to_records() if r["used"]]
+    assert [(r["channel"], r["f_hz"], r["amplitude_m"]) for r in pts.to_records()] == [
+        (dofs[r["channel"]], r["f_hz"], r["amplitude_m"]) for r in used]
+    assert FittingPoints.from_extraction(ext).channel == ("acc_out", "acc_in", "acc_out")
+    with pytest.raises(ValueError, match=r"channels \['acc_in'\] .* not in `dofs`"):
+        FittingPoints.from_extraction(ext, dofs={"acc_out": "uz_out"})
+    with pytest.raises(TypeError, match="BackbonePoints"):
+        FittingPoints.from_extraction(pts)
+
+
+def test_fit_backbone_takes_fitting_points_or_an_extraction_and_nothing_else():
+    from freeplayid.signal import BackbonePoint, BackbonePoints
+
+    sys_ = two_dof_system()
+    pts = _points(dfa_backbone(sys_, kn=KN, delta=DELTA, s=S))
+    ext = BackbonePoints(
+        tuple(BackbonePoint(f"r{i % S.size}", c, q, a, True, "", 0.0, 30.0)
+              for i, (c, a, q) in enumerate(zip(pts.channel, pts.amplitude_m, pts.f_hz)))
+        + (BackbonePoint("r9", "uz_in", 1.0, 1.0, False, "no jump in band", 0.0, 0.0),),
+        (), (), "displacement", "acmp",
+    )
+    a = fit_backbone(ext, sys_, init=(1e4, 2e-3))
+    b = fit_backbone(pts, sys_, init=(1e4, 2e-3))
+    assert (a.kn, a.delta, a.n_points) == (b.kn, b.delta, 2 * S.size)
+    assert a.kn == pytest.approx(KN, rel=1e-4)
+    for bad in (pts.to_records(), {"channel": ["uz_in"] * 2, "amplitude": [1e-3, 2e-3],
+                                   "f_hz": [5.0, 6.0]}):
+        with pytest.raises(TypeError, match=r"FittingPoints or a freeplayid.signal.BackbonePoints"):
+            fit_backbone(bad, sys_)
+
+
+def test_unknown_fit_backbone_lists_the_registered_methods():
+    from freeplayid.backbone import BACKBONE_METHODS
+    from freeplayid.fit import BackboneModel
+
+    pts = FittingPoints(channel=["uz_in", "uz_in"], amplitude_m=[1e-3, 2e-3], f_hz=[5.0, 6.0])
+    msg = f"`backbone` must be one of {sorted(BACKBONE_METHODS)}, got 'ihb'"
+    with pytest.raises(ValueError, match=re.escape(msg)):
+        fit_backbone(pts, two_dof_system(), backbone="ihb")
+    with pytest.raises(ValueError, match=re.escape(msg)):
+        BackboneModel(two_dof_system(), ["uz_in"], backbone="ihb")

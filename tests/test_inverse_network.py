@@ -238,3 +238,22 @@ def test_trains_and_predicts_on_cuda(tmp_path):
     np.testing.assert_allclose(on_gpu.predict(val).kn, on_cpu.predict(val).kn, rtol=1e-5)
     np.testing.assert_allclose(InverseModel(module).predict(val).kn, on_cpu.predict(val).kn,
                                rtol=1e-5)
+
+
+def test_predict_points_takes_fitting_points_as_the_fit_does(trained):
+    from freeplayid.fit import FittingPoints
+
+    _, path, val, _ = trained
+    model = load_inverse_model(path)
+    case = next(i for i in range(val.n_cases) if val.n_points[i] >= 2)
+    points = val.fitting_points(case)
+    assert isinstance(points, FittingPoints) and points.to_records() == val.records(case)
+    assert model.predict_points(points) == model.predict_records(val.records(case))
+    p = model.predict(val)
+    assert model.predict_points(points)[:2] == pytest.approx((p.kn[case], p.delta[case]), rel=1e-6)
+    with pytest.raises(TypeError, match="FittingPoints"):
+        model.predict_points(val.records(case))
+    other = FittingPoints(channel=["rx_hinge", "uz_tip"], amplitude_m=[1e-3, 2e-3],
+                          f_hz=[40.0, 41.0])
+    with pytest.raises(ValueError, match=r"'rx_hinge'.*allowed: \['uz_tip', 'uz_root'\]"):
+        model.predict_points(other)

@@ -100,10 +100,10 @@ def test_compare_writes_tables_and_figures(trained):
 
 
 def test_fit_backbone_takes_an_inverse_model_as_its_start():
-    """Any object with predict_records is asked for the start; the fit records it."""
+    """Any object with predict_points is asked for the start; the fit records it."""
     import numpy as np
 
-    from freeplayid.fit import fit_backbone
+    from freeplayid.fit import FittingPoints, fit_backbone
     from freeplayid.model.small import sdof_system
 
     kn, delta, m = 4.0e4, 1.0e-3, 1.0
@@ -116,11 +116,11 @@ def test_fit_backbone_takes_an_inverse_model_as_its_start():
     class Guess:
         seen = None
 
-        def predict_records(self, recs):
-            Guess.seen = recs
+        def predict_points(self, points):
+            Guess.seen = points.to_records()
             return 1.3 * kn, 0.8 * delta, 0.1, 0.1
 
-    res = fit_backbone(records, sdof_system(mass=m), init=Guess())
+    res = fit_backbone(FittingPoints.from_records(records), sdof_system(mass=m), init=Guess())
     assert res.init == "inverse" and res.start == (1.3 * kn, 0.8 * delta)
     assert [r["channel"] for r in Guess.seen] == ["x"] * 4
     assert abs(res.kn / kn - 1) < 0.02 and abs(res.delta / delta - 1) < 0.05

@@ -145,10 +145,10 @@ class Identification:
 
     def backbone_overlay(self) -> dict:
         """The identified backbone per channel: ``{column: (f [Hz] (m,), amplitude [m] (m,))}``."""
-        from .backbone import dfa_backbone, hb_backbone
+        from .backbone import backbone_curve
 
-        fn = dfa_backbone if self.backbone == "dfa" else hb_backbone
-        bc = fn(self.system, kn=self.kn, delta=self.delta, mode=self.mode)
+        bc = backbone_curve(self.system, method=self.backbone, kn=self.kn, delta=self.delta,
+                            mode=self.mode)
         f = bc.frequency_hz[0]
         names = self.system.dof_names
         return {col: (f, bc.amplitude[0][:, names.index(d)]) for col, d in self.dofs.items()}
@@ -273,10 +273,10 @@ def _check_enough(pts, rejected: dict, where) -> None:
         )
 
 
-def _inverse_start(model, records: list[dict]) -> dict:
+def _inverse_start(model, points) -> dict:
     """The inverse model's estimate of (kn, delta) from the fitting points (the fit's start)."""
     try:
-        kn, delta, s_kn, s_delta = model.predict_records(records)
+        kn, delta, s_kn, s_delta = model.predict_points(points)
     except ValueError as exc:  # e.g. a channel the network was not trained on
         from .inverse import InverseModelError
 
@@ -345,13 +345,13 @@ def identify(
     InverseModelError
         The inverse model cannot take these points (e.g. a channel it was not trained on).
     """
-    from .fit import fit_backbone, multistart_grid
+    from .backbone import backbone_method
+    from .fit import FittingPoints, fit_backbone, multistart_grid
     from .io import DatasetError, read_dataset
     from .model import FreeplaySystem, load_system
 
     t0 = time.perf_counter()
-    if backbone not in ("dfa", "hb"):
-        raise ValueError(f"`backbone` must be one of ('dfa', 'hb'), got {backbone!r}")
+    backbone_method(backbone, argument="backbone")  # an unknown name fails before any work
     if isinstance(dataset, (str, os.PathLike)):
         dataset = read_dataset(dataset)
     if system is None:
@@ -365,18 +365,17 @@ def identify(
     pts, rejected = _extract(dataset, extraction=dict(extraction or {}),
                              use_sweep_hint=use_sweep_hint, progress=progress)
     _check_enough(pts, rejected, where)
-    records = [{"channel": dataset.channels[p.channel], "amplitude_m": p.amplitude_m,
-                "f_hz": p.f_hz} for p in pts.used()]
+    points = FittingPoints.from_extraction(pts, dofs=dataset.channels)
     inverse = None
-    if hasattr(init, "predict_records"):
-        inverse = _inverse_start(init, records)
+    if hasattr(init, "predict_points"):
+        inverse = _inverse_start(init, points)
         starts, label = (inverse["kn"], inverse["delta"]), "inverse"
     elif init is None and multistart:
         starts, label = multistart_grid(**{k: v if k == "n" else tuple(v)
                                            for k, v in multistart.items()}), "multistart"
     else:
         starts, label = init, None
-    fit = fit_backbone(records, system, init=starts, init_label=label, backbone=backbone,
+    fit = fit_backbone(points, system, init=starts, init_label=label, backbone=backbone,
                        mode=int(mode), n_bootstrap=int(n_bootstrap), seed=int(seed))
     return Identification(
         kn=fit.kn,

@@ -50,7 +50,7 @@ class BackboneCurve:
     kn, delta : ndarray, shape (k,) [N m/rad], [rad]
     dof_names : tuple of str
     method : str
-        "dfa" or "hb".
+        The registry name of the method (a key of ``BACKBONE_METHODS``: "dfa", "hb").
     converged : ndarray, shape (k, m) of bool
         Whether the unequal-hinge fixed point (or harmonic balance) converged at each point.
     peak_amplitude : ndarray, shape (k, m, n_dof), optional [m or rad]

@@ -16,6 +16,7 @@ import numpy as np
 import torch
 
 from ..errors import InputError
+from ..fit import FittingPoints
 from .lightning import _CKPT_KEY, _CKPT_VERSION, InverseModule
 from .network import Normalisation, collate_point_sets
 from .points import PointSets, point_sets_from_records
@@ -109,8 +110,29 @@ class InverseModel:
         return InversePrediction(kn=np.exp(log_mean[:, 0]), delta=np.exp(log_mean[:, 1]),
                                  log_kn_std=log_std[:, 0], log_delta_std=log_std[:, 1])
 
+    def predict_points(self, points: FittingPoints) -> tuple[float, float, float, float]:
+        """One case from its fitting points (the start of ``fit_backbone(..., init=model)``).
+
+        Returns
+        -------
+        kn [N m/rad], delta [rad], log_kn_std, log_delta_std : float
+
+        Raises
+        ------
+        TypeError
+            ``points`` is not a FittingPoints.
+        ValueError
+            A point's channel is not one of :attr:`channels` (listed).
+        """
+        if not isinstance(points, FittingPoints):
+            raise TypeError(f"`points` must be a freeplayid.fit.FittingPoints, got "
+                            f"{type(points).__name__} (records: use predict_records)")
+        p = self.predict(point_sets_from_records(points, self.channels))
+        return float(p.kn[0]), float(p.delta[0]), float(p.log_kn_std[0]), float(p.log_delta_std[0])
+
     def predict_records(self, records: Sequence[dict]) -> tuple[float, float, float, float]:
-        """One case from point records (``channel``, ``amplitude_m``, ``f_hz``; ``used``).
+        """One case from point records (``channel``, ``amplitude_m``, ``f_hz``; ``used``), as
+        :meth:`predict_points` (one used record suffices here).
 
         Returns
         -------

@@ -13,6 +13,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..fit import FittingPoints
+
 __all__ = ["PointSets", "point_sets_from_records"]
 
 
@@ -91,8 +93,20 @@ class PointSets:
             meta={k: np.asarray(v)[idx] for k, v in self.meta.items()},
         )
 
+    def fitting_points(self, i: int) -> FittingPoints:
+        """Case ``i`` as :class:`~freeplayid.fit.FittingPoints` (for ``fit_backbone``).
+
+        Raises
+        ------
+        ValueError
+            The case has fewer than 2 points (a fit needs 2).
+        """
+        rows = np.flatnonzero(self.case == i)
+        return FittingPoints(channel=tuple(self.channels[c] for c in self.channel[rows]),
+                             amplitude_m=self.amplitude[rows], f_hz=self.frequency[rows])
+
     def records(self, i: int) -> list[dict]:
-        """Case ``i`` as point records (channel name, amplitude_m, f_hz) for ``fit_backbone``."""
+        """Case ``i`` as point records (channel name, amplitude_m, f_hz)."""
         rows = np.flatnonzero(self.case == i)
         return [{"channel": self.channels[self.channel[r]], "amplitude_m": float(self.amplitude[r]),
                  "f_hz": float(self.frequency[r])} for r in rows]
@@ -144,28 +158,37 @@ class PointSets:
             )
 
 
-def point_sets_from_records(records: Sequence[dict], channels: Sequence[str]) -> PointSets:
-    """One case from point records (``channel`` DOF name, ``amplitude_m``, ``f_hz``; ``used``).
+def point_sets_from_records(records: FittingPoints | Sequence[dict],
+                            channels: Sequence[str]) -> PointSets:
+    """One case from fitting points: a :class:`~freeplayid.fit.FittingPoints`, or point records
+    (``channel`` DOF name, ``amplitude_m``, ``f_hz``; ``used``; one point suffices here).
 
     Raises
     ------
     ValueError
-        A record's channel is not one of ``channels`` (the message lists them).
+        A point's channel is not one of ``channels`` (the message lists them).
     """
     channels = tuple(channels)
-    rows = [r for r in records if r.get("used", True)]
+    if isinstance(records, FittingPoints):
+        names = records.channel
+        amplitude = np.array(records.amplitude_m, dtype=float)
+        frequency = np.array(records.f_hz, dtype=float)
+    else:
+        rows = [r for r in records if r.get("used", True)]
+        names = [r["channel"] for r in rows]
+        amplitude = np.array([float(r.get("amplitude_m", r.get("amplitude"))) for r in rows])
+        frequency = np.array([float(r["f_hz"]) for r in rows])
     idx = []
-    for r in rows:
-        if r["channel"] not in channels:
+    for name in names:
+        if name not in channels:
             raise ValueError(
-                f"point channel {r['channel']!r} is not one the inverse model was trained on; "
+                f"point channel {name!r} is not one the inverse model was trained on; "
                 f"allowed: {list(channels)}"
             )
-        idx.append(channels.index(r["channel"]))
-    n = len(rows)
+        idx.append(channels.index(name))
+    n = len(idx)
     return PointSets(
         channels=channels, case=np.zeros(n, np.int64), channel=np.array(idx, np.int64),
-        amplitude=np.array([float(r.get("amplitude_m", r.get("amplitude"))) for r in rows]),
-        frequency=np.array([float(r["f_hz"]) for r in rows]),
+        amplitude=amplitude.reshape(n), frequency=frequency.reshape(n),
         kn=np.array([np.nan]), delta=np.array([np.nan]),
     )

@@ -86,7 +86,7 @@ def fit_cases(
 
     jobs = []
     for i in range(ps.n_cases):
-        rec = ps.records(i)
+        rec = ps.fitting_points(i)
         if network_estimate is not None:
             init = (float(network_estimate[0][i]), float(network_estimate[1][i]))
             jobs.append((i, "network+fit", rec, init, "inverse"))

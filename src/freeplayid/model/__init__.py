@@ -27,6 +27,7 @@ from .reduce import Reduction, craig_bampton, guyan
 from .small import sdof_system, two_dof_system
 from .system import FreeplaySystem, SystemFileError, load_system, save_system
 from .update import UpdateResult, mode_table, update_model
+from .validate import ModeValidation, validate_modes
 
 __all__ = [
     "FreeplaySystem",
@@ -70,4 +71,6 @@ __all__ = [
     "Reduction",
     "craig_bampton",
     "guyan",
+    "ModeValidation",
+    "validate_modes",
 ]

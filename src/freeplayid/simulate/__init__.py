@@ -5,7 +5,7 @@ torch engine (CPU or CUDA) or a compiled numba CPU kernel, and returns a :class:
 at the output sample rate. See docs/simulate.md.
 """
 
-from .dataset import sweep_dataset
+from .dataset import default_columns, sweep_dataset
 from .formulation import ModalForm, ModalTruncation, build_modal_form, rk4_step_limit
 from .quasistatic import QuasiStatic
 from .resample import StreamingDecimator, design_decimator
@@ -17,6 +17,7 @@ __all__ = [
     "Sweep",
     "simulate_sweeps",
     "sweep_dataset",
+    "default_columns",
     "SweepResult",
     "ModalForm",
     "ModalTruncation",

@@ -100,11 +100,11 @@ def identify(cfg: DictConfig) -> dict:
         A data set, model file or checkpoint problem, or data that cannot support an
         identification; the message names the file, run or field.
     """
+    from ..backbone import backbone_method
     from ..model import load_system
 
     t0 = time.perf_counter()
-    if cfg.backbone not in ("dfa", "hb"):
-        raise ValueError(f"`backbone` must be one of ('dfa', 'hb'), got {cfg.backbone!r}")
+    backbone_method(cfg.backbone, argument="backbone")  # an unknown name fails before any work
     ds = read_dataset(_data_path(cfg))
     if ds.model is None:
         raise DatasetError(f"{ds.path}: missing field `model` (the linear model file, .npz)")

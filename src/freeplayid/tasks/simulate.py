@@ -7,14 +7,12 @@ import time
 import numpy as np
 from omegaconf import DictConfig, OmegaConf
 
-from ..io import Run, write_dataset
-from ..simulate import G, Sweep, simulate_sweeps
+from ..io import write_dataset
+from ..quantity import G
+from ..simulate import Sweep, default_columns, simulate_sweeps, sweep_dataset
 from .common import build_system, run_dir, write_metrics
 
 __all__ = ["simulate"]
-
-_PREFIX = {"displacement": "disp", "velocity": "vel", "acceleration": "acc"}
-
 
 def _channels(cfg: DictConfig, system) -> dict:
     """CSV column -> DOF name: ``channels``, else the model's ``channels``, else every uz_* DOF."""
@@ -22,7 +20,7 @@ def _channels(cfg: DictConfig, system) -> dict:
     if chosen:
         return dict(OmegaConf.to_container(chosen, resolve=True))
     dofs = [d for d in system.dof_names if d.startswith("uz_")] or list(system.dof_names)
-    return {f"{_PREFIX[cfg.quantity]}_{d}": d for d in dofs}
+    return default_columns(cfg.quantity, dofs)
 
 
 def simulate(cfg: DictConfig) -> dict:
@@ -54,24 +52,19 @@ def simulate(cfg: DictConfig) -> dict:
         sample_rate=float(cfg.sample_rate), method=cfg.method, device=cfg.device, dtype=dtype,
         cutoff_hz=cfg.cutoff_hz, quasi_static_hz=cfg.get("quasi_static_hz"),
     )
-    data = res.signals.astype(np.float64)
-    if cfg.quantity == "acceleration" and units == "g":
-        data = data / G
-    rng = np.random.default_rng(int(cfg.seed))
+    noise = None
     if cfg.noise_std_g:
-        scale = 1.0 if units == "g" else G
-        data = data + rng.normal(0.0, float(cfg.noise_std_g) * scale, size=data.shape)
-    sweep_hint = {"start_hz": sweep.start_hz, "stop_hz": sweep.stop_hz,
-                  "rate_hz_per_s": sweep.rate_hz_per_s}
-    runs = [
-        Run(file=f"sweep_{lv:.2f}g.csv", time=res.time, data=data[i], level_g=lv, sweep=sweep_hint)
-        for i, lv in enumerate(levels)
-    ]
+        rng = np.random.default_rng(int(cfg.seed))
+        noise = rng.normal(0.0, float(cfg.noise_std_g) * G, size=res.signals.shape)
+    # what a test records: the responses, the sweep hint, the level and, for absolute
+    # accelerations, the base (control) accelerometer
+    ds = sweep_dataset(res, columns=channels, units=units, noise=noise, name=cfg.name)
+    runs, data = ds.runs, np.stack([run.data for run in ds.runs])
     out = run_dir()
     manifest = write_dataset(
-        out / cfg.output_dir, name=cfg.name, quantity=cfg.quantity, units=units,
-        sample_rate=res.sample_rate, channels=channels, runs=runs, system=system,
-        truth={"kn": float(cfg.kn), "delta": float(cfg.delta)},
+        out / cfg.output_dir, name=ds.name, quantity=ds.quantity, units=ds.units,
+        sample_rate=ds.sample_rate, channels=ds.channels, runs=runs, system=system,
+        base_channel=ds.base_channel, truth=ds.truth,
     )
     if cfg.plot:
         import matplotlib

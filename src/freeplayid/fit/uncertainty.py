@@ -1,0 +1,106 @@
+"""95 % intervals of the fitted (kn, delta): Gauss-Newton (Jacobian) and bootstrap over points.
+
+Jacobian: the fit works in x = (ln kn, ln delta); at the optimum the Gauss-Newton covariance is
+
+    cov(x) = s^2 (J^T J)^-1,   s^2 = RSS / (p - 2)
+
+(p points, two parameters; p - 2 floored at 1), and the interval of x_k is
+x_k +- t_0.975(p - 2) sqrt(cov_kk), mapped back by exp (so it is asymmetric in kn and delta).
+
+Bootstrap: the points are resampled with replacement, the fit is re-solved from the optimum for
+each resample, and the 2.5 / 97.5 percentiles of the estimates form the interval.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+import scipy.optimize
+import scipy.stats
+
+__all__ = ["jacobian_intervals", "bootstrap_intervals"]
+
+Interval = tuple[float, float]
+
+
+def jacobian_intervals(x, residuals, jacobian) -> tuple[Interval, Interval]:
+    """Gauss-Newton 95 % intervals of (kn, delta) from the fit in log parameters.
+
+    Parameters
+    ----------
+    x : ndarray, shape (2,) [-]
+        Optimum (ln kn, ln delta).
+    residuals : ndarray, shape (p,) [-]
+        Residuals at the optimum.
+    jacobian : ndarray, shape (p, 2) [-]
+        d residuals / d x at the optimum.
+
+    Returns
+    -------
+    kn_ci95 : (float, float) [N m/rad]
+    delta_ci95 : (float, float) [rad]
+        (inf-wide when J^T J is singular).
+    """
+    res = residuals
+    J = jacobian
+    dof = max(res.size - 2, 1)
+    s2 = float(res @ res) / dof
+    try:
+        cov = s2 * np.linalg.inv(J.T @ J)
+        half = scipy.stats.t.ppf(0.975, dof) * np.sqrt(np.clip(np.diag(cov), 0, None))
+    except np.linalg.LinAlgError:
+        half = np.array([np.inf, np.inf])
+    kn, delta = np.exp(x)
+    kn_ci = (float(kn * np.exp(-half[0])), float(kn * np.exp(half[0])))
+    delta_ci = (float(delta * np.exp(-half[1])), float(delta * np.exp(half[1])))
+    return kn_ci, delta_ci
+
+
+def bootstrap_intervals(
+    residual: Callable[[np.ndarray, np.ndarray], np.ndarray],
+    x,
+    n_points: int,
+    *,
+    n_bootstrap: int,
+    seed: int = 0,
+) -> tuple[Interval, Interval]:
+    """Percentile 95 % intervals of (kn, delta) from a bootstrap over the points.
+
+    Parameters
+    ----------
+    residual : callable ``(x, pick) -> ndarray, shape (len(pick),)``
+        Residuals of the points ``pick`` (indices, with repeats) at x = (ln kn, ln delta).
+    x : ndarray, shape (2,) [-]
+        The fit's optimum, the start of every resample's fit.
+    n_points : int
+        p, the number of points resampled.
+    n_bootstrap : int
+        Resamples (> 0); a resample with fewer than 2 distinct points is skipped.
+    seed : int
+        Seed of the resampling.
+
+    Returns
+    -------
+    kn_ci95 : (float, float) [N m/rad]
+    delta_ci95 : (float, float) [rad]
+    """
+    if n_bootstrap <= 0:
+        raise ValueError(f"`n_bootstrap` must be > 0, got {n_bootstrap!r}")
+    rng = np.random.default_rng(seed)
+    p = n_points
+    est = []
+    for _ in range(n_bootstrap):
+        pick = rng.integers(0, p, p)
+        if np.unique(pick).size < 2:
+            continue
+
+        def r_boot(x_, pick=pick):
+            return residual(x_, pick)
+
+        bs = scipy.optimize.least_squares(r_boot, x, method="lm", xtol=1e-10, ftol=1e-10)
+        est.append(np.exp(bs.x))
+    est = np.array(est)
+    kn_ci = tuple(np.percentile(est[:, 0], [2.5, 97.5]).tolist())
+    delta_ci = tuple(np.percentile(est[:, 1], [2.5, 97.5]).tolist())
+    return kn_ci, delta_ci
