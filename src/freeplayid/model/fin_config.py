@@ -299,12 +299,20 @@ def load_fin_config(path=None) -> FinConfig:
     """
     import yaml
 
-    path = fin_config_path() if path is None else Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(
-            f"`path`: fin configuration {path} not found (None reads the package's default fin; "
-            "a mapping goes to fin_from_config())"
-        )
+    if path is None:
+        path = fin_config_path()
+        if not path.is_file():  # a broken install: the wheel was built without its package data
+            raise FileNotFoundError(
+                f"the default fin configuration {path} is missing from the installed package "
+                "(package data freeplayid/model/fin.yaml, pyproject [tool.setuptools.package-data])"
+            )
+    else:
+        path = Path(path)
+        if not path.is_file():
+            raise FileNotFoundError(
+                f"`path`: fin configuration {path} not found (None reads the package's default "
+                "fin; a mapping goes to fin_from_config())"
+            )
     data = yaml.safe_load(path.read_text(encoding="utf-8"))
     try:
         return FinConfig.from_mapping(data)
