@@ -31,8 +31,7 @@ def main() -> None:
     ap.add_argument("--zeta", type=float, default=None, help="override the damping ratio [-]")
     args = ap.parse_args()
 
-    with open(fin_config_path()) as fh:
-        mapping = yaml.safe_load(fh)
+    mapping = yaml.safe_load(fin_config_path().read_text(encoding="utf-8"))
     if args.zeta is not None:
         mapping = copy.deepcopy(mapping)
         mapping["damping"]["zeta"] = args.zeta

@@ -31,8 +31,7 @@ def cfg():
 
 @pytest.fixture(scope="module")
 def mapping():
-    with open(fin_config_path()) as fh:
-        return yaml.safe_load(fh)
+    return yaml.safe_load(fin_config_path().read_text(encoding="utf-8"))  # package data
 
 
 @pytest.fixture(scope="module")

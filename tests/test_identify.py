@@ -52,7 +52,7 @@ def _identify(tmp_path, *overrides):
     cmd = [sys.executable, str(ROOT / "scripts" / "identify.py"), *overrides,
            f"hydra.run.dir={run}"]
     env = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
-    proc = subprocess.run(cmd, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300)
+    proc = subprocess.run(cmd, cwd=tmp_path, env=env, capture_output=True, text=True)
     return proc, run
 
 

@@ -406,7 +406,7 @@ def reduce_fin(
 
 
 def fin_from_config(mapping) -> FreeplaySystem:
-    """Reduced fin from a mapping laid out like ``conf/model/fin.yaml`` (e.g. a Hydra cfg as dict).
+    """Reduced fin from a mapping laid out like the default ``fin.yaml`` (e.g. a Hydra cfg as dict).
 
     Unknown keys raise ``ValueError`` listing the allowed ones.
     """
@@ -414,7 +414,12 @@ def fin_from_config(mapping) -> FreeplaySystem:
 
 
 def default_fin() -> FreeplaySystem:
-    """The reduced default fin of ``conf/model/fin.yaml`` (12 DOFs, base fixed, damped)."""
+    """The reduced default fin (12 DOFs, base fixed, damped).
+
+    Its configuration is package data, ``freeplayid/model/fin.yaml``
+    (:func:`freeplayid.model.fin_config_path`), so it works in any install, not only in a source
+    checkout; the scripts' Hydra option ``model=fin`` is the same file.
+    """
     return reduce_fin(build_fin_fe(load_fin_config()))
 
 

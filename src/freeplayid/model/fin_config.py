@@ -2,7 +2,8 @@
 
 Built from a plain mapping (a YAML file or a Hydra cfg converted to a dict); every level rejects
 unknown keys with a ``ValueError`` that lists the allowed ones. Units are SI (m, Pa, kg/m^3, rad,
-N m/rad). The layout of the mapping is the one of ``conf/model/fin.yaml``::
+N m/rad). The layout of the mapping is the one of the default fin ``freeplayid/model/fin.yaml``
+(package data, :func:`fin_config_path`; also the scripts' Hydra option ``model=fin``)::
 
     kind: fin
     geometry: {root_chord, inboard_span, outboard_span, outboard_chord}
@@ -18,9 +19,14 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
+from importlib.resources import files
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from importlib.resources.abc import Traversable
 
 __all__ = [
     "PartProperties",
@@ -34,9 +40,15 @@ PARTS = ("inboard", "outboard")
 HINGES = ("left", "mid", "right")
 
 
-def fin_config_path() -> Path:
-    """Path of the repository's default fin configuration ``conf/model/fin.yaml``."""
-    return Path(__file__).resolve().parents[3] / "conf/model/fin.yaml"
+def fin_config_path() -> Traversable:
+    """The default fin configuration, shipped as package data: ``freeplayid/model/fin.yaml``.
+
+    Found through :mod:`importlib.resources`, so in a source checkout and in an installed wheel
+    alike. The same file is the scripts' Hydra option ``model=fin``
+    (:func:`freeplayid.tasks.register_configs`). A ``Path`` for a package on disk; in general a
+    ``Traversable`` (``.read_text()``, ``.is_file()``).
+    """
+    return files("freeplayid.model") / "fin.yaml"
 
 
 def _keys(mapping, allowed: tuple[str, ...], where: str, *, required: tuple[str, ...] = ()):
@@ -222,7 +234,7 @@ class FinConfig:
     # ------------------------------------------------------------------ construction
     @classmethod
     def from_mapping(cls, mapping) -> FinConfig:
-        """Build from the nested mapping of ``conf/model/fin.yaml`` (``kind`` must be 'fin')."""
+        """Build from a nested mapping laid out like the default ``fin.yaml`` (``kind``: 'fin')."""
         top = ("kind", "geometry", "parts", "mesh", "hinge", "points", "damping", "reduction")
         m = _keys(mapping, top, "model", required=top[1:6])
         if m.get("kind", "fin") != "fin":
@@ -278,17 +290,30 @@ class FinConfig:
 
 
 def load_fin_config(path=None) -> FinConfig:
-    """Read a fin configuration YAML (default: the repository's ``conf/model/fin.yaml``)."""
+    """Read a fin configuration YAML (default: the package's default fin, :func:`fin_config_path`).
+
+    Parameters
+    ----------
+    path : str or path-like, optional
+        A YAML file laid out like the default one; ``None`` reads the default fin.
+    """
     import yaml
 
-    path = fin_config_path() if path is None else Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(
-            f"fin configuration {path} not found; the default fin is read from conf/model/fin.yaml "
-            "of a source checkout (pass a mapping to fin_from_config() otherwise)"
-        )
-    with open(path) as fh:
-        data = yaml.safe_load(fh)
+    if path is None:
+        path = fin_config_path()
+        if not path.is_file():  # a broken install: the wheel was built without its package data
+            raise FileNotFoundError(
+                f"the default fin configuration {path} is missing from the installed package "
+                "(package data freeplayid/model/fin.yaml, pyproject [tool.setuptools.package-data])"
+            )
+    else:
+        path = Path(path)
+        if not path.is_file():
+            raise FileNotFoundError(
+                f"`path`: fin configuration {path} not found (None reads the package's default "
+                "fin; a mapping goes to fin_from_config())"
+            )
+    data = yaml.safe_load(path.read_text(encoding="utf-8"))
     try:
         return FinConfig.from_mapping(data)
     except ValueError as exc:
@@ -296,6 +321,9 @@ def load_fin_config(path=None) -> FinConfig:
 
 
 def default_fin_parameters() -> dict:
-    """Default hinge values of ``conf/model/fin.yaml``: {'kn': [N m/rad], 'delta': [rad]}."""
+    """Default hinge values of the default fin (:func:`fin_config_path`).
+
+    Returns ``{'kn': float [N m/rad], 'delta': float [rad]}``.
+    """
     cfg = load_fin_config()
     return {"kn": cfg.kn, "delta": cfg.delta}

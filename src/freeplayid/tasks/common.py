@@ -10,9 +10,29 @@ from omegaconf import DictConfig, OmegaConf
 from ..io.atomic import atomic_write_text
 from ..model.system import FreeplaySystem
 
-__all__ = ["build_system", "run_dir", "write_metrics", "MODEL_KINDS"]
+__all__ = ["build_system", "register_configs", "run_dir", "write_metrics", "MODEL_KINDS"]
 
 MODEL_KINDS = ("fin", "npz", "sdof")
+
+
+def register_configs() -> None:
+    """Store the package's default fin in Hydra's ConfigStore as the option ``model=fin``.
+
+    The fin's numbers live once, in the package data ``freeplayid/model/fin.yaml``
+    (:func:`freeplayid.model.fin_config_path`, read by ``default_fin()`` in any install); the
+    ``model`` group of ``conf/`` holds the other options (``sdof``, ``npz``). The ConfigStore is on
+    every Hydra search path, so ``model=fin`` composes from every primary config, also from one
+    included by another (``compare`` includes ``train``, where a ``hydra.searchpath`` entry is
+    refused), with the file's keys and values (OmegaConf's YAML loader), so overrides such as
+    ``model.geometry.root_chord=0.25`` apply. Runs when :mod:`freeplayid.tasks` is imported (the
+    scripts import it before ``@hydra.main`` composes; a compose elsewhere imports it first).
+    """
+    from hydra.core.config_store import ConfigStore
+
+    from ..model.fin_config import fin_config_path
+
+    node = OmegaConf.create(fin_config_path().read_text(encoding="utf-8"))
+    ConfigStore.instance().store(group="model", name="fin", node=node, provider="freeplayid")
 
 
 def build_system(model_cfg: DictConfig | dict) -> FreeplaySystem:
