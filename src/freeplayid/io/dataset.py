@@ -29,19 +29,16 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import scipy.constants
 import yaml
 
+from ..quantity import UNIT_SCALE, check_units
 from .atomic import atomic_write_text
 from .errors import DatasetError
 from .readers import read_run
 
 __all__ = ["Dataset", "DatasetError", "Run", "read_dataset", "write_dataset"]
 
-QUANTITIES = ("displacement", "velocity", "acceleration")
-UNITS = {"displacement": ("m",), "velocity": ("m/s",), "acceleration": ("g", "m/s^2")}
 # the one place where data-set units become SI: factor to m, m/s or m/s^2
-SI_SCALE = {"m": 1.0, "m/s": 1.0, "m/s^2": 1.0, "g": scipy.constants.g}
 MANIFEST_KEYS = ("name", "model", "quantity", "units", "sample_rate", "channels",
                  "base_channel", "truth", "runs")
 RUN_KEYS = ("file", "level_g", "sweep")
@@ -114,7 +111,7 @@ class Dataset:
     @property
     def si_scale(self) -> float:
         """Factor from the data set's units to SI (m, m/s or m/s^2); 9.80665 for g."""
-        return SI_SCALE[self.units]
+        return UNIT_SCALE[self.units]
 
     def to_si(self, values) -> np.ndarray:
         """``values`` in the data set's units -> SI units of its quantity (m, m/s, m/s^2)."""
@@ -122,12 +119,10 @@ class Dataset:
 
 
 def _check_quantity_units(quantity: str, units: str, where: str) -> None:
-    if quantity not in QUANTITIES:
-        raise DatasetError(f"{where}`quantity` must be one of {QUANTITIES}, got {quantity!r}")
-    if units not in UNITS[quantity]:
-        raise DatasetError(
-            f"{where}`units` for {quantity} must be one of {UNITS[quantity]}, got {units!r}"
-        )
+    try:
+        check_units(quantity, units)
+    except ValueError as exc:
+        raise DatasetError(f"{where}{exc}") from None
 
 
 def write_dataset(

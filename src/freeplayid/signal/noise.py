@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..quantity import G
+
 __all__ = ["white_noise", "add_noise_for_snr"]
 
 
@@ -24,9 +26,6 @@ def white_noise(shape, *, std_g: float, seed: int | None = None) -> np.ndarray:
     """
     if not np.isfinite(std_g) or std_g < 0:
         raise ValueError(f"`std_g` must be a finite number >= 0, got {std_g!r}")
-    # imported here: the simulate package pulls in torch, and signal must stay NumPy-only
-    from ..simulate.sweep import G
-
     return np.random.default_rng(seed).normal(0.0, std_g * G, size=shape)
 
 

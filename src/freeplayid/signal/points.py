@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..quantity import check_quantity
 from .acmp import ChirpMode, acmp, ridge_frequency
 from .jump import REASON_FAILED, REASON_NOISY, find_jump_peak
 from .lockin import lockin
@@ -26,10 +27,8 @@ __all__ = [
     "AmplitudeCurve",
     "extract_backbone_points",
     "to_displacement",
-    "QUANTITY_ORDER",
 ]
 
-QUANTITY_ORDER = {"displacement": 0, "velocity": 1, "acceleration": 2}
 _METHODS = {"acmp": acmp, "lockin": lockin}
 
 
@@ -149,10 +148,9 @@ def to_displacement(amplitude, frequency, quantity: str) -> np.ndarray:
     -------
     ndarray, shape (..., N) [m]
     """
-    if quantity not in QUANTITY_ORDER:
-        raise ValueError(f"`quantity` must be one of {sorted(QUANTITY_ORDER)}, got {quantity!r}")
+    order = check_quantity(quantity).order
     w = 2 * np.pi * np.asarray(frequency, dtype=float)
-    return np.asarray(amplitude, dtype=float) / w ** QUANTITY_ORDER[quantity]
+    return np.asarray(amplitude, dtype=float) / w**order
 
 
 def _as_runs(signals, name: str) -> list[np.ndarray]:
@@ -228,8 +226,7 @@ def extract_backbone_points(
     -------
     BackbonePoints
     """
-    if quantity not in QUANTITY_ORDER:
-        raise ValueError(f"`quantity` must be one of {sorted(QUANTITY_ORDER)}, got {quantity!r}")
+    check_quantity(quantity)
     if method not in _METHODS:
         raise ValueError(f"`method` must be one of {sorted(_METHODS)}, got {method!r}")
     fs = check_positive(sample_rate, "sample_rate")
