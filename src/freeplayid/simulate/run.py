@@ -10,7 +10,7 @@ import numpy as np
 import torch
 
 from ..model.system import FreeplaySystem
-from .engines import TorchRK4
+from .engines import Engine, EngineSetup, resolve_engine
 from .formulation import METHODS, ModalTruncation, build_modal_form, rk4_step_limit
 from .quasistatic import QuasiStatic, condense_modal_form
 from .resample import StreamingDecimator, derivative_taps, design_decimator
@@ -23,7 +23,6 @@ __all__ = ["simulate_sweeps", "SweepResult", "DEFAULT_OMEGA_DT"]
 # solution and the first-harmonic peak of the freeplay response within ~2e-5 of a 6x finer step;
 # the RK4 stability limit is 2.785.
 DEFAULT_OMEGA_DT = 1.5
-ENGINES = ("auto", "torch", "numba")
 _UNITS = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s^2"}
 _CHUNK_ELEMENTS = 1 << 24  # recorded values per chunk (memory bound of the chunked loop)
 _MAX_CHUNK_STEPS = 1 << 16  # steps per chunk at most (sin/base arrays of a chunk stay small)
@@ -57,7 +56,7 @@ class SweepResult:
     method : str
         relative | large_mass.
     engine : str
-        torch | numba: the engine that ran.
+        The registry name (``engines.ENGINES``) of the engine that ran: torch | numba.
     omega_max : float [rad/s]
         Fastest closed-hinge eigenvalue magnitude that set the step.
     truncation : ModalTruncation or None
@@ -126,6 +125,57 @@ def _base_signals(sweep: Sweep, t0_index: int, L: int, h: float, s_half: np.ndar
     }
 
 
+class _DecimatedRecords:
+    """Signals of an engine that returns step-rate records: decimated here, chunk by chunk."""
+
+    def __init__(self, eng: Engine, shape: tuple[int, int, int], *, taps, factor: int, dtype,
+                 device):
+        self.eng, self.shape = eng, shape
+        self.dec = StreamingDecimator(taps, factor, dtype=dtype, device=device)
+        self.outs = []
+
+    def run(self, s_half: np.ndarray) -> None:
+        rec = self.eng.run(s_half)  # (batch, C, L)
+        batch, C, _ = self.shape
+        self.outs.append(self.dec.push(rec.reshape(batch * C, rec.shape[-1])))
+
+    def signals(self, base: np.ndarray, *, base_coef, static_coef, level_g) -> np.ndarray:
+        """(batch, C, n_out) member signals plus ``level_g * (base_coef * base[0] + static_coef
+        * base[1])``."""
+        n_out = self.shape[-1]
+        y = torch.cat(self.outs, dim=1)[:, :n_out].reshape(self.shape)
+        y = y.cpu().numpy()
+        extra = base_coef[None, :, None] * base[0] + static_coef[None, :, None] * base[1]
+        if np.any(extra):
+            y = y + (level_g[:, None, None] * extra).astype(y.dtype)
+        return y
+
+
+class _InPlaceOutputs:
+    """Signals of an engine that decimates on the fly into the (batch, C, n_out) array."""
+
+    def __init__(self, eng: Engine, shape: tuple[int, int, int], *, dtype):
+        self.eng = eng
+        nd = np.float32 if dtype == torch.float32 else np.float64
+        self.y = np.empty(shape, dtype=nd)
+        self.written = 0  # output samples completed so far (those past n_out are dropped)
+
+    def run(self, s_half: np.ndarray) -> None:
+        self.written += self.eng.run(s_half, out=self.y)
+
+    def signals(self, base: np.ndarray, *, base_coef, static_coef, level_g) -> np.ndarray:
+        """The signals plus the base terms, added in place in one compiled pass."""
+        n_out = self.y.shape[-1]
+        if self.written < n_out:  # columns left unwritten would be garbage (np.empty)
+            raise AssertionError(f"{type(self.eng).__name__}: {self.written} outputs of "
+                                 f"{n_out} written")
+        from .assemble import add_base_terms
+
+        add_base_terms(self.y, base_coef=base_coef, static_coef=static_coef, base=base,
+                       level_g=level_g)
+        return self.y
+
+
 def simulate_sweeps(
     system: FreeplaySystem,
     *,
@@ -178,7 +228,7 @@ def simulate_sweeps(
     device : str or torch.device, optional
         Default: CUDA if available, else CPU; the CPU with ``quasi_static_hz`` (numba only).
     dtype : torch.float32 or torch.float64
-    engine : {"auto", "torch", "numba"}
+    engine : {"auto", "torch", "numba"} or another key of ``engines.ENGINES``
         "auto": the compiled numba kernel on CPU when numba is installed, else torch.
     omega_dt : float [-]
         Bound on omega_max * dt for the fastest closed-hinge mode (<= 2.5).
@@ -210,8 +260,13 @@ def simulate_sweeps(
         raise TypeError(f"`sweep` must be a Sweep, got {type(sweep).__name__}")
     if dtype not in (torch.float32, torch.float64):
         raise ValueError(f"`dtype` must be torch.float32 or torch.float64, got {dtype!r}")
-    if engine not in ENGINES:
-        raise ValueError(f"`engine` must be one of {ENGINES}, got {engine!r}")
+    if device is None:
+        use_cuda = torch.cuda.is_available() and quasi_static_hz is None
+        device = "cuda" if use_cuda else "cpu"
+    device = torch.device(device)
+    # the engine's name (unknown: the valid ones listed), and whether it does device and options
+    engine, engine_cls = resolve_engine(engine, device=device,
+                                        quasi_static=quasi_static_hz is not None)
     if method not in METHODS:
         raise ValueError(f"`method` must be one of {METHODS}, got {method!r}")
     if not (math.isfinite(sample_rate) and sample_rate > 0):
@@ -237,23 +292,8 @@ def simulate_sweeps(
     kn_a, dl_a, lv_a = (x.reshape(-1) for x in (kn_a, dl_a, lv_a))
     batch = kn_a.shape[0]
 
-    if device is None:
-        use_cuda = torch.cuda.is_available() and quasi_static_hz is None
-        device = "cuda" if use_cuda else "cpu"
-    device = torch.device(device)
-    if engine == "auto":
-        from .engines import numba_available
-
-        engine = "numba" if device.type == "cpu" and numba_available() else "torch"
-    if engine == "numba" and device.type != "cpu":
-        raise ValueError(f"`engine`='numba' runs on the CPU only, got device {device}")
-
     qs = None
     if quasi_static_hz is not None:
-        if engine != "numba":
-            raise NotImplementedError(
-                f"`quasi_static_hz` is implemented in the numba engine only, got engine={engine!r}"
-            )
         if cutoff_hz is not None:
             raise ValueError("`quasi_static_hz` and `cutoff_hz` cannot be combined")
         if method != "relative":
@@ -289,27 +329,21 @@ def simulate_sweeps(
     G_lv = lv_a * G
     eta0 = np.outer(G_lv * base_state[0], form.x0_per_ub)
     v0 = np.outer(G_lv * base_state[1], form.v0_per_vb)
-    if engine == "numba":
-        from .kernel import NumbaRK4
-
-        if qs is None:
-            eng = NumbaRK4(form, kn_a, dl_a, lv_a, eta0, v0, h=h, quantity=quantity, dtype=dtype,
-                           taps=taps, factor=m)
-        else:
-            from .kernel_qs import NumbaQSRK4
-
-            eng = NumbaQSRK4(qs, kn_a, dl_a, lv_a, eta0, v0, h=h, quantity=quantity,
-                             dtype=dtype, taps=taps, taps_d=taps_d, factor=m)
-        dec = None  # the kernel decimates on the fly
-        width = len(channels)
+    eng = engine_cls(EngineSetup(
+        form=form, quasi_static=qs, kn=kn_a, delta=dl_a, level_g=lv_a, eta0=eta0, v0=v0, h=h,
+        quantity=quantity, dtype=dtype, device=device, taps=taps, taps_d=taps_d, factor=m,
+        cuda_graphs=cuda_graphs,
+    ))
+    # where the decimation happens is declared by the engine (Engine.decimates), not its name
+    shape = (batch, len(channels), n_out)
+    if eng.decimates:
+        outputs = _InPlaceOutputs(eng, shape, dtype=dtype)
     else:
-        eng = TorchRK4(form, kn_a, dl_a, lv_a, eta0, v0, h=h, quantity=quantity, dtype=dtype,
-                       device=device, cuda_graphs=cuda_graphs)
-        dec = StreamingDecimator(taps, m, dtype=dtype, device=device)
-        width = form.n_modes
+        outputs = _DecimatedRecords(eng, shape, taps=taps, factor=m, dtype=dtype, device=device)
     dec_base = StreamingDecimator(taps, m, dtype=torch.float64, device=torch.device("cpu"))
-    # steps per chunk: bounded by the recorded values (torch) and by the per-chunk sweep arrays
-    chunk = max(m, min(_CHUNK_ELEMENTS // max(1, batch * width), _MAX_CHUNK_STEPS) // m * m)
+    # steps per chunk: bounded by the recorded values and by the per-chunk sweep arrays
+    chunk = max(m, min(_CHUNK_ELEMENTS // max(1, batch * eng.record_width),
+                       _MAX_CHUNK_STEPS) // m * m)
 
     if progress is None:
         progress = n_steps * batch > 5e8 and sys.stderr.isatty()
@@ -318,19 +352,12 @@ def simulate_sweeps(
         from tqdm.auto import tqdm
 
         bar = tqdm(total=round(sweep.duration, 3), unit="s", desc=f"sweeps x{batch} ({engine})")
-    outs, base_outs = [], []
-    if engine == "numba":  # each chunk writes its outputs into the signals, in place
-        n_rec = eng.emitted(n_steps)  # the chunks' outputs are contiguous: as one chunk
-        y = np.empty((batch, len(channels), n_out), dtype=eng.nd)
+    base_outs = []
     i0 = 0
     while i0 < n_steps:
         L = min(chunk, n_steps - i0)
         s_half = np.sin(sweep.phase((i0 + 0.5 * np.arange(2 * L + 1)) * h))
-        if engine == "numba":  # decimated, into y[:, :, outputs ...]
-            eng.run(s_half, out=y)
-        else:  # (batch, C, L) tensor
-            rec = eng.run(s_half)
-            outs.append(dec.push(rec.reshape(batch * len(channels), L)))
+        outputs.run(s_half)
         sig = _base_signals(sweep, i0, L, h, s_half, base_state)
         q = ("displacement", "velocity", "acceleration").index(quantity)
         rows = np.stack([sig["base"][q], sig["quasi_static"][q]])
@@ -340,22 +367,9 @@ def simulate_sweeps(
             bar.update(round(min(i0 * h, sweep.duration) - bar.n, 3))
     if bar is not None:
         bar.close()
-    if engine == "numba" and (eng.outputs != n_rec or n_rec < n_out):
-        raise AssertionError(f"numba engine: {eng.outputs} outputs, {n_rec} expected, "
-                             f"{n_out} kept")
     base = torch.cat(base_outs, dim=1)[:, :n_out].numpy()
-    if engine == "numba":
-        from .assemble import add_base_terms
-
-        add_base_terms(y, base_coef=form.base_coef, static_coef=form.static_coef, base=base,
-                       level_g=lv_a)
-    else:
-        y = torch.cat(outs, dim=1)[:, :n_out].reshape(batch, len(channels), n_out)
-        y = y.cpu().numpy()
-        extra = (form.base_coef[None, :, None] * base[0]
-                 + form.static_coef[None, :, None] * base[1])
-        if np.any(extra):
-            y = y + (lv_a[:, None, None] * extra).astype(y.dtype)
+    y = outputs.signals(base, base_coef=form.base_coef, static_coef=form.static_coef,
+                        level_g=lv_a)
     diverged = np.asarray(eng.diverged, dtype=bool)
     y[diverged] = np.nan
     return SweepResult(

@@ -1,22 +1,7 @@
-"""Fixed-step RK4 engines for the modal equations (ETA) of :mod:`.formulation`.
+"""The torch engine: batched RK4 on tensors, on any device (CPU or CUDA), float32/float64.
 
-Both engines integrate the same arithmetic, chunk by chunk, with the members of the batch
-independent (one member's divergence never touches another):
-
-- :class:`TorchRK4`: batched tensors, any device (CPU or CUDA), float32/float64. This is the GPU
-  path; on CPU a step costs ~30 small tensor operations, so it is overhead-bound at any batch.
-- :class:`NumbaRK4` (``kernel.py``): a compiled CPU kernel, a fused RK4 step with the members in
-  the innermost (SIMD) loop, blocks of members spread over threads.
-
-One RK4 step of x = (eta, v), a(eta, v, s) the right-hand side of (ETA) and s = sin(phase)::
-
-    k1 = a(eta, v, s0)                                  (recorded: the acceleration at t_i)
-    k2 = a(eta + h/2 v, v + h/2 k1, s1/2)
-    k3 = a(eta + h/2 v2, v + h/2 k2, s1/2)              v2 = v + h/2 k1
-    k4 = a(eta + h v3, v + h k3, s1)                    v3 = v + h/2 k2
-    eta += h/6 (v + 2 v2 + 2 v3 + v4),  v += h/6 (k1 + 2 k2 + 2 k3 + k4)   v4 = v + h k3
-
-The freeplay force is branch-free: ``kn * (theta - clamp(theta, -delta, delta))``.
+This is the GPU path; on CPU a step costs ~30 small tensor operations, so it is overhead-bound
+at any batch. It returns step-rate records, which ``simulate_sweeps`` decimates.
 """
 
 from __future__ import annotations
@@ -26,21 +11,38 @@ import warnings
 import numpy as np
 import torch
 
-from .formulation import ModalForm
+from ..formulation import ModalForm
+from .protocol import BLOWUP, MODES, EngineSetup
 
-__all__ = ["TorchRK4", "MODES", "BLOWUP", "numba_available"]
-
-MODES = {"displacement": 0, "velocity": 1, "acceleration": 2}
-BLOWUP = 1e12  # |modal state| above this (or non-finite) marks a member as diverged
+__all__ = ["TorchEngine", "TorchRK4"]
 
 
-def numba_available() -> bool:
-    """True if numba imports, so the compiled engine (``kernel.py``) can be used."""
-    try:
-        import numba  # noqa: F401
-    except Exception:  # pragma: no cover - depends on the environment
-        return False
-    return True
+class TorchEngine:
+    """:class:`.protocol.Engine` of :class:`TorchRK4`: any device, full model, raw records."""
+
+    devices = None
+    quasi_static = False
+    decimates = False
+
+    def __init__(self, setup: EngineSetup):
+        s = setup
+        self.rk4 = TorchRK4(s.form, s.kn, s.delta, s.level_g, s.eta0, s.v0, h=s.h,
+                            quantity=s.quantity, dtype=s.dtype, device=s.device,
+                            cuda_graphs=s.cuda_graphs)
+        self.record_width = s.form.n_modes  # the modal state is recorded, projected per chunk
+
+    @classmethod
+    def available(cls) -> bool:
+        return True
+
+    def run(self, s_half: np.ndarray, out: np.ndarray | None = None) -> torch.Tensor:
+        if out is not None:
+            raise ValueError("the torch engine returns its records; `out` must be None")
+        return self.rk4.run(s_half)
+
+    @property
+    def diverged(self) -> np.ndarray:
+        return self.rk4.diverged
 
 
 class TorchRK4:

@@ -1,0 +1,126 @@
+"""What an engine is: the :class:`Engine` protocol, the :class:`EngineSetup` it is built from,
+and the constants that every engine shares."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar, Protocol
+
+import numpy as np
+import torch
+
+from ..formulation import ModalForm
+from ..quasistatic import QuasiStaticForm
+
+__all__ = ["Engine", "EngineSetup", "MODES", "BLOWUP"]
+
+MODES = {"displacement": 0, "velocity": 1, "acceleration": 2}
+BLOWUP = 1e12  # |modal state| above this (or non-finite) marks a member as diverged
+
+
+@dataclass(frozen=True)
+class EngineSetup:
+    """Everything an engine is built from: the equations, the members and the step.
+
+    Attributes
+    ----------
+    form : ModalForm
+        The modal equations to integrate (with ``quasi_static``, its slow part ``.slow``).
+    quasi_static : QuasiStaticForm or None
+        The condensed fast modes (only for engines with ``Engine.quasi_static``).
+    kn, delta, level_g : ndarray, shape (batch,) [N m/rad], [rad], [g]
+    eta0, v0 : ndarray, shape (batch, form.n_modes) [modal units]
+        Initial modal state.
+    h : float [s]
+        RK4 step.
+    quantity : str
+        Recorded quantity: displacement | velocity | acceleration.
+    dtype : torch.float32 or torch.float64
+    device : torch.device
+    taps : ndarray, shape (n_taps,) [-]
+        Anti-aliasing FIR at the step rate (``resample.design_decimator``); engines that decimate
+        apply it themselves.
+    taps_d : ndarray, shape (n_taps,) or None [-]
+        With ``quasi_static`` and velocity or acceleration: the FIR of the fast part's
+        derivative (``resample.derivative_taps``); ``taps`` then are the fused ones.
+    factor : int
+        Steps per output sample (the decimation factor).
+    cuda_graphs : bool or None
+        Replay the step loop as CUDA graphs (engines on CUDA; None: their default).
+    """
+
+    form: ModalForm
+    quasi_static: QuasiStaticForm | None
+    kn: np.ndarray
+    delta: np.ndarray
+    level_g: np.ndarray
+    eta0: np.ndarray
+    v0: np.ndarray
+    h: float
+    quantity: str
+    dtype: torch.dtype
+    device: torch.device
+    taps: np.ndarray
+    taps_d: np.ndarray | None
+    factor: int
+    cuda_graphs: bool | None = None
+
+
+class Engine(Protocol):
+    """A fixed-step RK4 engine of the modal equations, run chunk by chunk by ``simulate_sweeps``.
+
+    The class declares what it can do; ``simulate_sweeps`` validates the engine, device and
+    quasi-static combination from these declarations and never branches on an engine's name.
+
+    Attributes
+    ----------
+    devices : tuple of str or None
+        ``torch.device.type`` values it runs on (``("cpu",)``); None: any torch device.
+    quasi_static : bool
+        Whether it integrates a quasi-statically condensed model (``quasi_static_hz``).
+    decimates : bool
+        True: ``run`` decimates on the fly and writes the output samples that a chunk
+        completes into the signal array ``out`` in place (the caller then adds the base terms in
+        one compiled pass). False: ``run`` returns the chunk's step-rate records, which the
+        caller decimates.
+    record_width : int
+        Values held per member and step of a chunk (bounds the steps per chunk in memory).
+    """
+
+    devices: ClassVar[tuple[str, ...] | None]
+    quasi_static: ClassVar[bool]
+    decimates: ClassVar[bool]
+    record_width: int
+
+    def __init__(self, setup: EngineSetup) -> None: ...
+
+    @classmethod
+    def available(cls) -> bool:
+        """Whether it can run here (its optional dependencies import)."""
+        ...
+
+    def run(self, s_half: np.ndarray, out: np.ndarray | None = None) -> torch.Tensor | int:
+        """Integrate one chunk of ``L = (len(s_half) - 1) / 2`` steps.
+
+        Parameters
+        ----------
+        s_half : ndarray, shape (2 L + 1,) [-], float64
+            sin(phase) at t_i + k h / 2, k = 0..2L, of the chunk's steps t_i.
+        out : ndarray, shape (batch, channel, n_out), optional
+            Engines that decimate: the whole signal array (C-contiguous, the simulation dtype),
+            the chunk's completed output samples go to the columns after those written so far
+            (samples at or past ``n_out``, the filter's tail, are dropped). Others: None.
+
+        Returns
+        -------
+        int or Tensor
+            Engines that decimate: the number of output samples the chunk completed (written or
+            dropped). Others: the recorded channels at t_0 .. t_{L-1} of the chunk, shape
+            (batch, channel, L), in the simulation dtype, on the engine's device.
+        """
+        ...
+
+    @property
+    def diverged(self) -> np.ndarray:
+        """(batch,) bool: members flagged as diverged so far (frozen at rest since)."""
+        ...
