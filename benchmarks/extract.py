@@ -24,7 +24,7 @@ import numpy as np  # noqa: E402
 import scipy.signal  # noqa: E402
 
 from freeplayid.signal import acmp, extract_backbone_points, lockin, white_noise  # noqa: E402
-from freeplayid.simulate.sweep import Sweep  # noqa: E402
+from freeplayid.sweep import Sweep  # noqa: E402
 
 FS = 2048.0  # [Hz]
 SWEEP = Sweep(25.0, 50.0, 0.1)  # 250 s

@@ -9,7 +9,7 @@ import math
 
 import numpy as np
 
-from freeplayid.simulate.sweep import G
+from freeplayid.quantity import G
 
 FS = 2048.0  # [Hz] the paper's sampling rate
 F_N = 50.0  # [Hz] contact (closed-hinge) frequency

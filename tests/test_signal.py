@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 import scipy.signal
 
+from freeplayid.quantity import G
 from freeplayid.signal import (
     REASON_EDGE,
     REASON_FAILED,
@@ -28,7 +29,7 @@ from freeplayid.signal import (
     white_noise,
 )
 from freeplayid.signal.banded import demodulate, smooth_second_difference
-from freeplayid.simulate.sweep import G, Sweep
+from freeplayid.sweep import Sweep
 from sdof_reference import DELTA, FS, ZETA, exact_backbone_hz, simulate_sdof_sweep
 
 RATE = 0.2  # [Hz/s] test sweep rate (paper: 0.1)

@@ -20,7 +20,7 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "tests"))
 from freeplayid.plots import plot_backbone_points  # noqa: E402
 from freeplayid.signal import extract_backbone_points, white_noise  # noqa: E402
-from freeplayid.simulate.sweep import Sweep  # noqa: E402
+from freeplayid.sweep import Sweep  # noqa: E402
 from sdof_reference import DELTA, FS, exact_backbone_hz, simulate_sdof_sweep  # noqa: E402
 
 levels = (0.3, 0.5, 0.6, 0.8, 1.0)  # [g]

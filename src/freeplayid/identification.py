@@ -227,7 +227,7 @@ def _extract(ds, *, extraction: Mapping, use_sweep_hint: bool, progress: bool):
     from tqdm import tqdm
 
     from .signal import BackbonePoints, extract_backbone_points
-    from .simulate.sweep import Sweep
+    from .sweep import Sweep
 
     points, curves, rejected = [], [], {}
     bar = tqdm(ds.runs, desc="extracting points", unit="run",

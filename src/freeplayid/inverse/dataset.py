@@ -27,7 +27,8 @@ from pathlib import Path
 import numpy as np
 
 from ..model.system import FreeplaySystem
-from ..simulate.sweep import G, Sweep
+from ..quantity import G
+from ..sweep import Sweep
 from .points import PointSets
 
 __all__ = [

@@ -5,12 +5,13 @@ torch engine (CPU or CUDA) or a compiled numba CPU kernel, and returns a :class:
 at the output sample rate. See docs/simulate.md.
 """
 
+from ..quantity import G
+from ..sweep import Sweep
 from .dataset import default_columns, sweep_dataset
 from .formulation import ModalForm, ModalTruncation, build_modal_form, rk4_step_limit
 from .quasistatic import QuasiStatic
 from .resample import StreamingDecimator, design_decimator
 from .run import DEFAULT_OMEGA_DT, SweepResult, simulate_sweeps
-from .sweep import G, Sweep
 
 __all__ = [
     "G",

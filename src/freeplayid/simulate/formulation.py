@@ -41,7 +41,7 @@ import numpy as np
 import scipy.linalg
 
 from ..model.system import FreeplaySystem
-from .sweep import G
+from ..quantity import G, check_quantity
 
 __all__ = [
     "ModalForm",
@@ -53,7 +53,6 @@ __all__ = [
 
 RK4_STABILITY_LIMIT = 2.785  # |mu dt| on the negative real axis; 2.828 on the imaginary axis
 
-QUANTITIES = ("displacement", "velocity", "acceleration")
 FRAMES = ("absolute", "relative")
 METHODS = ("relative", "large_mass")
 
@@ -212,8 +211,7 @@ def build_modal_form(
     large_mass_ratio : float [-]
         Seismic mass over the structure's rigid-body mass (large-mass form).
     """
-    if quantity not in QUANTITIES:
-        raise ValueError(f"`quantity` must be one of {QUANTITIES}, got {quantity!r}")
+    check_quantity(quantity)
     if frame not in FRAMES:
         raise ValueError(f"`frame` must be one of {FRAMES}, got {frame!r}")
     if method not in METHODS:

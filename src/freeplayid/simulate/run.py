@@ -10,11 +10,12 @@ import numpy as np
 import torch
 
 from ..model.system import FreeplaySystem
+from ..quantity import G, derivative_order, si_unit
+from ..sweep import Sweep
 from .engines import Engine, EngineSetup, resolve_engine
 from .formulation import METHODS, ModalTruncation, build_modal_form, rk4_step_limit
 from .quasistatic import QuasiStatic, condense_modal_form
 from .resample import StreamingDecimator, derivative_taps, design_decimator
-from .sweep import G, Sweep
 
 __all__ = ["simulate_sweeps", "SweepResult", "DEFAULT_OMEGA_DT"]
 
@@ -23,7 +24,6 @@ __all__ = ["simulate_sweeps", "SweepResult", "DEFAULT_OMEGA_DT"]
 # solution and the first-harmonic peak of the freeplay response within ~2e-5 of a 6x finer step;
 # the RK4 stability limit is 2.785.
 DEFAULT_OMEGA_DT = 1.5
-_UNITS = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s^2"}
 _CHUNK_ELEMENTS = 1 << 24  # recorded values per chunk (memory bound of the chunked loop)
 _MAX_CHUNK_STEPS = 1 << 16  # steps per chunk at most (sin/base arrays of a chunk stay small)
 
@@ -89,7 +89,7 @@ class SweepResult:
 
     @property
     def units(self) -> str:
-        return _UNITS[self.quantity]
+        return si_unit(self.quantity)
 
 
 def _as_batch(name: str, value, *, minimum: float | None) -> np.ndarray:
@@ -359,7 +359,7 @@ def simulate_sweeps(
         s_half = np.sin(sweep.phase((i0 + 0.5 * np.arange(2 * L + 1)) * h))
         outputs.run(s_half)
         sig = _base_signals(sweep, i0, L, h, s_half, base_state)
-        q = ("displacement", "velocity", "acceleration").index(quantity)
+        q = derivative_order(quantity)
         rows = np.stack([sig["base"][q], sig["quasi_static"][q]])
         base_outs.append(dec_base.push(torch.from_numpy(rows)))
         i0 += L

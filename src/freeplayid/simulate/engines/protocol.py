@@ -9,12 +9,14 @@ from typing import ClassVar, Protocol
 import numpy as np
 import torch
 
+from ...quantity import QUANTITY
 from ..formulation import ModalForm
 from ..quasistatic import QuasiStaticForm
 
 __all__ = ["Engine", "EngineSetup", "MODES", "BLOWUP"]
 
-MODES = {"displacement": 0, "velocity": 1, "acceleration": 2}
+# the recorded state of each quantity: eta, v or the acceleration (its derivative order)
+MODES = {name: q.order for name, q in QUANTITY.items()}
 BLOWUP = 1e12  # |modal state| above this (or non-finite) marks a member as diverged
 
 

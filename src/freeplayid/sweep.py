@@ -1,4 +1,4 @@
-"""The linear sine-sweep law of the base excitation."""
+"""The sine-sweep law of the base excitation (simulation, extraction and the data sets' hints)."""
 
 from __future__ import annotations
 
@@ -7,9 +7,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Sweep", "G"]
+from .quantity import G
 
-G = 9.80665  # standard gravity [m/s^2]; levels are given in g
+__all__ = ["Sweep"]
 
 
 @dataclass(frozen=True)
