@@ -1,8 +1,9 @@
 """Reference SDOF freeplay sweep for tests, the docs figure and the benchmark.
 
 A self-contained plain-Python RK4 (independent of ``freeplayid.simulate``) of the base-excited
-freeplay oscillator whose exact backbone is known (DESIGN.md §1),
-``w(A) = w_n / (1 + 2 delta / (pi (A - delta)))``, with the parameters of PAPER-NOTES §9(ii).
+freeplay oscillator whose exact backbone is known (docs/backbone.md),
+``w(A) = w_n / (1 + 2 delta / (pi (A - delta)))``; f_n = 50 Hz in contact, 4 % damping,
+delta = 1.2e-4 m.
 """
 
 import math
@@ -27,7 +28,8 @@ def simulate_sdof_sweep(level_g, sweep, *, fs=FS, substeps=2):
 
     Plain-Python scalar loop (~1 us per stage), step 1/(fs substeps) (6.1e-4 s / 2 at 2048 Hz,
     finer than the paper's 6.25e-4 s). Starts on the in-gap steady state (y = 0, y' = a_g / w0)
-    so a weak run does not drift into contact (the trap of PAPER-NOTES §9).
+    so a weak run does not drift into contact (a weakly excited freeplay oscillator can stay on
+    its in-gap branch).
 
     Parameters
     ----------

@@ -12,7 +12,7 @@ from freeplayid.model import (
 
 
 def exact_sdof_omega(peak, delta, omega_n):
-    """Exact backbone of the pure freeplay oscillator (DESIGN.md §1)."""
+    """Exact backbone of the pure freeplay oscillator (docs/backbone.md)."""
     return omega_n / (1.0 + 2.0 * delta / (np.pi * (peak - delta)))
 
 

@@ -109,7 +109,7 @@ def test_fit_backbone_takes_an_inverse_model_as_its_start():
     kn, delta, m = 4.0e4, 1.0e-3, 1.0
     wn = np.sqrt(kn / m)
     amp = delta * np.array([1.5, 2.0, 3.0, 5.0])
-    w = wn / (1 + 2 * delta / (np.pi * (amp - delta)))  # the exact SDOF backbone (DESIGN.md §1)
+    w = wn / (1 + 2 * delta / (np.pi * (amp - delta)))  # the exact SDOF backbone (docs/backbone.md)
     records = [{"channel": "x", "amplitude_m": a, "f_hz": q / (2 * np.pi)}
                for a, q in zip(amp, w, strict=True)]
 

@@ -2,7 +2,7 @@
 
 References: synthetic chirps with a known envelope and frequency law, dense solves of the banded
 systems, and a self-contained RK4 of the SDOF freeplay oscillator under a base sweep whose exact
-backbone is known (DESIGN.md §1): w(A) = w_n / (1 + 2 delta / (pi (A - delta))).
+backbone is known (docs/backbone.md): w(A) = w_n / (1 + 2 delta / (pi (A - delta))).
 """
 
 import math

@@ -1,6 +1,6 @@
 """Describing-function (DFA) backbone curves of a reduced model with freeplay hinges.
 
-Harmonic ansatz y = Y cos(w t) in the unforced, undamped EOM (DESIGN.md §1). Each hinge spring j
+Harmonic ansatz y = Y cos(w t) in the unforced, undamped EOM (docs/backbone.md). Each hinge spring j
 is replaced by its equivalent stiffness kappa_j kn with kappa_j = kappa(delta / Theta_j),
 Theta_j = |b_j^T Y| its first-harmonic amplitude, so a backbone point solves::
 

@@ -1,6 +1,6 @@
 """Least-squares fit of the analytical backbone curve to resonance (jump) points: kn and delta.
 
-Objective (DESIGN.md §1), over x = (ln kn, ln delta)::
+Objective (docs/backbone.md), over x = (ln kn, ln delta)::
 
     J(x) = sum_i ((f_BC(X_i; kn, delta) - f_i) / f_i)^2
 

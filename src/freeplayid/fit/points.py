@@ -2,8 +2,8 @@
 
 A fitting point is the resonance (jump) point of one channel in one sweep run: the model DOF it
 was measured at, its first-harmonic displacement amplitude relative to the base and its frequency
-(DESIGN.md §1). :class:`FittingPoints` holds p of them as validated arrays; it is built from plain
-records (:meth:`FittingPoints.from_records`) or from an extraction
+(docs/backbone.md). :class:`FittingPoints` holds p of them as validated arrays; it is built
+from plain records (:meth:`FittingPoints.from_records`) or from an extraction
 (:meth:`FittingPoints.from_extraction`) and written back as records (:meth:`to_records`).
 """
 

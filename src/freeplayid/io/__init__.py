@@ -1,4 +1,4 @@
-"""Reading and writing the project's files: measured/simulated data sets (DESIGN.md §3).
+"""Reading and writing the project's files: measured/simulated data sets (docs/identify.md).
 
 A data set's run files are read by the reader of their suffix, :data:`freeplayid.io.readers.READERS`
 (CSV, gzipped CSV, UFF 58, MATLAB ``.mat``, NI ``.tdms``); adding a file type is one module there

@@ -1,4 +1,6 @@
-"""Measured-data sets: a folder with ``manifest.yaml`` and one file per sweep run (DESIGN.md §3).
+"""Measured-data sets: a folder with ``manifest.yaml`` and one file per sweep run.
+
+The contract (docs/identify.md):
 
 ```yaml
 name: fin A, 2026-05 campaign
@@ -292,7 +294,7 @@ def _nonfinite_reason(columns: Mapping[str, np.ndarray], t: np.ndarray) -> str:
 
 
 def read_dataset(path: str | os.PathLike, *, check_model: bool = True) -> Dataset:
-    """Read and validate a data set from its folder or ``manifest.yaml`` (DESIGN.md §3).
+    """Read and validate a data set from its folder or ``manifest.yaml`` (docs/identify.md).
 
     A run file is read by the reader of its suffix (:data:`freeplayid.io.readers.READERS`):
     CSV (``.csv``, ``.csv.gz``), UFF dataset 58 (``.uff``, ``.unv``; channel names = the

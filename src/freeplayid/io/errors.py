@@ -8,4 +8,4 @@ __all__ = ["DatasetError"]
 
 
 class DatasetError(InputError):
-    """A data set does not satisfy the contract of DESIGN.md §3."""
+    """A data set does not satisfy the data-set contract of docs/identify.md."""

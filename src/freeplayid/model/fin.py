@@ -1,6 +1,6 @@
 """The default folding fin: plate FE with knuckle hinges, and its reduction to a FreeplaySystem.
 
-Structure (DESIGN.md §2), fin in the x-y plane, hinge axis along x (Rx = theta_x is the hinge
+Structure (docs/model.md), fin in the x-y plane, hinge axis along x (Rx = theta_x is the hinge
 rotation), bending only (w, theta_x, theta_y per node; the base excitation is out-of-plane):
 
 - inboard plate [0, c_root] x [0, s_in], clamped on its root edge y = 0 (the shaker base);

@@ -109,7 +109,7 @@ class PartProperties:
 
 @dataclass(frozen=True)
 class FinConfig:
-    """The folding fin (DESIGN.md §2). Fin in the x-y plane, root edge y = 0, hinge line y = s_in.
+    """The folding fin (docs/model.md). Fin in the x-y plane, root edge y = 0, hinge line y = s_in.
 
     Inboard plate [0, root_chord] x [0, inboard_span] clamped on y = 0; outboard plate
     [0, outboard_chord] x [inboard_span, inboard_span + outboard_span]. Hinge axis along x.

@@ -1,6 +1,6 @@
 """Freeplay (dead-zone) restoring force and its describing function.
 
-Half-gap convention (DESIGN.md §1): contact at theta = +-delta, so the total free play is 2 delta::
+Half-gap convention (docs/backbone.md): contact at theta = +-delta, the total free play 2 delta::
 
     f(theta) = kn (theta - delta)   theta >  delta
              = 0                    |theta| <= delta

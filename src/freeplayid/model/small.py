@@ -20,7 +20,7 @@ def sdof_system(
 
     ``m y'' + c y' + k y + f(y) = -m a_g`` with the freeplay spring f from the mass to the base
     (``hinge_pairs = [("x", "")]``: an empty inboard name means ground). With ``stiffness = 0`` the
-    freeplay spring is the only spring and the exact backbone of DESIGN.md §1 applies:
+    freeplay spring is the only spring and the exact backbone of docs/backbone.md applies:
     ``w(A) = w_n / (1 + 2 delta / (pi (A - delta)))`` with ``w_n = sqrt(kn / m)``.
 
     Parameters

@@ -1,6 +1,6 @@
 """The linear structure with freeplay hinges, and its `.npz` file contract.
 
-A :class:`FreeplaySystem` is the fixed-base (relative-coordinate) model of DESIGN.md §1::
+A :class:`FreeplaySystem` is the fixed-base (relative-coordinate) model of docs/backbone.md::
 
     M y'' + C y' + K y + sum_j b_j f(b_j^T y) = -M r a_g(t)
 
@@ -27,7 +27,7 @@ _OPTIONAL_KEYS = ("C", "base_influence")
 
 
 class SystemFileError(InputError):
-    """A linear model file does not satisfy the `.npz` contract (DESIGN.md §3)."""
+    """A linear model file does not satisfy the `.npz` contract (docs/identify.md)."""
 
 
 def _check_square_symmetric(name: str, a: np.ndarray, n: int, *, rtol: float = 1e-8) -> None:
@@ -229,7 +229,7 @@ class FreeplaySystem:
 
 # ---------------------------------------------------------------------- file contract
 def save_system(path: str | os.PathLike, system: FreeplaySystem) -> Path:
-    """Write ``system`` in the `.npz` contract of DESIGN.md §3 and return the path.
+    """Write ``system`` in the `.npz` contract of docs/identify.md and return the path.
 
     The file is written to a temporary name first and renamed, so a failure never leaves a
     half-written model file.
@@ -257,7 +257,7 @@ def save_system(path: str | os.PathLike, system: FreeplaySystem) -> Path:
 
 
 def load_system(path: str | os.PathLike) -> FreeplaySystem:
-    """Read and validate a linear model file (`.npz`, DESIGN.md §3).
+    """Read and validate a linear model file (`.npz`, docs/identify.md).
 
     Raises
     ------

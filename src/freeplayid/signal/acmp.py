@@ -1,7 +1,7 @@
 """ACMP: adaptive chirp mode pursuit (Chen et al., MSSP 116, 2019), one chirp mode.
 
 Signal model ``x(t) ~ u(t) cos phi(t) + v(t) sin phi(t)``, ``phi = 2 pi int f~ dt``, with u, v
-narrow-band (slowly varying). Iteration n (PAPER-NOTES §10):
+narrow-band (slowly varying). Iteration n (Chen et al., MSSP 116 (2019) 566-584):
 
 1. mode update, a banded O(N) solve (see :func:`.banded.demodulate`)::
 

@@ -10,7 +10,7 @@ of each member's (kn, delta). The stiffness is diagonal in this basis, which hal
 step; ``Cm = Phi^T C Phi`` is dense in general and diagonal for classical (e.g. Rayleigh) damping,
 which the engines exploit.
 
-Relative form (DESIGN.md §1): x = y (displacement relative to the base), forcing ``-M r a_g``,
+Relative form (docs/simulate.md): x = y (displacement relative to the base), forcing ``-M r a_g``,
 so ``g = -Phi^T M r G``; the system starts at rest relative to the base.
 
 Large-mass form (the paper's method): the free-base model with the base DOF ``u_b`` appended,

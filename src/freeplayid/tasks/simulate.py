@@ -1,4 +1,4 @@
-"""`simulate` task: sine sweeps of a model written as a measured-data set (DESIGN.md §3)."""
+"""`simulate` task: sine sweeps of a model written as a measured-data set (docs/identify.md)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Run-file readers, one per file type, chosen by the file's suffix (DESIGN.md §3).
+"""Run-file readers, one per file type, chosen by the file's suffix (docs/identify.md).
 
 Every reader has one signature::
 
