@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 import torch
 
-from freeplayid.inverse import dataset as ds
-from freeplayid.inverse.dataset import (
+from freeplayid.studies import cases as ds
+from freeplayid.studies import (
     DELTA_REF,
     BankSpec,
     CaseSpec,
