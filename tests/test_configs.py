@@ -150,8 +150,8 @@ def test_every_primary_composes_with_every_experiment(primary, experiment, debug
         cfg = compose(config_name=primary, overrides=over)
     if primary not in ("train", "compare"):
         return
-    from freeplayid.inverse.dataset import BankSpec, CaseSpec
     from freeplayid.simulate import Sweep
+    from freeplayid.studies import BankSpec, CaseSpec
 
     bank = dict(cfg.dataset.bank)
     bank["sweep"] = Sweep(**cfg.dataset.bank.sweep)

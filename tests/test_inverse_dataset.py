@@ -4,18 +4,19 @@ import numpy as np
 import pytest
 import torch
 
-from freeplayid.inverse import dataset as ds
-from freeplayid.inverse.dataset import (
+from freeplayid.model.small import sdof_system
+from freeplayid.signal import extract_backbone_points
+from freeplayid.simulate import Sweep, simulate_sweeps
+from freeplayid.studies import (
     DELTA_REF,
     BankSpec,
     CaseSpec,
     build_cases,
+    prepare_study,
     simulate_bank,
     split_by_kn,
 )
-from freeplayid.model.small import sdof_system
-from freeplayid.signal import extract_backbone_points
-from freeplayid.simulate import Sweep, simulate_sweeps
+from freeplayid.studies import cases as ds
 
 # SDOF freeplay oscillator (conf/model/sdof.yaml values): closed-gap frequency near 50 Hz.
 MASS, DAMPING = 23.8, 598.0  # [kg], [N s/m]
@@ -133,6 +134,32 @@ def test_split_by_kn_keeps_kn_values_apart(bank):
     assert sum(p.n_cases for p in parts) == ps.n_cases
     with pytest.raises(ValueError, match="fractions"):
         split_by_kn(ps, 4, (0.5, 0.6))
+
+
+def test_prepare_study_is_the_cached_cases_split_by_kn(system, bank, monkeypatch):
+    b, cache = bank
+    spec = CaseSpec(axis="noise_g", values=(0.0,), cases_per_value=3, runs=(2, 3), n_jobs=1,
+                    delta_range=(1e-4, 2e-4))
+    ps = build_cases(b, spec, cache_dir=cache, progress=False)
+    split = (0.25, 0.5, 0.25)  # kn {0}, {1, 2}, {3}: kn 2 has no case with 2 points
+    monkeypatch.setattr("freeplayid.simulate.simulate_sweeps",
+                        lambda *a, **k: pytest.fail("simulated again"))
+    data = prepare_study(system, bank_spec=_spec(), case_spec=spec, split=split,
+                         cache_dir=cache, progress=False)
+    assert data.bank_key == b.key and data.cases_key == spec.key(b)
+    assert data.system is system and data.channels == ("x",)
+    assert data.n_dropped == 4 * 3 - ps.n_cases
+    for got, want in zip((data.train, data.val, data.test), split_by_kn(ps, 4, split),
+                         strict=True):
+        np.testing.assert_array_equal(got.kn, want.kn)
+        np.testing.assert_array_equal(got.amplitude, want.amplitude)
+    with pytest.raises(ValueError, match="`split` must give 3 fractions"):
+        prepare_study(system, bank_spec=_spec(), case_spec=spec, split=(0.5, 0.5),
+                      cache_dir=cache, progress=False)
+    assert 2 not in ps.meta["kn_index"]
+    with pytest.raises(ValueError, match="the validation split has no case"):
+        prepare_study(system, bank_spec=_spec(), case_spec=spec, split=(0.5, 0.25, 0.25),
+                      cache_dir=cache, progress=False)
 
 
 @pytest.mark.parametrize(("kw", "match"), [

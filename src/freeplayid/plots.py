@@ -321,8 +321,8 @@ def plot_inverse_predictions(ax, truth, estimate, log_std, *, groups=None, group
 def plot_compare_errors(ax, rows, *, quantity="delta", axis_name=""):
     """Absolute relative error of each method per axis value (box plots, log scale).
 
-    ``rows``: the per-case rows of :func:`freeplayid.inverse.study.fit_cases` and
-    :func:`~freeplayid.inverse.study.network_rows` (``method``, ``axis_value``,
+    ``rows``: the per-case rows of :func:`freeplayid.studies.fit_cases` and
+    :func:`~freeplayid.studies.network_rows` (``method``, ``axis_value``,
     ``delta_error``, ``kn_error``).
     """
     methods = [m for m in _METHOD_STYLE if any(r["method"] == m for r in rows)]

@@ -4,6 +4,9 @@
 ``network``: the normalisation, the padding collate and the DeepSets network (torch only).
 ``lightning``: training (LightningModule, DataModule, :func:`train_inverse_model`).
 ``inference``: :func:`load_inverse_model` -> :class:`InverseModel` -> :class:`InversePrediction`.
+
+The simulated data sets it is trained on and the comparison studies are in
+:mod:`freeplayid.studies`.
 """
 
 from .inference import InverseModel, InverseModelError, InversePrediction, load_inverse_model

@@ -1,16 +1,24 @@
-"""Helpers shared by the tasks: the model from its config group, the run folder, metrics."""
+"""Helpers shared by the tasks: the model from its config group, the study data set and network
+from theirs (config -> :mod:`freeplayid.studies` arguments), the run folder, metrics."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
+import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from omegaconf import DictConfig, OmegaConf
 
 from ..io.atomic import atomic_write_text
 from ..model.system import FreeplaySystem
 
-__all__ = ["build_system", "register_configs", "run_dir", "write_metrics", "MODEL_KINDS"]
+if TYPE_CHECKING:
+    from ..studies import StudyData
+
+__all__ = ["build_system", "register_configs", "study_data", "train_network", "run_dir",
+           "write_metrics", "MODEL_KINDS"]
 
 MODEL_KINDS = ("fin", "npz", "sdof")
 
@@ -71,6 +79,55 @@ def build_system(model_cfg: DictConfig | dict) -> FreeplaySystem:
             damping=float(cfg.get("damping", 0.0)),
         )
     raise ValueError(f"model `kind` must be one of {MODEL_KINDS}, got {kind!r}")
+
+
+def _channels(cfg: DictConfig, system: FreeplaySystem) -> tuple:
+    chosen = cfg.dataset.get("channels") or cfg.model.get("channels")
+    if chosen:
+        c = OmegaConf.to_container(chosen, resolve=True)
+        return tuple(c.values()) if isinstance(c, dict) else tuple(c)
+    return tuple(d for d in system.dof_names if d.startswith("uz_")) or tuple(system.dof_names)
+
+
+def study_data(cfg: DictConfig, *, progress: bool = True) -> StudyData:
+    """:func:`freeplayid.studies.prepare_study` of ``cfg.model`` and ``cfg.dataset``.
+
+    The channels are ``dataset.channels``, else ``model.channels``, else every ``uz_*`` DOF;
+    ``dataset.cache_dir`` is relative to the directory the command was started from. The
+    returned ``build_s`` includes building the model.
+    """
+    from hydra.utils import to_absolute_path
+
+    from ..simulate import Sweep
+    from ..studies import BankSpec, CaseSpec, prepare_study
+
+    t0 = time.perf_counter()
+    system = build_system(cfg.model)
+    d = OmegaConf.to_container(cfg.dataset, resolve=True)
+    b = dict(d["bank"])
+    b["sweep"] = Sweep(**b["sweep"])
+    data = prepare_study(
+        system, bank_spec=BankSpec(channels=_channels(cfg, system), **b),
+        case_spec=CaseSpec(**d["cases"]), split=tuple(d["split"]),
+        cache_dir=Path(to_absolute_path(str(d["cache_dir"]))), progress=progress,
+    )
+    return dataclasses.replace(data, build_s=time.perf_counter() - t0)
+
+
+def train_network(cfg: DictConfig, data: StudyData, out: Path) -> Path:
+    """:func:`freeplayid.studies.train_study_network` with ``cfg.network`` and ``cfg.training``.
+
+    The checkpoint records ``cfg.dataset`` (its ``extra["dataset"]``).
+    """
+    from ..studies import train_study_network
+
+    t = cfg.training
+    return train_study_network(
+        data, out, extra={"dataset": OmegaConf.to_container(cfg.dataset, resolve=True)},
+        hidden=int(cfg.network.hidden), depth=int(cfg.network.depth), lr=float(t.lr),
+        weight_decay=float(t.weight_decay), batch_size=int(t.batch_size),
+        max_epochs=int(t.max_epochs), seed=int(cfg.seed), accelerator=str(t.accelerator),
+    )
 
 
 def run_dir() -> Path:

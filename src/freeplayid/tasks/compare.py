@@ -16,8 +16,7 @@ from pathlib import Path
 import numpy as np
 from omegaconf import DictConfig, OmegaConf
 
-from .common import run_dir, write_metrics
-from .train import prepare_cases, train_network
+from .common import run_dir, study_data, train_network, write_metrics
 
 __all__ = ["compare"]
 
@@ -91,11 +90,11 @@ def compare(cfg: DictConfig) -> dict:
 
     from ..fit import multistart_grid
     from ..inverse import load_inverse_model
-    from ..inverse.study import fit_cases, network_rows, summarise
+    from ..studies import fit_cases, network_rows, summarise
 
     t0 = time.perf_counter()
     out = run_dir()
-    data = prepare_cases(cfg)
+    data = study_data(cfg)
     if cfg.inverse.checkpoint:
         ckpt = Path(to_absolute_path(str(cfg.inverse.checkpoint)))
     else:

@@ -10,127 +10,15 @@ value of the ablation axis, and write ``checkpoint.ckpt``, ``metrics.json``,
 from __future__ import annotations
 
 import json
-import shutil
 import time
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 from omegaconf import DictConfig, OmegaConf
 
-from .common import build_system, run_dir, write_metrics
+from .common import run_dir, study_data, train_network, write_metrics
 
-__all__ = ["train", "prepare_cases", "train_network", "network_metrics", "StudyData"]
-
-
-@dataclass(frozen=True)
-class StudyData:
-    """The simulated cases of a study, split by kn (no kn shared between the parts)."""
-
-    system: object
-    channels: tuple
-    train: object
-    val: object
-    test: object
-    bank_key: str
-    cases_key: str
-    n_dropped: int
-    build_s: float
-
-
-def _channels(cfg: DictConfig, system) -> tuple:
-    chosen = cfg.dataset.get("channels") or cfg.model.get("channels")
-    if chosen:
-        c = OmegaConf.to_container(chosen, resolve=True)
-        return tuple(c.values()) if isinstance(c, dict) else tuple(c)
-    return tuple(d for d in system.dof_names if d.startswith("uz_")) or tuple(system.dof_names)
-
-
-def prepare_cases(cfg: DictConfig, *, progress: bool = True) -> StudyData:
-    """Build (or load from the cache) the bank and cases of ``cfg.dataset`` and split them."""
-    from hydra.utils import to_absolute_path
-
-    from ..inverse.dataset import BankSpec, CaseSpec, build_cases, simulate_bank, split_by_kn
-    from ..simulate import Sweep
-
-    t0 = time.perf_counter()
-    system = build_system(cfg.model)
-    channels = _channels(cfg, system)
-    d = OmegaConf.to_container(cfg.dataset, resolve=True)
-    b = dict(d["bank"])
-    b["sweep"] = Sweep(**b["sweep"])
-    bank_spec = BankSpec(channels=channels, **b)
-    case_spec = CaseSpec(**d["cases"])
-    cache = Path(to_absolute_path(str(d["cache_dir"])))
-    bank = simulate_bank(system, bank_spec, cache_dir=cache, progress=progress)
-    cases = build_cases(bank, case_spec, cache_dir=cache, progress=progress)
-    parts = split_by_kn(cases, bank_spec.n_kn, tuple(d["split"]))
-    if len(parts) != 3:
-        raise ValueError(f"`dataset.split` must give 3 fractions (train, val, test), "
-                         f"got {d['split']!r}")
-    for name, p in zip(("train", "validation", "test"), parts, strict=True):
-        if p.n_cases == 0:
-            raise ValueError(f"the {name} split has no case with 2 or more points; raise "
-                             f"`dataset.bank.n_kn` or `dataset.split`, or widen the level ratios")
-    n_planned = bank_spec.n_kn * len(case_spec.values) * case_spec.cases_per_value
-    return StudyData(system=system, channels=channels, train=parts[0], val=parts[1],
-                     test=parts[2], bank_key=bank.key, cases_key=case_spec.key(bank),
-                     n_dropped=n_planned - cases.n_cases, build_s=time.perf_counter() - t0)
-
-
-def train_network(cfg: DictConfig, data: StudyData, out: Path) -> Path:
-    """Train the set network; the best checkpoint is copied to ``out/checkpoint.ckpt``."""
-    from ..inverse import train_inverse_model
-
-    t = cfg.training
-    extra = {
-        "dataset": OmegaConf.to_container(cfg.dataset, resolve=True),
-        "bank": data.bank_key, "cases": data.cases_key,
-    }
-    _, trainer, history = train_inverse_model(
-        data.train, data.val, channels=data.channels, fingerprint=data.system.fingerprint(),
-        hidden=int(cfg.network.hidden), depth=int(cfg.network.depth), lr=float(t.lr),
-        weight_decay=float(t.weight_decay), batch_size=int(t.batch_size),
-        max_epochs=int(t.max_epochs), seed=int(cfg.seed), out_dir=out / "lightning",
-        extra=extra, accelerator=str(t.accelerator),
-    )
-    best = Path(trainer.checkpoint_callback.best_model_path or "")
-    if not best.is_file():
-        raise RuntimeError(f"training wrote no checkpoint under {out / 'lightning'}")
-    target = out / "checkpoint.ckpt"
-    shutil.copyfile(best, target)
-    (out / "history.json").write_text(json.dumps(history, indent=1))
-    return target
-
-
-def network_metrics(test, pred, *, bounds: dict) -> dict:
-    """Network-alone errors on ``test`` per axis value and overall (absolute relative errors)."""
-    de = np.abs(pred.delta / test.delta - 1)
-    ke = np.abs(pred.kn / test.kn - 1)
-    inside = (de < bounds["delta"]) & (ke < bounds["kn"])
-    # calibration: share of cases whose truth lies within the predicted +-2 sigma (ln scale);
-    # 95 % for a calibrated Gaussian
-    z_d = np.abs(np.log(pred.delta / test.delta)) / pred.log_delta_std
-    z_k = np.abs(np.log(pred.kn / test.kn)) / pred.log_kn_std
-
-    def block(sel):
-        return {
-            "n": int(sel.sum()),
-            "delta_err_median": float(np.median(de[sel])),
-            "delta_err_p90": float(np.percentile(de[sel], 90)),
-            "kn_err_median": float(np.median(ke[sel])),
-            "kn_err_p90": float(np.percentile(ke[sel], 90)),
-            "within_bounds": float(inside[sel].mean()),
-            "delta_within_2sigma": float(np.mean(z_d[sel] < 2)),
-            "kn_within_2sigma": float(np.mean(z_k[sel] < 2)),
-        }
-
-    axis = test.meta["axis_value"]
-    return {
-        "overall": block(np.ones(test.n_cases, bool)),
-        "per_value": {f"{v:g}": block(axis == v) for v in np.unique(axis)},
-        "bounds": dict(bounds),
-    }
+__all__ = ["train"]
 
 
 def _figures(out: Path, history: dict, test, pred, axis_name: str) -> list[str]:
@@ -168,10 +56,11 @@ def train(cfg: DictConfig) -> dict:
         network-alone errors on the held-out cases per axis value.
     """
     from ..inverse import load_inverse_model
+    from ..studies import network_metrics
 
     t0 = time.perf_counter()
     out = run_dir()
-    data = prepare_cases(cfg)
+    data = study_data(cfg)
     ckpt = train_network(cfg, data, out)
     model = load_inverse_model(ckpt, system=data.system)
     pred = model.predict(data.test)

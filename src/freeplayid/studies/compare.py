@@ -10,6 +10,9 @@ Methods compared on the same cases (``METHODS``):
 Errors are relative, ``estimate / truth - 1``; a case succeeds when ``|delta error| <
 success_delta`` and ``|kn error| < success_kn``. The cost of a fit is its number of objective
 (residual-vector) evaluations, finite-difference Jacobians included.
+
+:func:`network_metrics` summarises the network alone on held-out cases (errors per axis value,
+share within bounds, calibration of its uncertainty).
 """
 
 from __future__ import annotations
@@ -19,10 +22,10 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from ..inverse.points import PointSets
 from ..model.system import FreeplaySystem
-from .points import PointSets
 
-__all__ = ["METHODS", "fit_cases", "summarise", "network_rows"]
+__all__ = ["METHODS", "fit_cases", "summarise", "network_rows", "network_metrics"]
 
 METHODS = ("network", "network+fit", "single-start", "multi-start")
 
@@ -46,12 +49,12 @@ def _row(ps, i, method, kn, delta, n_eval, wall, ok) -> dict:
     }
 
 
-def _fit_one(records, system, init, label, backbone):
+def _fit_one(points, system, init, label, backbone):
     from ..fit import fit_backbone
 
     t0 = time.perf_counter()
     try:
-        r = fit_backbone(records, system, init=init, init_label=label, backbone=backbone)
+        r = fit_backbone(points, system, init=init, init_label=label, backbone=backbone)
     except ValueError:  # every start diverged: a failed case, not a failed study
         return np.nan, np.nan, 0, time.perf_counter() - t0, False
     return r.kn, r.delta, r.n_evaluations, time.perf_counter() - t0, r.success
@@ -86,7 +89,7 @@ def fit_cases(
 
     jobs = []
     for i in range(ps.n_cases):
-        rec = ps.fitting_points(i)
+        rec = ps.fitting_points(i)  # FittingPoints of case i
         if network_estimate is not None:
             init = (float(network_estimate[0][i]), float(network_estimate[1][i]))
             jobs.append((i, "network+fit", rec, init, "inverse"))
@@ -139,3 +142,52 @@ def summarise(
                 "wall_s_mean": float(np.mean([r["wall_s"] for r in sel])),
             })
     return out
+
+
+def network_metrics(test: PointSets, pred, *, bounds: dict) -> dict:
+    """Network-alone errors on ``test`` per axis value and overall (absolute relative errors).
+
+    Parameters
+    ----------
+    test : PointSets
+        Cases with true ``kn``, ``delta`` and ``meta["axis_value"]``.
+    pred : InversePrediction
+        The network's ``kn`` (N,) [N m/rad], ``delta`` (N,) [rad] and their ``log_kn_std``,
+        ``log_delta_std`` (N,) (ln scale).
+    bounds : dict
+        ``{"delta": ..., "kn": ...}``: a case is within bounds when both absolute relative
+        errors are below them.
+
+    Returns
+    -------
+    dict
+        ``overall`` and ``per_value`` (keyed by ``f"{value:g}"``) blocks of ``n``,
+        ``delta_err_median``, ``delta_err_p90``, ``kn_err_median``, ``kn_err_p90``,
+        ``within_bounds``, ``delta_within_2sigma``, ``kn_within_2sigma``; and ``bounds``.
+    """
+    de = np.abs(pred.delta / test.delta - 1)
+    ke = np.abs(pred.kn / test.kn - 1)
+    inside = (de < bounds["delta"]) & (ke < bounds["kn"])
+    # calibration: share of cases whose truth lies within the predicted +-2 sigma (ln scale);
+    # 95 % for a calibrated Gaussian
+    z_d = np.abs(np.log(pred.delta / test.delta)) / pred.log_delta_std
+    z_k = np.abs(np.log(pred.kn / test.kn)) / pred.log_kn_std
+
+    def block(sel):
+        return {
+            "n": int(sel.sum()),
+            "delta_err_median": float(np.median(de[sel])),
+            "delta_err_p90": float(np.percentile(de[sel], 90)),
+            "kn_err_median": float(np.median(ke[sel])),
+            "kn_err_p90": float(np.percentile(ke[sel], 90)),
+            "within_bounds": float(inside[sel].mean()),
+            "delta_within_2sigma": float(np.mean(z_d[sel] < 2)),
+            "kn_within_2sigma": float(np.mean(z_k[sel] < 2)),
+        }
+
+    axis = test.meta["axis_value"]
+    return {
+        "overall": block(np.ones(test.n_cases, bool)),
+        "per_value": {f"{v:g}": block(axis == v) for v in np.unique(axis)},
+        "bounds": dict(bounds),
+    }

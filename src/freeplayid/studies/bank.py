@@ -1,0 +1,214 @@
+"""Simulated sweep banks: records at a reference gap, cached on disk.
+
+Scale invariance (docs/inverse.md) makes the response depend on kn and on the level-to-gap ratio
+``s = level / delta`` only: ``y(kn, c delta, c level) = c y(kn, delta, level)``. So a *bank*
+simulates, for each of ``n_kn`` contact stiffnesses, ``n_ratios`` sweeps at ratios ``s`` once,
+at the reference gap ``DELTA_REF``; any clearance delta is then the same record scaled by
+``delta / DELTA_REF`` at the levels ``s delta`` (:mod:`freeplayid.studies.cases`).
+
+A bank is cached under ``cache_dir`` in a folder named by a hash of everything that defines it
+(the linear model's fingerprint, the sweep, the sampling, the seed), written chunk by chunk, so
+an interrupted build resumes where it stopped.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import os
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..model.system import FreeplaySystem
+from ..sweep import Sweep
+
+__all__ = ["BankSpec", "SweepBank", "DELTA_REF", "simulate_bank"]
+
+DELTA_REF = 1e-3  # [rad] gap of the stored bank records (levels s * DELTA_REF)
+# bump when the cached layout, the meaning of a spec field or the simulated numbers change
+# (2: 2026-11-21, the numba kernels fuse their multiply-adds and the quasi-static model takes the
+# derivative of its fast part inside the decimating FIR)
+_FORMAT = 2
+
+
+def _digest(obj) -> str:
+    text = json.dumps(obj, sort_keys=True, default=float)
+    return hashlib.sha256(text.encode()).hexdigest()[:12]
+
+
+def _pair(name, v, *, positive=True) -> tuple[float, float]:
+    try:
+        lo, hi = (float(x) for x in v)
+    except (TypeError, ValueError):
+        raise ValueError(f"`{name}` must be a pair [low, high], got {v!r}") from None
+    if not (math.isfinite(lo) and math.isfinite(hi) and lo <= hi and (lo > 0 or not positive)):
+        raise ValueError(f"`{name}` must be finite with 0 < low <= high, got {v!r}")
+    return lo, hi
+
+
+@dataclass(frozen=True)
+class BankSpec:
+    """What a sweep bank simulates.
+
+    Attributes
+    ----------
+    sweep : Sweep
+        The sweep of every record (start the sweep where the tests start it: which runs catch
+        the resonance branch depends on it).
+    sample_rate : float [Hz]
+    channels : tuple of str
+        DOF names recorded (relative acceleration).
+    kn_range : (float, float) [N m/rad]
+        kn is drawn log-uniform in it, ``n_kn`` values.
+    ratio_range : (float, float) [g/rad]
+        Level-to-gap ratios ``s``, ``n_ratios`` per kn, log-uniform.
+    n_kn, n_ratios : int
+    seed : int
+    dtype : {"float32", "float64"}
+    chunk_sweeps : int
+        Sweeps per simulation call and per cached file (large batches run fastest).
+    quasi_static_hz : float or None [Hz]
+        Simulate with the quasi-static condensation of the modes above it
+        (``simulate_sweeps(quasi_static_hz=)``: 6-7x faster on the default fin at 1000 Hz,
+        peak-amplitude error <= 2.1e-3; docs/simulate.md). None: the full model.
+    """
+
+    sweep: Sweep
+    sample_rate: float
+    channels: tuple
+    kn_range: tuple
+    ratio_range: tuple
+    n_kn: int
+    n_ratios: int
+    seed: int = 0
+    dtype: str = "float32"
+    chunk_sweeps: int = 512
+    quasi_static_hz: float | None = None
+
+    def __post_init__(self):
+        object.__setattr__(self, "kn_range", _pair("kn_range", self.kn_range))
+        object.__setattr__(self, "ratio_range", _pair("ratio_range", self.ratio_range))
+        object.__setattr__(self, "channels", tuple(str(c) for c in self.channels))
+        if not self.channels:
+            raise ValueError("`channels` must name at least one DOF")
+        for name in ("n_kn", "n_ratios", "chunk_sweeps"):
+            if int(getattr(self, name)) < 1:
+                raise ValueError(f"`{name}` must be >= 1, got {getattr(self, name)!r}")
+        if self.dtype not in ("float32", "float64"):
+            raise ValueError(f"`dtype` must be one of ('float32', 'float64'), got {self.dtype!r}")
+        if not self.sample_rate > 0:
+            raise ValueError(f"`sample_rate` must be > 0, got {self.sample_rate!r}")
+        if self.quasi_static_hz is not None:
+            if not float(self.quasi_static_hz) > 0:
+                raise ValueError("`quasi_static_hz` must be > 0 or null, got "
+                                 f"{self.quasi_static_hz!r}")
+            object.__setattr__(self, "quasi_static_hz", float(self.quasi_static_hz))
+
+    def key(self, system: FreeplaySystem) -> str:
+        """Cache key: this spec, the model fingerprint and the cache format."""
+        d = asdict(self)
+        d.pop("chunk_sweeps")  # how the work is cut does not change the data
+        if d["quasi_static_hz"] is None:  # the full model: keys of banks built before the option
+            d.pop("quasi_static_hz")
+        return _digest({"bank": d, "model": system.fingerprint(), "format": _FORMAT})
+
+    def draw(self) -> tuple[np.ndarray, np.ndarray]:
+        """kn (n_kn,) [N m/rad] and ratios (n_kn, n_ratios) [g/rad], from ``seed``."""
+        rng = np.random.default_rng(self.seed)
+        lk = np.log(self.kn_range)
+        lr = np.log(self.ratio_range)
+        kn = np.exp(rng.uniform(lk[0], lk[1], self.n_kn))
+        ratio = np.sort(np.exp(rng.uniform(lr[0], lr[1], (self.n_kn, self.n_ratios))), axis=1)
+        return kn, ratio
+
+
+@dataclass(frozen=True)
+class SweepBank:
+    """Simulated records at the reference gap.
+
+    Attributes
+    ----------
+    spec : BankSpec
+    key : str
+    kn : ndarray, shape (K,) [N m/rad]
+    ratio : ndarray, shape (K, R) [g/rad]
+    time : ndarray, shape (T,) [s]
+    signals : ndarray, shape (K, R, C, T) [m/s^2]
+        Relative acceleration at ``DELTA_REF`` and level ``ratio * DELTA_REF`` [g].
+    diverged : ndarray, shape (K, R) bool
+    """
+
+    spec: BankSpec
+    key: str
+    kn: np.ndarray
+    ratio: np.ndarray
+    time: np.ndarray
+    signals: np.ndarray
+    diverged: np.ndarray
+
+
+def _atomic_savez(path: Path, **arrays) -> None:
+    # a per-process temporary name: parallel jobs (a joblib multirun) may build the same chunk
+    tmp = path.with_name(f"{path.name}.{os.getpid()}.tmp.npz")
+    np.savez(tmp, **arrays)
+    tmp.replace(path)
+
+
+def simulate_bank(
+    system: FreeplaySystem,
+    spec: BankSpec,
+    *,
+    cache_dir: str | Path = "outputs/datasets",
+    progress: bool = True,
+    device=None,
+) -> SweepBank:
+    """Simulate (or load from the cache) the sweep bank ``spec`` of ``system``.
+
+    The bank is written to ``cache_dir/bank-<key>/`` one chunk of ``spec.chunk_sweeps`` sweeps
+    at a time; a later call with the same spec and model loads the finished chunks and
+    simulates only the missing ones.
+    """
+    import torch
+
+    from ..simulate import simulate_sweeps
+
+    missing = [c for c in spec.channels if c not in system.dof_names]
+    if missing:
+        raise ValueError(f"bank `channels` {missing} are not DOFs of the model; "
+                         f"allowed: {list(system.dof_names)}")
+    key = spec.key(system)
+    folder = Path(cache_dir) / f"bank-{key}"
+    folder.mkdir(parents=True, exist_ok=True)
+    spec_json = {"spec": asdict(spec), "model": system.fingerprint(), "delta_ref": DELTA_REF}
+    (folder / "spec.json").write_text(json.dumps(spec_json, indent=2, default=float))
+    kn, ratio = spec.draw()
+    flat_kn = np.repeat(kn, spec.n_ratios)
+    flat_s = ratio.reshape(-1)
+    n = flat_kn.size
+    cuts = list(range(0, n, spec.chunk_sweeps))
+    todo = [i for i, _ in enumerate(cuts) if not (folder / f"chunk-{i:04d}.npz").is_file()]
+    dtype = torch.float32 if spec.dtype == "float32" else torch.float64
+    if todo and progress:
+        print(f"bank {key}: simulating {len(todo)} of {len(cuts)} chunks of "
+              f"{spec.chunk_sweeps} sweeps -> {folder}")
+    for i in todo:
+        sl = slice(cuts[i], min(cuts[i] + spec.chunk_sweeps, n))
+        res = simulate_sweeps(
+            system, kn=flat_kn[sl], delta=DELTA_REF, level_g=flat_s[sl] * DELTA_REF,
+            sweep=spec.sweep, channels=list(spec.channels), quantity="acceleration",
+            frame="relative", sample_rate=spec.sample_rate, dtype=dtype, device=device,
+            progress=progress, quasi_static_hz=spec.quasi_static_hz,
+        )
+        _atomic_savez(folder / f"chunk-{i:04d}.npz", time=res.time,
+                      signals=res.signals.astype(np.float32), diverged=res.diverged)
+    parts = [np.load(folder / f"chunk-{i:04d}.npz") for i in range(len(cuts))]
+    signals = np.concatenate([p["signals"] for p in parts])
+    diverged = np.concatenate([p["diverged"] for p in parts])
+    time = parts[0]["time"]
+    k, r = spec.n_kn, spec.n_ratios
+    return SweepBank(spec=spec, key=key, kn=kn, ratio=ratio, time=time,
+                     signals=signals.reshape(k, r, *signals.shape[1:]),
+                     diverged=diverged.reshape(k, r))
