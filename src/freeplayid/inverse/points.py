@@ -107,9 +107,7 @@ class PointSets:
 
     def records(self, i: int) -> list[dict]:
         """Case ``i`` as point records (channel name, amplitude_m, f_hz)."""
-        rows = np.flatnonzero(self.case == i)
-        return [{"channel": self.channels[self.channel[r]], "amplitude_m": float(self.amplitude[r]),
-                 "f_hz": float(self.frequency[r])} for r in rows]
+        return self.fitting_points(i).to_records()
 
     @staticmethod
     def concatenate(parts: Sequence[PointSets]) -> PointSets:

@@ -27,9 +27,12 @@ __all__ = [
     "AmplitudeCurve",
     "extract_backbone_points",
     "to_displacement",
+    "EXTRACTION_METHODS",
 ]
 
-_METHODS = {"acmp": acmp, "lockin": lockin}
+# name -> first-harmonic extractor (x, fs, *, sweep, bandwidth_hz, ...) -> ChirpMode; a new method
+# is one module and one line here
+EXTRACTION_METHODS = {"acmp": acmp, "lockin": lockin}
 
 
 @dataclass(frozen=True)
@@ -227,8 +230,8 @@ def extract_backbone_points(
     BackbonePoints
     """
     check_quantity(quantity)
-    if method not in _METHODS:
-        raise ValueError(f"`method` must be one of {sorted(_METHODS)}, got {method!r}")
+    if method not in EXTRACTION_METHODS:
+        raise ValueError(f"`method` must be one of {sorted(EXTRACTION_METHODS)}, got {method!r}")
     fs = check_positive(sample_rate, "sample_rate")
     for name, v in (("jump_width_hz", jump_width_hz), ("edge_hz", edge_hz)):
         check_positive(v, name)
@@ -276,7 +279,7 @@ def extract_backbone_points(
         for i, (b, r) in enumerate(zip(bases, runs, strict=True)):
             if b.shape != r.shape[1:]:
                 raise ValueError(f"`base[{i}]` must have shape {r.shape[1:]}, got {b.shape}")
-    extract = _METHODS[method]
+    extract = EXTRACTION_METHODS[method]
     opts = dict(options or {})
     if "bandwidth_hz" in opts or "sweep" in opts:
         raise ValueError("pass `bandwidth_hz` and `sweep` as arguments, not in `options`")
