@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 
 from .errors import InputError
 
-__all__ = ["Identification", "IdentificationError", "identify"]
+__all__ = ["Identification", "IdentificationError", "SuspectResultError", "identify"]
 
 
 class IdentificationError(InputError):
@@ -35,6 +35,11 @@ class IdentificationError(InputError):
     def __init__(self, message: str, *, points=None) -> None:
         super().__init__(message)
         self.points = points
+
+
+class SuspectResultError(InputError):
+    """An identification whose verdict is ``suspect``, refused by a command (its reasons say why;
+    ``allow_suspect=true`` accepts it)."""
 
 
 @dataclass(frozen=True)
@@ -75,6 +80,9 @@ class Identification:
     dataset : dict
         What the report says of the data set: name, path, model, quantity, units, sample_rate,
         n_runs, channels, base_channel.
+    verdict : freeplayid.verdict.Verdict
+        ``ok`` or ``suspect`` with the reasons: the plausibility checks of the result and the
+        data (:mod:`freeplayid.verdict`).
     """
 
     kn: float
@@ -96,6 +104,7 @@ class Identification:
     inverse_estimate: dict | None = None
     truth: dict | None = None
     dataset: dict = field(default_factory=dict)
+    verdict: object = None
 
     @property
     def used_points(self) -> tuple:
@@ -141,6 +150,10 @@ class Identification:
             out["delta_ci95_bootstrap"] = list(self.delta_ci95_bootstrap)
         if self.truth:
             out["truth"] = dict(self.truth)
+        if self.verdict is not None:
+            out["verdict"] = self.verdict.status
+            out["verdict_reasons"] = list(self.verdict.reasons)
+            out["checks"] = [c.to_dict() for c in self.verdict.checks]
         return out
 
     def backbone_overlay(self) -> dict:
@@ -162,6 +175,9 @@ class Identification:
             lines.append("truth: " + ", ".join(f"{k} = {self.truth[k]:.5g} ({100 * e:+.2f} %)"
                                                for k, e in err.items()))
         lines += [f"rejected run {r}: {w}" for r, w in self.rejected_runs]
+        if self.verdict is not None:
+            lines.append(f"verdict: {self.verdict.status}" + "".join(
+                f"\n  - {why}" for why in self.verdict.reasons))
         return "\n".join(lines)
 
     def report(self, figures: Sequence[str] = ()) -> str:
@@ -189,6 +205,11 @@ class Identification:
                   f"{_ci(getattr(self, name + '_ci95'))} |"
             lines.append(row + (f" {_ci(b)} |" if b else ""))
         lines += ["", f"Residual RMS (relative frequency): {self.residual_rms:.3e}"]
+        if self.verdict is not None:
+            lines += ["", f"## Verdict: {self.verdict.status}", "", "| check | passed | finding |",
+                      "|---|---|---|"]
+            lines += [f"| {c.name} | {'yes' if c.passed else '**no**'} | {c.message} |"
+                      for c in self.verdict.checks]
         est = self.inverse_estimate
         if est:
             lines += ["", f"Start from the inverse model (`{est['checkpoint']}`): kn = "
@@ -349,6 +370,7 @@ def identify(
     from .fit import FittingPoints, fit_backbone, multistart_grid
     from .io import DatasetError, read_dataset
     from .model import FreeplaySystem, load_system
+    from .verdict import base_level_checks, fit_checks, make_verdict
 
     t0 = time.perf_counter()
     backbone_method(backbone, argument="backbone")  # an unknown name fails before any work
@@ -377,6 +399,8 @@ def identify(
         starts, label = init, None
     fit = fit_backbone(points, system, init=starts, init_label=label, backbone=backbone,
                        mode=int(mode), n_bootstrap=int(n_bootstrap), seed=int(seed))
+    verdict = make_verdict(base_level_checks(dataset)
+                           + fit_checks(points, fit, system, pts, mode=int(mode)))
     return Identification(
         kn=fit.kn,
         delta=fit.delta,
@@ -403,4 +427,5 @@ def identify(
             "sample_rate": float(dataset.sample_rate), "n_runs": len(dataset.runs),
             "channels": dict(dataset.channels), "base_channel": dataset.base_channel,
         },
+        verdict=verdict,
     )

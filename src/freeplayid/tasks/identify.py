@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 from omegaconf import DictConfig, OmegaConf
 
-from ..identification import Identification
+from ..identification import Identification, SuspectResultError
 from ..identification import identify as identify_dataset
 from ..io import DatasetError, read_dataset
 from ..io.atomic import atomic_write_text
@@ -140,5 +140,11 @@ def identify(cfg: DictConfig) -> dict:
     }
     if result.truth_error:
         metrics.update({f"{k}_rel_error": v for k, v in result.truth_error.items()})
+    metrics["verdict"] = result.verdict.status
     write_metrics(out, metrics)
+    if not result.verdict.ok and not cfg.get("allow_suspect", False):
+        raise SuspectResultError(
+            "the result is suspect: " + "; ".join(result.verdict.reasons)
+            + f" (results written to {out}; allow_suspect=true accepts it)"
+        )
     return metrics

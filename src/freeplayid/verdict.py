@@ -1,0 +1,244 @@
+"""Plausibility checks of an identification: a verdict ``ok`` / ``suspect`` with its reasons.
+
+A fit always returns numbers; these checks say when the numbers cannot be trusted. Each check
+compares the result or the data with a physical limit, never with a value tuned to one data set:
+
+- ``delta_bound``: a half-gap above :data:`LIMITS` ``delta_max_rad`` (0.05 rad, 2.9°) is no hinge
+  freeplay; units or quantity errors give 0.07-17 rad.
+- ``contact_margin``: the lowest point's hinge amplitude must be ``min_gap_ratio`` (1.5) × delta
+  or more: nearer contact the describing function is off by more than 7 % (the exact SDOF
+  backbone, docs/backbone.md), and a fit driven there (e.g. channels mapped to the wrong DOFs)
+  puts every point at Theta = delta.
+- ``backbone_range``: the highest point must lie inside the backbone's amplitude range; beyond
+  it the fit sees only the closed-hinge frequency (a quantity error).
+- ``interval_width``: a 95 % interval wider than the estimate itself says the points do not fix
+  the parameter.
+- ``residual``: the relative frequency residual against the frequency scatter between the
+  channels of one run (the measurement's own noise level) and an absolute floor.
+- ``channel_agreement``: the channels of one run see one resonance; a spread above 1 % means
+  another mode or a channel problem.
+- ``base_level``: the base channel's amplitude against each run's ``level_g``: a factor 9.81,
+  1/9.81 or 1000 is a units error, a ratio that varies as a power of the frequency is a quantity
+  error (acceleration declared as displacement...).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .quantity import G, check_quantity
+
+__all__ = ["Check", "Verdict", "LIMITS", "base_level_checks", "fit_checks", "make_verdict"]
+
+LIMITS = {
+    "delta_max_rad": 0.05,  # [rad] largest plausible half-gap
+    "min_gap_ratio": 1.5,  # [-] lowest point's Theta / delta (DFA error -7 % at 1.5)
+    "residual_floor": 5e-3,  # [-] relative frequency residual RMS that is always acceptable...
+    "residual_vs_scatter": 5.0,  # [-] ... or this many times the channels' frequency scatter
+    "channel_spread": 0.01,  # [-] relative spread of one run's channel frequencies
+    "level_tolerance": 0.25,  # [-] base amplitude / level_g accepted within 1 -+ this
+}
+
+
+@dataclass(frozen=True)
+class Check:
+    """One plausibility check.
+
+    Attributes
+    ----------
+    name : str
+    passed : bool
+    message : str
+        What was found (for a failed check: the reason of the ``suspect`` verdict).
+    value : float or None
+        The checked number (e.g. the lowest Theta / delta).
+    """
+
+    name: str
+    passed: bool
+    message: str
+    value: float | None = None
+
+    def to_dict(self) -> dict:
+        v = None if self.value is None or not math.isfinite(self.value) else float(self.value)
+        return {"name": self.name, "passed": self.passed, "message": self.message, "value": v}
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """``ok`` when every check passed, else ``suspect`` with the failed checks' messages."""
+
+    status: str
+    checks: tuple[Check, ...]
+
+    @property
+    def reasons(self) -> tuple[str, ...]:
+        return tuple(c.message for c in self.checks if not c.passed)
+
+    @property
+    def ok(self) -> bool:
+        return self.status == "ok"
+
+
+def make_verdict(checks) -> Verdict:
+    checks = tuple(checks)
+    return Verdict("ok" if all(c.passed for c in checks) else "suspect", checks)
+
+
+def _window_amplitudes(x, fs, sweep, n_windows: int = 16):
+    """(frequency [Hz], first-harmonic amplitude) of ``x`` in ``n_windows`` windows.
+
+    With the sweep law the amplitude is the least-squares sine at the sweep's phase (noise
+    averages out); without it, sqrt(2) x RMS and the zero-crossing rate."""
+    n = x.size // n_windows
+    t = np.arange(x.size) / fs
+    f_out, a_out = [], []
+    for k in range(n_windows):
+        sl = slice(k * n, (k + 1) * n)
+        xw = x[sl] - np.mean(x[sl])
+        if sweep is not None:
+            ph = sweep.phase(t[sl])
+            basis = np.column_stack([np.sin(ph), np.cos(ph)])
+            coef, *_ = np.linalg.lstsq(basis, xw, rcond=None)
+            a_out.append(math.hypot(*coef))
+            f_out.append(float(np.mean(sweep.frequency(t[sl]))))
+        else:
+            crossings = np.count_nonzero(np.diff(np.signbit(xw)))
+            a_out.append(math.sqrt(2.0) * float(np.std(xw)))
+            f_out.append(crossings / (2.0 * n / fs))
+    return np.array(f_out), np.array(a_out)
+
+
+def _level_reason(ratio: float, slope: float, quantity: str) -> str | None:
+    """Why a base amplitude / expected amplitude ``ratio`` (varying as f^slope) is wrong."""
+    tol = LIMITS["level_tolerance"]
+    if abs(slope) < 0.5 and abs(math.log(ratio)) < math.log(1 + tol):
+        return None
+    order = check_quantity(quantity).order
+    k = int(round(slope))
+    if abs(slope - k) < 0.4 and k != 0 and 0 <= order + k <= 2:
+        names = {0: "displacement", 1: "velocity", 2: "acceleration"}
+        return (f"the base channel varies as f^{k} against `level_g` in the declared "
+                f"quantity: the data look like {names[order + k]}, the manifest says {quantity} "
+                "(`quantity`)")
+    for factor, meaning in ((G, "m/s^2 declared as g"), (1 / G, "g declared as m/s^2"),
+                            (1000.0, "mg (or mm) declared as g (or m)"),
+                            (1e-3, "g (or m) declared as mg (or mm)")):
+        if abs(math.log(ratio / factor)) < math.log(1 + tol):
+            return (f"the base channel is {factor:.4g} x `level_g`: a units error "
+                    f"(data in {meaning}? check `units`)")
+    return (f"the base channel's amplitude is {ratio:.2g} x `level_g`; check "
+            "`units`, `quantity`, `base_channel` and the run's level")
+
+
+def base_level_checks(dataset) -> list[Check]:
+    """The base channel against each run's ``level_g`` (runs with both; none: no check)."""
+    from .sweep import Sweep
+
+    if dataset.base_channel is None:
+        return []
+    order = check_quantity(dataset.quantity).order
+    reasons: dict[str, list[str]] = {}
+    ratios = []
+    for run in dataset.runs:
+        if run.reason or run.base is None or not run.level_g:
+            continue
+        sweep = Sweep(**run.sweep) if run.sweep else None
+        f, a = _window_amplitudes(dataset.to_si(run.base), dataset.sample_rate, sweep)
+        ok = (f > 0) & (a > 0) & np.isfinite(a)
+        if np.count_nonzero(ok) < 4:
+            continue
+        # the base moves as level_g * G sin(phase): its amplitude in the declared quantity
+        expected = run.level_g * G / (2 * np.pi * f[ok]) ** (2 - order)
+        r = a[ok] / expected
+        slope = float(np.polyfit(np.log(f[ok]), np.log(r), 1)[0]) if np.ptp(f[ok]) > 0 else 0.0
+        ratio = float(np.median(r))
+        ratios.append(ratio)
+        why = _level_reason(ratio, slope, dataset.quantity)
+        if why:
+            reasons.setdefault(why, []).append(run.file)
+    if not ratios:
+        return []
+    if reasons:
+        text = "; ".join(f"run(s) {', '.join(runs)}: {why}" for why, runs in reasons.items())
+        return [Check("base_level", False, text, float(np.median(ratios)))]
+    return [Check("base_level", True, f"base channel matches `level_g` in every run "
+                  f"(median ratio {np.median(ratios):.3f})", float(np.median(ratios)))]
+
+
+def _gap_ratios(points, system, kn: float, delta: float, mode: int):
+    """Theta_max / delta of each point on the fitted backbone, and the grid's largest ratio."""
+    from .fit import BackboneModel
+
+    bm = BackboneModel(system, sorted(set(points.channel)), mode=mode)
+    _, log_amp = bm.curve(kn)
+    out = np.empty(len(points.channel))
+    for i, (c, a) in enumerate(zip(points.channel, points.amplitude_m, strict=True)):
+        la = log_amp[:, bm.channels.index(c)]
+        ok = np.isfinite(la)
+        if np.count_nonzero(ok) < 2:
+            out[i] = np.nan
+            continue
+        order = np.argsort(la[ok])
+        out[i] = np.interp(np.log(a / delta), la[ok][order], bm.s[ok][order])
+    return out, float(bm.s[-1])
+
+
+def fit_checks(points, fit, system, extraction, *, mode: int = 0) -> list[Check]:
+    """Checks of a fit: bounds, contact margin, backbone range, intervals, residual, channels.
+
+    Parameters
+    ----------
+    points : FittingPoints
+        The points fitted (model DOF names).
+    fit : FitResult
+    system : FreeplaySystem
+    extraction : BackbonePoints
+        Every run's points (their run names group the channels of one run).
+    """
+    checks = []
+    kn, delta = fit.kn, fit.delta
+    dmax = LIMITS["delta_max_rad"]
+    checks.append(Check("delta_bound", bool(0 < delta <= dmax),
+                        f"delta = {delta:.4g} rad" + ("" if delta <= dmax else
+                        f" exceeds {dmax} rad: no hinge freeplay is that large (units, "
+                        "quantity or channel mapping?)"), delta))
+    ratios, s_max = _gap_ratios(points, system, kn, delta, mode)
+    lo, hi = float(np.nanmin(ratios)), float(np.nanmax(ratios))
+    need = LIMITS["min_gap_ratio"]
+    checks.append(Check("contact_margin", bool(lo >= need),
+                        f"lowest point at Theta/delta = {lo:.3g}" + ("" if lo >= need else
+                        f" < {need}: too close to contact for the backbone (channel mapping? "
+                        "add higher levels)"), lo))
+    checks.append(Check("backbone_range", bool(hi < 0.99 * s_max),
+                        f"highest point at Theta/delta = {hi:.3g}" + ("" if hi < 0.99 * s_max
+                        else ": beyond the backbone's range, the fit sees only the closed-hinge "
+                        "frequency (quantity or units?)"), hi))
+    wide = [f"{name} [{ci[0]:.4g}, {ci[1]:.4g}]" for name, ci, v in
+            (("kn", fit.kn_ci95, kn), ("delta", fit.delta_ci95, delta))
+            if not (np.isfinite(ci[1]) and ci[1] - ci[0] <= v)]
+    checks.append(Check("interval_width", not wide,
+                        "95 % intervals narrower than the estimates" if not wide else
+                        "95 % interval wider than the estimate: " + ", ".join(wide)))
+    by_run: dict[str, list[float]] = {}
+    for p in extraction.used():
+        by_run.setdefault(p.run, []).append(p.f_hz)
+    spreads = {r: (max(f) - min(f)) / np.mean(f) for r, f in by_run.items() if len(f) > 1}
+    bad = {r: s for r, s in spreads.items() if s > LIMITS["channel_spread"]}
+    checks.append(Check("channel_agreement", not bad,
+                        "the channels of each run agree on the resonance frequency" if not bad
+                        else "channels of one run disagree on the resonance frequency: " +
+                        ", ".join(f"{r} ({100 * s:.2g} %)" for r, s in bad.items()),
+                        max(spreads.values(), default=None)))
+    dev = [(fi - np.mean(f)) / np.mean(f) for f in by_run.values() if len(f) > 1 for fi in f]
+    scatter = float(np.sqrt(np.mean(np.square(dev)))) if dev else 0.0
+    limit = max(LIMITS["residual_floor"], LIMITS["residual_vs_scatter"] * scatter)
+    checks.append(Check("residual", bool(fit.residual_rms <= limit),
+                        f"residual RMS {fit.residual_rms:.2e}" + (
+                            f" <= {limit:.2e}" if fit.residual_rms <= limit else
+                            f" > {limit:.2e} (channel scatter {scatter:.1e}): the points do not "
+                            "lie on one backbone of this model"), fit.residual_rms))
+    return checks

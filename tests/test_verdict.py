@@ -1,0 +1,153 @@
+"""The plausibility verdict: wrong units, quantity or channel mapping end `suspect`, not confident.
+
+Fit checks are tested on exact backbone points of the example's model (made by the DFA backbone
+itself, so the fit is exact and only the verdict is under test); data checks on the bundled
+example with its manifest altered; one run of `scripts/identify.py` shows the command's refusal.
+"""
+
+import dataclasses
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from freeplayid.backbone import dfa_backbone
+from freeplayid.fit import FittingPoints, fit_backbone
+from freeplayid.io import read_dataset
+from freeplayid.model import load_system
+from freeplayid.signal import BackbonePoint, BackbonePoints
+from freeplayid.verdict import LIMITS, base_level_checks, fit_checks, make_verdict
+
+ROOT = Path(__file__).resolve().parents[1]
+EXAMPLE = ROOT / "examples" / "fin_sweeps"
+KN, DELTA = 480.0, 3e-3
+DOFS = ("uz_top_left", "uz_lower_right")
+
+
+@pytest.fixture(scope="module")
+def system():
+    return load_system(EXAMPLE / "model.npz")
+
+
+@pytest.fixture(scope="module")
+def exact(system):
+    """Points on the model's own DFA backbone at Theta/delta = 2.5 ... 4.5, both channels."""
+    s = np.array([2.5, 3.0, 3.5, 4.5])
+    bc = dfa_backbone(system, kn=KN, delta=DELTA, s=s)
+    f = bc.frequency_hz[0]
+    amp = {d: bc.amplitude[0][:, system.dof_names.index(d)] for d in DOFS}
+    runs = [f"run{k}" for k in range(s.size)]
+    channel = tuple(d for _ in s for d in DOFS)
+    points = FittingPoints(channel=channel,
+                           amplitude_m=np.array([amp[d][k] for k in range(s.size) for d in DOFS]),
+                           f_hz=np.repeat(f, len(DOFS)), run=tuple(np.repeat(runs, len(DOFS))))
+    extraction = BackbonePoints(
+        tuple(BackbonePoint(r, d, fk, a, True, "", 0.0, 30.0)
+              for r, fk, a, d in zip(points.run, points.f_hz, points.amplitude_m, channel,
+                                     strict=True)),
+        (), (), "acceleration", "acmp")
+    return points, extraction
+
+
+def _verdict(points, extraction, system):
+    fit = fit_backbone(points, system, init=(KN, DELTA))
+    return fit, make_verdict(fit_checks(points, fit, system, extraction))
+
+
+def test_exact_points_are_ok(exact, system):
+    fit, v = _verdict(*exact, system)
+    # exact up to the fit's interpolation of the backbone between grid points
+    assert fit.delta == pytest.approx(DELTA, rel=1e-4) and fit.kn == pytest.approx(KN, rel=1e-4)
+    assert v.status == "ok", v.reasons
+    margin = next(c for c in v.checks if c.name == "contact_margin")
+    assert margin.value == pytest.approx(2.5, rel=1e-3)
+
+
+def test_swapped_channel_mapping_is_suspect(exact, system):
+    points, extraction = exact
+    swap = dict(zip(DOFS, DOFS[::-1], strict=True))
+    wrong = dataclasses.replace(points, channel=tuple(swap[c] for c in points.channel))
+    _, v = _verdict(wrong, extraction, system)
+    assert v.status == "suspect"
+    assert any("Theta/delta" in r or "exceeds" in r or "residual" in r for r in v.reasons)
+
+
+def test_amplitudes_in_mg_read_as_g_are_suspect(exact, system):
+    # every amplitude x 1000 -> delta x 1000 (3 rad), by scale invariance the only change; a
+    # factor 1/9.81 (g read as m/s^2) gives a plausible delta: only the base channel tells
+    # (test_base_channel_against_level)
+    points, extraction = exact
+    bad = dataclasses.replace(points, amplitude_m=points.amplitude_m * 1000.0)
+    fit = fit_backbone(bad, system)
+    v = make_verdict(fit_checks(bad, fit, system, extraction))
+    assert v.status == "suspect"
+    assert not next(c for c in v.checks if c.name == "delta_bound").passed
+
+
+def test_channels_of_one_run_on_different_resonances_are_suspect(exact, system):
+    points, extraction = exact
+    moved = list(extraction.points)
+    moved[0] = dataclasses.replace(moved[0], f_hz=moved[0].f_hz * 1.05)
+    ex = dataclasses.replace(extraction, points=tuple(moved))
+    _, v = _verdict(points, ex, system)
+    check = next(c for c in v.checks if c.name == "channel_agreement")
+    assert not check.passed and "run0" in check.message
+    assert check.value > LIMITS["channel_spread"]
+
+
+@pytest.fixture(scope="module")
+def example():
+    return read_dataset(EXAMPLE, check_model=False)
+
+
+def _scaled(ds, k, **changes):
+    runs = tuple(dataclasses.replace(r, data=r.data * k, base=r.base * k) for r in ds.runs)
+    return dataclasses.replace(ds, runs=runs, **changes)
+
+
+@pytest.mark.parametrize("change, words", [
+    (lambda ds: ds, None),
+    (lambda ds: dataclasses.replace(ds, units="m/s^2"), "g declared as m/s^2"),
+    (lambda ds: _scaled(ds, 1000.0), "mg"),
+    (lambda ds: _scaled(ds, 9.80665), "m/s^2 declared as g"),
+    (lambda ds: dataclasses.replace(ds, quantity="displacement", units="m"),
+     "look like acceleration, the manifest says displacement"),
+    (lambda ds: dataclasses.replace(ds, quantity="velocity", units="m/s"),
+     "look like acceleration, the manifest says velocity"),
+    (lambda ds: _scaled(ds, 0.5), "0.5 x `level_g`"),
+    (lambda ds: dataclasses.replace(ds, runs=tuple(dataclasses.replace(r, sweep=None)
+                                                   for r in ds.runs)), None),
+])
+def test_base_channel_against_level(example, change, words):
+    (check,) = base_level_checks(change(example))
+    if words is None:
+        assert check.passed, check.message
+        assert check.value == pytest.approx(1.0, abs=0.02)
+    else:
+        assert not check.passed and words in check.message, check.message
+
+
+def test_identify_script_refuses_a_suspect_result(tmp_path):
+    """Swapped accelerometer mapping on the example cut to two runs: non-zero exit, one line
+    saying why; allow_suspect=true accepts it and the verdict is in identification.json."""
+    data = tmp_path / "swapped"
+    shutil.copytree(EXAMPLE, data)
+    m = yaml.safe_load((data / "manifest.yaml").read_text())
+    m["runs"] = [r for r in m["runs"] if r["level_g"] in (0.8, 1.2)]
+    m["channels"] = dict(zip(m["channels"], list(m["channels"].values())[::-1], strict=True))
+    (data / "manifest.yaml").write_text(yaml.safe_dump(m, sort_keys=False))
+    env = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
+    run = tmp_path / "run"
+    cmd = [sys.executable, str(ROOT / "scripts" / "identify.py"), f"data={data}", "debug=fast",
+           "plot=false", f"hydra.run.dir={run}"]
+    proc = subprocess.run(cmd, cwd=tmp_path, env=env, capture_output=True, text=True)
+    assert proc.returncode != 0 and "Traceback" not in proc.stderr
+    last = proc.stderr.strip().splitlines()[-1]
+    assert last.startswith("identify: the result is suspect") and "allow_suspect" in last
+    rec = yaml.safe_load((run / "identification.json").read_text())
+    assert rec["verdict"] == "suspect" and rec["verdict_reasons"]
