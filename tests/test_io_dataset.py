@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from freeplayid.io import DatasetError, Run, read_dataset, write_dataset
-from freeplayid.model import load_system, sdof_system, two_dof_system
+from freeplayid.model import load_system, two_dof_system
 
 
 def _runs():
@@ -23,7 +23,8 @@ def test_round_trip(tmp_path):
     system = two_dof_system()
     manifest = write_dataset(
         tmp_path / "ds", name="test set", quantity="acceleration", units="g", sample_rate=100.0,
-        channels={"acc_a": "uz_in", "acc_b": "uz_out"}, runs=runs, system=system, base_channel="acc_base",
+        channels={"acc_a": "uz_in", "acc_b": "uz_out"}, runs=runs, system=system,
+        base_channel="acc_base",
     )
     assert manifest.name == "manifest.yaml"
     assert not list((tmp_path / "ds").glob("*.tmp"))

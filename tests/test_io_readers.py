@@ -8,7 +8,7 @@ import yaml
 
 from freeplayid.io import DatasetError, Run, read_dataset, write_dataset, write_uff
 from freeplayid.io.readers import READERS, read_run, reader_for
-from freeplayid.model import sdof_system, two_dof_system
+from freeplayid.model import two_dof_system
 
 FS = 200.0  # [Hz]
 T = np.arange(400) / FS  # [s]

@@ -14,7 +14,6 @@ import scipy.signal
 from freeplayid.quantity import G
 from freeplayid.signal import (
     REASON_EDGE,
-    REASON_FAILED,
     REASON_NO_JUMP,
     REASON_NOISY,
     acmp,

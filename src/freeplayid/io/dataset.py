@@ -182,6 +182,7 @@ def write_dataset(
             f"`channels` must be non-empty and must not use the names 'time' or the base "
             f"channel; got {cols} (base {base_channel!r})"
         )
+    _check_one_column_per_dof(channels, "")
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     entries = []
@@ -236,6 +237,20 @@ def write_dataset(
     out = folder / "manifest.yaml"
     atomic_write_text(out, yaml.safe_dump(manifest, sort_keys=False))
     return out
+
+
+def _check_one_column_per_dof(channels: Mapping[str, str], where: str) -> None:
+    """Two columns on one DOF would give two points of one curve, weighted twice in the fit
+    (or a mapping typo that silently drops a DOF): an error naming both columns and the DOF."""
+    by_dof = {}
+    for col, dof in channels.items():
+        by_dof.setdefault(dof, []).append(col)
+    for dof, cols in by_dof.items():
+        if len(cols) > 1:
+            raise DatasetError(
+                f"{where}`channels` map the columns {cols} to the same model DOF {dof!r}; each "
+                "DOF takes one column (drop one, or map it to its own DOF)"
+            )
 
 
 def _check_keys(entry, allowed, where: str) -> None:
@@ -352,7 +367,8 @@ def _read_run_file(f: Path, columns: Sequence[str]) -> dict:
         return read_run(f, columns)
     except DatasetError as exc:
         raise DatasetError(" ".join(str(exc).split())) from None
-    except (OSError, EOFError, ValueError, KeyError, IndexError, TypeError, UnicodeError) as exc:
+    except Exception as exc:  # noqa: BLE001 - a library's own error on a corrupt file (zlib,
+        # pyuff, npTDMS, scipy.io raise what they like): the run's problem, not the campaign's
         why = " ".join(str(exc).split()) or type(exc).__name__
         raise DatasetError(f"{f}: unreadable run file ({type(exc).__name__}: {why})") from None
 
@@ -430,16 +446,7 @@ def read_dataset(path: str | os.PathLike, *, check_model: bool = True) -> Datase
             f"{where}`channels` must map run-file column names to model DOF names, got "
             f"{channels!r}"
         )
-    by_dof = {}
-    for col, dof in channels.items():
-        by_dof.setdefault(dof, []).append(col)
-    shared = {d: cols for d, cols in by_dof.items() if len(cols) > 1}
-    if shared:
-        dof, cols = next(iter(shared.items()))
-        raise DatasetError(
-            f"{where}`channels` map the columns {cols} to the same model DOF {dof!r}; each DOF "
-            "takes one column (drop one, or map it to its own DOF)"
-        )
+    _check_one_column_per_dof(channels, where)
     base_channel = m.get("base_channel")
     if base_channel is not None and (not isinstance(base_channel, str) or base_channel in
                                      channels or base_channel == "time"):

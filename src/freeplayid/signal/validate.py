@@ -6,6 +6,8 @@ import math
 
 import numpy as np
 
+from ..quantity import si_unit
+
 __all__ = ["as_signal", "check_positive", "dead_channel", "DEAD_FLOOR_SI", "DEAD_RATIO"]
 
 
@@ -61,24 +63,26 @@ def dead_channel(x, peers=(), *, quantity: str | None = None) -> str:
     Returns
     -------
     str
-        ``"constant 0"``, ``"std 3e-12, below 1e-06 of the run's other channels (median std
-        0.5)"``, ``"std 1e-12, below the floor 1e-08 of any acceleration sensor"`` or "".
+        ``"constant 0"``, ``"constant 2.45 m/s^2"``, ``"std 3e-12 m/s^2, below 1e-06 of the
+        run's other channels (median std 0.5 m/s^2)"``, ``"std 1e-09 m/s^2, below the floor
+        1e-08 m/s^2 of any acceleration sensor"`` or "" (values in SI units).
     """
     a = np.asarray(x, dtype=float)
     a = a[np.isfinite(a)]
     if a.size == 0:
         return "no finite sample"
+    unit = f" {si_unit(quantity)}" if quantity else ""
     if np.ptp(a) == 0:
-        return f"constant {a[0]:.6g}"
+        return "constant 0" if a[0] == 0 else f"constant {a[0]:.6g}{unit}"
     std = float(np.std(a))
     stds = [float(np.std(p[np.isfinite(p)])) for p in map(np.asarray, peers) if p.size]
     stds = [s for s in stds if s > 0]
     if stds:
         ref = float(np.median(stds))
         if std < DEAD_RATIO * ref:
-            return (f"std {std:.3g}, below {DEAD_RATIO:g} of the run's other channels "
-                    f"(median std {ref:.3g})")
+            return (f"std {std:.3g}{unit}, below {DEAD_RATIO:g} of the run's other channels "
+                    f"(median std {ref:.3g}{unit})")
     floor = DEAD_FLOOR_SI.get(quantity) if quantity else None
     if floor is not None and std < floor:
-        return f"std {std:.3g}, below the floor {floor:g} of any {quantity} sensor"
+        return f"std {std:.3g}{unit}, below the floor {floor:g}{unit} of any {quantity} sensor"
     return ""
