@@ -95,7 +95,8 @@ def _dup_units(folder, table):
 def _dup_nested(folder, table):
     text = (folder / "manifest.yaml").read_text()
     (folder / "manifest.yaml").write_text(
-        text.replace("    rate_hz_per_s: 0.1\n", "    rate_hz_per_s: 0.1\n    rate_hz_per_s: 1\n", 1))
+        text.replace("    rate_hz_per_s: 0.1\n", "    rate_hz_per_s: 0.1\n    rate_hz_per_s: 1\n",
+                     1))
     return folder
 
 
@@ -319,8 +320,8 @@ def test_near_dead_channel_is_named(fin2, tmp_path):
     _only(folder, "dead_both.csv", t, sweep=None)
     reasons, pts, _ = _identify_reasons(folder)
     r = reasons["dead_both.csv"]
-    assert re.search(r"channel acc_tl is dead \(std [\d.]+e-09 m/s\^2, below 1e-06 of the run's other "
-                     r"channels", r), r
+    assert re.search(r"channel acc_tl is dead \(std [\d.]+e-09 m/s\^2, below 1e-06 of the run's "
+                     r"other channels", r), r
     assert "channel acc_lr is dead (constant 0)" in r
 
 
@@ -363,7 +364,7 @@ def test_script_prints_one_line(fin2, tmp_path, case):
 
 def test_script_rejects_faulty_runs_and_identifies_the_rest(fin2, tmp_path):
     """Four faulty runs beside the two good ones: each rejected with its reason, exit 0, and
-    (kn, delta) from the good runs within 2 % of the example's truth."""
+    (kn, delta) exactly those of the two good runs alone: the faulty runs take no part."""
     folder = _copy(fin2, tmp_path)
     table = fin2[1]
     _add_run(folder, "truncated.csv", table)
@@ -386,6 +387,11 @@ def test_script_rejects_faulty_runs_and_identifies_the_rest(fin2, tmp_path):
     assert "the sweep hint (30 -> 46.5 Hz at 1 Hz/s)" in rejected["fast_hint.csv"]
     used = {p["run"] for p in res["points"] if p["used"]}
     assert used == set(RUNS)
-    assert res["kn"] == pytest.approx(480.0, rel=0.02)
-    assert res["delta"] == pytest.approx(0.003, rel=0.02)
+    clean = _script(fin2[0], tmp_path / "clean")
+    assert clean.returncode == 0, clean.stderr[-3000:]
+    ref = json.loads((tmp_path / "clean" / "identification.json").read_text())
+    assert ref["rejected_runs"] == []
+    for key, truth in (("kn", 480.0), ("delta", 0.003)):
+        assert res[key] == pytest.approx(ref[key], rel=1e-9)
+        assert res[key] == pytest.approx(truth, rel=0.1)  # two runs, the debug=fast grid
     assert "rejected run dead_base.csv: base channel acc_base is dead" in proc.stdout
