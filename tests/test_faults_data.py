@@ -167,7 +167,8 @@ DATASET_ERRORS = {
     "two-columns-one-dof": (_same_dof, r"`channels` map the columns \['acc_tl', 'acc_lr'\] to the "
                             r"same model DOF 'uz_top_left'", "manifest.yaml", True),
     "rate-wrong-in-every-run": (_rate_every_run, r"column 'time' implies 256 Hz but the data set's "
-                                r"sample rate is 512 Hz.*the other 1 fail too", RUNS[0], False),
+                                r"sample rate is 512 Hz.*no run is readable: the other run fails "
+                                r"too", RUNS[0], False),
     "every-run-unreadable": (_unreadable_every_run, r"unreadable run file \(EOFError", RUNS[0],
                              False),
     "unknown-suffix": (_unknown_suffix, r"unknown run-file type; the file name must end in one "
@@ -235,7 +236,8 @@ def _nan_samples(folder, table):
 RUN_REJECTIONS = {
     "truncated-csv-gz": (_truncated_gz, r"sweep_0\.80g\.csv\.gz: unreadable run file \(EOFError: "
                          r"Compressed file ended"),
-    "corrupt-csv-gz": (_corrupt_gz, r"sweep_0\.80g\.csv\.gz: (not a readable CSV|unreadable)"),
+    "corrupt-csv-gz": (_corrupt_gz, r"sweep_0\.80g\.csv\.gz: (not a readable CSV text file|"
+                       r"unreadable run file \(zlib\.error)"),
     "missing-column": (_missing_column, r"column\(s\) \['acc_lr'\] not in the header"),
     "rate-wrong-in-one-run": (_rate_one_run, r"column 'time' implies 512 Hz but the data set's "
                               r"sample rate is 256 Hz"),

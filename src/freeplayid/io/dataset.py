@@ -369,8 +369,11 @@ def _read_run_file(f: Path, columns: Sequence[str]) -> dict:
         raise DatasetError(" ".join(str(exc).split())) from None
     except Exception as exc:  # noqa: BLE001 - a library's own error on a corrupt file (zlib,
         # pyuff, npTDMS, scipy.io raise what they like): the run's problem, not the campaign's
-        why = " ".join(str(exc).split()) or type(exc).__name__
-        raise DatasetError(f"{f}: unreadable run file ({type(exc).__name__}: {why})") from None
+        kind = type(exc).__qualname__
+        if type(exc).__module__ != "builtins":
+            kind = f"{type(exc).__module__}.{kind}"  # zlib.error, not "error"
+        why = " ".join(str(exc).split())
+        raise DatasetError(f"{f}: unreadable run file ({kind}: {why})") from None
 
 
 def _nonfinite_reason(columns: Mapping[str, np.ndarray], t: np.ndarray) -> str:
@@ -404,18 +407,27 @@ def read_dataset(path: str | os.PathLike, *, check_model: bool = True) -> Datase
     Returns
     -------
     Dataset
-        Run data in the data set's units (:meth:`Dataset.to_si` converts). A run with NaN or
-        inf samples in a channel or the base column is kept with ``Run.reason`` saying so
-        (a rejected run, not an error), so one broken record does not stop a campaign.
+        Run data in the data set's units (:meth:`Dataset.to_si` converts). A run's own problem
+        keeps the run with ``Run.reason`` saying why (a rejected run, not an error), so one
+        broken record does not stop a campaign: its file cannot be read (truncated or corrupt,
+        any error of its reader: missing or non-numeric columns, variables, channels), its time
+        column is non-monotonic, non-uniform, shorter than 16 samples or off the data set's
+        sample rate, NaN/inf samples, or its ``sweep`` hint does not fit the record
+        (:meth:`freeplayid.sweep.Sweep.record_mismatch`: above Nyquist, a sample rate below
+        2.5 x the top frequency, a record length that disagrees with the hint's duration).
+        Such a run of an unreadable file has empty ``time`` and ``data``.
 
     Raises
     ------
     DatasetError
-        Naming the file, the run, the field or column and the allowed values: missing manifest,
-        run or model file, unknown fields, bad quantity/units, channels not in the model,
-        an unknown run-file suffix (the message lists the valid ones), missing or non-numeric
-        columns (variables, channels, records), a non-monotonic or non-uniform time column, a time
-        column that disagrees with ``sample_rate``, no runs.
+        One line naming the file, the run, the field or column and the allowed values, before
+        any run file is read for the manifest's own problems: no manifest, a path that is not a
+        ``.yaml`` manifest, a binary file, invalid YAML, a key given twice in a mapping (with
+        its line), unknown fields, bad quantity/units, two columns on one DOF, channels not in
+        the model, a run file that is missing, outside the data-set folder (absolute or
+        ``..``) or of an unknown suffix (the message lists the valid ones), no runs. After the
+        files: no run could be read at all (the first run's problem, e.g. a ``sample_rate``
+        that every run's time column disagrees with, or a channel no run file has).
     """
     path = Path(path)
     manifest_path = path / "manifest.yaml" if path.is_dir() else path
@@ -547,8 +559,9 @@ def read_dataset(path: str | os.PathLike, *, check_model: bool = True) -> Datase
         runs.append(Run(file=name, time=t, data=data, level_g=level, sweep=sweep, base=base,
                         reason=reason))
     if len(errors) == len(runs):
-        more = f" (no run is readable: the other {len(errors) - 1} fail too)" if len(
-            errors) > 1 else ""
+        k = len(errors) - 1
+        more = "" if k == 0 else " (no run is readable: the other run fails too)" if k == 1 \
+            else f" (no run is readable: the other {k} runs fail too)"
         raise DatasetError(errors[0] + more)
     return Dataset(
         name=str(m.get("name", "")),
