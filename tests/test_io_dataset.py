@@ -1,8 +1,10 @@
+import re
+
 import numpy as np
 import pytest
 
 from freeplayid.io import DatasetError, Run, read_dataset, write_dataset
-from freeplayid.model import load_system, sdof_system
+from freeplayid.model import load_system, two_dof_system
 
 
 def _runs():
@@ -18,16 +20,17 @@ def _runs():
 
 def test_round_trip(tmp_path):
     runs = _runs()
-    system = sdof_system(mass=2.0, damping=1.0)
+    system = two_dof_system()
     manifest = write_dataset(
         tmp_path / "ds", name="test set", quantity="acceleration", units="g", sample_rate=100.0,
-        channels={"acc_a": "x", "acc_b": "x"}, runs=runs, system=system, base_channel="acc_base",
+        channels={"acc_a": "uz_in", "acc_b": "uz_out"}, runs=runs, system=system,
+        base_channel="acc_base",
     )
     assert manifest.name == "manifest.yaml"
     assert not list((tmp_path / "ds").glob("*.tmp"))
     ds = read_dataset(tmp_path / "ds")
     assert ds.name == "test set" and ds.quantity == "acceleration" and ds.units == "g"
-    assert ds.sample_rate == 100.0 and ds.channels == {"acc_a": "x", "acc_b": "x"}
+    assert ds.sample_rate == 100.0 and ds.channels == {"acc_a": "uz_in", "acc_b": "uz_out"}
     assert ds.base_channel == "acc_base"
     for a, b in zip(ds.runs, runs, strict=True):
         assert a.file == b.file and a.level_g == b.level_g and a.sweep == b.sweep
@@ -50,7 +53,7 @@ def test_errors_name_the_problem(tmp_path):
         write_dataset(tmp_path, name="x", quantity="acceleration", units="g", sample_rate=100.0,
                       channels={"a": "x"}, runs=runs)
     write_dataset(tmp_path / "ok", name="x", quantity="acceleration", units="m/s^2",
-                  sample_rate=100.0, channels={"a": "x", "b": "x"}, runs=runs)
+                  sample_rate=100.0, channels={"a": "x", "b": "y"}, runs=runs)
     (tmp_path / "ok" / "sweep_0.40g.csv").unlink()
     with pytest.raises(DatasetError, match="not found"):
         read_dataset(tmp_path / "ok" / "manifest.yaml")
@@ -74,8 +77,8 @@ def _good_set(folder, *, system=None, units="m/s^2"):
                 base=0.1 * np.sin(40 * t))
             for k, lv in enumerate((0.5, 1.0))]
     return write_dataset(folder, name="m", quantity="acceleration", units=units,
-                         sample_rate=200.0, channels={"a1": "x", "a2": "x"}, runs=runs,
-                         system=system or sdof_system(mass=1.0), base_channel="ab")
+                         sample_rate=200.0, channels={"a1": "uz_in", "a2": "uz_out"}, runs=runs,
+                         system=system or two_dof_system(), base_channel="ab")
 
 
 def _edit_manifest(manifest, fn):
@@ -100,14 +103,15 @@ def _edit_csv(path, fn):
         (lambda m: m["runs"][1].update(gain=2), r"`runs\[1\]`: unknown field\(s\) \['gain'\]"),
         (lambda m: m["runs"][0].update(file="nope.csv"), r"`runs\[0\]`\.file 'nope.csv' not found"),
         (lambda m: m.update(runs=[]), r"`runs` must be a non-empty list"),
-        (lambda m: m.update(channels={"a1": "uz_tip", "a2": "x"}),
-         r"DOF\(s\) the model 'model.npz' does not have: \{'a1': 'uz_tip'\}; its DOFs are \['x'\]"),
+        (lambda m: m.update(channels={"a1": "uz_tip", "a2": "uz_out"}),
+         r"DOF\(s\) the model 'model.npz' does not have: \{'a1': 'uz_tip'\}; its DOFs are "
+         r"\['uz_in', 'uz_out'\]"),
         (lambda m: m.update(model="missing.npz"), r"`model` file 'missing.npz' not found"),
         (lambda m: m.update(sample_rate=100.0),
          r"r0.csv: column 'time' implies 200 Hz but the data set's sample rate is 100 Hz"),
         (lambda m: m["runs"][0]["sweep"].pop("rate_hz_per_s"), r"`runs\[0\]`.sweep misses"),
         (lambda m: m.update(truth={"kn": 1.0, "gap": 2.0}), r"`truth`: unknown field"),
-        (lambda m: m.update(channels={"a1": "x", "a9": "x"}),
+        (lambda m: m.update(channels={"a1": "uz_in", "a9": "uz_out"}),
          r"r0.csv: column\(s\) \['a9'\] not in the header"),
     ],
 )
@@ -130,9 +134,14 @@ def test_malformed_manifest(tmp_path, edit, pattern):
     ],
 )
 def test_malformed_csv(tmp_path, edit, pattern):
+    """A malformed run file rejects that run with the message; in every run it is an error."""
     _good_set(tmp_path)
     _edit_csv(tmp_path / "r1.csv", edit)
-    with pytest.raises(DatasetError, match=pattern):
+    ds = read_dataset(tmp_path)
+    assert ds.runs[0].reason == ""
+    assert re.search(pattern, ds.runs[1].reason) and ds.runs[1].data.shape == (2, 0)
+    _edit_csv(tmp_path / "r0.csv", edit)
+    with pytest.raises(DatasetError, match=pattern.replace("r1", "r0")):
         read_dataset(tmp_path)
 
 
@@ -183,6 +192,6 @@ def test_uff_round_trip_and_dataset(tmp_path):
     assert ds.sample_rate == 256.0 and ds.runs[0].file == "r0.uff"
     np.testing.assert_allclose(ds.runs[0].data, np.vstack([cols["a1"], cols["a2"]]), atol=1e-10)
     np.testing.assert_allclose(ds.runs[0].base, cols["ab"], atol=1e-10)
-    _edit_manifest(manifest, lambda m: m.update(channels={"a1": "x", "acc_9": "x"}))
+    _edit_manifest(manifest, lambda m: m.update(channels={"a1": "uz_in", "acc_9": "uz_out"}))
     with pytest.raises(DatasetError, match=r"r0.uff: channel\(s\) \['acc_9'\] not found"):
         read_dataset(manifest)

@@ -8,7 +8,7 @@ import yaml
 
 from freeplayid.io import DatasetError, Run, read_dataset, write_dataset, write_uff
 from freeplayid.io.readers import READERS, read_run, reader_for
-from freeplayid.model import sdof_system
+from freeplayid.model import two_dof_system
 
 FS = 200.0  # [Hz]
 T = np.arange(400) / FS  # [s]
@@ -20,8 +20,8 @@ def _csv_set(folder):
     run = Run(file="r0.csv", time=T, data=np.vstack([COLS["a1"], COLS["a2"]]), level_g=0.5,
               base=COLS["ab"])
     return write_dataset(folder, name="m", quantity="acceleration", units="m/s^2",
-                         sample_rate=FS, channels={"a1": "x", "a2": "x"}, runs=[run],
-                         system=sdof_system(mass=1.0), base_channel="ab")
+                         sample_rate=FS, channels={"a1": "uz_in", "a2": "uz_out"}, runs=[run],
+                         system=two_dof_system(), base_channel="ab")
 
 
 def _edit_manifest(manifest, fn):

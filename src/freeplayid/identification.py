@@ -262,7 +262,7 @@ def _extract(ds, *, extraction: Mapping, use_sweep_hint: bool, progress: bool):
         res = extract_backbone_points(
             [ds.to_si(run.data)], ds.sample_rate, quantity=ds.quantity,
             channel_names=list(ds.channels), run_names=[run.file], sweep=sweep, base=base,
-            **extraction,
+            base_name=ds.base_channel or "base", **extraction,
         )
         points += res.points
         curves += res.curves

@@ -34,9 +34,10 @@ import numpy as np
 import yaml
 
 from ..quantity import UNIT_SCALE, check_units
+from ..sweep import Sweep
 from .atomic import atomic_write_text
 from .errors import DatasetError
-from .readers import read_run
+from .readers import read_run, reader_for
 
 __all__ = ["Dataset", "DatasetError", "Run", "read_dataset", "write_dataset"]
 
@@ -65,7 +66,9 @@ class Run:
     base : ndarray, shape (T,), or None
         The base (control) channel, if the data set has one.
     reason : str
-        Empty for a usable run; else why it is rejected (e.g. NaN samples), set by the reader.
+        Empty for a usable run; else why it is rejected, set by :func:`read_dataset` (an
+        unreadable or malformed file, NaN samples, a sweep hint that does not fit the record).
+        A run rejected because its file could not be read has empty ``time`` and ``data``.
     """
 
     file: str
@@ -179,6 +182,7 @@ def write_dataset(
             f"`channels` must be non-empty and must not use the names 'time' or the base "
             f"channel; got {cols} (base {base_channel!r})"
         )
+    _check_one_column_per_dof(channels, "")
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     entries = []
@@ -235,6 +239,20 @@ def write_dataset(
     return out
 
 
+def _check_one_column_per_dof(channels: Mapping[str, str], where: str) -> None:
+    """Two columns on one DOF would give two points of one curve, weighted twice in the fit
+    (or a mapping typo that silently drops a DOF): an error naming both columns and the DOF."""
+    by_dof = {}
+    for col, dof in channels.items():
+        by_dof.setdefault(dof, []).append(col)
+    for dof, cols in by_dof.items():
+        if len(cols) > 1:
+            raise DatasetError(
+                f"{where}`channels` map the columns {cols} to the same model DOF {dof!r}; each "
+                "DOF takes one column (drop one, or map it to its own DOF)"
+            )
+
+
 def _check_keys(entry, allowed, where: str) -> None:
     unknown = sorted(set(entry) - set(allowed))
     if unknown:
@@ -247,6 +265,67 @@ def _number(value, where: str, *, positive: bool = True) -> float:
         need = "a finite number > 0" if positive else "a finite number"
         raise DatasetError(f"{where} must be {need}, got {value!r}")
     return float(value)
+
+
+class _ManifestLoader(yaml.SafeLoader):
+    """yaml's SafeLoader, but a key given twice in one mapping is an error, not "last one wins"
+    (``units: g`` ... ``units: m/s^2`` would otherwise silently keep the second)."""
+
+
+def _construct_unique_mapping(loader, node, deep=False):
+    seen = {}
+    for key_node, _ in node.value:
+        key = loader.construct_object(key_node, deep=deep)
+        try:
+            first = seen.get(key)
+        except TypeError:  # an unhashable key: let yaml's own message say so
+            break
+        line = key_node.start_mark.line + 1
+        if first is not None:
+            raise DatasetError(
+                f"{loader.name}: line {line}: duplicate key `{key}` (first at line {first}); "
+                "each field may be given once"
+            )
+        seen[key] = line
+    return yaml.SafeLoader.construct_mapping(loader, node, deep=deep)
+
+
+_ManifestLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG,
+                                _construct_unique_mapping)
+
+
+def _load_manifest(manifest_path: Path):
+    """The manifest's YAML document; DatasetError for a binary file, bad YAML, a duplicate key."""
+    raw = manifest_path.read_bytes()
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise DatasetError(
+            f"{manifest_path}: not a text (UTF-8) file (byte 0x{raw[exc.start]:02x} at offset "
+            f"{exc.start}); give the data-set folder or its manifest.yaml"
+        ) from None
+    if "\x00" in text:
+        raise DatasetError(f"{manifest_path}: a binary file (NUL bytes), not a YAML manifest; "
+                           "give the data-set folder or its manifest.yaml")
+    loader = _ManifestLoader(text)
+    loader.name = str(manifest_path)
+    try:
+        return loader.get_single_data()
+    except yaml.YAMLError as exc:
+        msg = " ".join(str(exc).split())  # one line
+        raise DatasetError(f"{manifest_path}: not valid YAML ({msg})") from None
+    finally:
+        loader.dispose()
+
+
+def _check_inside(name: str, where: str) -> None:
+    """A run file must be a relative path that stays inside the data-set folder."""
+    parts = Path(os.path.normpath(name)).parts
+    if os.path.isabs(name) or Path(name).is_absolute() or (parts and parts[0] == ".."):
+        raise DatasetError(
+            f"{where}.file {name!r} must be a path inside the data-set folder (relative, no "
+            "'..' leaving it, no absolute path)"
+        )
 
 
 def _check_time(t: np.ndarray, fs: float | None, where: str) -> float:
@@ -281,6 +360,22 @@ def _check_time(t: np.ndarray, fs: float | None, where: str) -> float:
     return fs if fs is not None else 1.0 / step
 
 
+def _read_run_file(f: Path, columns: Sequence[str]) -> dict:
+    """``read_run`` with any failure of the file itself as a one-line DatasetError naming it
+    (a truncated ``.csv.gz``, a corrupt ``.mat``, a library's own exception)."""
+    try:
+        return read_run(f, columns)
+    except DatasetError as exc:
+        raise DatasetError(" ".join(str(exc).split())) from None
+    except Exception as exc:  # noqa: BLE001 - a library's own error on a corrupt file (zlib,
+        # pyuff, npTDMS, scipy.io raise what they like): the run's problem, not the campaign's
+        kind = type(exc).__qualname__
+        if type(exc).__module__ != "builtins":
+            kind = f"{type(exc).__module__}.{kind}"  # zlib.error, not "error"
+        why = " ".join(str(exc).split())
+        raise DatasetError(f"{f}: unreadable run file ({kind}: {why})") from None
+
+
 def _nonfinite_reason(columns: Mapping[str, np.ndarray], t: np.ndarray) -> str:
     for name, x in columns.items():
         bad = ~np.isfinite(x)
@@ -312,18 +407,27 @@ def read_dataset(path: str | os.PathLike, *, check_model: bool = True) -> Datase
     Returns
     -------
     Dataset
-        Run data in the data set's units (:meth:`Dataset.to_si` converts). A run with NaN or
-        inf samples in a channel or the base column is kept with ``Run.reason`` saying so
-        (a rejected run, not an error), so one broken record does not stop a campaign.
+        Run data in the data set's units (:meth:`Dataset.to_si` converts). A run's own problem
+        keeps the run with ``Run.reason`` saying why (a rejected run, not an error), so one
+        broken record does not stop a campaign: its file cannot be read (truncated or corrupt,
+        any error of its reader: missing or non-numeric columns, variables, channels), its time
+        column is non-monotonic, non-uniform, shorter than 16 samples or off the data set's
+        sample rate, NaN/inf samples, or its ``sweep`` hint does not fit the record
+        (:meth:`freeplayid.sweep.Sweep.record_mismatch`: above Nyquist, a sample rate below
+        2.5 x the top frequency, a record length that disagrees with the hint's duration).
+        Such a run of an unreadable file has empty ``time`` and ``data``.
 
     Raises
     ------
     DatasetError
-        Naming the file, the run, the field or column and the allowed values: missing manifest,
-        run or model file, unknown fields, bad quantity/units, channels not in the model,
-        an unknown run-file suffix (the message lists the valid ones), missing or non-numeric
-        columns (variables, channels, records), a non-monotonic or non-uniform time column, a time
-        column that disagrees with ``sample_rate``, no runs.
+        One line naming the file, the run, the field or column and the allowed values, before
+        any run file is read for the manifest's own problems: no manifest, a path that is not a
+        ``.yaml`` manifest, a binary file, invalid YAML, a key given twice in a mapping (with
+        its line), unknown fields, bad quantity/units, two columns on one DOF, channels not in
+        the model, a run file that is missing, outside the data-set folder (absolute or
+        ``..``) or of an unknown suffix (the message lists the valid ones), no runs. After the
+        files: no run could be read at all (the first run's problem, e.g. a ``sample_rate``
+        that every run's time column disagrees with, or a channel no run file has).
     """
     path = Path(path)
     manifest_path = path / "manifest.yaml" if path.is_dir() else path
@@ -331,13 +435,16 @@ def read_dataset(path: str | os.PathLike, *, check_model: bool = True) -> Datase
         raise DatasetError(
             f"{manifest_path}: manifest not found (give a data-set folder or its manifest.yaml)"
         )
+    if manifest_path.suffix.lower() not in (".yaml", ".yml"):
+        raise DatasetError(
+            f"{manifest_path}: not a manifest (a .yaml file); give the data-set folder or its "
+            "manifest.yaml, not a run or model file"
+        )
     where = f"{manifest_path}: "
-    try:
-        m = yaml.safe_load(manifest_path.read_text())
-    except yaml.YAMLError as exc:
-        raise DatasetError(f"{where}not valid YAML ({exc})") from None
+    m = _load_manifest(manifest_path)
     if not isinstance(m, dict):
-        raise DatasetError(f"{where}must be a YAML mapping of the fields {list(MANIFEST_KEYS)}")
+        raise DatasetError(f"{where}must be a YAML mapping of the fields {list(MANIFEST_KEYS)} "
+                           "(give the data-set folder or its manifest.yaml)")
     _check_keys(m, MANIFEST_KEYS, where)
     for key in ("quantity", "units", "channels", "runs"):
         if key not in m:
@@ -351,6 +458,7 @@ def read_dataset(path: str | os.PathLike, *, check_model: bool = True) -> Datase
             f"{where}`channels` must map run-file column names to model DOF names, got "
             f"{channels!r}"
         )
+    _check_one_column_per_dof(channels, where)
     base_channel = m.get("base_channel")
     if base_channel is not None and (not isinstance(base_channel, str) or base_channel in
                                      channels or base_channel == "time"):
@@ -394,7 +502,8 @@ def read_dataset(path: str | os.PathLike, *, check_model: bool = True) -> Datase
     entries = m["runs"]
     if not isinstance(entries, list) or not entries:
         raise DatasetError(f"{where}`runs` must be a non-empty list of {{file, ...}} entries")
-    runs = []
+    # every manifest check of every run first, before any run file is read
+    specs = []
     seen = set()
     for k, entry in enumerate(entries):
         at = f"{where}`runs[{k}]`"
@@ -402,12 +511,14 @@ def read_dataset(path: str | os.PathLike, *, check_model: bool = True) -> Datase
             raise DatasetError(f"{at} must be a mapping with a `file`, got {entry!r}")
         _check_keys(entry, RUN_KEYS, f"{at}: ")
         name = entry["file"]
-        if not isinstance(name, str) or name in seen:
+        if not isinstance(name, str) or not name or name in seen:
             raise DatasetError(f"{at}.file must be a file name used once, got {name!r}")
         seen.add(name)
+        _check_inside(name, at)
         f = root / name
         if not f.is_file():
             raise DatasetError(f"{at}.file {name!r} not found (looked at {f})")
+        reader_for(f)  # an unknown suffix is the manifest's error: it lists the valid ones
         level = entry.get("level_g")
         if level is not None:
             level = _number(level, f"{at}.level_g [g]")
@@ -422,15 +533,36 @@ def read_dataset(path: str | os.PathLike, *, check_model: bool = True) -> Datase
             sweep = {s_: _number(sweep[s_], f"{at}.sweep.{s_}") for s_ in SWEEP_KEYS}
             if sweep["start_hz"] == sweep["stop_hz"]:
                 raise DatasetError(f"{at}.sweep: `start_hz` and `stop_hz` must differ")
-        need = ["time", *channels] + ([base_channel] if base_channel else [])
-        cols = read_run(f, need[1:])
+        specs.append((name, f, level, sweep))
+    # then the files: a run's own problem (unreadable, malformed, off the data set's sample
+    # rate, NaN samples, a hint that does not fit it) rejects that run with its reason; only
+    # when no run can be read at all is it the data set's problem
+    need = [*channels] + ([base_channel] if base_channel else [])
+    runs, errors = [], []
+    for name, f, level, sweep in specs:
+        try:
+            cols = _read_run_file(f, need)
+            fs = _check_time(cols["time"], fs, str(f))
+        except DatasetError as exc:
+            errors.append(str(exc))
+            empty = np.empty(0)
+            runs.append(Run(file=name, time=empty, data=np.empty((len(channels), 0)),
+                            level_g=level, sweep=sweep,
+                            base=empty if base_channel else None, reason=str(exc)))
+            continue
         t = cols["time"]
-        fs = _check_time(t, fs, str(f))
         data = np.stack([cols[c] for c in channels])
         base = cols[base_channel] if base_channel else None
-        reason = _nonfinite_reason({c: cols[c] for c in need[1:]}, t)
+        reason = _nonfinite_reason({c: cols[c] for c in need}, t)
+        if not reason and sweep is not None:
+            reason = Sweep(**sweep).record_mismatch(t.size, fs)
         runs.append(Run(file=name, time=t, data=data, level_g=level, sweep=sweep, base=base,
                         reason=reason))
+    if len(errors) == len(runs):
+        k = len(errors) - 1
+        more = "" if k == 0 else " (no run is readable: the other run fails too)" if k == 1 \
+            else f" (no run is readable: the other {k} runs fail too)"
+        raise DatasetError(errors[0] + more)
     return Dataset(
         name=str(m.get("name", "")),
         model=model_path,

@@ -7,7 +7,14 @@
 """
 
 from .acmp import ChirpMode, acmp, bandwidth_weight, narrowest_bandwidth, ridge_frequency
-from .jump import REASON_EDGE, REASON_FAILED, REASON_NO_JUMP, REASON_NOISY, find_jump_peak
+from .jump import (
+    REASON_EDGE,
+    REASON_FAILED,
+    REASON_NO_JUMP,
+    REASON_NOISY,
+    find_jump_peak,
+    reason_dead,
+)
 from .lockin import lockin
 from .noise import add_noise_for_snr, white_noise
 from .points import (
@@ -37,4 +44,5 @@ __all__ = [
     "REASON_EDGE",
     "REASON_NOISY",
     "REASON_FAILED",
+    "reason_dead",
 ]

@@ -18,6 +18,10 @@ Rejections, checked in this order (the reason string is stored with the point):
 - no jump otherwise: ``no jump in band (response stayed in the gap)``;
 - a jump whose peak is within ``edge_hz`` of either end of the analysed band: ``peak at band edge``.
 
+A dead channel (constant, or a standard deviation far below the run's other channels or any
+sensor's noise floor; :func:`.validate.dead_channel`) is ``channel <name> is dead (<why>)``, and a
+dead base channel rejects the whole run (``base channel <name> is dead (<why>): it cannot be
+subtracted``): subtracted, or extracted, a dead record would read as an in-gap response.
 A channel that cannot be processed at all (constant, no sweep found in it, a failed solve) is
 reported as ``extraction failed: <why>`` with NaN values instead of stopping the batch.
 """
@@ -26,12 +30,18 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["find_jump_peak", "REASON_NO_JUMP", "REASON_EDGE", "REASON_NOISY", "REASON_FAILED"]
+__all__ = ["find_jump_peak", "reason_dead", "REASON_NO_JUMP", "REASON_EDGE", "REASON_NOISY",
+           "REASON_FAILED"]
 
 REASON_NO_JUMP = "no jump in band (response stayed in the gap)"
 REASON_EDGE = "peak at band edge"
 REASON_NOISY = "too noisy"
-REASON_FAILED = "extraction failed"  # followed by ": <why>" (constant signal, no sweep found)
+REASON_FAILED = "extraction failed"  # followed by ": <why>" (no sweep found, a failed solve)
+
+
+def reason_dead(channel: str, why: str) -> str:
+    """The rejection reason of a dead channel (``why`` from ``dead_channel``), "" if alive."""
+    return f"channel {channel} is dead ({why})" if why else ""
 
 
 def find_jump_peak(

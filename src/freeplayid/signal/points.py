@@ -17,9 +17,9 @@ import numpy as np
 
 from ..quantity import check_quantity
 from .acmp import ChirpMode, acmp, ridge_frequency
-from .jump import REASON_FAILED, REASON_NOISY, find_jump_peak
+from .jump import REASON_FAILED, REASON_NOISY, find_jump_peak, reason_dead
 from .lockin import lockin
-from .validate import check_positive
+from .validate import check_positive, dead_channel
 
 __all__ = [
     "BackbonePoint",
@@ -33,6 +33,10 @@ __all__ = [
 # name -> first-harmonic extractor (x, fs, *, sweep, bandwidth_hz, ...) -> ChirpMode; a new method
 # is one module and one line here
 EXTRACTION_METHODS = {"acmp": acmp, "lockin": lockin}
+
+# samples a run must keep after trimming `trim_s` at each end (the extractor's and the jump rule's
+# minimum; a shorter run is rejected with its reason)
+MIN_SAMPLES = 16
 
 
 @dataclass(frozen=True)
@@ -181,6 +185,7 @@ def extract_backbone_points(
     run_names: Sequence[str] | None = None,
     sweep=None,
     base=None,
+    base_name: str = "base",
     method: str = "acmp",
     bandwidth_hz: float | None = None,
     options: Mapping | None = None,
@@ -209,6 +214,8 @@ def extract_backbone_points(
     base : ndarray, shape (runs, T), or list of ndarray, shape (T_r,), optional
         Base (control) channel in the same quantity; subtracted from every channel first, so
         absolute motion becomes motion relative to the base.
+    base_name : str
+        The base channel's name in rejection reasons (a data set's ``base_channel``).
     method : {"acmp", "lockin"}
     bandwidth_hz : float [Hz], optional
         Demodulation bandwidth of either method. Default ``max(1 Hz, 2 s x |sweep rate|)``
@@ -228,6 +235,10 @@ def extract_backbone_points(
     Returns
     -------
     BackbonePoints
+        A run's own problem rejects its points with the reason instead of raising: a run too
+        short for ``trim_s`` (:data:`MIN_SAMPLES` must remain), a ``sweep`` hint that does not
+        fit the record (:meth:`freeplayid.sweep.Sweep.record_mismatch`), a dead base channel
+        (the whole run), a dead channel (that channel's point; :func:`.validate.dead_channel`).
     """
     check_quantity(quantity)
     if method not in EXTRACTION_METHODS:
@@ -294,16 +305,34 @@ def extract_backbone_points(
         require_jump=require_jump,
     )
     points, curves = [], []
+    nan = float("nan")
     for i, run in enumerate(runs):
         n = run.shape[1]
         m = int(round(trim_s * fs))
-        if n - 2 * m < 16:
-            raise ValueError(
-                f"run {run_names[i]!r} has {n} samples, too short for `trim_s`={trim_s}"
+        # a run's own problems reject that run (every channel's point), never the batch
+        run_reason = ""
+        if n - 2 * m < MIN_SAMPLES:
+            run_reason = (
+                f"run too short for the extraction: {n} samples ({n / fs:.4g} s at {fs:g} Hz) "
+                f"leave {max(n - 2 * m, 0)} after trimming `trim_s`={trim_s:g} s at each end; "
+                f"at least {MIN_SAMPLES} are needed"
             )
+        elif sweeps[i] is not None:
+            run_reason = sweeps[i].record_mismatch(n, fs)
+        if not run_reason and bases is not None:
+            why = dead_channel(bases[i], list(run), quantity=quantity)
+            if why:
+                run_reason = f"base channel {base_name} is dead ({why}): it cannot be subtracted"
         for j in range(n_ch):
-            x = run[j] - bases[i] if bases is not None else run[j]
             names = (run_names[i], channel_names[j])
+            reason = run_reason or reason_dead(channel_names[j], dead_channel(
+                run[j], [run[k] for k in range(n_ch) if k != j]
+                + ([bases[i]] if bases is not None else []), quantity=quantity))
+            if reason:
+                points.append(BackbonePoint(*names, nan, nan, False, reason, nan, nan))
+                curves.append(AmplitudeCurve(*names, np.empty(0), np.empty(0)))
+                continue
+            x = run[j] - bases[i] if bases is not None else run[j]
             try:
                 point, curve = _channel_point(
                     x,
@@ -320,8 +349,7 @@ def extract_backbone_points(
                     peak_rule=peak_rule,
                 )
             except (np.linalg.LinAlgError, _ExtractionError) as e:
-                # one bad channel (dead sensor, no sweep in it) does not stop the batch
-                nan = float("nan")
+                # one bad channel (no sweep in it, a failed solve) does not stop the batch
                 point = BackbonePoint(*names, nan, nan, False, f"{REASON_FAILED}: {e}", nan, nan)
                 curve = AmplitudeCurve(*names, np.empty(0), np.empty(0))
             points.append(point)
