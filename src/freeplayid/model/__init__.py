@@ -1,6 +1,12 @@
 """Linear structure and freeplay: system files, restoring force, describing function, modal tools,
 small test models and the default folding fin (plate FE + Craig-Bampton reduction)."""
 
+from .build import (
+    UPDATE_PARAMETERS,
+    ModelBuild,
+    TestComparison,
+    model_from_modal_test,
+)
 from .damping import modal_damping, rayleigh_coefficients, rayleigh_damping
 from .fin import (
     FIN_HINGE_PAIRS,
@@ -21,6 +27,7 @@ from .fin_config import (
     load_fin_config,
 )
 from .freeplay import describing_function, freeplay_force, gap_ratio, kappa_of_ratio
+from .modal_test import TEST_NAMES, MeasuredModes, ModalTest, ModalTestError
 from .modal import Modes, mac, modal_analysis, pair_modes
 from .plate import PlateMesh, acm_element, assemble_plate, rectangular_mesh
 from .reduce import Reduction, craig_bampton, guyan
@@ -73,4 +80,12 @@ __all__ = [
     "guyan",
     "ModeValidation",
     "validate_modes",
+    "ModelBuild",
+    "TestComparison",
+    "model_from_modal_test",
+    "UPDATE_PARAMETERS",
+    "MeasuredModes",
+    "ModalTest",
+    "ModalTestError",
+    "TEST_NAMES",
 ]
