@@ -6,6 +6,7 @@ from .build import (
     ModelBuild,
     TestComparison,
     model_from_modal_test,
+    part_modes,
 )
 from .damping import modal_damping, rayleigh_coefficients, rayleigh_damping
 from .fin import (
@@ -27,8 +28,8 @@ from .fin_config import (
     load_fin_config,
 )
 from .freeplay import describing_function, freeplay_force, gap_ratio, kappa_of_ratio
-from .modal_test import TEST_NAMES, MeasuredModes, ModalTest, ModalTestError
 from .modal import Modes, mac, modal_analysis, pair_modes
+from .modal_test import TEST_NAMES, MeasuredModes, ModalTest, ModalTestError
 from .plate import PlateMesh, acm_element, assemble_plate, rectangular_mesh
 from .reduce import Reduction, craig_bampton, guyan
 from .small import sdof_system, two_dof_system
@@ -83,6 +84,7 @@ __all__ = [
     "ModelBuild",
     "TestComparison",
     "model_from_modal_test",
+    "part_modes",
     "UPDATE_PARAMETERS",
     "MeasuredModes",
     "ModalTest",

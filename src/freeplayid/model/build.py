@@ -40,8 +40,8 @@ from .modal_test import CONFIG_POINTS, ModalTest, ModalTestError
 from .plate import DOFS_PER_NODE, assemble_plate, flexural_rigidity
 from .system import FreeplaySystem
 
-__all__ = ["ModelBuild", "TestComparison", "model_from_modal_test", "UPDATE_PARAMETERS",
-           "CONDITION_LIMIT"]
+__all__ = ["ModelBuild", "TestComparison", "model_from_modal_test", "part_modes",
+           "UPDATE_PARAMETERS", "CONDITION_LIMIT"]
 
 UPDATE_PARAMETERS = tuple(f"{p}.{q}" for p in PARTS for q in ("E", "rho", "thickness")) + (
     "clamp.k_theta",)
@@ -442,3 +442,42 @@ def model_from_modal_test(
         separable=bool(not names or condition < CONDITION_LIMIT),
         zeta=cfg.zeta, zeta_source="modal test" if zeta_meas is not None else "configuration",
         clamp_stiffness=k_theta, n_evaluations=count["n"], success=success, message=message)
+
+
+def part_modes(config, test: str, *, n_modes: int, points=(), coordinates=None,
+               clamp_stiffness: float | None = None) -> tuple[np.ndarray, np.ndarray | None]:
+    """Elastic modes of one part test of the fin (what :func:`model_from_modal_test` compares).
+
+    Parameters
+    ----------
+    config : FinConfig or mapping
+    test : str
+        One of ``outboard_free``, ``inboard_free``, ``inboard_clamped``.
+    n_modes : int
+        Elastic modes returned (free-free rigid-body modes left out).
+    points : sequence of str
+        Points at which the shapes are returned: the configuration's (``top_left``, ...) or keys
+        of ``coordinates``.
+    coordinates : mapping str -> (float, float) [m], optional
+        Fin coordinates of further named points.
+    clamp_stiffness : float, optional [N m/rad per m]
+        Rotational spring of the clamped test's root (None: rigid).
+
+    Returns
+    -------
+    frequencies_hz : ndarray, shape (n_modes,) [Hz]
+    shapes : ndarray, shape (len(points), n_modes) or None
+        Mass-normalised w at ``points`` (None without points).
+    """
+    from .modal_test import MeasuredModes
+
+    if test not in TEST_PART:
+        raise ValueError(f"`test` must be one of {list(TEST_PART)}, got {test!r}")
+    cfg = config if isinstance(config, FinConfig) else FinConfig.from_mapping(config)
+    pts = tuple(points)
+    dummy = MeasuredModes(np.ones(n_modes), np.nan, np.ones((len(pts), n_modes)) if pts else None,
+                          pts, where=test)
+    t = _part_test(cfg, test, dummy, dict(coordinates or {}), "part_modes",
+                   spring=clamp_stiffness is not None)
+    f, phi = _solve(t, cfg, clamp_stiffness)
+    return f[:n_modes], None if t.rows is None else phi[t.rows, :n_modes]
