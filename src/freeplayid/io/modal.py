@@ -92,17 +92,18 @@ def parse_modes(entry, where: str, *, root: Path, known_points) -> MeasuredModes
     """One test's (or a manifest's ``reference_modes``) modes from a YAML entry.
 
     ``entry`` is ``{modes: [{frequency_hz, damping?, shape?: {point: value}}]}`` or
-    ``{uff: FILE}`` (relative to ``root``); shape rows are named by ``known_points``.
+    ``{uff: FILE}`` (relative to ``root``); shape rows are named by ``known_points`` (None: any
+    name).
     """
     if not isinstance(entry, Mapping) or len({"modes", "uff"} & set(entry)) != 1:
         raise ModalTestError(f"{where} must be a mapping with `modes` (a list) or `uff` (a file)")
     extra = sorted(set(entry) - {"modes", "uff"})
     if extra:
         raise ModalTestError(f"{where}: unknown field(s) {extra}; allowed: ['modes', 'uff']")
-    known = set(known_points)
+    known = None if known_points is None else set(known_points)
     if "uff" in entry:
         f, z, nodes, shapes = read_uff_modes(root / str(entry["uff"]), f"{where}.uff")
-        unknown = [n for n in nodes if n not in known]
+        unknown = [n for n in nodes if known is not None and n not in known]
         if unknown:
             raise ModalTestError(f"{where}.uff: node(s) {unknown} are unknown points; declare "
                                  f"them in `points` (known: {sorted(known)})")
@@ -132,10 +133,10 @@ def parse_modes(entry, where: str, *, root: Path, known_points) -> MeasuredModes
         if not isinstance(shape, Mapping) or not shape:
             raise ModalTestError(f"{at}.shape must map point names to values, got {shape!r}")
         names = tuple(str(k) for k in shape)
-        unknown = [n for n in names if n not in known]
+        unknown = [n for n in names if known is not None and n not in known]
         if unknown:
             raise ModalTestError(f"{at}.shape: unknown point(s) {unknown}; known: "
-                                 f"{sorted(known)} (declare others in `points`)")
+                                 f"{sorted(known)}")
         if pts is None:
             pts = names
         elif set(names) != set(pts):
