@@ -103,7 +103,8 @@ def test_bad_modal_input_is_one_line_exit_1(tmp_path, case, match):
 
 def test_reader_errors_name_file_and_field(tmp_path):
     for doc, match in (
-        ({"outboard_free": {"modes": [{"damping": 0.01}]}}, "modes[0]: missing field `frequency_hz`"),
+        ({"outboard_free": {"modes": [{"damping": 0.01}]}},
+         "modes[0]: missing field `frequency_hz`"),
         ({"outboard_free": {"modes": [{"frequency_hz": "fast"}]}}, "modes[0].frequency_hz must be"),
         ({"outboard_free": {"modes": [{"frequency_hz": -3.0}]}}, "must be a finite number > 0"),
         ({"wing_free": {"modes": [{"frequency_hz": 3.0}]}}, "unknown field(s) ['wing_free']"),
@@ -145,7 +146,7 @@ def test_uff55_modes_are_read_like_yaml_ones(tmp_path):
 def test_clamp_spring_absorbs_a_compliant_fixture():
     """A clamped test on a compliant fixture: updating the clamp spring with inboard E recovers
     E, which a rigid clamp would bias."""
-    from freeplayid.model import ModalTest, MeasuredModes
+    from freeplayid.model import MeasuredModes, ModalTest
 
     cfg = load_fin_config()
     truth = cfg.with_part("inboard", E=1.02 * cfg.parts["inboard"].E)
