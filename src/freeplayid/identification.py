@@ -83,6 +83,9 @@ class Identification:
     verdict : freeplayid.verdict.Verdict
         ``ok`` or ``suspect`` with the reasons: the plausibility checks of the result and the
         data (:mod:`freeplayid.verdict`).
+    validation : freeplayid.model.ModeValidation or None
+        The zero-clearance check (paper's Table 11): the model closed at the identified kn
+        against the data set's ``reference_modes``, if it has them.
     """
 
     kn: float
@@ -105,6 +108,7 @@ class Identification:
     truth: dict | None = None
     dataset: dict = field(default_factory=dict)
     verdict: object = None
+    validation: object | None = None
 
     @property
     def used_points(self) -> tuple:
@@ -154,6 +158,8 @@ class Identification:
             out["verdict"] = self.verdict.status
             out["verdict_reasons"] = list(self.verdict.reasons)
             out["checks"] = [c.to_dict() for c in self.verdict.checks]
+        if self.validation is not None:
+            out["validation"] = _validation_record(self.validation)
         return out
 
     def backbone_overlay(self) -> dict:
@@ -235,8 +241,43 @@ class Identification:
                          f"{'yes' if p['used'] else 'no'} | {r} | {p['reason']} |")
         lines += ["", "## Rejected runs", ""]
         lines += [f"- `{r}`: {w}" for r, w in self.rejected_runs] or ["none"]
+        lines += _validation_lines(self.validation)
         lines += ["", "## Figures", ""] + [f"![{f}]({f})" for f in figures]
         return "\n".join(lines) + "\n"
+
+
+# ---- the zero-clearance check (paper's Table 11), self-contained
+def _zero_clearance_check(dataset, system, kn: float):
+    """:func:`freeplayid.model.validate_modes` of the closed model against the data set's
+    ``reference_modes`` (None without them)."""
+    ref = getattr(dataset, "reference_modes", None)
+    if not ref:
+        return None
+    from .model import validate_modes
+
+    return validate_modes(system, kn, ref["frequencies_hz"], ref["shapes"], ref["dofs"])
+
+
+def _validation_record(v) -> dict:
+    return {"reference_hz": v.reference_hz.tolist(), "model_hz": v.model_hz.tolist(),
+            "error_hz": v.error_hz.tolist(), "mac": v.mac.tolist(), "passed": v.passed,
+            "max_error_hz": 1.0, "min_mac": 0.98}
+
+
+def _validation_lines(v) -> list[str]:
+    if v is None:
+        return []
+    rows = ["", "## Zero-clearance check (Table 11 analogue)", "",
+            "The model with the hinges closed at the identified kn against the reference modes "
+            "of the fin with its clearance sealed; pass: |error| < 1 Hz and MAC > 0.98.", "",
+            "| mode | reference [Hz] | model [Hz] | error [Hz] | MAC | pass |",
+            "|---|---|---|---|---|---|"]
+    for i in range(v.reference_hz.size):
+        ok = abs(v.error_hz[i]) < 1.0 and v.mac[i] > 0.98
+        rows.append(f"| {i + 1} | {v.reference_hz[i]:.2f} | {v.model_hz[i]:.2f} | "
+                    f"{v.error_hz[i]:+.2f} | {v.mac[i]:.4f} | {'yes' if ok else 'NO'} |")
+    rows += ["", f"Zero-clearance check: {'passed' if v.passed else 'FAILED'}."]
+    return rows
 
 
 def _ci(v) -> str:
@@ -428,4 +469,5 @@ def identify(
             "channels": dict(dataset.channels), "base_channel": dataset.base_channel,
         },
         verdict=verdict,
+        validation=_zero_clearance_check(dataset, system, fit.kn),
     )

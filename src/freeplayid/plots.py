@@ -369,3 +369,31 @@ def plot_compare_cost(ax, summary, *, key="success_rate", axis_name=""):
         ax.set_yscale("log")
     ax.grid(True, axis="y", alpha=0.3)
     ax.legend(fontsize=7)
+
+
+def plot_mode_pairs(ax, comparison, *, title=None):
+    """Paired modes of one modal test (:class:`freeplayid.model.TestComparison`) on ``ax``.
+
+    With mode shapes: measured (markers) and updated model (lines) w at the test's points, one
+    colour per mode, the model scaled onto the measured shape. Without: the frequency error of
+    each mode before and after updating [%].
+    """
+    c = comparison
+    if c.measured_shapes is not None:
+        x = np.arange(len(c.points))
+        for i in range(c.measured_hz.size):
+            line, = ax.plot(x, c.model_shapes[:, i], "-", lw=1.2,
+                            label=f"{c.measured_hz[i]:.1f} Hz, MAC {c.mac_after[i]:.3f}")
+            ax.plot(x, c.measured_shapes[:, i], "o", color=line.get_color())
+        ax.set_xticks(x, c.points, rotation=30, fontsize=7)
+        ax.set_ylabel("w (o measured, - model)")
+        ax.axhline(0.0, color="0.7", lw=0.6)
+    else:
+        x = np.arange(1, c.measured_hz.size + 1)
+        ax.bar(x - 0.2, 100 * (c.before_hz / c.measured_hz - 1), 0.4, label="before")
+        ax.bar(x + 0.2, 100 * c.error, 0.4, label="after")
+        ax.set_xticks(x)
+        ax.set_xlabel("mode")
+        ax.set_ylabel("frequency error [%]")
+    ax.legend(fontsize=7)
+    ax.set_title(title or c.test, fontsize=9)

@@ -11,10 +11,12 @@ Identification results (``identification.json``): :func:`write_identification` a
 
 from .dataset import Dataset, Run, read_dataset, write_dataset
 from .errors import DatasetError
+from .modal import ModalTestError, read_modal_test
 from .result import ResultFileError, read_identification, write_identification
 from .uff import read_uff, write_uff
 
 __all__ = [
     "Dataset", "DatasetError", "Run", "read_dataset", "write_dataset", "read_uff", "write_uff",
-    "read_identification", "write_identification", "ResultFileError",
+    "read_identification", "write_identification", "ResultFileError", "read_modal_test",
+    "ModalTestError",
 ]

@@ -43,7 +43,7 @@ __all__ = ["Dataset", "DatasetError", "Run", "read_dataset", "write_dataset"]
 
 # the one place where data-set units become SI: factor to m, m/s or m/s^2
 MANIFEST_KEYS = ("name", "model", "quantity", "units", "sample_rate", "channels",
-                 "base_channel", "truth", "runs")
+                 "base_channel", "truth", "runs", "reference_modes")
 RUN_KEYS = ("file", "level_g", "sweep")
 SWEEP_KEYS = ("start_hz", "stop_hz", "rate_hz_per_s")
 CSV_SUFFIXES = (".csv", ".csv.gz")  # what write_dataset writes
@@ -100,6 +100,9 @@ class Dataset:
         ``{"kn": [N m/rad], "delta": [rad]}`` of a simulated data set (informational).
     path : Path or None
         Absolute path of the manifest read.
+    reference_modes : dict or None
+        Modes of the fin with its clearance sealed (the zero-clearance check, paper's Table 11):
+        ``{"frequencies_hz": [m], "shapes": [[m] per DOF], "dofs": [DOF names]}``.
     """
 
     name: str
@@ -112,6 +115,7 @@ class Dataset:
     base_channel: str | None = None
     truth: dict | None = None
     path: Path | None = None
+    reference_modes: dict | None = None
 
     @property
     def si_scale(self) -> float:
@@ -499,6 +503,10 @@ def read_dataset(path: str | os.PathLike, *, check_model: bool = True) -> Datase
                     f"{where}`channels` map to DOF(s) the model {model!r} does not have: "
                     f"{unknown}; its DOFs are {list(dofs)}"
                 )
+    reference_modes = None
+    if m.get("reference_modes") is not None:
+        reference_modes = _reference_modes(m["reference_modes"], f"{where}`reference_modes`",
+                                           root, dofs if model_path and check_model else None)
     entries = m["runs"]
     if not isinstance(entries, list) or not entries:
         raise DatasetError(f"{where}`runs` must be a non-empty list of {{file, ...}} entries")
@@ -574,4 +582,36 @@ def read_dataset(path: str | os.PathLike, *, check_model: bool = True) -> Datase
         base_channel=base_channel,
         truth=truth,
         path=manifest_path.resolve(),
+        reference_modes=reference_modes,
     )
+
+
+def _reference_modes(entry, where: str, root: Path, dofs) -> dict:
+    """The manifest's optional ``reference_modes`` (docs/identify.md): ``{modes: [{frequency_hz,
+    shape: {dof: value}}]}`` or ``{uff: FILE, nodes: {node: dof}}`` (UFF dataset 55)."""
+    from .modal import ModalTestError, parse_modes
+
+    try:
+        if isinstance(entry, dict) and "uff" in entry:
+            nodes = entry.get("nodes")
+            if not isinstance(nodes, dict) or not nodes:
+                raise ModalTestError(f"{where}.nodes must map UFF node numbers to model DOFs")
+            modes = parse_modes({"uff": entry["uff"]}, where, root=root, known_points=None)
+            missing = [n for n in modes.points if str(n) not in {str(k) for k in nodes}]
+            if missing:
+                raise ModalTestError(f"{where}.nodes: UFF node(s) {missing} not mapped to DOFs")
+            names = [str({str(k): v for k, v in nodes.items()}[n]) for n in modes.points]
+        else:
+            modes = parse_modes(entry, where, root=root, known_points=dofs)
+            names = list(modes.points)
+    except ModalTestError as exc:
+        raise DatasetError(str(exc)) from None
+    if modes.shapes is None:
+        raise DatasetError(f"{where}: every mode needs a `shape` at model DOFs (the check pairs "
+                           "modes by MAC)")
+    unknown = [d for d in names if dofs is not None and d not in dofs]
+    if unknown:
+        raise DatasetError(f"{where}: DOF(s) {unknown} not in the model; its DOFs are "
+                           f"{list(dofs)}")
+    return {"frequencies_hz": modes.frequencies_hz.tolist(), "shapes": modes.shapes.tolist(),
+            "dofs": names}

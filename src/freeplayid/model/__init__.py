@@ -1,6 +1,13 @@
 """Linear structure and freeplay: system files, restoring force, describing function, modal tools,
 small test models and the default folding fin (plate FE + Craig-Bampton reduction)."""
 
+from .build import (
+    UPDATE_PARAMETERS,
+    ModelBuild,
+    TestComparison,
+    model_from_modal_test,
+    part_modes,
+)
 from .damping import modal_damping, rayleigh_coefficients, rayleigh_damping
 from .fin import (
     FIN_HINGE_PAIRS,
@@ -22,6 +29,7 @@ from .fin_config import (
 )
 from .freeplay import describing_function, freeplay_force, gap_ratio, kappa_of_ratio
 from .modal import Modes, mac, modal_analysis, pair_modes
+from .modal_test import TEST_NAMES, MeasuredModes, ModalTest, ModalTestError
 from .plate import PlateMesh, acm_element, assemble_plate, rectangular_mesh
 from .reduce import Reduction, craig_bampton, guyan
 from .small import sdof_system, two_dof_system
@@ -73,4 +81,13 @@ __all__ = [
     "guyan",
     "ModeValidation",
     "validate_modes",
+    "ModelBuild",
+    "TestComparison",
+    "model_from_modal_test",
+    "part_modes",
+    "UPDATE_PARAMETERS",
+    "MeasuredModes",
+    "ModalTest",
+    "ModalTestError",
+    "TEST_NAMES",
 ]
