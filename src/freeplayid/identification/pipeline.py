@@ -1,0 +1,211 @@
+"""The measured-data pipeline: :func:`identify` a data set -> :class:`Identification`."""
+
+from __future__ import annotations
+
+import os
+import time
+from collections.abc import Mapping
+
+from .result import Identification, IdentificationError
+
+__all__ = ["identify"]
+
+
+def _zero_clearance_check(dataset, system, kn: float):
+    """:func:`freeplayid.model.validate_modes` of the closed model against the data set's
+    ``reference_modes`` (None without them)."""
+    ref = getattr(dataset, "reference_modes", None)
+    if not ref:
+        return None
+    from ..model import validate_modes
+
+    return validate_modes(system, kn, ref["frequencies_hz"], ref["shapes"], ref["dofs"])
+
+
+def _extract(ds, *, extraction: Mapping, use_sweep_hint: bool, progress: bool):
+    """Points of every usable run (one run at a time) and the rejected runs {run: reason}."""
+    from tqdm import tqdm
+
+    from ..signal import BackbonePoints, extract_backbone_points
+    from ..sweep import Sweep
+
+    points, curves, rejected = [], [], {}
+    bar = tqdm(ds.runs, desc="extracting points", unit="run",
+               disable=not progress or len(ds.runs) < 2)
+    for run in bar:
+        if run.reason:
+            rejected[run.file] = run.reason
+            continue
+        sweep = Sweep(**run.sweep) if (run.sweep and use_sweep_hint) else None
+        base = None if run.base is None else [ds.to_si(run.base)]
+        res = extract_backbone_points(
+            [ds.to_si(run.data)], ds.sample_rate, quantity=ds.quantity,
+            channel_names=list(ds.channels), run_names=[run.file], sweep=sweep, base=base,
+            base_name=ds.base_channel or "base", **extraction,
+        )
+        points += res.points
+        curves += res.curves
+        if res.rejected_runs:
+            rejected[run.file] = "; ".join(dict.fromkeys(p.reason for p in res.points))
+    pts = BackbonePoints(tuple(points), tuple(rejected), tuple(curves), ds.quantity,
+                         extraction.get("method", "acmp"))
+    return pts, rejected
+
+
+def _check_enough(pts, rejected: dict, where) -> None:
+    """IdentificationError unless the used points span two resonances or more."""
+    from ..fit import count_resonances
+
+    used = pts.used()
+    if len(used) < 2:
+        why = "; ".join(f"{r}: {w}" for r, w in rejected.items()) or "none rejected"
+        raise IdentificationError(
+            f"{where}: {len(used)} usable fitting point(s), at least 2 are needed "
+            f"(rejected runs: {why}); add runs at higher levels that resonate in the band",
+            points=pts,
+        )
+    if count_resonances([p.f_hz for p in used]) < 2:
+        raise IdentificationError(
+            f"{where}: the {len(used)} usable points lie at one resonance (within 0.5 %: "
+            f"{used[0].f_hz:.3f} Hz, run {used[0].run}): kn and delta need resonances at two "
+            "or more levels; add runs at other levels that resonate in the band",
+            points=pts,
+        )
+
+
+def _inverse_start(model, points) -> dict:
+    """The inverse model's estimate of (kn, delta) from the fitting points (the fit's start)."""
+    try:
+        kn, delta, s_kn, s_delta = model.predict_points(points)
+    except ValueError as exc:  # e.g. a channel the network was not trained on
+        from ..inverse import InverseModelError
+
+        raise InverseModelError(f"{model.path}: {exc}") from None
+    return {"kn": float(kn), "delta": float(delta), "log_kn_std": float(s_kn),
+            "log_delta_std": float(s_delta), "checkpoint": str(model.path)}
+
+
+def identify(
+    dataset,
+    *,
+    system=None,
+    backbone: str = "dfa",
+    init=None,
+    extraction: Mapping | None = None,
+    use_sweep_hint: bool = True,
+    multistart: Mapping | None = None,
+    mode: int = 0,
+    n_bootstrap: int = 0,
+    seed: int = 0,
+    progress: bool = True,
+) -> Identification:
+    """Identify (kn, delta) from a measured (or simulated) sine-sweep data set.
+
+    Parameters
+    ----------
+    dataset : freeplayid.io.Dataset or path
+        A data set (:func:`freeplayid.io.read_dataset`, or built in memory) or the path of its
+        folder or ``manifest.yaml``.
+    system : FreeplaySystem, optional
+        The linear model; default the data set's ``model`` file.
+    backbone : str
+        Backbone method of the fit (``freeplayid.backbone`` registry: "dfa", "hb").
+    init : InverseModel, (kn, delta), sequence of them, or None
+        The fit's start: a trained inverse model (:func:`freeplayid.inverse.load_inverse_model`;
+        its estimate from the points), given start(s), or None for the multi-start grid.
+    extraction : mapping, optional
+        Options of :func:`freeplayid.signal.extract_backbone_points` (``method``,
+        ``bandwidth_hz``, ``trim_s``, the jump rule, ``min_snr_db``).
+    use_sweep_hint : bool
+        Use the runs' ``sweep`` hints (ACMP's start, the band, the rate).
+    multistart : mapping, optional
+        ``n``, ``kn_range`` [N m/rad], ``delta_range`` [rad] of the multi-start grid (default:
+        those of :func:`freeplayid.fit.multistart_grid`).
+    mode : int
+        Backbone mode (0: the lowest, first bending).
+    n_bootstrap : int
+        Bootstrap resamples over the points for percentile intervals (0: none).
+    seed : int
+        Bootstrap seed.
+    progress : bool
+        Show a progress bar over the runs.
+
+    Returns
+    -------
+    Identification
+
+    Raises
+    ------
+    DatasetError
+        The data set breaks its contract (the message names the file, run, field or column).
+    SystemFileError
+        The model file is broken.
+    IdentificationError
+        Fewer than two usable points, or all of them at one resonance.
+    InverseModelError
+        The inverse model cannot take these points (e.g. a channel it was not trained on).
+    """
+    from ..backbone import backbone_method
+    from ..fit import FittingPoints, fit_backbone, multistart_grid
+    from ..io import DatasetError, read_dataset
+    from ..model import FreeplaySystem, load_system
+    from ..verdict import base_level_checks, fit_checks, make_verdict
+
+    t0 = time.perf_counter()
+    backbone_method(backbone, argument="backbone")  # an unknown name fails before any work
+    if isinstance(dataset, (str, os.PathLike)):
+        dataset = read_dataset(dataset)
+    if system is None:
+        if dataset.model is None:
+            raise DatasetError(f"{dataset.path}: missing field `model` (the linear model file, "
+                               ".npz); or pass `system`")
+        system = load_system(dataset.model)
+    elif not isinstance(system, FreeplaySystem):
+        raise TypeError(f"`system` must be a FreeplaySystem, got {type(system).__name__}")
+    where = dataset.path or dataset.name or "data set"
+    pts, rejected = _extract(dataset, extraction=dict(extraction or {}),
+                             use_sweep_hint=use_sweep_hint, progress=progress)
+    _check_enough(pts, rejected, where)
+    points = FittingPoints.from_extraction(pts, dofs=dataset.channels)
+    inverse = None
+    if hasattr(init, "predict_points"):
+        inverse = _inverse_start(init, points)
+        starts, label = (inverse["kn"], inverse["delta"]), "inverse"
+    elif init is None and multistart:
+        starts, label = multistart_grid(**{k: v if k == "n" else tuple(v)
+                                           for k, v in multistart.items()}), "multistart"
+    else:
+        starts, label = init, None
+    fit = fit_backbone(points, system, init=starts, init_label=label, backbone=backbone,
+                       mode=int(mode), n_bootstrap=int(n_bootstrap), seed=int(seed))
+    verdict = make_verdict(base_level_checks(dataset)
+                           + fit_checks(points, fit, system, pts, mode=int(mode)))
+    return Identification(
+        kn=fit.kn,
+        delta=fit.delta,
+        kn_ci95=tuple(fit.kn_ci95),
+        delta_ci95=tuple(fit.delta_ci95),
+        residual_rms=fit.residual_rms,
+        backbone=fit.backbone,
+        init=fit.init,
+        runtime_s=time.perf_counter() - t0,
+        points=pts,
+        dofs=dict(dataset.channels),
+        rejected_runs=tuple(rejected.items()),
+        fit=fit,
+        system=system,
+        mode=int(mode),
+        kn_ci95_bootstrap=fit.kn_ci95_bootstrap,
+        delta_ci95_bootstrap=fit.delta_ci95_bootstrap,
+        inverse_estimate=inverse,
+        truth=dict(dataset.truth) if dataset.truth else None,
+        dataset={
+            "name": dataset.name, "path": str(dataset.path) if dataset.path else None,
+            "model": str(dataset.model) if dataset.model else None,
+            "quantity": dataset.quantity, "units": dataset.units,
+            "sample_rate": float(dataset.sample_rate), "n_runs": len(dataset.runs),
+            "channels": dict(dataset.channels), "base_channel": dataset.base_channel,
+        },
+        verdict=verdict,
+        validation=_zero_clearance_check(dataset, system, fit.kn),
+    )
