@@ -6,11 +6,14 @@ from __future__ import annotations
 import dataclasses
 import json
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from omegaconf import DictConfig, OmegaConf
 
+from ..errors import OutputError
 from ..io.atomic import atomic_write_text
 from ..model.system import FreeplaySystem
 
@@ -18,7 +21,7 @@ if TYPE_CHECKING:
     from ..studies import StudyData
 
 __all__ = ["build_system", "register_configs", "study_data", "train_network", "run_dir",
-           "write_metrics", "MODEL_KINDS"]
+           "write_metrics", "writing_to", "MODEL_KINDS"]
 
 MODEL_KINDS = ("fin", "npz", "sdof")
 
@@ -143,3 +146,14 @@ def write_metrics(folder: Path, metrics: dict) -> Path:
     """Write ``metrics.json`` (atomically) and return its path."""
     return atomic_write_text(Path(folder) / "metrics.json",
                              json.dumps(metrics, indent=2, sort_keys=True))
+
+
+@contextmanager
+def writing_to(folder: Path) -> Iterator[None]:
+    """Turn an ``OSError`` of writing results (a full disk, a lost mount) into one
+    :class:`~freeplayid.errors.OutputError` line naming ``folder``."""
+    try:
+        yield
+    except OSError as e:
+        raise OutputError(f"writing the results to {str(folder)!r} failed: "
+                          f"{e.strerror or e}; nothing was saved") from None
