@@ -5,7 +5,7 @@ draws (via ``plots``), writes ``metrics.json`` in the run folder and returns the
 This is the only package that imports Hydra/OmegaConf.
 """
 
-from .common import build_system, register_configs, run_dir, write_metrics
+from .common import build_system, check_run_dir, register_configs, run_dir, write_metrics
 from .compare import compare
 from .identify import bundled_example, identify
 from .simulate import simulate
@@ -14,6 +14,6 @@ from .train import train
 register_configs()  # model=fin: the package's default fin (one copy of its numbers)
 
 __all__ = [
-    "build_system", "register_configs", "run_dir", "write_metrics", "simulate", "identify",
-    "bundled_example", "train", "compare",
+    "build_system", "check_run_dir", "register_configs", "run_dir", "write_metrics", "simulate",
+    "identify", "bundled_example", "train", "compare",
 ]
