@@ -127,6 +127,7 @@ def _value(cfg, field: str):
         raise ConfigError(f"`{field}` must be given ({field}=...)") from None
     except OmegaConfBaseException as e:  # an interpolation that does not resolve
         first = str(e).splitlines()[0] if str(e) else type(e).__name__
+        first = first.removeprefix("MissingMandatoryValue while resolving interpolation: ")
         raise ConfigError(f"`{field}` cannot be resolved: {first}") from None
 
 
@@ -194,6 +195,13 @@ def _model() -> dict[str, Rule]:
     return {"model.kind": choice(*MODEL_KINDS)}
 
 
+def _check_model(cfg: DictConfig) -> None:
+    """The model group first: its fields feed interpolations (``kn: ${model.hinge.kn}``)."""
+    check_fields(cfg, _model())
+    if cfg.model.kind == "npz":
+        check_fields(cfg, {"model.path": text()})
+
+
 def _simulate() -> dict[str, Rule]:
     from ..simulate.formulation import FRAMES, METHODS
 
@@ -258,6 +266,8 @@ def check_config(cfg: DictConfig, command: str) -> None:
     ConfigError
         The first field outside its allowed values, named, with what is allowed.
     """
+    if command != IDENTIFY:
+        _check_model(cfg)
     check_fields(cfg, _TABLES[command]())
     if command in (TRAIN, COMPARE):
         _check_cases(cfg)

@@ -16,7 +16,7 @@ from ..errors import ConfigError
 from ..io import write_dataset
 from ..io.atomic import staged_folder
 from ..quantity import G
-from ..simulate import Sweep, default_columns, rk4_step_count, simulate_sweeps, sweep_dataset
+from ..sweep import Sweep
 from .checks import SIMULATE, check_config
 from .common import build_system, run_dir, write_metrics, writing_to
 
@@ -32,6 +32,8 @@ def _channels(cfg: DictConfig, system) -> dict:
             raise ConfigError(f"`channels` name DOF(s) {unknown} the model does not have; its "
                               f"DOFs are {list(system.dof_names)}")
         return columns
+    from ..simulate import default_columns
+
     dofs = [d for d in system.dof_names if d.startswith("uz_")] or list(system.dof_names)
     return default_columns(cfg.quantity, dofs)
 
@@ -39,6 +41,8 @@ def _channels(cfg: DictConfig, system) -> dict:
 def _check_cost(cfg: DictConfig, system, sweep: Sweep, channels: dict) -> int:
     """RK4 steps per sweep, from the model's fastest closed-hinge mode at ``kn``; refused above
     ``max_steps`` unless ``force``."""
+    from ..simulate import rk4_step_count
+
     steps, dt = rk4_step_count(
         system, kn=float(cfg.kn), sweep=sweep, sample_rate=float(cfg.sample_rate),
         channels=tuple(channels.values()), quantity=cfg.quantity, frame=cfg.frame,
@@ -70,6 +74,8 @@ def simulate(cfg: DictConfig) -> dict:
 
 def _simulate(cfg: DictConfig, stage, t0: float) -> dict:
     import torch
+
+    from ..simulate import simulate_sweeps, sweep_dataset
 
     try:
         system = build_system(cfg.model)
