@@ -5,16 +5,22 @@
     python scripts/compare.py -m +experiment=noise,clearance hydra/launcher=joblib
 """
 
+import sys
+
 import hydra
 from omegaconf import DictConfig
 
-from freeplayid import tasks
+from freeplayid import InputError, tasks
 
 
 @hydra.main(version_base="1.3", config_path="../conf", config_name="compare")
 def main(cfg: DictConfig) -> dict:
-    return tasks.compare(cfg)
+    try:
+        return tasks.compare(cfg)
+    except InputError as exc:
+        sys.exit(f"compare: {exc}")  # a configuration, data or output problem: one line
 
 
 if __name__ == "__main__":
+    tasks.check_run_dir("compare", sys.argv)  # before Hydra makes the folder
     main()

@@ -5,16 +5,22 @@
     python scripts/simulate.py model=sdof debug=fast
 """
 
+import sys
+
 import hydra
 from omegaconf import DictConfig
 
-from freeplayid import tasks
+from freeplayid import InputError, tasks
 
 
 @hydra.main(version_base="1.3", config_path="../conf", config_name="simulate")
 def main(cfg: DictConfig) -> dict:
-    return tasks.simulate(cfg)
+    try:
+        return tasks.simulate(cfg)
+    except InputError as exc:
+        sys.exit(f"simulate: {exc}")  # a configuration, data or output problem: one line
 
 
 if __name__ == "__main__":
+    tasks.check_run_dir("simulate", sys.argv)  # before Hydra makes the folder
     main()

@@ -17,7 +17,7 @@ import torch
 
 from ..errors import InputError
 from ..fit import FittingPoints
-from .lightning import _CKPT_KEY, _CKPT_VERSION, InverseModule
+from .lightning import _CKPT_KEY, _CKPT_VERSION, _STRUCTURE_KEY, InverseModule
 from .network import Normalisation, collate_point_sets
 from .points import PointSets, point_sets_from_records
 
@@ -147,7 +147,7 @@ class InverseModel:
         return float(p.kn[0]), float(p.delta[0]), float(p.log_kn_std[0]), float(p.log_delta_std[0])
 
 
-def load_inverse_model(path: str | os.PathLike, *, system=None,
+def load_inverse_model(path: str | os.PathLike, *, system=None, rtol: float = 1e-8,
                        map_location: str | torch.device = "cpu") -> InverseModel:
     """Load an inverse-model checkpoint (``best.ckpt`` of :func:`train_inverse_model`).
 
@@ -155,7 +155,11 @@ def load_inverse_model(path: str | os.PathLike, *, system=None,
     ----------
     path : path-like
     system : FreeplaySystem, optional
-        The linear model the estimates are for; its ``fingerprint()`` must be the checkpoint's.
+        The linear model the estimates are for: its ``structure()`` must be the checkpoint's
+        within ``rtol`` (checkpoints without one: its ``fingerprint()`` must be theirs).
+    rtol : float
+        Relative tolerance of that comparison (:meth:`FreeplaySystem.structure_mismatch`):
+        the same model built on another CPU differs by round-off (~1e-10) and passes.
     map_location : str or torch.device
         Device the network is put on.
 
@@ -163,7 +167,7 @@ def load_inverse_model(path: str | os.PathLike, *, system=None,
     ------
     InverseModelError
         The file is missing or not a freeplayid inverse-model checkpoint, or ``system`` has
-        another fingerprint than the one the model was trained for.
+        another structure than the one the model was trained for.
     """
     path = Path(path)
     if not path.is_file():
@@ -183,17 +187,22 @@ def load_inverse_model(path: str | os.PathLike, *, system=None,
         raise InverseModelError(f"{str(path)!r} has checkpoint format {ckpt[_CKPT_KEY]}, this "
                                 f"freeplayid reads up to {_CKPT_VERSION}; update freeplayid")
     hp = ckpt["hyper_parameters"]
+    stored = ckpt.get(_STRUCTURE_KEY)
     if system is not None:
-        want = system.fingerprint()
-        if want != hp["fingerprint"]:
+        if isinstance(stored, dict):
+            why = system.structure_mismatch(stored, rtol=rtol)
+        else:  # a checkpoint of an earlier freeplayid: the exact fingerprint
+            want = system.fingerprint()
+            why = None if want == hp["fingerprint"] else \
+                f"checkpoint fingerprint {hp['fingerprint']}, model fingerprint {want}"
+        if why is not None:
             raise InverseModelError(
                 f"inverse model checkpoint {str(path)!r} was trained for a different linear "
-                f"structure (checkpoint fingerprint {hp['fingerprint']}, model fingerprint "
-                f"{want}); retrain it for this model with `python scripts/train.py model=...` "
-                "or drop `inverse.checkpoint`"
+                f"structure ({why}); retrain it for this model with "
+                "`python scripts/train.py model=...` or drop `inverse.checkpoint`"
             )
     try:
-        module = InverseModule(**hp)
+        module = InverseModule(**hp, structure=stored if isinstance(stored, dict) else None)
         module.load_state_dict(ckpt["state_dict"])
     except (TypeError, ValueError, RuntimeError) as e:  # hand-edited or foreign hparams/weights
         raise InverseModelError(f"{str(path)!r} holds an inverse model this freeplayid cannot "

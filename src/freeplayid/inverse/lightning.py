@@ -30,6 +30,9 @@ __all__ = ["InverseModule", "PointSetDataModule", "train_inverse_model", "gaussi
 
 _CKPT_KEY = "freeplayid_inverse"  # marks our checkpoints; the value is the format version
 _CKPT_VERSION = 1
+# the linear structure (FreeplaySystem.structure()) the cases came from: compared with a model's
+# within a relative tolerance on loading (the fingerprint alone is exact to 12 decimals)
+_STRUCTURE_KEY = "freeplayid_structure"
 HISTORY_KEYS = ("train_loss", "val_loss", "val_mae_log_kn", "val_mae_log_delta")
 _SCHEDULES = ("onecycle", "constant")
 
@@ -86,16 +89,20 @@ class InverseModule(pl.LightningModule):
     extra : dict, optional
         Free metadata stored in the checkpoint (data-set config, kn/delta prior ranges, ...);
         converted to plain Python (see ``_plain``).
+    structure : dict, optional
+        ``FreeplaySystem.structure()`` of that linear model, stored in the checkpoint next to the
+        hyper-parameters (``load_inverse_model`` compares it within a relative tolerance).
 
-    All of these are saved as hyper-parameters, so ``InverseModule.load_from_checkpoint(path)``
-    restores the module.
+    All of these but ``structure`` are saved as hyper-parameters, so
+    ``InverseModule.load_from_checkpoint(path)`` restores the module.
     """
 
     def __init__(self, *, channels: Sequence[str], fingerprint: str, norm: Mapping,
                  hidden: int = 64, depth: int = 3, activation: str = "silu", lr: float = 3e-3,
                  weight_decay: float = 1e-4, schedule: str = "onecycle",
-                 extra: Mapping | None = None):
+                 extra: Mapping | None = None, structure: Mapping | None = None):
         super().__init__()
+        self.structure = None if structure is None else _plain(structure, "structure")
         if isinstance(channels, str) or not channels:
             raise ValueError(f"`channels` must be a non-empty sequence of DOF names, "
                              f"got {channels!r}")
@@ -179,6 +186,8 @@ class InverseModule(pl.LightningModule):
 
     def on_save_checkpoint(self, checkpoint: dict) -> None:
         checkpoint[_CKPT_KEY] = _CKPT_VERSION
+        if self.structure is not None:
+            checkpoint[_STRUCTURE_KEY] = self.structure
 
 
 class _CaseIndices(torch.utils.data.Dataset):
@@ -287,7 +296,8 @@ def train_inverse_model(
     hidden: int = 64, depth: int = 3, activation: str = "silu", lr: float = 3e-3,
     weight_decay: float = 1e-4, schedule: str = "onecycle", batch_size: int = 64,
     max_epochs: int = 100, seed: int = 0, out_dir: str | os.PathLike | None = None,
-    extra: Mapping | None = None, accelerator: str = "auto", enable_progress_bar: bool = True,
+    extra: Mapping | None = None, structure: Mapping | None = None,
+    accelerator: str = "auto", enable_progress_bar: bool = True,
     logger: bool = True, trainer_kwargs: Mapping | None = None,
 ) -> tuple[InverseModule, pl.Trainer, dict[str, list]]:
     """Seeded training of an :class:`InverseModule` on ``train``, validated on ``val``.
@@ -300,7 +310,7 @@ def train_inverse_model(
         Must equal ``train.channels`` (the model's measured DOFs, in that order).
     fingerprint : str
         ``FreeplaySystem.fingerprint()`` of the model the cases were simulated with.
-    hidden, depth, activation, lr, weight_decay, schedule, extra
+    hidden, depth, activation, lr, weight_decay, schedule, extra, structure
         See :class:`InverseModule`.
     batch_size, max_epochs, seed : int
     out_dir : path-like, optional
@@ -329,7 +339,8 @@ def train_inverse_model(
     dm = PointSetDataModule(train, val, batch_size=batch_size)
     module = InverseModule(channels=channels, fingerprint=fingerprint, norm=dm.norm,
                            hidden=hidden, depth=depth, activation=activation, lr=lr,
-                           weight_decay=weight_decay, schedule=schedule, extra=extra)
+                           weight_decay=weight_decay, schedule=schedule, extra=extra,
+                           structure=structure)
     hist = _History()
     callbacks: list[pl.Callback] = [hist]
     loggers = False

@@ -9,6 +9,7 @@ Identification results (``identification.json``): :func:`write_identification` a
 :func:`freeplayid.model.load_system` and :func:`freeplayid.model.save_system`.
 """
 
+from .atomic import atomic_write_text, staged_folder
 from .dataset import Dataset, Run, read_dataset, write_dataset
 from .errors import DatasetError
 from .modal import ModalTestError, read_modal_test
@@ -17,6 +18,7 @@ from .uff import read_uff, write_uff
 
 __all__ = [
     "Dataset", "DatasetError", "Run", "read_dataset", "write_dataset", "read_uff", "write_uff",
-    "read_identification", "write_identification", "ResultFileError", "read_modal_test",
+    "read_identification", "write_identification", "ResultFileError", "atomic_write_text",
+    "staged_folder", "read_modal_test",
     "ModalTestError",
 ]

@@ -13,6 +13,7 @@ absolute acceleration is ``y'' + r a_g``.
 from __future__ import annotations
 
 import os
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -219,6 +220,37 @@ class FreeplaySystem:
         h.update("\x1f".join(self.dof_names).encode())
         h.update("\x1f".join(f"{a}>{b}" for a, b in self.hinge_pairs).encode())
         return h.hexdigest()[:16]
+
+    def structure(self) -> dict:
+        """The structure as plain Python (M, K, C, r as nested lists [SI], DOF names, hinges):
+        what a checkpoint stores to be compared with :meth:`structure_mismatch`."""
+        return {
+            "M": self.M.tolist(), "K": self.K.tolist(), "C": self.damping.tolist(),
+            "r": self.influence.tolist(), "dof_names": list(self.dof_names),
+            "hinge_pairs": [list(p) for p in self.hinge_pairs],
+        }
+
+    def structure_mismatch(self, other: Mapping, *, rtol: float = 1e-8) -> str | None:
+        """How this structure differs from ``other`` (a :meth:`structure` dict), or None.
+
+        Matrices agree when ``|A - B| <= rtol * max|B|`` element-wise (the scale of each matrix:
+        round-off of a model built on another CPU, ~1e-10 relative, passes; a changed model
+        does not). :meth:`fingerprint`, exact to 12 decimals, stays the key of caches.
+        """
+        if list(other.get("dof_names", ())) != list(self.dof_names):
+            return "other DOF names"
+        if [tuple(p) for p in other.get("hinge_pairs", ())] != list(self.hinge_pairs):
+            return "other hinges"
+        for key, mine in (("M", self.M), ("K", self.K), ("C", self.damping),
+                          ("r", self.influence)):
+            theirs = np.asarray(other.get(key, ()), dtype=float)
+            if theirs.shape != mine.shape:
+                return f"`{key}` of shape {theirs.shape}, not {mine.shape}"
+            scale = float(np.max(np.abs(theirs), initial=0.0))
+            if not np.all(np.abs(mine - theirs) <= rtol * scale):
+                worst = float(np.max(np.abs(mine - theirs))) / (scale or 1.0)
+                return f"`{key}` differs by {worst:.2g} relative (tolerance {rtol:g})"
+        return None
 
     def __repr__(self) -> str:
         return (

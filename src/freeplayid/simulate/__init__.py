@@ -11,7 +11,7 @@ from .dataset import default_columns, sweep_dataset
 from .formulation import ModalForm, ModalTruncation, build_modal_form, rk4_step_limit
 from .quasistatic import QuasiStatic
 from .resample import StreamingDecimator, design_decimator
-from .run import DEFAULT_OMEGA_DT, SweepResult, simulate_sweeps
+from .run import DEFAULT_OMEGA_DT, SweepResult, rk4_step_count, simulate_sweeps
 
 __all__ = [
     "G",
@@ -25,6 +25,7 @@ __all__ = [
     "QuasiStatic",
     "build_modal_form",
     "rk4_step_limit",
+    "rk4_step_count",
     "design_decimator",
     "StreamingDecimator",
     "DEFAULT_OMEGA_DT",

@@ -17,7 +17,7 @@ from .formulation import METHODS, ModalTruncation, build_modal_form, rk4_step_li
 from .quasistatic import QuasiStatic, condense_modal_form
 from .resample import StreamingDecimator, derivative_taps, design_decimator
 
-__all__ = ["simulate_sweeps", "SweepResult", "DEFAULT_OMEGA_DT"]
+__all__ = ["simulate_sweeps", "rk4_step_count", "SweepResult", "DEFAULT_OMEGA_DT"]
 
 # omega_max * dt of the fastest closed-hinge mode. Measured on the 12-DOF test fin (3 kHz top
 # mode, docs/simulate.md): at 1.5 the linear response is within ~3e-7 of the matrix-exponential
@@ -292,37 +292,12 @@ def simulate_sweeps(
     kn_a, dl_a, lv_a = (x.reshape(-1) for x in (kn_a, dl_a, lv_a))
     batch = kn_a.shape[0]
 
-    qs = None
-    if quasi_static_hz is not None:
-        if cutoff_hz is not None:
-            raise ValueError("`quasi_static_hz` and `cutoff_hz` cannot be combined")
-        if method != "relative":
-            raise ValueError(f"`quasi_static_hz` needs method='relative', got {method!r}")
-    form = build_modal_form(
-        system, channels=channels, quantity=quantity, frame=frame, method=method,
-        kn_max=float(kn_a.max()), cutoff_hz=cutoff_hz, large_mass_ratio=large_mass_ratio,
-    )
-    if quasi_static_hz is not None:
-        qs = condense_modal_form(form, threshold_hz=quasi_static_hz, quantity=quantity,
-                                 kn_max=float(kn_a.max()))
-        form = qs.slow
-    if steps_per_sample is None:
-        h_max = rk4_step_limit(form.omega_max, omega_dt=omega_dt)
-        m = max(1, math.ceil(1.0 / (sample_rate * h_max) - 1e-9))
-    else:
-        if not (isinstance(steps_per_sample, (int, np.integer)) and steps_per_sample >= 1):
-            raise ValueError(f"`steps_per_sample` must be an int >= 1, got {steps_per_sample!r}")
-        m = int(steps_per_sample)
-    h = 1.0 / (sample_rate * m)
-
-    taps = design_decimator(m)
-    taps_d = None
-    if qs is not None and quantity != "displacement":
-        # the fast part's derivative is decimated by the same fused FIR (resample.derivative_taps)
-        taps, taps_d = derivative_taps(taps, m, h, 1 if quantity == "velocity" else 2)
-    n_out = int(math.floor(sweep.duration * sample_rate + 1e-9)) + 1
-    look = (len(taps) - 1) // 2 // m + 1  # filter look-ahead (+1: the polyphase block padding)
-    n_steps = (n_out - 1 + look) * m + 1  # recorded step-rate samples t_0 .. t_{n_steps-1}
+    plan = _step_plan(system, kn_max=float(kn_a.max()), sweep=sweep, sample_rate=sample_rate,
+                      channels=channels, quantity=quantity, frame=frame, method=method,
+                      cutoff_hz=cutoff_hz, quasi_static_hz=quasi_static_hz, omega_dt=omega_dt,
+                      steps_per_sample=steps_per_sample, large_mass_ratio=large_mass_ratio)
+    form, qs, m, h, taps, taps_d = plan.form, plan.qs, plan.m, plan.h, plan.taps, plan.taps_d
+    n_out, n_steps = plan.n_out, plan.n_steps
 
     # initial state: at rest relative to the base; the large-mass form starts on the base motion
     base_state = np.array([0.0, -1.0 / (2 * np.pi * sweep.start_hz)])  # unit (u_b, v_b)(0)
@@ -391,3 +366,95 @@ def simulate_sweeps(
         truncation=form.truncation,
         quasi_static=None if qs is None else qs.info,
     )
+
+
+@dataclass(frozen=True)
+class _StepPlan:
+    form: object
+    qs: object
+    m: int
+    h: float
+    taps: np.ndarray | None
+    taps_d: np.ndarray | None
+    n_out: int
+    look: int
+    n_steps: int
+
+
+def _step_plan(system, *, kn_max, sweep, sample_rate, channels, quantity, frame, method,
+               cutoff_hz, quasi_static_hz, omega_dt, steps_per_sample, large_mass_ratio,
+               filters: bool = True) -> _StepPlan:
+    """The modal form, the RK4 step and the step count of a simulation (before running it);
+    without ``filters`` no decimator is designed (its length grows with m) and the count leaves
+    out the filter look-ahead (a few samples)."""
+    qs = None
+    if quasi_static_hz is not None:
+        if cutoff_hz is not None:
+            raise ValueError("`quasi_static_hz` and `cutoff_hz` cannot be combined")
+        if method != "relative":
+            raise ValueError(f"`quasi_static_hz` needs method='relative', got {method!r}")
+    form = build_modal_form(
+        system, channels=channels, quantity=quantity, frame=frame, method=method,
+        kn_max=kn_max, cutoff_hz=cutoff_hz, large_mass_ratio=large_mass_ratio,
+    )
+    if quasi_static_hz is not None:
+        qs = condense_modal_form(form, threshold_hz=quasi_static_hz, quantity=quantity,
+                                 kn_max=kn_max)
+        form = qs.slow
+    if steps_per_sample is None:
+        h_max = rk4_step_limit(form.omega_max, omega_dt=omega_dt)
+        m = max(1, math.ceil(1.0 / (sample_rate * h_max) - 1e-9))
+    else:
+        if not (isinstance(steps_per_sample, (int, np.integer)) and steps_per_sample >= 1):
+            raise ValueError(f"`steps_per_sample` must be an int >= 1, got {steps_per_sample!r}")
+        m = int(steps_per_sample)
+    h = 1.0 / (sample_rate * m)
+
+    n_out = int(math.floor(sweep.duration * sample_rate + 1e-9)) + 1
+    if not filters:
+        return _StepPlan(form=form, qs=qs, m=m, h=h, taps=None, taps_d=None, n_out=n_out,
+                         look=0, n_steps=(n_out - 1) * m + 1)
+    taps = design_decimator(m)
+    taps_d = None
+    if qs is not None and quantity != "displacement":
+        # the fast part's derivative is decimated by the same fused FIR (resample.derivative_taps)
+        taps, taps_d = derivative_taps(taps, m, h, 1 if quantity == "velocity" else 2)
+    look = (len(taps) - 1) // 2 // m + 1  # filter look-ahead (+1: the polyphase block padding)
+    n_steps = (n_out - 1 + look) * m + 1  # recorded step-rate samples t_0 .. t_{n_steps-1}
+    return _StepPlan(form=form, qs=qs, m=m, h=h, taps=taps, taps_d=taps_d, n_out=n_out,
+                     look=look, n_steps=n_steps)
+
+
+def rk4_step_count(
+    system: FreeplaySystem, *, kn: float, sweep: Sweep, sample_rate: float, channels,
+    quantity: str = "acceleration", frame: str = "absolute", method: str = "relative",
+    omega_dt: float = DEFAULT_OMEGA_DT, cutoff_hz: float | None = None,
+    quasi_static_hz: float | None = None, large_mass_ratio: float = 1e6,
+) -> tuple[int, float]:
+    """RK4 steps per batch member :func:`simulate_sweeps` would take, without simulating.
+
+    The step follows the fastest closed-hinge mode (``omega_max * dt <= omega_dt``), so it
+    shrinks as sqrt(kn) grows: the cost of a huge contact stiffness is known up front.
+
+    Parameters
+    ----------
+    kn : float [N m/rad]
+        The largest contact stiffness of the batch.
+    sweep, sample_rate, channels, quantity, frame, method, omega_dt, cutoff_hz,
+    quasi_static_hz, large_mass_ratio
+        As :func:`simulate_sweeps`.
+
+    Returns
+    -------
+    n_steps : int
+        Steps per member over the whole sweep (less the filter's look-ahead, a few samples).
+    dt : float [s]
+        The step.
+    """
+    if isinstance(channels, str):
+        channels = (channels,)
+    plan = _step_plan(system, kn_max=float(kn), sweep=sweep, sample_rate=float(sample_rate),
+                      channels=tuple(channels), quantity=quantity, frame=frame, method=method,
+                      cutoff_hz=cutoff_hz, quasi_static_hz=quasi_static_hz, omega_dt=omega_dt,
+                      steps_per_sample=None, large_mass_ratio=large_mass_ratio, filters=False)
+    return plan.n_steps, plan.h

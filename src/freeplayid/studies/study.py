@@ -133,6 +133,7 @@ def train_study_network(
     extra = {**(extra or {}), "bank": data.bank_key, "cases": data.cases_key}
     _, trainer, history = train_inverse_model(
         data.train, data.val, channels=data.channels, fingerprint=data.system.fingerprint(),
+        structure=data.system.structure(),
         out_dir=out / "lightning", extra=extra, **training,
     )
     best = Path(trainer.checkpoint_callback.best_model_path or "")

@@ -5,12 +5,17 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import os
+import sys
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from omegaconf import DictConfig, OmegaConf
 
+from ..errors import OutputError
 from ..io.atomic import atomic_write_text
 from ..model.system import FreeplaySystem
 
@@ -18,7 +23,7 @@ if TYPE_CHECKING:
     from ..studies import StudyData
 
 __all__ = ["build_system", "register_configs", "study_data", "train_network", "run_dir",
-           "write_metrics", "MODEL_KINDS"]
+           "write_metrics", "writing_to", "check_run_dir", "MODEL_KINDS"]
 
 MODEL_KINDS = ("fin", "npz", "sdof")
 
@@ -143,3 +148,39 @@ def write_metrics(folder: Path, metrics: dict) -> Path:
     """Write ``metrics.json`` (atomically) and return its path."""
     return atomic_write_text(Path(folder) / "metrics.json",
                              json.dumps(metrics, indent=2, sort_keys=True))
+
+
+@contextmanager
+def writing_to(folder: Path) -> Iterator[None]:
+    """Turn an ``OSError`` of writing results (a full disk, a lost mount) into one
+    :class:`~freeplayid.errors.OutputError` line naming ``folder``."""
+    try:
+        yield
+    except OSError as e:
+        raise OutputError(f"writing the results to {str(folder)!r} failed: "
+                          f"{e.strerror or e}; nothing was saved") from None
+
+
+def check_run_dir(command: str, argv: list[str]) -> None:
+    """Exit with one line when ``hydra.run.dir=PATH`` in ``argv`` cannot be a run folder.
+
+    Hydra creates the run folder and writes ``.hydra/`` before the task runs, so a file there or
+    a folder that cannot be written would end in its traceback; a script calls this first.
+    """
+    for arg in argv[1:]:
+        key, sep, value = arg.partition("=")
+        if key.lstrip("+~") != "hydra.run.dir" or not sep or "${" in value:
+            continue
+        path = Path(value).expanduser().absolute()
+        if path.exists() and not path.is_dir():
+            sys.exit(f"{command}: output folder {str(path)!r} (hydra.run.dir) is a file, "
+                     "not a folder")
+        parent = path
+        while not parent.exists():
+            parent = parent.parent
+        if not parent.is_dir():
+            sys.exit(f"{command}: output folder {str(path)!r} (hydra.run.dir) cannot be made: "
+                     f"{str(parent)!r} is a file")
+        if not os.access(parent, os.W_OK | os.X_OK):
+            sys.exit(f"{command}: output folder {str(path)!r} (hydra.run.dir) is not "
+                     f"writable ({str(parent)!r})")

@@ -4,7 +4,8 @@ Per value of the ablation axis (noise level or clearance): the network alone, th
 from the network's estimate, a single-start fit from the centre of the priors and the
 multi-start baseline, on the same test cases (kn values never seen in training). Writes
 ``compare.csv`` (one row per case and method), ``compare.md`` (the summary table),
-``compare_errors.png``, ``compare_cost.png`` and ``metrics.json``.
+``compare_errors.png``, ``compare_cost.png`` and ``metrics.json``, all or none
+(``staged_folder``), after checking the whole configuration.
 """
 
 from __future__ import annotations
@@ -16,7 +17,9 @@ from pathlib import Path
 import numpy as np
 from omegaconf import DictConfig, OmegaConf
 
-from .common import run_dir, study_data, train_network, write_metrics
+from ..io.atomic import staged_folder
+from .checks import COMPARE, check_config
+from .common import run_dir, study_data, train_network, write_metrics, writing_to
 
 __all__ = ["compare"]
 
@@ -88,19 +91,31 @@ def compare(cfg: DictConfig) -> dict:
     """
     from hydra.utils import to_absolute_path
 
+    from ..inverse import load_inverse_model
+
+    t0 = time.perf_counter()
+    check_config(cfg, COMPARE)  # every field, before any work
+    out = run_dir()
+    ckpt = None
+    if cfg.inverse.checkpoint:
+        ckpt = Path(to_absolute_path(str(cfg.inverse.checkpoint)))
+        load_inverse_model(ckpt)  # a missing or foreign file fails before the data set is built
+    with staged_folder(out) as stage:
+        return _compare(cfg, stage, out, ckpt, t0)
+
+
+def _compare(cfg: DictConfig, stage: Path, out: Path, ckpt: Path | None, t0: float) -> dict:
     from ..fit import multistart_grid
     from ..inverse import load_inverse_model
     from ..studies import fit_cases, network_rows, summarise
 
-    t0 = time.perf_counter()
-    out = run_dir()
     data = study_data(cfg)
-    if cfg.inverse.checkpoint:
-        ckpt = Path(to_absolute_path(str(cfg.inverse.checkpoint)))
-    else:
+    if ckpt is None:
         print("no inverse.checkpoint given: training one on the cached data set")
-        ckpt = train_network(cfg, data, out)
-    model = load_inverse_model(ckpt, system=data.system)
+        model = load_inverse_model(train_network(cfg, data, stage), system=data.system)
+        ckpt = out / "checkpoint.ckpt"  # where it will be once the run completes
+    else:
+        model = load_inverse_model(ckpt, system=data.system)
     test = data.test.subset(_pick(data.test, int(cfg.compare.cases_per_value)))
     t1 = time.perf_counter()
     pred = model.predict(test)
@@ -123,17 +138,19 @@ def compare(cfg: DictConfig) -> dict:
     bounds = OmegaConf.to_container(cfg.success)
     summary = summarise(rows, success_delta=bounds["delta"], success_kn=bounds["kn"])
 
-    with open(out / "compare.csv", "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(rows)
-    with open(out / "compare_summary.csv", "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=list(summary[0]))
-        w.writeheader()
-        w.writerows(summary)
     table = _markdown(summary, axis, bounds)
-    (out / "compare.md").write_text(f"# Comparison over {axis}\n\n" + table)
-    figures = _figures(out, rows, summary, axis) if cfg.plot else []
+    print(table)  # before anything is written
+    with writing_to(out):
+        with open(stage / "compare.csv", "w", newline="") as fh:
+            w = csv.DictWriter(fh, fieldnames=list(rows[0]))
+            w.writeheader()
+            w.writerows(rows)
+        with open(stage / "compare_summary.csv", "w", newline="") as fh:
+            w = csv.DictWriter(fh, fieldnames=list(summary[0]))
+            w.writeheader()
+            w.writerows(summary)
+        (stage / "compare.md").write_text(f"# Comparison over {axis}\n\n" + table)
+        figures = _figures(stage, rows, summary, axis) if cfg.plot else []
 
     def total(method, key):
         return float(np.mean([r[key] for r in summary if r["method"] == method]))
@@ -154,8 +171,8 @@ def compare(cfg: DictConfig) -> dict:
         "figures": figures,
         "runtime_s": time.perf_counter() - t0,
     }
-    write_metrics(out, metrics)
-    print(table)
+    with writing_to(out):
+        write_metrics(stage, metrics)
     print(f"network alone within bounds: {100 * metrics['network_within_bounds']:.1f} %; "
           f"success network+fit {100 * metrics['success_network_fit']:.1f} % vs multi-start "
           f"{100 * metrics['success_multistart']:.1f} % with "

@@ -1,7 +1,8 @@
 """`identify` task: config -> :func:`freeplayid.identify` arguments, then write and draw.
 
 Writes ``identification.json``, ``report.md``, ``backbone_fit.png`` (the paper's Fig. 12),
-``residuals.png`` and ``metrics.json`` in the run folder.
+``residuals.png`` and ``metrics.json`` in the run folder, all or none (``staged_folder``); the
+configuration is checked before any work and the result printed before anything is written.
 """
 
 from __future__ import annotations
@@ -12,12 +13,14 @@ from pathlib import Path
 import numpy as np
 from omegaconf import DictConfig, OmegaConf
 
+from ..errors import ConfigError
 from ..identification import Identification, SuspectResultError
 from ..identification import identify as identify_dataset
 from ..io import DatasetError, read_dataset
-from ..io.atomic import atomic_write_text
+from ..io.atomic import atomic_write_text, staged_folder
 from ..io.result import write_identification
-from .common import run_dir, write_metrics
+from .checks import IDENTIFY, check_config
+from .common import run_dir, write_metrics, writing_to
 
 __all__ = ["identify", "bundled_example"]
 
@@ -97,18 +100,32 @@ def identify(cfg: DictConfig) -> dict:
     Raises
     ------
     freeplayid.InputError
-        A data set, model file or checkpoint problem, or data that cannot support an
-        identification; the message names the file, run or field.
+        A configuration value outside its allowed set (``ConfigError``), an output folder that
+        cannot take the results (``OutputError``), a data set, model file or checkpoint problem,
+        or data that cannot support an identification; the message names the field, file or run.
     """
-    from ..backbone import backbone_method
+    t0 = time.perf_counter()
+    check_config(cfg, IDENTIFY)  # every field, before any work
+    with staged_folder(run_dir()) as stage:
+        metrics = _identify(cfg, stage, t0)
+    # a suspect result is written whole (its report says why), then refused
+    reasons = metrics.pop("suspect_reasons", None)
+    if reasons:
+        raise SuspectResultError(f"the result is suspect: {'; '.join(reasons)} (results in "
+                                 f"{run_dir()}; allow_suspect=true accepts it)")
+    return metrics
+
+
+def _identify(cfg: DictConfig, stage: Path, t0: float) -> dict:
     from ..model import load_system
 
-    t0 = time.perf_counter()
-    backbone_method(cfg.backbone, argument="backbone")  # an unknown name fails before any work
     ds = read_dataset(_data_path(cfg))
     if ds.model is None:
         raise DatasetError(f"{ds.path}: missing field `model` (the linear model file, .npz)")
     system = load_system(ds.model)
+    if cfg.mode >= system.n_dof:
+        raise ConfigError(f"`mode` must be an integer in [0, {system.n_dof - 1}] (the model "
+                          f"{ds.model.name} has {system.n_dof} modes), got {cfg.mode!r}")
     inverse_model = _load_inverse(cfg, system)  # a wrong checkpoint fails before the extraction
     result = identify_dataset(
         ds, system=system, backbone=cfg.backbone, init=inverse_model,
@@ -121,14 +138,13 @@ def identify(cfg: DictConfig) -> dict:
     if est:
         print(f"inverse model: kn = {est['kn']:.4g} N·m/rad (x/÷ {np.exp(est['log_kn_std']):.3f})"
               f", delta = {est['delta']:.4g} rad (x/÷ {np.exp(est['log_delta_std']):.3f})")
-    print(result.summary())
+    print(result.summary())  # before anything is written: a failed write does not lose it
     out = run_dir()
-    figures = _figures(out, result) if cfg.plot else []
-    write_identification(out, result)
-    atomic_write_text(out / "report.md", result.report(figures))
+    with writing_to(out):
+        figures = _figures(stage, result) if cfg.plot else []
+        write_identification(stage, result)
+        atomic_write_text(stage / "report.md", result.report(figures))
     used = result.used_points
-    print(f"{len(used)} points, {len(result.rejected_runs)} rejected runs, "
-          f"{result.runtime_s:.1f} s -> {out}")
     fit = result.fit
     metrics = {
         "kn": result.kn, "delta": result.delta, "kn_ci95": list(result.kn_ci95),
@@ -141,10 +157,10 @@ def identify(cfg: DictConfig) -> dict:
     if result.truth_error:
         metrics.update({f"{k}_rel_error": v for k, v in result.truth_error.items()})
     metrics["verdict"] = result.verdict.status
-    write_metrics(out, metrics)
-    if not result.verdict.ok and not cfg.get("allow_suspect", False):
-        raise SuspectResultError(
-            "the result is suspect: " + "; ".join(result.verdict.reasons)
-            + f" (results written to {out}; allow_suspect=true accepts it)"
-        )
+    with writing_to(out):
+        write_metrics(stage, metrics)
+    print(f"{len(used)} points, {len(result.rejected_runs)} rejected runs, "
+          f"{result.runtime_s:.1f} s -> {out}")
+    if not result.verdict.ok and not cfg.allow_suspect:
+        metrics["suspect_reasons"] = list(result.verdict.reasons)
     return metrics

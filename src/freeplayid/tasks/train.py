@@ -4,7 +4,8 @@ Steps: build the model, simulate (or load) the sweep bank and the cases (cached 
 ``dataset.cache_dir``), split them by kn into train / validation / test, train the set network
 (Lightning, the best validation epoch kept), evaluate the network alone on the test cases per
 value of the ablation axis, and write ``checkpoint.ckpt``, ``metrics.json``,
-``learning_curves.png`` and ``predictions.png``.
+``learning_curves.png`` and ``predictions.png``, all or none (``staged_folder``), after checking
+the whole configuration.
 """
 
 from __future__ import annotations
@@ -16,7 +17,9 @@ from pathlib import Path
 import numpy as np
 from omegaconf import DictConfig, OmegaConf
 
-from .common import run_dir, study_data, train_network, write_metrics
+from ..io.atomic import staged_folder
+from .checks import TRAIN, check_config
+from .common import run_dir, study_data, train_network, write_metrics, writing_to
 
 __all__ = ["train"]
 
@@ -55,19 +58,25 @@ def train(cfg: DictConfig) -> dict:
         The metrics (also in ``metrics.json``): case counts, the data-set cache keys, and the
         network-alone errors on the held-out cases per axis value.
     """
+    t0 = time.perf_counter()
+    check_config(cfg, TRAIN)  # every field, before any work
+    with staged_folder(run_dir()) as stage:
+        return _train(cfg, stage, t0)
+
+
+def _train(cfg: DictConfig, stage: Path, t0: float) -> dict:
     from ..inverse import load_inverse_model
     from ..studies import network_metrics
 
-    t0 = time.perf_counter()
     out = run_dir()
     data = study_data(cfg)
-    ckpt = train_network(cfg, data, out)
+    ckpt = train_network(cfg, data, stage)
     model = load_inverse_model(ckpt, system=data.system)
     pred = model.predict(data.test)
-    history = json.loads((out / "history.json").read_text())
+    history = json.loads((stage / "history.json").read_text())
     axis = str(cfg.dataset.cases.axis)
     metrics = {
-        "checkpoint": str(ckpt),
+        "checkpoint": str(out / ckpt.name),  # where it is once the run completes
         "axis": axis,
         "n_train": data.train.n_cases, "n_val": data.val.n_cases, "n_test": data.test.n_cases,
         "n_dropped": data.n_dropped, "bank": data.bank_key, "cases": data.cases_key,
@@ -79,9 +88,11 @@ def train(cfg: DictConfig) -> dict:
                                    bounds=OmegaConf.to_container(cfg.network_bounds)),
     }
     if cfg.plot:
-        metrics["figures"] = _figures(out, history, data.test, pred, axis)
+        with writing_to(out):
+            metrics["figures"] = _figures(stage, history, data.test, pred, axis)
     metrics["runtime_s"] = time.perf_counter() - t0
-    write_metrics(out, metrics)
+    with writing_to(out):
+        write_metrics(stage, metrics)
     net = metrics["network"]
     print(f"test cases: {data.test.n_cases}; network alone within "
           f"{100 * cfg.network_bounds.delta:g} % in delta and {100 * cfg.network_bounds.kn:g} % "
