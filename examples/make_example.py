@@ -6,6 +6,7 @@ Five up-sweeps of the default fin (freeplayid/model/fin.yaml) at its own hinge v
 accelerations of the two measure points and of the base (control accelerometer) in g, with white
 measurement noise on every channel, a fixed seed, and the truth written into the manifest.
 The 0.4 g run stays in the gap (no resonance): the identification rejects it with its reason.
+The manifest also carries the ``reference_modes`` of the sealed fin (the zero-clearance check).
 """
 
 from __future__ import annotations
@@ -14,9 +15,10 @@ import argparse
 from pathlib import Path
 
 import numpy as np
+import yaml
 
-from freeplayid.io import Run, write_dataset
-from freeplayid.model import default_fin, default_fin_parameters
+from freeplayid.io import Run, atomic_write_text, write_dataset
+from freeplayid.model import default_fin, default_fin_parameters, modal_analysis
 from freeplayid.simulate import G, Sweep, simulate_sweeps
 
 LEVELS_G = (0.4, 0.6, 0.8, 1.0, 1.2)  # base acceleration amplitudes [g]; 0.4 g stays in the gap
@@ -61,8 +63,26 @@ def main() -> None:
         units="g", sample_rate=sample_rate, channels=CHANNELS, runs=runs, system=fin,
         base_channel="acc_base", truth=truth, float_format="%.5g", time_format="%.6f",
     )
+    add_reference_modes(manifest, fin, truth["kn"])
     size = sum(p.stat().st_size for p in out.iterdir())
     print(f"wrote {manifest} ({size / 1e6:.2f} MB)")
+
+
+def add_reference_modes(manifest: Path, fin, kn: float, n_modes: int = 3) -> None:
+    """The manifest's ``reference_modes``: the first modes of the fin with its clearance sealed
+    (the model closed at the true kn) at the two accelerometers, as a hammer test of the sealed
+    fin would give them; identify.py then runs the zero-clearance check (Table 11)."""
+    modes = modal_analysis(fin.M, fin.closed_stiffness(kn))
+    rows = fin.dof_index(list(CHANNELS.values()))
+    ref = []
+    for k in range(n_modes):
+        phi = modes.shapes[rows, k] / np.max(np.abs(modes.shapes[rows, k]))
+        ref.append({"frequency_hz": round(float(modes.frequencies_hz[k]), 3),
+                    "shape": {d: round(float(v), 4) for d, v in zip(CHANNELS.values(), phi,
+                                                                     strict=True)}})
+    m = yaml.safe_load(manifest.read_text())
+    m["reference_modes"] = {"modes": ref}
+    atomic_write_text(manifest, yaml.safe_dump(m, sort_keys=False))
 
 
 if __name__ == "__main__":
