@@ -98,6 +98,7 @@ def identify(
     n_bootstrap: int = 0,
     seed: int = 0,
     progress: bool = True,
+    replay: bool = False,
 ) -> Identification:
     """Identify (kn, delta) from a measured (or simulated) sine-sweep data set.
 
@@ -129,6 +130,11 @@ def identify(
         Bootstrap seed.
     progress : bool
         Show a progress bar over the runs.
+    replay : bool
+        Correct the fit's bias by replaying the test with the simulator at the estimate
+        (:func:`freeplayid.replay.corrected_fit`, indirect inference): the result's kn and delta
+        are then the corrected ones, the intervals shifted with them, and ``replay`` holds the
+        iterations, the levels used and each point's offset.
 
     Returns
     -------
@@ -180,7 +186,7 @@ def identify(
                        mode=int(mode), n_bootstrap=int(n_bootstrap), seed=int(seed))
     verdict = make_verdict(base_level_checks(dataset)
                            + fit_checks(points, fit, system, pts, mode=int(mode)))
-    return Identification(
+    result = Identification(
         kn=fit.kn,
         delta=fit.delta,
         kn_ci95=tuple(fit.kn_ci95),
@@ -208,4 +214,25 @@ def identify(
         },
         verdict=verdict,
         validation=_zero_clearance_check(dataset, system, fit.kn),
+    )
+    if replay:
+        result = _with_replay(result, dataset, system, backbone=backbone, extraction=extraction,
+                              use_sweep_hint=use_sweep_hint, mode=int(mode), t0=t0)
+    return result
+
+
+def _with_replay(result, dataset, system, *, t0, **fit_kwargs):
+    """``result`` with the bias-corrected (kn, delta) of :func:`freeplayid.replay.corrected_fit`;
+    the Jacobian intervals move with the estimate (same relative width)."""
+    import dataclasses
+
+    from ..replay import corrected_fit
+
+    rep = corrected_fit(dataset, system, result, fit_kwargs=fit_kwargs)
+    sk, sd = rep.kn / result.kn, rep.delta / result.delta
+    return dataclasses.replace(
+        result, kn=rep.kn, delta=rep.delta,
+        kn_ci95=tuple(v * sk for v in result.kn_ci95),
+        delta_ci95=tuple(v * sd for v in result.delta_ci95),
+        runtime_s=time.perf_counter() - t0, replay=rep,
     )

@@ -93,6 +93,7 @@ class Identification:
     truth: dict | None = None
     dataset: dict = field(default_factory=dict)
     verdict: object = None
+    replay: object = None
     validation: object | None = None
 
     @property
@@ -145,6 +146,13 @@ class Identification:
             out["checks"] = [c.to_dict() for c in self.verdict.checks]
         if self.validation is not None:
             out["validation"] = _validation_record(self.validation)
+        if self.replay is not None:
+            r = self.replay
+            out["replay"] = {
+                "kn_fit": r.kn_fit, "delta_fit": r.delta_fit, "converged": r.converged,
+                "iterations": r.iterations, "offsets": r.offsets,
+                "levels": {k: {"level_g": v[0], "source": v[1]} for k, v in r.levels.items()},
+            }
         return out
 
     def backbone_overlay(self) -> dict:
@@ -214,6 +222,19 @@ class Identification:
             for k, e in err.items():
                 lines.append(f"| {k} | {self.truth[k]:.5g} | {getattr(self, k):.5g} | "
                              f"{100 * e:+.2f} % |")
+        if self.replay is not None:
+            r = self.replay
+            lines += ["", "## Replay (bias correction by indirect inference)", "",
+                      f"Plain fit: kn = {r.kn_fit:.5g} N·m/rad, delta = {r.delta_fit:.5g} rad; "
+                      f"corrected: kn = {self.kn:.5g}, delta = {self.delta:.5g} "
+                      f"({'converged' if r.converged else '**not converged**'} after "
+                      f"{len(r.iterations)} replays).", "",
+                      "| replay | kn [N·m/rad] | delta [rad] | fit of the replay: kn | delta |",
+                      "|---|---|---|---|---|"]
+            lines += [f"| {k + 1} | {it['kn']:.5g} | {it['delta']:.5g} | {it['kn_rep']:.5g} | "
+                      f"{it['delta_rep']:.5g} |" for k, it in enumerate(r.iterations)]
+            lines += ["", "Levels: " + ", ".join(f"{run} {lv:.4g} g ({src})"
+                                                  for run, (lv, src) in r.levels.items())]
         lines += ["", "## Fitting points", "",
                   "| run | channel | f [Hz] | amplitude [mm] | used | residual [%] | reason |",
                   "|---|---|---|---|---|---|---|"]

@@ -185,7 +185,7 @@ def _identify() -> dict[str, Rule]:
         "extraction.jump_ratio": number(0.0, 1.0, open_lo=True),
         "extraction.jump_width_hz": positive(), "extraction.jump_asymmetry": positive(),
         "extraction.edge_hz": number(0.0), "extraction.min_snr_db": number(),
-        **_multistart(), "plot": boolean(), "allow_suspect": boolean(),
+        **_multistart(), "plot": boolean(), "allow_suspect": boolean(), "replay": boolean(),
     }
 
 

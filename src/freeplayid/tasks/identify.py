@@ -133,6 +133,7 @@ def _identify(cfg: DictConfig, stage: Path, t0: float) -> dict:
         use_sweep_hint=bool(cfg.use_sweep_hint),
         multistart=OmegaConf.to_container(cfg.multistart, resolve=True),
         mode=int(cfg.mode), n_bootstrap=int(cfg.n_bootstrap), seed=int(cfg.seed),
+        replay=bool(cfg.replay),
     )
     est = result.inverse_estimate
     if est:

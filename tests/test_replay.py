@@ -1,0 +1,76 @@
+"""The replay of a test against an independent integrator (tests/sdof_reference.py).
+
+The reference data are the plain-Python RK4 of the base-excited SDOF freeplay oscillator; the
+replay is the package's simulator driven only by what a data set holds (base channel, sweep
+hints, sample rate, quantity, frame, the model's damping). At the true (kn, delta) the replayed
+points must be the measured ones; the corrected fit must run through and report its iterations.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+import sdof_reference as ref
+from freeplayid import identify
+from freeplayid.io import Dataset, Run
+from freeplayid.model import sdof_system
+from freeplayid.replay import replay_dataset, replay_levels
+from freeplayid.sweep import Sweep
+
+RATE = 1.0  # [Hz/s]
+LEVELS = (0.4, 0.6, 0.8, 1.0)  # [g]; 0.4 g stays in the gap in the reference (in-gap start)
+WN = 2 * math.pi * ref.F_N
+MULTISTART = {"n": 3, "kn_range": (1e4, 1e6), "delta_range": (1e-5, 1e-3)}
+
+
+@pytest.fixture(scope="module")
+def measured():
+    sweep = Sweep(30.0, 50.0, RATE)
+    hint = {"start_hz": 30.0, "stop_hz": 50.0, "rate_hz_per_s": RATE}
+    runs = []
+    for lv in LEVELS:
+        _, _, a, ag = ref.simulate_sdof_sweep(lv, sweep)
+        t = np.arange(a.size) / ref.FS
+        runs.append(Run(file=f"s{lv:.1f}.csv", time=t, data=(a + ag)[None, :], level_g=lv,
+                        sweep=hint, base=ag))
+    return Dataset(name="reference", model=None, quantity="acceleration", units="m/s^2",
+                   sample_rate=ref.FS, channels={"acc": "x"}, runs=tuple(runs),
+                   base_channel="acc_base", truth={"kn": WN * WN, "delta": ref.DELTA})
+
+
+@pytest.fixture(scope="module")
+def system():
+    return sdof_system(mass=1.0, damping=2 * ref.ZETA * WN)
+
+
+def test_levels_come_from_the_base_channel(measured):
+    levels = replay_levels(measured)
+    for lv in LEVELS:
+        level, source = levels[f"s{lv:.1f}.csv"]
+        assert source == "base channel" and level == pytest.approx(lv, rel=1e-4)
+
+
+def test_replay_at_the_truth_reproduces_the_measured_points(measured, system):
+    plain = identify(measured, system=system, multistart=MULTISTART, progress=False)
+    rep = identify(replay_dataset(measured, system, WN * WN, ref.DELTA), system=system,
+                   multistart=MULTISTART, progress=False)
+    got = {(p.run, p.channel): p for p in rep.points.used()}
+    used = plain.points.used()
+    assert len(used) == 3  # 0.6, 0.8, 1.0 g: the 0.4 g run stays in the gap
+    for p in used:
+        q = got[(p.run, p.channel)]
+        assert q.f_hz == pytest.approx(p.f_hz, abs=0.02)  # [Hz], jump of a 1 Hz/s sweep
+        assert q.amplitude_m == pytest.approx(p.amplitude_m, rel=2e-3)
+
+
+def test_corrected_fit_reports_its_iterations(measured, system):
+    res = identify(measured, system=system, multistart=MULTISTART, progress=False, replay=True)
+    r = res.replay
+    assert r.iterations and r.iterations[0]["kn"] == pytest.approx(r.kn_fit)
+    assert set(r.levels) == {"s0.6.csv", "s0.8.csv", "s1.0.csv"}  # only the fitted runs
+    assert len(r.offsets) == 3 and all(abs(o["f_offset"]) < 5e-3 for o in r.offsets)
+    assert abs(res.truth_error["delta"]) < 0.02 and abs(res.truth_error["kn"]) < 0.01
+    rec = res.to_dict()["replay"]
+    assert rec["kn_fit"] == r.kn_fit and len(rec["iterations"]) == len(r.iterations)
+    assert "## Replay" in res.report()
