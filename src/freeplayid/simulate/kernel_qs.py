@@ -30,7 +30,7 @@ __all__ = ["NumbaQSRK4", "KERNEL_SOURCE_SHA256", "kernel_source_digest"]
 # this file goes with (tests/test_simulate_determinism.py checks it), so that a change of kernel.py
 # comes with a change of this file, which invalidates the cache; on a mismatch the kernel is
 # compiled without the cache.
-KERNEL_SOURCE_SHA256 = "6d1b4e1e500e32c214816aebfe38863b196508a6d347936427fb13f1eadc4ba4"
+KERNEL_SOURCE_SHA256 = "b88cebc77eed3e19e29aaa1210ecd36086f40384a8702981f6d491c5cad2f372"
 
 
 def kernel_source_digest() -> str:
@@ -287,13 +287,51 @@ def _fir_add2(acc_r, val, valf, gi, half, ntap, m, taps, tapsd, w0, w0d):
                     acc_r[r, c, b] = _fma(wd, valf[c, b], _fma(wk, val[c, b], acc_r[r, c, b]))
 
 
-@numba.njit(parallel=True, fastmath=FASTMATH, cache=_CACHE)
-def rk4_qs_chunk(eta, v, stp, kn, dl, lev, lam, cm, cdiag, diag, D, g, F, e, gam, S, hout, vout,
-                 mode, s_half, coef, out, col0, taps, tapsd, m, half, w0, w0d, ring, gi0):
-    # kernel.rk4_chunk with the condensed hinge moments; the fast modes' quasi-static response
-    # q = hout @ f + vout @ eta' is added to the displacement output (mode 0), else filtered
-    # through the derivative taps `tapsd` (its derivative, decimated) into the same outputs
-    N, B = eta.shape
+@numba.njit(fastmath=FASTMATH, inline="always", cache=True)
+def _record_qs(e_, w, k, fo, S, hout, vout, mode, val, valf, acc_r, gi, half, ntap, m, taps,
+               tapsd, w0, w0d):
+    # the recorded value of the step (the output quantity of the slow modes, plus the fast
+    # part q = hout @ f + vout @ eta': added as it is (mode 0), else to `valf`, whose derivative
+    # the derivative taps take) into the open outputs of the FIR ring
+    N = e_.shape[0]
+    C = S.shape[0]
+    H = fo.shape[0]
+    src = e_ if mode == 0 else (w if mode == 1 else k)
+    for c in range(C):
+        for b in range(BLOCK):
+            val[c, b] = 0.0
+        for i in range(N):
+            sc = S[c, i]
+            for b in range(BLOCK):
+                val[c, b] = _fma(sc, src[i, b], val[c, b])
+    dst = val if mode == 0 else valf
+    for c in range(C):
+        if mode != 0:
+            for b in range(BLOCK):
+                valf[c, b] = 0.0
+        for j in range(H):
+            hc = hout[c, j]
+            for b in range(BLOCK):
+                dst[c, b] = _fma(hc, fo[j, b], dst[c, b])
+        for i in range(N):
+            vc = vout[c, i]
+            for b in range(BLOCK):
+                dst[c, b] = _fma(vc, w[i, b], dst[c, b])
+    if mode == 0:
+        _fir_add(acc_r, val, gi, half, ntap, m, taps, w0)
+    else:
+        _fir_add2(acc_r, val, valf, gi, half, ntap, m, taps, tapsd, w0, w0d)
+
+
+@numba.njit(nogil=True, fastmath=FASTMATH, cache=_CACHE)
+def rk4_qs_chunk(blk0, blk1, eta, v, stp, kn, dl, lev, lam, cm, cdiag, diag, D, g, F, e, gam,
+                 S, hout, vout, mode, s_half, coef, out, col0, taps, tapsd, m, half, w0, w0d, ring,
+                 gi0):
+    # kernel.rk4_chunk (blocks blk0 .. blk1 - 1) with the condensed hinge moments; the fast
+    # modes' quasi-static response q = hout @ f + vout @ eta' is added to the displacement
+    # output (mode 0), else filtered through the derivative taps `tapsd` (its derivative,
+    # decimated) into the same outputs
+    N = eta.shape[0]
     H = D.shape[1]
     C = S.shape[0]
     L = (s_half.shape[0] - 1) // 2
@@ -301,8 +339,7 @@ def rk4_qs_chunk(eta, v, stp, kn, dl, lev, lam, cm, cdiag, diag, D, g, F, e, gam
     ntap = taps.shape[0]
     dt = eta.dtype
     tol = coef[4]
-    nblk = (B + BLOCK - 1) // BLOCK
-    for blk in numba.prange(nblk):
+    for blk in range(blk0, blk1):
         b0 = blk * BLOCK
         e_ = np.empty((N, BLOCK), dt)
         w = np.empty((N, BLOCK), dt)
@@ -343,65 +380,38 @@ def rk4_qs_chunk(eta, v, stp, kn, dl, lev, lam, cm, cdiag, diag, D, g, F, e, gam
         h6 = coef[2]
         two = coef[3]
         for step in range(L):
-            s0 = s_half[2 * step]
-            s1 = s_half[2 * step + 1]
-            s2 = s_half[2 * step + 2]
-            _accel_qs(e_, w, s0, knb, dlb, lvb, lam, cm, cdiag, diag, D, g, F, e, gam, st, cc, fo,
-                      k, A, tv, A3, T, bad, tol)
-            src = e_ if mode == 0 else (w if mode == 1 else k)
-            for c in range(C):
-                for b in range(BLOCK):
-                    val[c, b] = 0.0
-                for i in range(N):
-                    sc = S[c, i]
-                    for b in range(BLOCK):
-                        val[c, b] = _fma(sc, src[i, b], val[c, b])
-            dst = val if mode == 0 else valf
-            for c in range(C):
-                if mode != 0:
-                    for b in range(BLOCK):
-                        valf[c, b] = 0.0
-                for j in range(H):
-                    hc = hout[c, j]
-                    for b in range(BLOCK):
-                        dst[c, b] = _fma(hc, fo[j, b], dst[c, b])
-                for i in range(N):
-                    vc = vout[c, i]
-                    for b in range(BLOCK):
-                        dst[c, b] = _fma(vc, w[i, b], dst[c, b])
-            if mode == 0:
-                _fir_add(acc_r, val, gi0 + step, half, ntap, m, taps, w0)
-            else:
-                _fir_add2(acc_r, val, valf, gi0 + step, half, ntap, m, taps, tapsd, w0, w0d)
-            n_emit += _fir_emit(acc_r, gi0 + step, half, ntap, m, out, col0 + n_emit, b0)
-            for i in range(N):
-                for b in range(BLOCK):
-                    se[i, b] = w[i, b]
-                    sv[i, b] = k[i, b]
-                    et[i, b] = _fma(h2, w[i, b], e_[i, b])
-                    vt[i, b] = _fma(h2, k[i, b], w[i, b])
-            _accel_qs(et, vt, s1, knb, dlb, lvb, lam, cm, cdiag, diag, D, g, F, e, gam, st, cc, fo,
-                      k, A, tv, A3, T, bad, tol)
-            for i in range(N):
-                for b in range(BLOCK):
-                    se[i, b] = _fma(two, vt[i, b], se[i, b])
-                    sv[i, b] = _fma(two, k[i, b], sv[i, b])
-                    et[i, b] = _fma(h2, vt[i, b], e_[i, b])
-                    vt[i, b] = _fma(h2, k[i, b], w[i, b])
-            _accel_qs(et, vt, s1, knb, dlb, lvb, lam, cm, cdiag, diag, D, g, F, e, gam, st, cc, fo,
-                      k, A, tv, A3, T, bad, tol)
-            for i in range(N):
-                for b in range(BLOCK):
-                    se[i, b] = _fma(two, vt[i, b], se[i, b])
-                    sv[i, b] = _fma(two, k[i, b], sv[i, b])
-                    et[i, b] = _fma(h, vt[i, b], e_[i, b])
-                    vt[i, b] = _fma(h, k[i, b], w[i, b])
-            _accel_qs(et, vt, s2, knb, dlb, lvb, lam, cm, cdiag, diag, D, g, F, e, gam, st, cc, fo,
-                      k, A, tv, A3, T, bad, tol)
-            for i in range(N):
-                for b in range(BLOCK):
-                    e_[i, b] = _fma(h6, (se[i, b] + vt[i, b]), e_[i, b])
-                    w[i, b] = _fma(h6, (sv[i, b] + k[i, b]), w[i, b])
+            # the four RK4 stages as one loop around one copy of the (large) stage code: the same
+            # operations in the same order as four written-out stages, a quarter of the code to
+            # compile (docs/simulate.md, "Compile time")
+            for stage in range(4):
+                x = e_ if stage == 0 else et
+                y = w if stage == 0 else vt
+                s = s_half[2 * step + (stage + 1) // 2]
+                _accel_qs(x, y, s, knb, dlb, lvb, lam, cm, cdiag, diag, D, g, F, e, gam, st, cc,
+                          fo, k, A, tv, A3, T, bad, tol)
+                if stage == 0:
+                    _record_qs(e_, w, k, fo, S, hout, vout, mode, val, valf, acc_r, gi0 + step,
+                               half, ntap, m, taps, tapsd, w0, w0d)
+                    n_emit += _fir_emit(acc_r, gi0 + step, half, ntap, m, out, col0 + n_emit, b0)
+                    for i in range(N):
+                        for b in range(BLOCK):
+                            se[i, b] = w[i, b]
+                            sv[i, b] = k[i, b]
+                            et[i, b] = _fma(h2, w[i, b], e_[i, b])
+                            vt[i, b] = _fma(h2, k[i, b], w[i, b])
+                elif stage < 3:
+                    a = h2 if stage == 1 else h
+                    for i in range(N):
+                        for b in range(BLOCK):
+                            se[i, b] = _fma(two, vt[i, b], se[i, b])
+                            sv[i, b] = _fma(two, k[i, b], sv[i, b])
+                            et[i, b] = _fma(a, vt[i, b], e_[i, b])
+                            vt[i, b] = _fma(a, k[i, b], w[i, b])
+                else:
+                    for i in range(N):
+                        for b in range(BLOCK):
+                            e_[i, b] = _fma(h6, (se[i, b] + vt[i, b]), e_[i, b])
+                            w[i, b] = _fma(h6, (sv[i, b] + k[i, b]), w[i, b])
         for i in range(N):
             for b in range(BLOCK):
                 eta[i, b0 + b] = e_[i, b]
@@ -438,10 +448,10 @@ class NumbaQSRK4(NumbaRK4):
         self.coef = a(list(self.coef[:4]) + [tol])
 
     def _kernel(self, s_half, out, col0, m, half, gi0):
-        rk4_qs_chunk(
+        self._call(rk4_qs_chunk, "quasi-static model", (
             self.eta, self.v, self.st, self.kn, self.dl, self.lev, self.lam, self.cm, self.cdiag,
             self.diag, self.D, self.g, self.F, self.e, self.gam, self.S, self.hout,
             self.vout, self.mode,
             np.asarray(s_half, dtype=self.nd), self.coef, out, col0, self.taps, self.taps_d, m,
             half, self.w0, self.w0d, self.ring, gi0,
-        )
+        ))

@@ -1,0 +1,160 @@
+"""Cold-compile CPU time of the numba kernels: what a fresh environment pays once.
+
+    python benchmarks/compile.py                 # the kernels the default commands compile
+    python benchmarks/compile.py --all           # every kernel and dtype
+    python benchmarks/compile.py --commands      # + the default commands' simulations, end to end
+
+Every row runs in a subprocess with an empty ``NUMBA_CACHE_DIR`` (a cold compile) and reports the
+CPU time (``time.process_time`` of the subprocess: every thread, not the wall clock, so a loaded
+machine does not inflate it) of the kernel's first call on the default fin (batch 64, a 0.01 s
+segment: the run itself is a few ms), then the same in a second subprocess that loads the cache
+it left. The ``--commands`` rows time ``simulate_sweeps`` with the arguments of
+``scripts/simulate.py`` (default, ``quasi_static_hz=1000``) and of the bank of ``scripts/train.py
+debug=fast`` on a short segment, cold and from the cache, and list what was compiled.
+
+Which kernels the commands compile (``scripts/identify.py`` simulates nothing):
+
+- ``scripts/simulate.py`` (float32, acceleration, absolute): the full-model kernel and the
+  base-term pass (``assemble._add``), float32;
+- ``scripts/simulate.py quasi_static_hz=1000``: the quasi-static kernel and ``assemble._add``;
+- ``scripts/train.py debug=fast`` (bank: float32, acceleration, relative, full model): the
+  full-model kernel, float32 (the relative frame has no base terms: no ``assemble._add``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import textwrap
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+CHILD = textwrap.dedent("""
+    import json, sys, time
+    import numpy as np
+    case = json.loads(sys.argv[1])
+    from freeplayid.model import default_fin
+    t0 = time.process_time()
+    if case["what"] == "command":
+        import torch
+        from freeplayid.simulate import Sweep, simulate_sweeps
+        kw = dict(case["kw"])
+        kw["dtype"] = getattr(torch, kw["dtype"])
+        system = default_fin()
+        t0 = time.process_time()
+        simulate_sweeps(system, kn=480.0, delta=3e-3, level_g=[0.6, 1.0],
+                        sweep=Sweep(40.0, 40.1, 10.0), progress=False, engine="numba", **kw)
+    elif case["what"] == "assemble":
+        from freeplayid.simulate.assemble import add_base_terms
+        y = np.zeros((2, 2, 100), dtype=case["dtype"])
+        t0 = time.process_time()
+        add_base_terms(y, base_coef=[1.0, 2.0], static_coef=[0.5, 0.1],
+                       base=np.ones((2, 100)), level_g=[1.0, 2.0])
+    else:
+        from freeplayid.simulate import build_modal_form
+        from freeplayid.simulate.quasistatic import condense_modal_form
+        from freeplayid.simulate.resample import derivative_taps, design_decimator
+        from freeplayid.simulate.engines import MODES
+        from freeplayid.simulate.kernel import NumbaRK4
+        from freeplayid.simulate.kernel_qs import NumbaQSRK4
+        q = case["quantity"]
+        form = build_modal_form(default_fin(), channels=("uz_top_left", "uz_lower_right"),
+                                quantity=q, frame="absolute", kn_max=480.0)
+        m, h, B = 4, 1e-4, 64
+        z = np.zeros((B, form.n_modes))
+        kw = dict(h=h, quantity=q, dtype=getattr(np, case["dtype"]), taps=design_decimator(m),
+                  factor=m)
+        if case["what"] == "qs":
+            qf = condense_modal_form(form, threshold_hz=1000.0, quantity=q, kn_max=480.0)
+            z = np.zeros((B, qf.slow.n_modes))
+            if q != "displacement":
+                kw["taps"], kw["taps_d"] = derivative_taps(kw["taps"], m, h, MODES[q])
+            eng = NumbaQSRK4(qf, np.full(B, 480.0), np.full(B, 3e-3), np.ones(B), z, z, **kw)
+        else:
+            eng = NumbaRK4(form, np.full(B, 480.0), np.full(B, 3e-3), np.ones(B), z, z, **kw)
+        s = np.sin(np.linspace(0.0, 1.0, 201))
+        t0 = time.process_time()
+        eng.run(s)
+    cpu = time.process_time() - t0
+    from numba.core.registry import CPUDispatcher
+    import gc
+    sigs = {}
+    for o in gc.get_objects():
+        if isinstance(o, CPUDispatcher) and o.signatures and o.__module__.startswith("freeplayid"):
+            sigs[o.__module__.split(".")[-1] + "." + o.__name__] = len(o.signatures)
+    print(json.dumps({"cpu": cpu, "sigs": sigs}))
+""")
+
+
+def run_case(case: dict, cache: str) -> dict:
+    path = os.pathsep.join([str(ROOT / "src"), os.environ.get("PYTHONPATH", "")])
+    env = {**os.environ, "NUMBA_CACHE_DIR": cache, "PYTHONPATH": path}
+    p = subprocess.run([sys.executable, "-c", CHILD, json.dumps(case)], env=env, cwd=ROOT,
+                       capture_output=True, text=True)
+    if p.returncode:
+        raise RuntimeError(p.stderr)
+    return json.loads(p.stdout.strip().splitlines()[-1])
+
+
+def measure(case: dict) -> tuple[float, float, dict]:
+    """(cold CPU s, cached CPU s, compiled signatures) of one case."""
+    with tempfile.TemporaryDirectory() as cache:
+        cold = run_case(case, cache)
+        warm = run_case(case, cache)
+    return cold["cpu"], warm["cpu"], cold["sigs"]
+
+
+KERNELS = {  # name -> case
+    "full model, float32": dict(what="full", dtype="float32", quantity="acceleration"),
+    "quasi-static, float32": dict(what="qs", dtype="float32", quantity="acceleration"),
+    "base terms (assemble), float32": dict(what="assemble", dtype="float32"),
+    "full model, float64": dict(what="full", dtype="float64", quantity="acceleration"),
+    "quasi-static, float64": dict(what="qs", dtype="float64", quantity="acceleration"),
+    "base terms (assemble), float64": dict(what="assemble", dtype="float64"),
+}
+DEFAULT = list(KERNELS)[:3]
+CH = ["uz_top_left", "uz_lower_right"]
+COMMANDS = {
+    "scripts/simulate.py": dict(what="command", kw=dict(
+        dtype="float32", quantity="acceleration", frame="absolute", channels=CH,
+        sample_rate=512.0)),
+    "scripts/simulate.py quasi_static_hz=1000": dict(what="command", kw=dict(
+        dtype="float32", quantity="acceleration", frame="absolute", channels=CH,
+        sample_rate=512.0, quasi_static_hz=1000.0)),
+    "scripts/train.py debug=fast (bank)": dict(what="command", kw=dict(
+        dtype="float32", quantity="acceleration", frame="relative", channels=CH,
+        sample_rate=256.0)),
+}
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--all", action="store_true", help="float64 and every kernel too")
+    p.add_argument("--commands", action="store_true", help="also the commands, end to end")
+    p.add_argument("--only", nargs="*", default=None, help="row names (substrings) to run")
+    args = p.parse_args()
+    cases = {k: KERNELS[k] for k in (KERNELS if args.all else DEFAULT)}
+    if args.commands:
+        cases.update(COMMANDS)
+    if args.only is not None:
+        cases = {k: v for k, v in cases.items() if any(s in k for s in args.only)}
+    print(f"python {sys.version.split()[0]}, numba {__import__('numba').__version__}, "
+          f"{os.cpu_count()} CPUs; CPU seconds of the first call, in a fresh process")
+    print(f"{'kernel / command':44s} {'cold [s]':>9s} {'cached [s]':>10s}  compiled (signatures)")
+    total = 0.0
+    for name, case in cases.items():
+        cold, warm, sigs = measure(case)
+        if case["what"] != "command":
+            total += cold - warm
+        what = ", ".join(f"{k} x{v}" for k, v in sorted(sigs.items()))
+        print(f"{name:44s} {cold:9.1f} {warm:10.2f}  {what}", flush=True)
+    print(f"{'total of the kernel rows (cold - cached)':44s} {total:9.1f}")
+
+
+if __name__ == "__main__":
+    main()
