@@ -24,6 +24,7 @@ from llvmlite import ir
 from numba.core import event, types
 from numba.core.extending import intrinsic
 
+from .cache import CACHE
 from .engines import BLOWUP, MODES
 from .formulation import ModalForm
 
@@ -64,7 +65,7 @@ def _fma(typingctx, a, b, c):
     return a(a, b, c), codegen
 
 
-@numba.njit(fastmath=FASTMATH, inline="always", cache=True)
+@numba.njit(fastmath=FASTMATH, inline="always", cache=CACHE)
 def _accel(eta, v, s, kn, dl, lev, lam, cm, cdiag, diag, D, g, th, acc):
     N, H = D.shape
     for j in range(H):
@@ -104,7 +105,7 @@ def _accel(eta, v, s, kn, dl, lev, lam, cm, cdiag, diag, D, g, th, acc):
 # boundary changes nothing. Shared by both kernels (kernel_qs.py).
 
 
-@numba.njit(fastmath=FASTMATH, inline="always", cache=True)
+@numba.njit(fastmath=FASTMATH, inline="always", cache=CACHE)
 def _ring_load(ring, acc_r, b0):
     """Open outputs of the member block starting at b0: ring -> acc_r (R, channels, BLOCK)."""
     for r in range(acc_r.shape[0]):
@@ -113,7 +114,7 @@ def _ring_load(ring, acc_r, b0):
                 acc_r[r, c, b] = ring[r, c, b0 + b]
 
 
-@numba.njit(fastmath=FASTMATH, inline="always", cache=True)
+@numba.njit(fastmath=FASTMATH, inline="always", cache=CACHE)
 def _ring_store(ring, acc_r, b0):
     """Open outputs back to the ring for the next chunk: acc_r -> ring."""
     for r in range(acc_r.shape[0]):
@@ -122,7 +123,7 @@ def _ring_store(ring, acc_r, b0):
                 ring[r, c, b0 + b] = acc_r[r, c, b]
 
 
-@numba.njit(fastmath=FASTMATH, inline="always", cache=True)
+@numba.njit(fastmath=FASTMATH, inline="always", cache=CACHE)
 def _fir_add(acc_r, val, gi, half, ntap, m, taps, w0):
     """Add the recorded value of global step ``gi`` to its open outputs.
 
@@ -148,7 +149,7 @@ def _fir_add(acc_r, val, gi, half, ntap, m, taps, w0):
                     acc_r[r, c, b] = _fma(wk, val[c, b], acc_r[r, c, b])
 
 
-@numba.njit(fastmath=FASTMATH, inline="always", cache=True)
+@numba.njit(fastmath=FASTMATH, inline="always", cache=CACHE)
 def _fir_emit(acc_r, gi, half, ntap, m, out, col, b0):
     """Emit the output that step ``gi`` completed, if any, to ``out[b0 + b, c, col]``.
 
@@ -172,7 +173,7 @@ def _fir_emit(acc_r, gi, half, ntap, m, out, col, b0):
     return 1
 
 
-@numba.njit(nogil=True, fastmath=FASTMATH, cache=True)
+@numba.njit(nogil=True, fastmath=FASTMATH, cache=CACHE)
 def rk4_chunk(blk0, blk1, eta, v, kn, dl, lev, lam, cm, cdiag, diag, D, g, S, mode, s_half, coef,
               out, col0, taps, m, half, w0, ring, gi0):
     # RK4 steps gi0 .. gi0 + L - 1 of the member blocks blk0 .. blk1 - 1 (members

@@ -19,6 +19,7 @@ import numba
 import numpy as np
 
 from . import kernel
+from .cache import CACHE
 from .kernel import BLOCK, FASTMATH, NumbaRK4, _fir_add, _fir_emit, _fma, _ring_load, _ring_store
 from .quasistatic import QuasiStaticForm
 
@@ -30,7 +31,7 @@ __all__ = ["NumbaQSRK4", "KERNEL_SOURCE_SHA256", "kernel_source_digest"]
 # this file goes with (tests/test_simulate_determinism.py checks it), so that a change of kernel.py
 # comes with a change of this file, which invalidates the cache; on a mismatch the kernel is
 # compiled without the cache.
-KERNEL_SOURCE_SHA256 = "b88cebc77eed3e19e29aaa1210ecd36086f40384a8702981f6d491c5cad2f372"
+KERNEL_SOURCE_SHA256 = "66f9023682b6d3186036c83de72ef29135af1ea8465a7c1e1d7eb0c57426aadb"
 
 
 def kernel_source_digest() -> str:
@@ -42,8 +43,8 @@ def kernel_source_digest() -> str:
     return hashlib.sha256(src.replace(b"\r\n", b"\n")).hexdigest()
 
 
-_CACHE = kernel_source_digest() == KERNEL_SOURCE_SHA256
-if not _CACHE:
+_CACHE = CACHE and kernel_source_digest() == KERNEL_SOURCE_SHA256
+if CACHE and not _CACHE:
     warnings.warn(
         "kernel.py does not match kernel_qs.KERNEL_SOURCE_SHA256: the quasi-static kernel is "
         "compiled without numba's on-disk cache (update the digest to "
@@ -53,7 +54,7 @@ if not _CACHE:
     )
 
 
-@numba.njit(fastmath=FASTMATH, inline="always", cache=True)
+@numba.njit(fastmath=FASTMATH, inline="always", cache=CACHE)
 def _solve_state(F, c, st, b, kn, d, A, tv):
     # (I + kn F P) theta = c + kn F P s delta, P = diag|s|: elimination without pivoting (the
     # leading minors are >= 1), result in tv
@@ -80,7 +81,7 @@ def _solve_state(F, c, st, b, kn, d, A, tv):
         tv[i] = r / A[i, i]
 
 
-@numba.njit(fastmath=FASTMATH, inline="always", cache=True)
+@numba.njit(fastmath=FASTMATH, inline="always", cache=CACHE)
 def _solve_block(F, c, st, kn, dl, A3, T):
     # _solve_state for every member of the block at once (each in its own state), vectorised
     # over the members: the elimination has no pivoting, so no branch
@@ -111,7 +112,7 @@ def _solve_block(F, c, st, kn, dl, A3, T):
             T[i, b] = r / A3[i, i, b]
 
 
-@numba.njit(fastmath=FASTMATH, inline="always", cache=True)
+@numba.njit(fastmath=FASTMATH, inline="always", cache=CACHE)
 def _violation(x, s, d, e):
     # how far theta = x violates contact state s (open |x| <= d, closed s x >= d), tolerance e;
     # branch-free, 0 when consistent
@@ -119,7 +120,7 @@ def _violation(x, s, d, e):
     return (1.0 - p) * max(abs(x) - d - e, 0.0) + p * max(d - e - s * x, 0.0)
 
 
-@numba.njit(fastmath=FASTMATH, inline="always", cache=True)
+@numba.njit(fastmath=FASTMATH, inline="always", cache=CACHE)
 def _solve_block2(F, c, st, kn, dl, T, bad, tol):
     # _solve_block and the violation check of _hinge_states for two hinges, one pass over the
     # members with the 2 x 2 system in registers: the same operations in the same order, so the
@@ -157,7 +158,7 @@ def _solve_block2(F, c, st, kn, dl, T, bad, tol):
         bad[b] = v + _violation(t1, s1, d, tol * (d + abs(c1)))
 
 
-@numba.njit(fastmath=FASTMATH, inline="always", cache=True)
+@numba.njit(fastmath=FASTMATH, inline="always", cache=CACHE)
 def _consistent(tv, c, st, b, d, tol):
     H = tv.shape[0]
     ok = True
@@ -174,26 +175,26 @@ def _consistent(tv, c, st, b, d, tol):
     return ok
 
 
-@numba.njit(fastmath=FASTMATH, inline="always", cache=True)
-def _hinge_states(F, c, st, kn, dl, A, tv, A3, T, bad, tol):
-    # solution T of (QS) and its contact state st (updated in place) for every member
+@numba.njit(fastmath=FASTMATH, inline="never", cache=CACHE)
+def _solve_block_h(F, c, st, kn, dl, A3, T, bad, tol):
+    # _solve_block and the violations for h != 2 hinges. Not inlined (nor _active_set): a
+    # function of its own is compiled once, not as part of the kernel, which saves 1.5 s and 4 s
+    # of the quasi-static kernel's cold compile (float32; docs/simulate.md, "Compile time"), for
+    # a call per stage and block (the default fin's two hinges take _solve_block2, inlined)
     H = F.shape[0]
-    # every member in its previous contact state (vectorised); the few whose state changed (the
-    # solution is inconsistent with it) go through the scalar active set
-    if H == 2:
-        _solve_block2(F, c, st, kn, dl, T, bad, tol)
-    else:
-        _solve_block(F, c, st, kn, dl, A3, T)
+    _solve_block(F, c, st, kn, dl, A3, T)
+    for b in range(BLOCK):
+        bad[b] = 0.0
+    for j in range(H):
         for b in range(BLOCK):
-            bad[b] = 0.0
-        for j in range(H):
-            for b in range(BLOCK):
-                bad[b] += _violation(T[j, b], st[j, b], dl[b], tol * (dl[b] + abs(c[j, b])))
-    nbad = 0.0
-    for b in range(BLOCK):  # a loop of its own: a reduction (no reassociation) inside the ones
-        nbad += bad[b]      # above would keep them from being vectorised
-    if nbad == 0.0:
-        return
+            bad[b] += _violation(T[j, b], st[j, b], dl[b], tol * (dl[b] + abs(c[j, b])))
+
+
+@numba.njit(fastmath=FASTMATH, inline="never", cache=CACHE)
+def _active_set(F, c, st, kn, dl, A, tv, T, bad, tol):
+    # the scalar active set of _hinge_states for the members whose state changed (bad != 0):
+    # semismooth Newton from the previous state, the exhaustive search as the fallback
+    H = F.shape[0]
     for b in range(BLOCK):
         if bad[b] == 0.0:
             continue
@@ -224,7 +225,26 @@ def _hinge_states(F, c, st, kn, dl, A, tv, A3, T, bad, tol):
             T[j, b] = tv[j]
 
 
-@numba.njit(fastmath=FASTMATH, inline="always", cache=True)
+
+@numba.njit(fastmath=FASTMATH, inline="always", cache=CACHE)
+def _hinge_states(F, c, st, kn, dl, A, tv, A3, T, bad, tol):
+    # solution T of (QS) and its contact state st (updated in place) for every member
+    H = F.shape[0]
+    # every member in its previous contact state (vectorised); the few whose state changed (the
+    # solution is inconsistent with it) go through the scalar active set
+    if H == 2:
+        _solve_block2(F, c, st, kn, dl, T, bad, tol)
+    else:
+        _solve_block_h(F, c, st, kn, dl, A3, T, bad, tol)
+    nbad = 0.0
+    for b in range(BLOCK):  # a loop of its own: a reduction (no reassociation) inside the ones
+        nbad += bad[b]      # above would keep them from being vectorised
+    if nbad == 0.0:
+        return
+    _active_set(F, c, st, kn, dl, A, tv, T, bad, tol)
+
+
+@numba.njit(fastmath=FASTMATH, inline="always", cache=CACHE)
 def _accel_qs(eta, v, s, kn, dl, lev, lam, cm, cdiag, diag, D, g, F, e, gam, st, c, fo, acc, A,
               tv, A3, T, bad, tol):
     N, H = D.shape
@@ -262,7 +282,7 @@ def _accel_qs(eta, v, s, kn, dl, lev, lam, cm, cdiag, diag, D, g, F, e, gam, st,
                 acc[i, b] = _fma(-dd, fo[j, b], acc[i, b])
 
 
-@numba.njit(fastmath=FASTMATH, inline="always", cache=True)
+@numba.njit(fastmath=FASTMATH, inline="always", cache=CACHE)
 def _fir_add2(acc_r, val, valf, gi, half, ntap, m, taps, tapsd, w0, w0d):
     # kernel._fir_add of val through `taps` plus valf through `tapsd` (the fast part, whose
     # derivative the derivative taps take), in one pass over the open outputs
@@ -287,7 +307,7 @@ def _fir_add2(acc_r, val, valf, gi, half, ntap, m, taps, tapsd, w0, w0d):
                     acc_r[r, c, b] = _fma(wd, valf[c, b], _fma(wk, val[c, b], acc_r[r, c, b]))
 
 
-@numba.njit(fastmath=FASTMATH, inline="always", cache=True)
+@numba.njit(fastmath=FASTMATH, inline="always", cache=CACHE)
 def _record_qs(e_, w, k, fo, S, hout, vout, mode, val, valf, acc_r, gi, half, ntap, m, taps,
                tapsd, w0, w0d):
     # the recorded value of the step (the output quantity of the slow modes, plus the fast
