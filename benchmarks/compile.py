@@ -3,12 +3,14 @@
     python benchmarks/compile.py                 # the kernels the default commands compile
     python benchmarks/compile.py --all           # every kernel and dtype
     python benchmarks/compile.py --commands      # + the default commands' simulations, end to end
+    python benchmarks/compile.py --baseline REV  # before/after: REV's src/ (git archive), same run
 
 Every row runs in a subprocess with an empty ``NUMBA_CACHE_DIR`` (a cold compile) and reports the
 CPU time (``time.process_time`` of the subprocess: every thread, not the wall clock, so a loaded
 machine does not inflate it) of the kernel's first call on the default fin (batch 64, a 0.01 s
 segment: the run itself is a few ms), then the same in a second subprocess that loads the cache
-it left. The ``--commands`` rows time ``simulate_sweeps`` with the arguments of
+it left. With ``--baseline REV`` every row is measured for REV's ``src/`` too, alternating with
+this checkout's. The ``--commands`` rows time ``simulate_sweeps`` with the arguments of
 ``scripts/simulate.py`` (default, ``quasi_static_hz=1000``) and of the bank of ``scripts/train.py
 debug=fast`` on a short segment, cold and from the cache, and list what was compiled.
 
@@ -91,8 +93,8 @@ CHILD = textwrap.dedent("""
 """)
 
 
-def run_case(case: dict, cache: str) -> dict:
-    path = os.pathsep.join([str(ROOT / "src"), os.environ.get("PYTHONPATH", "")])
+def run_case(case: dict, cache: str, src: Path) -> dict:
+    path = os.pathsep.join([str(src), os.environ.get("PYTHONPATH", "")])
     env = {**os.environ, "NUMBA_CACHE_DIR": cache, "PYTHONPATH": path}
     p = subprocess.run([sys.executable, "-c", CHILD, json.dumps(case)], env=env, cwd=ROOT,
                        capture_output=True, text=True)
@@ -101,12 +103,20 @@ def run_case(case: dict, cache: str) -> dict:
     return json.loads(p.stdout.strip().splitlines()[-1])
 
 
-def measure(case: dict) -> tuple[float, float, dict]:
-    """(cold CPU s, cached CPU s, compiled signatures) of one case."""
+def measure(case: dict, src: Path) -> tuple[float, float, dict]:
+    """(cold CPU s, cached CPU s, compiled signatures) of one case, the package from ``src``."""
     with tempfile.TemporaryDirectory() as cache:
-        cold = run_case(case, cache)
-        warm = run_case(case, cache)
+        cold = run_case(case, cache, src)
+        warm = run_case(case, cache, src)
     return cold["cpu"], warm["cpu"], cold["sigs"]
+
+
+def export_src(rev: str, dest: str) -> Path:
+    """``src/`` of git revision ``rev`` of this checkout, extracted under ``dest``."""
+    tar = subprocess.run(["git", "archive", rev, "src"], cwd=ROOT, capture_output=True,
+                         check=True).stdout
+    subprocess.run(["tar", "-x", "-C", dest], input=tar, check=True)
+    return Path(dest) / "src"
 
 
 KERNELS = {  # name -> case
@@ -137,24 +147,45 @@ def main() -> None:
     p.add_argument("--all", action="store_true", help="float64 and every kernel too")
     p.add_argument("--commands", action="store_true", help="also the commands, end to end")
     p.add_argument("--only", nargs="*", default=None, help="row names (substrings) to run")
+    p.add_argument("--baseline", default=None, metavar="REV",
+                   help="also measure git revision REV's src/ (before/after, alternating)")
     args = p.parse_args()
     cases = {k: KERNELS[k] for k in (KERNELS if args.all else DEFAULT)}
     if args.commands:
         cases.update(COMMANDS)
     if args.only is not None:
         cases = {k: v for k, v in cases.items() if any(s in k for s in args.only)}
-    print(f"python {sys.version.split()[0]}, numba {__import__('numba').__version__}, "
-          f"{os.cpu_count()} CPUs; CPU seconds of the first call, in a fresh process")
-    print(f"{'kernel / command':44s} {'cold [s]':>9s} {'cached [s]':>10s}  compiled (signatures)")
-    total = 0.0
-    for name, case in cases.items():
-        cold, warm, sigs = measure(case)
-        if case["what"] != "command":
-            total += cold - warm
-        what = ", ".join(f"{k} x{v}" for k, v in sorted(sigs.items()))
-        print(f"{name:44s} {cold:9.1f} {warm:10.2f}  {what}", flush=True)
-    print(f"{'total of the kernel rows (cold - cached)':44s} {total:9.1f}")
+    with tempfile.TemporaryDirectory() as tmp:
+        srcs = {"": ROOT / "src"}
+        if args.baseline:
+            srcs = {args.baseline: export_src(args.baseline, tmp), "this checkout": ROOT / "src"}
+        print(f"python {sys.version.split()[0]}, numba {__import__('numba').__version__}, "
+              f"{os.cpu_count()} CPUs ({cpu_name()}); CPU seconds of the first call in a fresh "
+              f"process, empty cache (cold) and the cache it left (cached)")
+        w = max(len(k) for k in srcs)
+        print(f"{'kernel / command':40s} {'':{w}s} {'cold [s]':>9s} {'cached [s]':>10s}  "
+              f"compiled (signatures)")
+        total = dict.fromkeys(srcs, 0.0)
+        for name, case in cases.items():
+            for rev, src in srcs.items():
+                cold, warm, sigs = measure(case, src)
+                if case["what"] != "command":
+                    total[rev] += cold - warm
+                what = ", ".join(f"{k} x{v}" for k, v in sorted(sigs.items()))
+                print(f"{name:40s} {rev:{w}s} {cold:9.1f} {warm:10.2f}  {what}", flush=True)
+        for rev in srcs:
+            print(f"{'total of the kernel rows (cold - cached)':40s} {rev:{w}s} "
+                  f"{total[rev]:9.1f}")
 
+
+def cpu_name() -> str:
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return "unknown CPU"
 
 if __name__ == "__main__":
     main()

@@ -2,10 +2,10 @@
 
 Layout: every per-member array is (N, batch) with the batch innermost, so each line of a step is
 a loop over contiguous members that LLVM vectorises (SIMD lanes = members). Blocks of ``BLOCK``
-members run the whole chunk in one thread (their state stays in L1 cache); the kernel takes a
-range of blocks and releases the GIL, and :func:`run_blocks` spreads the blocks over threads
-(not ``parallel=True``: its parfor lowering compiled the kernel body twice, 2.5x the compile
-time; docs/simulate.md, "Compile time"). The step is fused: no temporaries leave the block.
+members run the whole chunk in one thread (their state stays in L1 cache); blocks are spread
+over threads with ``prange``. The step is fused: no temporaries leave the block. The four RK4
+stages are one loop around one copy of the stage code (a quarter of the code to compile; docs/
+simulate.md, "Compile time").
 
 numba is optional: this module imports it, so import it only after
 :func:`.engines.numba_available` says yes (the simulator falls back to the torch engine).
@@ -14,9 +14,7 @@ numba is optional: this module imports it, so import it only after
 from __future__ import annotations
 
 import sys
-import threading
 import time
-from concurrent.futures import ThreadPoolExecutor
 
 import numba
 import numpy as np
@@ -28,7 +26,7 @@ from .cache import CACHE
 from .engines import BLOWUP, MODES
 from .formulation import ModalForm
 
-__all__ = ["NumbaRK4", "FASTMATH", "run_blocks", "compile_kernel"]
+__all__ = ["NumbaRK4", "FASTMATH", "compile_kernel"]
 
 BLOCK = 64  # members per block: 4 AVX-512 float32 vectors; block state ~ 8 x 12 x 64 words
 
@@ -65,7 +63,7 @@ def _fma(typingctx, a, b, c):
     return a(a, b, c), codegen
 
 
-@numba.njit(fastmath=FASTMATH, inline="always", cache=CACHE)
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=CACHE)
 def _accel(eta, v, s, kn, dl, lev, lam, cm, cdiag, diag, D, g, th, acc):
     N, H = D.shape
     for j in range(H):
@@ -105,7 +103,7 @@ def _accel(eta, v, s, kn, dl, lev, lam, cm, cdiag, diag, D, g, th, acc):
 # boundary changes nothing. Shared by both kernels (kernel_qs.py).
 
 
-@numba.njit(fastmath=FASTMATH, inline="always", cache=CACHE)
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=CACHE)
 def _ring_load(ring, acc_r, b0):
     """Open outputs of the member block starting at b0: ring -> acc_r (R, channels, BLOCK)."""
     for r in range(acc_r.shape[0]):
@@ -114,7 +112,7 @@ def _ring_load(ring, acc_r, b0):
                 acc_r[r, c, b] = ring[r, c, b0 + b]
 
 
-@numba.njit(fastmath=FASTMATH, inline="always", cache=CACHE)
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=CACHE)
 def _ring_store(ring, acc_r, b0):
     """Open outputs back to the ring for the next chunk: acc_r -> ring."""
     for r in range(acc_r.shape[0]):
@@ -123,7 +121,7 @@ def _ring_store(ring, acc_r, b0):
                 ring[r, c, b0 + b] = acc_r[r, c, b]
 
 
-@numba.njit(fastmath=FASTMATH, inline="always", cache=CACHE)
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=CACHE)
 def _fir_add(acc_r, val, gi, half, ntap, m, taps, w0):
     """Add the recorded value of global step ``gi`` to its open outputs.
 
@@ -149,7 +147,7 @@ def _fir_add(acc_r, val, gi, half, ntap, m, taps, w0):
                     acc_r[r, c, b] = _fma(wk, val[c, b], acc_r[r, c, b])
 
 
-@numba.njit(fastmath=FASTMATH, inline="always", cache=CACHE)
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=CACHE)
 def _fir_emit(acc_r, gi, half, ntap, m, out, col, b0):
     """Emit the output that step ``gi`` completed, if any, to ``out[b0 + b, c, col]``.
 
@@ -173,17 +171,17 @@ def _fir_emit(acc_r, gi, half, ntap, m, out, col, b0):
     return 1
 
 
-@numba.njit(nogil=True, fastmath=FASTMATH, cache=CACHE)
+@numba.njit(parallel=True, fastmath=FASTMATH, error_model="numpy", cache=CACHE)
 def rk4_chunk(blk0, blk1, eta, v, kn, dl, lev, lam, cm, cdiag, diag, D, g, S, mode, s_half, coef,
               out, col0, taps, m, half, w0, ring, gi0):
     # RK4 steps gi0 .. gi0 + L - 1 of the member blocks blk0 .. blk1 - 1 (members
-    # blk0 BLOCK .. blk1 BLOCK - 1; run_blocks spreads the blocks over threads) with the
-    # anti-aliasing FIR fused in: the recorded value of
-    # step gi (padded filter index j = gi + half) is added to every open output k with
-    # k m <= j <= k m + ntap - 1 (weight taps[j - k m]) in a ring of accumulators kept in
-    # `ring` between chunks; output k is written to `out[:, :, col0 + n]` (out: members,
-    # channels, samples; n counts this chunk's outputs) once j = k m + ntap - 1. At gi = 0
-    # the value also stands for the padding j < half (the state at rest), with weights w0[k].
+    # blk0 BLOCK .. blk1 BLOCK - 1; no blocks: compile only) with the anti-aliasing FIR fused
+    # in: the recorded value of step gi (padded filter index j = gi + half) is added to every
+    # open output k with k m <= j <= k m + ntap - 1 (weight taps[j - k m]) in a ring of
+    # accumulators kept in `ring` between chunks; output k is written to
+    # `out[:, :, col0 + n]` (out: members, channels, samples; n counts this chunk's outputs)
+    # once j = k m + ntap - 1. At gi = 0 the value also stands for the padding j < half (the
+    # state at rest), with weights w0[k].
     N = eta.shape[0]
     H = D.shape[1]
     C = S.shape[0]
@@ -191,7 +189,7 @@ def rk4_chunk(blk0, blk1, eta, v, kn, dl, lev, lam, cm, cdiag, diag, D, g, S, mo
     R = ring.shape[0]
     ntap = taps.shape[0]
     dt = eta.dtype
-    for blk in range(blk0, blk1):
+    for blk in numba.prange(blk0, blk1):
         b0 = blk * BLOCK
         e = np.empty((N, BLOCK), dt)
         w = np.empty((N, BLOCK), dt)
@@ -268,31 +266,7 @@ def rk4_chunk(blk0, blk1, eta, v, kn, dl, lev, lam, cm, cdiag, diag, D, g, S, mo
         _ring_store(ring, acc_r, b0)
 
 
-# ------------------------------------------------------------------ threads and first compile
-_POOL: list = [None, 0]  # the worker threads of run_blocks and their count
-_POOL_LOCK = threading.Lock()
-
-
-def run_blocks(kernel, n_blocks: int, args: tuple) -> None:
-    """``kernel(blk0, blk1, *args)`` over the member blocks 0 .. n_blocks - 1 on
-    ``numba.get_num_threads()`` threads: one contiguous range of blocks per thread, as the static
-    schedule of ``prange`` (``kernel`` is compiled with ``nogil=True``)."""
-    nt = max(1, min(numba.get_num_threads(), n_blocks))
-    if nt == 1:
-        kernel(0, n_blocks, *args)
-        return
-    with _POOL_LOCK:
-        if _POOL[1] < nt - 1:
-            if _POOL[0] is not None:
-                _POOL[0].shutdown(wait=False)
-            _POOL[0] = ThreadPoolExecutor(nt - 1, thread_name_prefix="freeplayid-rk4")
-            _POOL[1] = nt - 1
-        pool = _POOL[0]
-    cuts = [n_blocks * i // nt for i in range(nt + 1)]
-    futures = [pool.submit(kernel, cuts[i], cuts[i + 1], *args) for i in range(1, nt)]
-    kernel(cuts[0], cuts[1], *args)  # this thread takes the first range
-    for f in futures:
-        f.result()
+# ------------------------------------------------------------------ first compile
 
 
 class _Announce(event.Listener):
@@ -441,7 +415,7 @@ class NumbaRK4:
         if not self._compiled:
             compile_kernel(kernel, args, f"{np.dtype(self.nd).name}, {model}")
             self._compiled = True
-        run_blocks(kernel, self.kn.shape[0] // BLOCK, args)
+        kernel(0, self.kn.shape[0] // BLOCK, *args)
 
     @property
     def diverged(self) -> np.ndarray:

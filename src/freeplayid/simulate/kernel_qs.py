@@ -31,7 +31,7 @@ __all__ = ["NumbaQSRK4", "KERNEL_SOURCE_SHA256", "kernel_source_digest"]
 # this file goes with (tests/test_simulate_determinism.py checks it), so that a change of kernel.py
 # comes with a change of this file, which invalidates the cache; on a mismatch the kernel is
 # compiled without the cache.
-KERNEL_SOURCE_SHA256 = "66f9023682b6d3186036c83de72ef29135af1ea8465a7c1e1d7eb0c57426aadb"
+KERNEL_SOURCE_SHA256 = "0595cf434e49b70c566f985dad1feaa810f338ad59d3f8a81ee7afc709a77c37"
 
 
 def kernel_source_digest() -> str:
@@ -54,7 +54,7 @@ if CACHE and not _CACHE:
     )
 
 
-@numba.njit(fastmath=FASTMATH, inline="always", cache=CACHE)
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=CACHE)
 def _solve_state(F, c, st, b, kn, d, A, tv):
     # (I + kn F P) theta = c + kn F P s delta, P = diag|s|: elimination without pivoting (the
     # leading minors are >= 1), result in tv
@@ -81,7 +81,7 @@ def _solve_state(F, c, st, b, kn, d, A, tv):
         tv[i] = r / A[i, i]
 
 
-@numba.njit(fastmath=FASTMATH, inline="always", cache=CACHE)
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=CACHE)
 def _solve_block(F, c, st, kn, dl, A3, T):
     # _solve_state for every member of the block at once (each in its own state), vectorised
     # over the members: the elimination has no pivoting, so no branch
@@ -112,7 +112,7 @@ def _solve_block(F, c, st, kn, dl, A3, T):
             T[i, b] = r / A3[i, i, b]
 
 
-@numba.njit(fastmath=FASTMATH, inline="always", cache=CACHE)
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=CACHE)
 def _violation(x, s, d, e):
     # how far theta = x violates contact state s (open |x| <= d, closed s x >= d), tolerance e;
     # branch-free, 0 when consistent
@@ -120,7 +120,7 @@ def _violation(x, s, d, e):
     return (1.0 - p) * max(abs(x) - d - e, 0.0) + p * max(d - e - s * x, 0.0)
 
 
-@numba.njit(fastmath=FASTMATH, inline="always", cache=CACHE)
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=CACHE)
 def _solve_block2(F, c, st, kn, dl, T, bad, tol):
     # _solve_block and the violation check of _hinge_states for two hinges, one pass over the
     # members with the 2 x 2 system in registers: the same operations in the same order, so the
@@ -158,7 +158,7 @@ def _solve_block2(F, c, st, kn, dl, T, bad, tol):
         bad[b] = v + _violation(t1, s1, d, tol * (d + abs(c1)))
 
 
-@numba.njit(fastmath=FASTMATH, inline="always", cache=CACHE)
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=CACHE)
 def _consistent(tv, c, st, b, d, tol):
     H = tv.shape[0]
     ok = True
@@ -175,7 +175,7 @@ def _consistent(tv, c, st, b, d, tol):
     return ok
 
 
-@numba.njit(fastmath=FASTMATH, inline="never", cache=CACHE)
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="never", cache=CACHE)
 def _solve_block_h(F, c, st, kn, dl, A3, T, bad, tol):
     # _solve_block and the violations for h != 2 hinges. Not inlined (nor _active_set): a
     # function of its own is compiled once, not as part of the kernel, which saves 1.5 s and 4 s
@@ -190,7 +190,7 @@ def _solve_block_h(F, c, st, kn, dl, A3, T, bad, tol):
             bad[b] += _violation(T[j, b], st[j, b], dl[b], tol * (dl[b] + abs(c[j, b])))
 
 
-@numba.njit(fastmath=FASTMATH, inline="never", cache=CACHE)
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="never", cache=CACHE)
 def _active_set(F, c, st, kn, dl, A, tv, T, bad, tol):
     # the scalar active set of _hinge_states for the members whose state changed (bad != 0):
     # semismooth Newton from the previous state, the exhaustive search as the fallback
@@ -226,7 +226,7 @@ def _active_set(F, c, st, kn, dl, A, tv, T, bad, tol):
 
 
 
-@numba.njit(fastmath=FASTMATH, inline="always", cache=CACHE)
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=CACHE)
 def _hinge_states(F, c, st, kn, dl, A, tv, A3, T, bad, tol):
     # solution T of (QS) and its contact state st (updated in place) for every member
     H = F.shape[0]
@@ -244,7 +244,7 @@ def _hinge_states(F, c, st, kn, dl, A, tv, A3, T, bad, tol):
     _active_set(F, c, st, kn, dl, A, tv, T, bad, tol)
 
 
-@numba.njit(fastmath=FASTMATH, inline="always", cache=CACHE)
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=CACHE)
 def _accel_qs(eta, v, s, kn, dl, lev, lam, cm, cdiag, diag, D, g, F, e, gam, st, c, fo, acc, A,
               tv, A3, T, bad, tol):
     N, H = D.shape
@@ -282,7 +282,7 @@ def _accel_qs(eta, v, s, kn, dl, lev, lam, cm, cdiag, diag, D, g, F, e, gam, st,
                 acc[i, b] = _fma(-dd, fo[j, b], acc[i, b])
 
 
-@numba.njit(fastmath=FASTMATH, inline="always", cache=CACHE)
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=CACHE)
 def _fir_add2(acc_r, val, valf, gi, half, ntap, m, taps, tapsd, w0, w0d):
     # kernel._fir_add of val through `taps` plus valf through `tapsd` (the fast part, whose
     # derivative the derivative taps take), in one pass over the open outputs
@@ -307,7 +307,7 @@ def _fir_add2(acc_r, val, valf, gi, half, ntap, m, taps, tapsd, w0, w0d):
                     acc_r[r, c, b] = _fma(wd, valf[c, b], _fma(wk, val[c, b], acc_r[r, c, b]))
 
 
-@numba.njit(fastmath=FASTMATH, inline="always", cache=CACHE)
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=CACHE)
 def _record_qs(e_, w, k, fo, S, hout, vout, mode, val, valf, acc_r, gi, half, ntap, m, taps,
                tapsd, w0, w0d):
     # the recorded value of the step (the output quantity of the slow modes, plus the fast
@@ -343,7 +343,7 @@ def _record_qs(e_, w, k, fo, S, hout, vout, mode, val, valf, acc_r, gi, half, nt
         _fir_add2(acc_r, val, valf, gi, half, ntap, m, taps, tapsd, w0, w0d)
 
 
-@numba.njit(nogil=True, fastmath=FASTMATH, cache=_CACHE)
+@numba.njit(parallel=True, fastmath=FASTMATH, error_model="numpy", cache=_CACHE)
 def rk4_qs_chunk(blk0, blk1, eta, v, stp, kn, dl, lev, lam, cm, cdiag, diag, D, g, F, e, gam,
                  S, hout, vout, mode, s_half, coef, out, col0, taps, tapsd, m, half, w0, w0d, ring,
                  gi0):
@@ -359,7 +359,7 @@ def rk4_qs_chunk(blk0, blk1, eta, v, stp, kn, dl, lev, lam, cm, cdiag, diag, D, 
     ntap = taps.shape[0]
     dt = eta.dtype
     tol = coef[4]
-    for blk in range(blk0, blk1):
+    for blk in numba.prange(blk0, blk1):
         b0 = blk * BLOCK
         e_ = np.empty((N, BLOCK), dt)
         w = np.empty((N, BLOCK), dt)
