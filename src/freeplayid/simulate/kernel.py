@@ -40,6 +40,11 @@ BLOCK = 64  # members per block: 4 AVX-512 float32 vectors; block state ~ 8 x 12
 # signal: a cached and a freshly compiled kernel gave different sweeps. Without them both copies
 # compute the IEEE result of the operations in source order (tests/test_simulate_determinism.py).
 FASTMATH = {"nnan", "ninf"}
+# Every function of the kernels says `error_model="numpy"` (a division by zero gives inf or NaN,
+# no exception): what `parallel=True` compiles a prange body with, so also the helpers compiled
+# on their own (kernel_qs._active_set, _solve_block_h) and any kernel without prange compile as
+# the body did (the Python error model puts a zero-divisor branch into every division, which
+# kept the quasi-static kernel's loops from being vectorised: 2x slower as a plain function).
 
 
 @intrinsic
