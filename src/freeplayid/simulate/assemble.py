@@ -12,10 +12,12 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from .cache import CACHE
+
 __all__ = ["add_base_terms"]
 
 
-@numba.njit(parallel=True, cache=True)
+@numba.njit(parallel=True, cache=CACHE)
 def _add(y, tb, lev):
     batch, C, n = y.shape
     for b in numba.prange(batch):

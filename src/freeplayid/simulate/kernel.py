@@ -3,7 +3,9 @@
 Layout: every per-member array is (N, batch) with the batch innermost, so each line of a step is
 a loop over contiguous members that LLVM vectorises (SIMD lanes = members). Blocks of ``BLOCK``
 members run the whole chunk in one thread (their state stays in L1 cache); blocks are spread
-over threads with ``prange``. The step is fused: no temporaries leave the block.
+over threads with ``prange``. The step is fused: no temporaries leave the block. The four RK4
+stages are one loop around one copy of the stage code (a quarter of the code to compile; docs/
+simulate.md, "Compile time").
 
 numba is optional: this module imports it, so import it only after
 :func:`.engines.numba_available` says yes (the simulator falls back to the torch engine).
@@ -11,16 +13,20 @@ numba is optional: this module imports it, so import it only after
 
 from __future__ import annotations
 
+import sys
+import time
+
 import numba
 import numpy as np
 from llvmlite import ir
-from numba.core import types
+from numba.core import event, types
 from numba.core.extending import intrinsic
 
+from .cache import CACHE
 from .engines import BLOWUP, MODES
 from .formulation import ModalForm
 
-__all__ = ["NumbaRK4", "FASTMATH"]
+__all__ = ["NumbaRK4", "FASTMATH", "compile_kernel"]
 
 BLOCK = 64  # members per block: 4 AVX-512 float32 vectors; block state ~ 8 x 12 x 64 words
 
@@ -34,6 +40,11 @@ BLOCK = 64  # members per block: 4 AVX-512 float32 vectors; block state ~ 8 x 12
 # signal: a cached and a freshly compiled kernel gave different sweeps. Without them both copies
 # compute the IEEE result of the operations in source order (tests/test_simulate_determinism.py).
 FASTMATH = {"nnan", "ninf"}
+# Every function of the kernels says `error_model="numpy"` (a division by zero gives inf or NaN,
+# no exception): what `parallel=True` compiles a prange body with, so also the helpers compiled
+# on their own (kernel_qs._active_set, _solve_block_h) and any kernel without prange compile as
+# the body did (the Python error model puts a zero-divisor branch into every division, which
+# kept the quasi-static kernel's loops from being vectorised: 2x slower as a plain function).
 
 
 @intrinsic
@@ -57,7 +68,7 @@ def _fma(typingctx, a, b, c):
     return a(a, b, c), codegen
 
 
-@numba.njit(fastmath=FASTMATH, inline="always", cache=True)
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=CACHE)
 def _accel(eta, v, s, kn, dl, lev, lam, cm, cdiag, diag, D, g, th, acc):
     N, H = D.shape
     for j in range(H):
@@ -97,7 +108,7 @@ def _accel(eta, v, s, kn, dl, lev, lam, cm, cdiag, diag, D, g, th, acc):
 # boundary changes nothing. Shared by both kernels (kernel_qs.py).
 
 
-@numba.njit(fastmath=FASTMATH, inline="always", cache=True)
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=CACHE)
 def _ring_load(ring, acc_r, b0):
     """Open outputs of the member block starting at b0: ring -> acc_r (R, channels, BLOCK)."""
     for r in range(acc_r.shape[0]):
@@ -106,7 +117,7 @@ def _ring_load(ring, acc_r, b0):
                 acc_r[r, c, b] = ring[r, c, b0 + b]
 
 
-@numba.njit(fastmath=FASTMATH, inline="always", cache=True)
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=CACHE)
 def _ring_store(ring, acc_r, b0):
     """Open outputs back to the ring for the next chunk: acc_r -> ring."""
     for r in range(acc_r.shape[0]):
@@ -115,7 +126,7 @@ def _ring_store(ring, acc_r, b0):
                 ring[r, c, b0 + b] = acc_r[r, c, b]
 
 
-@numba.njit(fastmath=FASTMATH, inline="always", cache=True)
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=CACHE)
 def _fir_add(acc_r, val, gi, half, ntap, m, taps, w0):
     """Add the recorded value of global step ``gi`` to its open outputs.
 
@@ -141,7 +152,7 @@ def _fir_add(acc_r, val, gi, half, ntap, m, taps, w0):
                     acc_r[r, c, b] = _fma(wk, val[c, b], acc_r[r, c, b])
 
 
-@numba.njit(fastmath=FASTMATH, inline="always", cache=True)
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=CACHE)
 def _fir_emit(acc_r, gi, half, ntap, m, out, col, b0):
     """Emit the output that step ``gi`` completed, if any, to ``out[b0 + b, c, col]``.
 
@@ -165,24 +176,25 @@ def _fir_emit(acc_r, gi, half, ntap, m, out, col, b0):
     return 1
 
 
-@numba.njit(parallel=True, fastmath=FASTMATH, cache=True)
-def rk4_chunk(eta, v, kn, dl, lev, lam, cm, cdiag, diag, D, g, S, mode, s_half, coef, out,
-              col0, taps, m, half, w0, ring, gi0):
-    # RK4 steps gi0 .. gi0 + L - 1 with the anti-aliasing FIR fused in: the recorded value of
-    # step gi (padded filter index j = gi + half) is added to every open output k with
-    # k m <= j <= k m + ntap - 1 (weight taps[j - k m]) in a ring of accumulators kept in
-    # `ring` between chunks; output k is written to `out[:, :, col0 + n]` (out: members,
-    # channels, samples; n counts this chunk's outputs) once j = k m + ntap - 1. At gi = 0
-    # the value also stands for the padding j < half (the state at rest), with weights w0[k].
-    N, B = eta.shape
+@numba.njit(parallel=True, fastmath=FASTMATH, error_model="numpy", cache=CACHE)
+def rk4_chunk(blk0, blk1, eta, v, kn, dl, lev, lam, cm, cdiag, diag, D, g, S, mode, s_half, coef,
+              out, col0, taps, m, half, w0, ring, gi0):
+    # RK4 steps gi0 .. gi0 + L - 1 of the member blocks blk0 .. blk1 - 1 (members
+    # blk0 BLOCK .. blk1 BLOCK - 1; no blocks: compile only) with the anti-aliasing FIR fused
+    # in: the recorded value of step gi (padded filter index j = gi + half) is added to every
+    # open output k with k m <= j <= k m + ntap - 1 (weight taps[j - k m]) in a ring of
+    # accumulators kept in `ring` between chunks; output k is written to
+    # `out[:, :, col0 + n]` (out: members, channels, samples; n counts this chunk's outputs)
+    # once j = k m + ntap - 1. At gi = 0 the value also stands for the padding j < half (the
+    # state at rest), with weights w0[k].
+    N = eta.shape[0]
     H = D.shape[1]
     C = S.shape[0]
     L = (s_half.shape[0] - 1) // 2
     R = ring.shape[0]
     ntap = taps.shape[0]
     dt = eta.dtype
-    nblk = (B + BLOCK - 1) // BLOCK
-    for blk in numba.prange(nblk):
+    for blk in numba.prange(blk0, blk1):
         b0 = blk * BLOCK
         e = np.empty((N, BLOCK), dt)
         w = np.empty((N, BLOCK), dt)
@@ -212,49 +224,44 @@ def rk4_chunk(eta, v, kn, dl, lev, lam, cm, cdiag, diag, D, g, S, mode, s_half, 
         h6 = coef[2]
         two = coef[3]
         for step in range(L):
-            s0 = s_half[2 * step]
-            s1 = s_half[2 * step + 1]
-            s2 = s_half[2 * step + 2]
-            # stage 1 at (e, w)
-            _accel(e, w, s0, knb, dlb, lvb, lam, cm, cdiag, diag, D, g, th, k)
-            src = e if mode == 0 else (w if mode == 1 else k)
-            for c in range(C):
-                for b in range(BLOCK):
-                    val[c, b] = 0.0
-                for i in range(N):
-                    sc = S[c, i]
-                    for b in range(BLOCK):
-                        val[c, b] = _fma(sc, src[i, b], val[c, b])
-            _fir_add(acc_r, val, gi0 + step, half, ntap, m, taps, w0)
-            n_emit += _fir_emit(acc_r, gi0 + step, half, ntap, m, out, col0 + n_emit, b0)
-            for i in range(N):
-                for b in range(BLOCK):
-                    se[i, b] = w[i, b]
-                    sv[i, b] = k[i, b]
-                    et[i, b] = _fma(h2, w[i, b], e[i, b])
-                    vt[i, b] = _fma(h2, k[i, b], w[i, b])
-            # stage 2 at (e + h/2 w, w + h/2 k1)
-            _accel(et, vt, s1, knb, dlb, lvb, lam, cm, cdiag, diag, D, g, th, k)
-            for i in range(N):
-                for b in range(BLOCK):
-                    se[i, b] = _fma(two, vt[i, b], se[i, b])
-                    sv[i, b] = _fma(two, k[i, b], sv[i, b])
-                    et[i, b] = _fma(h2, vt[i, b], e[i, b])
-                    vt[i, b] = _fma(h2, k[i, b], w[i, b])
-            # stage 3
-            _accel(et, vt, s1, knb, dlb, lvb, lam, cm, cdiag, diag, D, g, th, k)
-            for i in range(N):
-                for b in range(BLOCK):
-                    se[i, b] = _fma(two, vt[i, b], se[i, b])
-                    sv[i, b] = _fma(two, k[i, b], sv[i, b])
-                    et[i, b] = _fma(h, vt[i, b], e[i, b])
-                    vt[i, b] = _fma(h, k[i, b], w[i, b])
-            # stage 4
-            _accel(et, vt, s2, knb, dlb, lvb, lam, cm, cdiag, diag, D, g, th, k)
-            for i in range(N):
-                for b in range(BLOCK):
-                    e[i, b] = _fma(h6, (se[i, b] + vt[i, b]), e[i, b])
-                    w[i, b] = _fma(h6, (sv[i, b] + k[i, b]), w[i, b])
+            # the four RK4 stages as one loop around one copy of the stage code: the same
+            # operations in the same order as four written-out stages, a quarter of the code to
+            # compile (docs/simulate.md, "Compile time")
+            for stage in range(4):
+                x = e if stage == 0 else et
+                y = w if stage == 0 else vt
+                s = s_half[2 * step + (stage + 1) // 2]
+                _accel(x, y, s, knb, dlb, lvb, lam, cm, cdiag, diag, D, g, th, k)
+                if stage == 0:
+                    src = e if mode == 0 else (w if mode == 1 else k)
+                    for c in range(C):
+                        for b in range(BLOCK):
+                            val[c, b] = 0.0
+                        for i in range(N):
+                            sc = S[c, i]
+                            for b in range(BLOCK):
+                                val[c, b] = _fma(sc, src[i, b], val[c, b])
+                    _fir_add(acc_r, val, gi0 + step, half, ntap, m, taps, w0)
+                    n_emit += _fir_emit(acc_r, gi0 + step, half, ntap, m, out, col0 + n_emit, b0)
+                    for i in range(N):
+                        for b in range(BLOCK):
+                            se[i, b] = w[i, b]
+                            sv[i, b] = k[i, b]
+                            et[i, b] = _fma(h2, w[i, b], e[i, b])
+                            vt[i, b] = _fma(h2, k[i, b], w[i, b])
+                elif stage < 3:
+                    a = h2 if stage == 1 else h
+                    for i in range(N):
+                        for b in range(BLOCK):
+                            se[i, b] = _fma(two, vt[i, b], se[i, b])
+                            sv[i, b] = _fma(two, k[i, b], sv[i, b])
+                            et[i, b] = _fma(a, vt[i, b], e[i, b])
+                            vt[i, b] = _fma(a, k[i, b], w[i, b])
+                else:
+                    for i in range(N):
+                        for b in range(BLOCK):
+                            e[i, b] = _fma(h6, (se[i, b] + vt[i, b]), e[i, b])
+                            w[i, b] = _fma(h6, (sv[i, b] + k[i, b]), w[i, b])
         for i in range(N):
             for b in range(BLOCK):
                 eta[i, b0 + b] = e[i, b]
@@ -262,6 +269,40 @@ def rk4_chunk(eta, v, kn, dl, lev, lam, cm, cdiag, diag, D, g, S, mode, s_half, 
         # the open outputs carry over to the next chunk (without this every chunk boundary
         # drops the partial sums: a glitch to ~0 and a filter-length recovery in the record)
         _ring_store(ring, acc_r, b0)
+
+
+# ------------------------------------------------------------------ first compile
+
+
+class _Announce(event.Listener):
+    # "compiling ..." on stderr when numba compiles `dispatcher` (not when it loads the cache)
+    def __init__(self, dispatcher, what):
+        self.dispatcher, self.what, self.t0 = dispatcher, what, None
+
+    def on_start(self, ev):
+        if ev.data["dispatcher"] is self.dispatcher and self.t0 is None:
+            print(f"compiling the numba RK4 kernel ({self.what})...", end=" ", file=sys.stderr,
+                  flush=True)
+            self.t0 = time.perf_counter()
+
+    def on_end(self, ev):
+        pass
+
+
+def compile_kernel(kernel, args: tuple, what: str) -> None:
+    """Compile ``kernel`` for ``args`` (or load it from numba's cache) by a call on no blocks.
+
+    A compile prints one line to stderr, e.g. ``compiling the numba RK4 kernel (float32, full
+    model)... 12.3 s, cached for later runs``; a cache load prints nothing.
+    """
+    listener = _Announce(kernel, what)
+    with event.install_listener("numba:compile", listener):
+        kernel(0, 0, *args)
+    if listener.t0 is not None:
+        path = kernel.stats.cache_path
+        where = f"cached for later runs in {path}" if path else "not cached"
+        print(f"{time.perf_counter() - listener.t0:.1f} s, {where}", file=sys.stderr, flush=True)
+
 
 class NumbaRK4:
     """Compiled CPU engine with the interface of :class:`.engines.TorchRK4`.
@@ -306,6 +347,7 @@ class NumbaRK4:
         self.gi = 0  # steps integrated
         self.outputs = 0  # output samples completed
         self.width = len(form.S)  # output channels of the kernel
+        self._compiled = False  # compile_kernel has run (first chunk)
 
     def start_weights(self, taps) -> np.ndarray:
         """Summed weights of ``taps`` over the constant pre-history (steps before the first) that
@@ -367,11 +409,18 @@ class NumbaRK4:
         return out
 
     def _kernel(self, s_half, out, col0, m, half, gi0):
-        rk4_chunk(
+        self._call(rk4_chunk, "full model", (
             self.eta, self.v, self.kn, self.dl, self.lev, self.lam, self.cm, self.cdiag,
             self.diag, self.D, self.g, self.S, self.mode, np.asarray(s_half, dtype=self.nd),
             self.coef, out, col0, self.taps, m, half, self.w0, self.ring, gi0,
-        )
+        ))
+
+    def _call(self, kernel, model: str, args: tuple) -> None:
+        # the first chunk compiles (or loads) the kernel in this thread, announced on stderr
+        if not self._compiled:
+            compile_kernel(kernel, args, f"{np.dtype(self.nd).name}, {model}")
+            self._compiled = True
+        kernel(0, self.kn.shape[0] // BLOCK, *args)
 
     @property
     def diverged(self) -> np.ndarray:

@@ -19,6 +19,7 @@ import numba
 import numpy as np
 
 from . import kernel
+from .cache import CACHE
 from .kernel import BLOCK, FASTMATH, NumbaRK4, _fir_add, _fir_emit, _fma, _ring_load, _ring_store
 from .quasistatic import QuasiStaticForm
 
@@ -30,7 +31,7 @@ __all__ = ["NumbaQSRK4", "KERNEL_SOURCE_SHA256", "kernel_source_digest"]
 # this file goes with (tests/test_simulate_determinism.py checks it), so that a change of kernel.py
 # comes with a change of this file, which invalidates the cache; on a mismatch the kernel is
 # compiled without the cache.
-KERNEL_SOURCE_SHA256 = "6d1b4e1e500e32c214816aebfe38863b196508a6d347936427fb13f1eadc4ba4"
+KERNEL_SOURCE_SHA256 = "7eeed77b974bd3156085b926569590ecfb0b3d84d8fc9953949a1b101b7670e5"
 
 
 def kernel_source_digest() -> str:
@@ -42,8 +43,8 @@ def kernel_source_digest() -> str:
     return hashlib.sha256(src.replace(b"\r\n", b"\n")).hexdigest()
 
 
-_CACHE = kernel_source_digest() == KERNEL_SOURCE_SHA256
-if not _CACHE:
+_CACHE = CACHE and kernel_source_digest() == KERNEL_SOURCE_SHA256
+if CACHE and not _CACHE:
     warnings.warn(
         "kernel.py does not match kernel_qs.KERNEL_SOURCE_SHA256: the quasi-static kernel is "
         "compiled without numba's on-disk cache (update the digest to "
@@ -53,7 +54,7 @@ if not _CACHE:
     )
 
 
-@numba.njit(fastmath=FASTMATH, inline="always", cache=True)
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=CACHE)
 def _solve_state(F, c, st, b, kn, d, A, tv):
     # (I + kn F P) theta = c + kn F P s delta, P = diag|s|: elimination without pivoting (the
     # leading minors are >= 1), result in tv
@@ -80,7 +81,7 @@ def _solve_state(F, c, st, b, kn, d, A, tv):
         tv[i] = r / A[i, i]
 
 
-@numba.njit(fastmath=FASTMATH, inline="always", cache=True)
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=CACHE)
 def _solve_block(F, c, st, kn, dl, A3, T):
     # _solve_state for every member of the block at once (each in its own state), vectorised
     # over the members: the elimination has no pivoting, so no branch
@@ -111,7 +112,7 @@ def _solve_block(F, c, st, kn, dl, A3, T):
             T[i, b] = r / A3[i, i, b]
 
 
-@numba.njit(fastmath=FASTMATH, inline="always", cache=True)
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=CACHE)
 def _violation(x, s, d, e):
     # how far theta = x violates contact state s (open |x| <= d, closed s x >= d), tolerance e;
     # branch-free, 0 when consistent
@@ -119,7 +120,7 @@ def _violation(x, s, d, e):
     return (1.0 - p) * max(abs(x) - d - e, 0.0) + p * max(d - e - s * x, 0.0)
 
 
-@numba.njit(fastmath=FASTMATH, inline="always", cache=True)
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=CACHE)
 def _solve_block2(F, c, st, kn, dl, T, bad, tol):
     # _solve_block and the violation check of _hinge_states for two hinges, one pass over the
     # members with the 2 x 2 system in registers: the same operations in the same order, so the
@@ -157,7 +158,7 @@ def _solve_block2(F, c, st, kn, dl, T, bad, tol):
         bad[b] = v + _violation(t1, s1, d, tol * (d + abs(c1)))
 
 
-@numba.njit(fastmath=FASTMATH, inline="always", cache=True)
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=CACHE)
 def _consistent(tv, c, st, b, d, tol):
     H = tv.shape[0]
     ok = True
@@ -174,26 +175,26 @@ def _consistent(tv, c, st, b, d, tol):
     return ok
 
 
-@numba.njit(fastmath=FASTMATH, inline="always", cache=True)
-def _hinge_states(F, c, st, kn, dl, A, tv, A3, T, bad, tol):
-    # solution T of (QS) and its contact state st (updated in place) for every member
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="never", cache=CACHE)
+def _solve_block_h(F, c, st, kn, dl, A3, T, bad, tol):
+    # _solve_block and the violations for h != 2 hinges. Not inlined (nor _active_set): a
+    # function of its own is compiled once, not as part of the kernel, which saves 1.5 s and 4 s
+    # of the quasi-static kernel's cold compile (float32; docs/simulate.md, "Compile time"), for
+    # a call per stage and block (the default fin's two hinges take _solve_block2, inlined)
     H = F.shape[0]
-    # every member in its previous contact state (vectorised); the few whose state changed (the
-    # solution is inconsistent with it) go through the scalar active set
-    if H == 2:
-        _solve_block2(F, c, st, kn, dl, T, bad, tol)
-    else:
-        _solve_block(F, c, st, kn, dl, A3, T)
+    _solve_block(F, c, st, kn, dl, A3, T)
+    for b in range(BLOCK):
+        bad[b] = 0.0
+    for j in range(H):
         for b in range(BLOCK):
-            bad[b] = 0.0
-        for j in range(H):
-            for b in range(BLOCK):
-                bad[b] += _violation(T[j, b], st[j, b], dl[b], tol * (dl[b] + abs(c[j, b])))
-    nbad = 0.0
-    for b in range(BLOCK):  # a loop of its own: a reduction (no reassociation) inside the ones
-        nbad += bad[b]      # above would keep them from being vectorised
-    if nbad == 0.0:
-        return
+            bad[b] += _violation(T[j, b], st[j, b], dl[b], tol * (dl[b] + abs(c[j, b])))
+
+
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="never", cache=CACHE)
+def _active_set(F, c, st, kn, dl, A, tv, T, bad, tol):
+    # the scalar active set of _hinge_states for the members whose state changed (bad != 0):
+    # semismooth Newton from the previous state, the exhaustive search as the fallback
+    H = F.shape[0]
     for b in range(BLOCK):
         if bad[b] == 0.0:
             continue
@@ -224,7 +225,26 @@ def _hinge_states(F, c, st, kn, dl, A, tv, A3, T, bad, tol):
             T[j, b] = tv[j]
 
 
-@numba.njit(fastmath=FASTMATH, inline="always", cache=True)
+
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=CACHE)
+def _hinge_states(F, c, st, kn, dl, A, tv, A3, T, bad, tol):
+    # solution T of (QS) and its contact state st (updated in place) for every member
+    H = F.shape[0]
+    # every member in its previous contact state (vectorised); the few whose state changed (the
+    # solution is inconsistent with it) go through the scalar active set
+    if H == 2:
+        _solve_block2(F, c, st, kn, dl, T, bad, tol)
+    else:
+        _solve_block_h(F, c, st, kn, dl, A3, T, bad, tol)
+    nbad = 0.0
+    for b in range(BLOCK):  # a loop of its own: a reduction (no reassociation) inside the ones
+        nbad += bad[b]      # above would keep them from being vectorised
+    if nbad == 0.0:
+        return
+    _active_set(F, c, st, kn, dl, A, tv, T, bad, tol)
+
+
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=CACHE)
 def _accel_qs(eta, v, s, kn, dl, lev, lam, cm, cdiag, diag, D, g, F, e, gam, st, c, fo, acc, A,
               tv, A3, T, bad, tol):
     N, H = D.shape
@@ -262,7 +282,7 @@ def _accel_qs(eta, v, s, kn, dl, lev, lam, cm, cdiag, diag, D, g, F, e, gam, st,
                 acc[i, b] = _fma(-dd, fo[j, b], acc[i, b])
 
 
-@numba.njit(fastmath=FASTMATH, inline="always", cache=True)
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=CACHE)
 def _fir_add2(acc_r, val, valf, gi, half, ntap, m, taps, tapsd, w0, w0d):
     # kernel._fir_add of val through `taps` plus valf through `tapsd` (the fast part, whose
     # derivative the derivative taps take), in one pass over the open outputs
@@ -287,13 +307,51 @@ def _fir_add2(acc_r, val, valf, gi, half, ntap, m, taps, tapsd, w0, w0d):
                     acc_r[r, c, b] = _fma(wd, valf[c, b], _fma(wk, val[c, b], acc_r[r, c, b]))
 
 
-@numba.njit(parallel=True, fastmath=FASTMATH, cache=_CACHE)
-def rk4_qs_chunk(eta, v, stp, kn, dl, lev, lam, cm, cdiag, diag, D, g, F, e, gam, S, hout, vout,
-                 mode, s_half, coef, out, col0, taps, tapsd, m, half, w0, w0d, ring, gi0):
-    # kernel.rk4_chunk with the condensed hinge moments; the fast modes' quasi-static response
-    # q = hout @ f + vout @ eta' is added to the displacement output (mode 0), else filtered
-    # through the derivative taps `tapsd` (its derivative, decimated) into the same outputs
-    N, B = eta.shape
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=CACHE)
+def _record_qs(e_, w, k, fo, S, hout, vout, mode, val, valf, acc_r, gi, half, ntap, m, taps,
+               tapsd, w0, w0d):
+    # the recorded value of the step (the output quantity of the slow modes, plus the fast
+    # part q = hout @ f + vout @ eta': added as it is (mode 0), else to `valf`, whose derivative
+    # the derivative taps take) into the open outputs of the FIR ring
+    N = e_.shape[0]
+    C = S.shape[0]
+    H = fo.shape[0]
+    src = e_ if mode == 0 else (w if mode == 1 else k)
+    for c in range(C):
+        for b in range(BLOCK):
+            val[c, b] = 0.0
+        for i in range(N):
+            sc = S[c, i]
+            for b in range(BLOCK):
+                val[c, b] = _fma(sc, src[i, b], val[c, b])
+    dst = val if mode == 0 else valf
+    for c in range(C):
+        if mode != 0:
+            for b in range(BLOCK):
+                valf[c, b] = 0.0
+        for j in range(H):
+            hc = hout[c, j]
+            for b in range(BLOCK):
+                dst[c, b] = _fma(hc, fo[j, b], dst[c, b])
+        for i in range(N):
+            vc = vout[c, i]
+            for b in range(BLOCK):
+                dst[c, b] = _fma(vc, w[i, b], dst[c, b])
+    if mode == 0:
+        _fir_add(acc_r, val, gi, half, ntap, m, taps, w0)
+    else:
+        _fir_add2(acc_r, val, valf, gi, half, ntap, m, taps, tapsd, w0, w0d)
+
+
+@numba.njit(parallel=True, fastmath=FASTMATH, error_model="numpy", cache=_CACHE)
+def rk4_qs_chunk(blk0, blk1, eta, v, stp, kn, dl, lev, lam, cm, cdiag, diag, D, g, F, e, gam,
+                 S, hout, vout, mode, s_half, coef, out, col0, taps, tapsd, m, half, w0, w0d, ring,
+                 gi0):
+    # kernel.rk4_chunk (blocks blk0 .. blk1 - 1) with the condensed hinge moments; the fast
+    # modes' quasi-static response q = hout @ f + vout @ eta' is added to the displacement
+    # output (mode 0), else filtered through the derivative taps `tapsd` (its derivative,
+    # decimated) into the same outputs
+    N = eta.shape[0]
     H = D.shape[1]
     C = S.shape[0]
     L = (s_half.shape[0] - 1) // 2
@@ -301,8 +359,7 @@ def rk4_qs_chunk(eta, v, stp, kn, dl, lev, lam, cm, cdiag, diag, D, g, F, e, gam
     ntap = taps.shape[0]
     dt = eta.dtype
     tol = coef[4]
-    nblk = (B + BLOCK - 1) // BLOCK
-    for blk in numba.prange(nblk):
+    for blk in numba.prange(blk0, blk1):
         b0 = blk * BLOCK
         e_ = np.empty((N, BLOCK), dt)
         w = np.empty((N, BLOCK), dt)
@@ -343,65 +400,38 @@ def rk4_qs_chunk(eta, v, stp, kn, dl, lev, lam, cm, cdiag, diag, D, g, F, e, gam
         h6 = coef[2]
         two = coef[3]
         for step in range(L):
-            s0 = s_half[2 * step]
-            s1 = s_half[2 * step + 1]
-            s2 = s_half[2 * step + 2]
-            _accel_qs(e_, w, s0, knb, dlb, lvb, lam, cm, cdiag, diag, D, g, F, e, gam, st, cc, fo,
-                      k, A, tv, A3, T, bad, tol)
-            src = e_ if mode == 0 else (w if mode == 1 else k)
-            for c in range(C):
-                for b in range(BLOCK):
-                    val[c, b] = 0.0
-                for i in range(N):
-                    sc = S[c, i]
-                    for b in range(BLOCK):
-                        val[c, b] = _fma(sc, src[i, b], val[c, b])
-            dst = val if mode == 0 else valf
-            for c in range(C):
-                if mode != 0:
-                    for b in range(BLOCK):
-                        valf[c, b] = 0.0
-                for j in range(H):
-                    hc = hout[c, j]
-                    for b in range(BLOCK):
-                        dst[c, b] = _fma(hc, fo[j, b], dst[c, b])
-                for i in range(N):
-                    vc = vout[c, i]
-                    for b in range(BLOCK):
-                        dst[c, b] = _fma(vc, w[i, b], dst[c, b])
-            if mode == 0:
-                _fir_add(acc_r, val, gi0 + step, half, ntap, m, taps, w0)
-            else:
-                _fir_add2(acc_r, val, valf, gi0 + step, half, ntap, m, taps, tapsd, w0, w0d)
-            n_emit += _fir_emit(acc_r, gi0 + step, half, ntap, m, out, col0 + n_emit, b0)
-            for i in range(N):
-                for b in range(BLOCK):
-                    se[i, b] = w[i, b]
-                    sv[i, b] = k[i, b]
-                    et[i, b] = _fma(h2, w[i, b], e_[i, b])
-                    vt[i, b] = _fma(h2, k[i, b], w[i, b])
-            _accel_qs(et, vt, s1, knb, dlb, lvb, lam, cm, cdiag, diag, D, g, F, e, gam, st, cc, fo,
-                      k, A, tv, A3, T, bad, tol)
-            for i in range(N):
-                for b in range(BLOCK):
-                    se[i, b] = _fma(two, vt[i, b], se[i, b])
-                    sv[i, b] = _fma(two, k[i, b], sv[i, b])
-                    et[i, b] = _fma(h2, vt[i, b], e_[i, b])
-                    vt[i, b] = _fma(h2, k[i, b], w[i, b])
-            _accel_qs(et, vt, s1, knb, dlb, lvb, lam, cm, cdiag, diag, D, g, F, e, gam, st, cc, fo,
-                      k, A, tv, A3, T, bad, tol)
-            for i in range(N):
-                for b in range(BLOCK):
-                    se[i, b] = _fma(two, vt[i, b], se[i, b])
-                    sv[i, b] = _fma(two, k[i, b], sv[i, b])
-                    et[i, b] = _fma(h, vt[i, b], e_[i, b])
-                    vt[i, b] = _fma(h, k[i, b], w[i, b])
-            _accel_qs(et, vt, s2, knb, dlb, lvb, lam, cm, cdiag, diag, D, g, F, e, gam, st, cc, fo,
-                      k, A, tv, A3, T, bad, tol)
-            for i in range(N):
-                for b in range(BLOCK):
-                    e_[i, b] = _fma(h6, (se[i, b] + vt[i, b]), e_[i, b])
-                    w[i, b] = _fma(h6, (sv[i, b] + k[i, b]), w[i, b])
+            # the four RK4 stages as one loop around one copy of the (large) stage code: the same
+            # operations in the same order as four written-out stages, a quarter of the code to
+            # compile (docs/simulate.md, "Compile time")
+            for stage in range(4):
+                x = e_ if stage == 0 else et
+                y = w if stage == 0 else vt
+                s = s_half[2 * step + (stage + 1) // 2]
+                _accel_qs(x, y, s, knb, dlb, lvb, lam, cm, cdiag, diag, D, g, F, e, gam, st, cc,
+                          fo, k, A, tv, A3, T, bad, tol)
+                if stage == 0:
+                    _record_qs(e_, w, k, fo, S, hout, vout, mode, val, valf, acc_r, gi0 + step,
+                               half, ntap, m, taps, tapsd, w0, w0d)
+                    n_emit += _fir_emit(acc_r, gi0 + step, half, ntap, m, out, col0 + n_emit, b0)
+                    for i in range(N):
+                        for b in range(BLOCK):
+                            se[i, b] = w[i, b]
+                            sv[i, b] = k[i, b]
+                            et[i, b] = _fma(h2, w[i, b], e_[i, b])
+                            vt[i, b] = _fma(h2, k[i, b], w[i, b])
+                elif stage < 3:
+                    a = h2 if stage == 1 else h
+                    for i in range(N):
+                        for b in range(BLOCK):
+                            se[i, b] = _fma(two, vt[i, b], se[i, b])
+                            sv[i, b] = _fma(two, k[i, b], sv[i, b])
+                            et[i, b] = _fma(a, vt[i, b], e_[i, b])
+                            vt[i, b] = _fma(a, k[i, b], w[i, b])
+                else:
+                    for i in range(N):
+                        for b in range(BLOCK):
+                            e_[i, b] = _fma(h6, (se[i, b] + vt[i, b]), e_[i, b])
+                            w[i, b] = _fma(h6, (sv[i, b] + k[i, b]), w[i, b])
         for i in range(N):
             for b in range(BLOCK):
                 eta[i, b0 + b] = e_[i, b]
@@ -438,10 +468,10 @@ class NumbaQSRK4(NumbaRK4):
         self.coef = a(list(self.coef[:4]) + [tol])
 
     def _kernel(self, s_half, out, col0, m, half, gi0):
-        rk4_qs_chunk(
+        self._call(rk4_qs_chunk, "quasi-static model", (
             self.eta, self.v, self.st, self.kn, self.dl, self.lev, self.lam, self.cm, self.cdiag,
             self.diag, self.D, self.g, self.F, self.e, self.gam, self.S, self.hout,
             self.vout, self.mode,
             np.asarray(s_half, dtype=self.nd), self.coef, out, col0, self.taps, self.taps_d, m,
             half, self.w0, self.w0d, self.ring, gi0,
-        )
+        ))
