@@ -74,3 +74,22 @@ def test_corrected_fit_reports_its_iterations(measured, system):
     rec = res.to_dict()["replay"]
     assert rec["kn_fit"] == r.kn_fit and len(rec["iterations"]) == len(r.iterations)
     assert "## Replay" in res.report()
+    # the self-check: measured and replayed curves agree, the verdict says so
+    assert max(r.misfit.values()) < 0.02
+    assert res.verdict.ok, res.verdict.reasons
+    assert {"replay_misfit", "replay_converged"} <= {c.name for c in res.verdict.checks}
+
+
+def test_curve_misfit_is_the_relative_median_difference():
+    from freeplayid.replay import curve_misfit
+    from freeplayid.signal import AmplitudeCurve
+
+    f = np.linspace(30.0, 50.0, 201)
+    x = 1e-3 * np.exp(-(((f - 45.0) / 3.0) ** 2))
+    same = AmplitudeCurve("r", "c", f, x)
+    assert curve_misfit(same, AmplitudeCurve("r", "c", f[::-1], x[::-1])) == pytest.approx(0.0)
+    shifted = AmplitudeCurve("r", "c", f, x + 1e-4)  # 10 % of the peak everywhere
+    assert curve_misfit(same, shifted) == pytest.approx(0.1, rel=1e-9)
+    jump = x.copy()
+    jump[100:103] = 0.0  # a few samples apart at a jump do not make a misfit
+    assert curve_misfit(same, AmplitudeCurve("r", "c", f, jump)) == pytest.approx(0.0)

@@ -397,3 +397,38 @@ def plot_mode_pairs(ax, comparison, *, title=None):
         ax.set_ylabel("frequency error [%]")
     ax.legend(fontsize=7)
     ax.set_title(title or c.test, fontsize=9)
+
+
+def plot_replay_check(ax, measured, replayed, *, channel: str, misfit=None,
+                      amplitude_unit: str = "mm"):
+    """Measured (solid) and replayed (dashed) first-harmonic displacement curves of one channel,
+    run by run: the self-check of a replay (the paper's Fig. 7/11 with the model on top).
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+    measured, replayed : sequence of freeplayid.signal.AmplitudeCurve
+    channel : str
+    misfit : dict of run -> float, optional
+        Per-run misfit (relative to the peak), shown in the labels.
+    amplitude_unit : {"m", "mm", "um"}
+    """
+    if amplitude_unit not in _AMPLITUDE_SCALE:
+        raise ValueError(
+            f"`amplitude_unit` must be one of {sorted(_AMPLITUDE_SCALE)}, got {amplitude_unit!r}"
+        )
+    scale = _AMPLITUDE_SCALE[amplitude_unit]
+    rep = {(c.run, c.channel): c for c in replayed}
+    for k, c in enumerate(cc for cc in measured if cc.channel == channel):
+        r = rep.get((c.run, c.channel))
+        if r is None or not c.amplitude_m.size:
+            continue
+        color = f"C{k % 10}"
+        label = c.run + (f" ({100 * misfit[c.run]:.2g} %)" if misfit and c.run in misfit else "")
+        ax.plot(c.frequency, c.amplitude_m * scale, color=color, lw=1.0, label=label)
+        ax.plot(r.frequency, r.amplitude_m * scale, color=color, lw=1.0, ls="--")
+    ax.set_xlabel("frequency [Hz]")
+    ax.set_ylabel(f"first-harmonic displacement [{amplitude_unit}]")
+    ax.set_title(f"{channel}: measured (solid) and replayed (dashed)", fontsize=9)
+    ax.legend(fontsize=7)
+    return ax

@@ -29,7 +29,7 @@ import numpy as np
 
 from .quantity import G, check_quantity
 
-__all__ = ["ReplayResult", "replay_levels", "replay_dataset", "corrected_fit"]
+__all__ = ["ReplayResult", "replay_levels", "replay_dataset", "corrected_fit", "curve_misfit"]
 
 
 @dataclass(frozen=True)
@@ -51,6 +51,10 @@ class ReplayResult:
     offsets : list of dict
         Per measured point (run, channel): the replayed point's frequency and amplitude
         relative to the measured one at the final estimate (f_rep/f - 1, X_rep/X - 1).
+    curves : tuple of AmplitudeCurve
+        The last replay's first-harmonic displacement curves (the self-check figure).
+    misfit : dict of str -> float
+        Per run: :func:`curve_misfit` of its measured and replayed curves (largest channel).
     """
 
     kn: float
@@ -61,6 +65,8 @@ class ReplayResult:
     converged: bool
     levels: dict
     offsets: list
+    curves: tuple = ()
+    misfit: dict | None = None
 
 
 def replay_levels(dataset) -> dict:
@@ -177,6 +183,40 @@ def corrected_fit(dataset, system, identification, *, fit_kwargs: dict, rtol: fl
                 offsets.append({"run": p.run, "channel": p.channel,
                                 "f_offset": q.f_hz / p.f_hz - 1,
                                 "amplitude_offset": q.amplitude_m / p.amplitude_m - 1})
+    misfit: dict[str, float] = {}
+    if rep is not None:
+        replayed_curves = {(c.run, c.channel): c for c in rep.points.curves}
+        for c in identification.points.curves:
+            r = replayed_curves.get((c.run, c.channel))
+            if r is not None and c.run in levels:
+                misfit[c.run] = max(misfit.get(c.run, 0.0), curve_misfit(c, r))
     return ReplayResult(kn=float(theta[0]), delta=float(theta[1]), kn_fit=float(hat[0]),
                         delta_fit=float(hat[1]), iterations=history, converged=converged,
-                        levels=levels, offsets=offsets)
+                        levels=levels, offsets=offsets,
+                        curves=tuple(rep.points.curves) if rep is not None else (),
+                        misfit=misfit)
+
+
+def curve_misfit(measured, replayed) -> float:
+    """Median of |X_replayed(f) - X_measured(f)| over the measured curve's band, relative to the
+    measured peak: 0 for identical amplitude-frequency curves, 0.1 for a 10 % offset.
+
+    The median, not the RMS: at the jump the amplitude falls by half within a fraction of a Hz,
+    so a jump 0.01 Hz apart (a start transient, the sweep's phase) puts a few samples far apart
+    that say nothing about the model; a model that does not fit the test differs over the band.
+
+    Both curves are ``AmplitudeCurve`` (frequency [Hz], displacement amplitude [m]) of one run
+    and channel; the replayed one is interpolated at the measured frequencies (an up- or
+    down-sweep's frequency track is monotonic in time; it is sorted for the interpolation).
+    """
+    f, x = np.asarray(measured.frequency), np.asarray(measured.amplitude_m)
+    fr, xr = np.asarray(replayed.frequency), np.asarray(replayed.amplitude_m)
+    ok, okr = np.isfinite(f) & np.isfinite(x), np.isfinite(fr) & np.isfinite(xr)
+    if np.count_nonzero(ok) < 2 or np.count_nonzero(okr) < 2:
+        return float("nan")
+    order = np.argsort(fr[okr])
+    inside = ok & (f >= fr[okr].min()) & (f <= fr[okr].max())
+    if np.count_nonzero(inside) < 2:
+        return float("nan")
+    xi = np.interp(f[inside], fr[okr][order], xr[okr][order])
+    return float(np.median(np.abs(xi - x[inside])) / np.max(x[ok]))

@@ -17,6 +17,9 @@ compares the result or the data with a physical limit, never with a value tuned 
   channels of one run (the measurement's own noise level) and an absolute floor.
 - ``channel_agreement``: the channels of one run see one resonance; a spread above 1 % means
   another mode or a channel problem.
+- ``replay_misfit`` / ``replay_converged`` (with the replay): every run's measured and replayed
+  amplitude-frequency curves within 5 % of the peak (median difference), and the corrected fit
+  converged.
 - ``base_level``: the base channel's amplitude against each run's ``level_g``: a factor 9.81,
   1/9.81 or 1000 is a units error, a ratio that varies as a power of the frequency is a quantity
   error (acceleration declared as displacement...).
@@ -31,7 +34,8 @@ import numpy as np
 
 from .quantity import G, check_quantity
 
-__all__ = ["Check", "Verdict", "LIMITS", "base_level_checks", "fit_checks", "make_verdict"]
+__all__ = ["Check", "Verdict", "LIMITS", "base_level_checks", "fit_checks", "make_verdict",
+           "replay_checks"]
 
 LIMITS = {
     "delta_max_rad": 0.05,  # [rad] largest plausible half-gap
@@ -40,6 +44,7 @@ LIMITS = {
     "residual_vs_scatter": 5.0,  # [-] ... or this many times the channels' frequency scatter
     "channel_spread": 0.01,  # [-] relative spread of one run's channel frequencies
     "level_tolerance": 0.25,  # [-] base amplitude / level_g accepted within 1 -+ this
+    "replay_misfit": 0.05,  # [-] measured vs replayed curves, median difference / peak
 }
 
 
@@ -241,4 +246,24 @@ def fit_checks(points, fit, system, extraction, *, mode: int = 0) -> list[Check]
                             f" <= {limit:.2e}" if fit.residual_rms <= limit else
                             f" > {limit:.2e} (channel scatter {scatter:.1e}): the points do not "
                             "lie on one backbone of this model"), fit.residual_rms))
+    return checks
+
+
+def replay_checks(replay) -> list[Check]:
+    """The replay's self-check: measured vs replayed curves per run, and convergence."""
+    limit = LIMITS["replay_misfit"]
+    misfit = {r: m for r, m in (replay.misfit or {}).items() if math.isfinite(m)}
+    bad = {r: m for r, m in misfit.items() if m > limit}
+    worst = max(misfit.values(), default=None)
+    checks = [Check("replay_misfit", not bad,
+                    ("measured and replayed curves agree (worst run "
+                     f"{100 * worst:.2g} % of the peak)" if worst is not None else
+                     "no replayed curve to compare") if not bad else
+                    "the replay does not reproduce the test: " + ", ".join(
+                        f"{r} ({100 * m:.2g} % of the peak)" for r, m in bad.items())
+                    + " (model, damping, levels or sweep law?)", worst)]
+    checks.append(Check("replay_converged", bool(replay.converged),
+                        f"the corrected fit converged in {len(replay.iterations)} replays"
+                        if replay.converged else
+                        f"the corrected fit did not converge in {len(replay.iterations)} replays"))
     return checks

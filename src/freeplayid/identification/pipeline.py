@@ -227,11 +227,13 @@ def _with_replay(result, dataset, system, *, t0, **fit_kwargs):
     import dataclasses
 
     from ..replay import corrected_fit
+    from ..verdict import make_verdict, replay_checks
 
     rep = corrected_fit(dataset, system, result, fit_kwargs=fit_kwargs)
     sk, sd = rep.kn / result.kn, rep.delta / result.delta
+    verdict = make_verdict(result.verdict.checks + tuple(replay_checks(rep)))
     return dataclasses.replace(
-        result, kn=rep.kn, delta=rep.delta,
+        result, kn=rep.kn, delta=rep.delta, verdict=verdict,
         kn_ci95=tuple(v * sk for v in result.kn_ci95),
         delta_ci95=tuple(v * sd for v in result.delta_ci95),
         runtime_s=time.perf_counter() - t0, replay=rep,

@@ -152,6 +152,7 @@ class Identification:
                 "kn_fit": r.kn_fit, "delta_fit": r.delta_fit, "converged": r.converged,
                 "iterations": r.iterations, "offsets": r.offsets,
                 "levels": {k: {"level_g": v[0], "source": v[1]} for k, v in r.levels.items()},
+                "misfit": r.misfit,
             }
         return out
 
@@ -235,6 +236,9 @@ class Identification:
                       f"{it['delta_rep']:.5g} |" for k, it in enumerate(r.iterations)]
             lines += ["", "Levels: " + ", ".join(f"{run} {lv:.4g} g ({src})"
                                                   for run, (lv, src) in r.levels.items())]
+            if r.misfit:
+                lines += ["", "Measured vs replayed curves (median difference / measured peak): "
+                          + ", ".join(f"{run} {100 * m:.2g} %" for run, m in r.misfit.items())]
         lines += ["", "## Fitting points", "",
                   "| run | channel | f [Hz] | amplitude [mm] | used | residual [%] | reason |",
                   "|---|---|---|---|---|---|---|"]

@@ -85,7 +85,19 @@ def _figures(out: Path, result: Identification) -> list[str]:
     fig.tight_layout()
     fig.savefig(out / "residuals.png", dpi=110)
     plt.close(fig)
-    return ["backbone_fit.png", "residuals.png"]
+    names = ["backbone_fit.png", "residuals.png"]
+    if result.replay is not None:
+        from ..plots import plot_replay_check
+
+        fig, axes = plt.subplots(1, len(cols), figsize=(5.5 * len(cols), 4.2), squeeze=False)
+        for ax, col in zip(axes[0], cols, strict=True):
+            plot_replay_check(ax, pts.curves, result.replay.curves, channel=col,
+                              misfit=result.replay.misfit)
+        fig.tight_layout()
+        fig.savefig(out / "replay_check.png", dpi=110)
+        plt.close(fig)
+        names.append("replay_check.png")
+    return names
 
 
 def identify(cfg: DictConfig) -> dict:
