@@ -77,8 +77,8 @@ def replay_levels(dataset) -> dict:
     -------
     dict of run file -> (level [g], source)
     """
+    from .signal import window_amplitudes
     from .sweep import Sweep
-    from .verdict import _window_amplitudes
 
     order = check_quantity(dataset.quantity).order
     out = {}
@@ -89,7 +89,7 @@ def replay_levels(dataset) -> dict:
             raise ValueError(f"run {run.file}: the replay needs the run's sweep hint (`sweep`)")
         sweep = Sweep(**run.sweep)
         if run.base is not None:
-            f, a = _window_amplitudes(dataset.to_si(run.base), dataset.sample_rate, sweep)
+            f, a = window_amplitudes(dataset.to_si(run.base), dataset.sample_rate, sweep)
             # the base moves as A sin(phase): its amplitude in the data's quantity is A / w^(2-k)
             level = float(np.median(a * (2 * np.pi * f) ** (2 - order))) / G
             out[run.file] = (level, "base channel")

@@ -93,30 +93,6 @@ def make_verdict(checks) -> Verdict:
     return Verdict("ok" if all(c.passed for c in checks) else "suspect", checks)
 
 
-def _window_amplitudes(x, fs, sweep, n_windows: int = 16):
-    """(frequency [Hz], first-harmonic amplitude) of ``x`` in ``n_windows`` windows.
-
-    With the sweep law the amplitude is the least-squares sine at the sweep's phase (noise
-    averages out); without it, sqrt(2) x RMS and the zero-crossing rate."""
-    n = x.size // n_windows
-    t = np.arange(x.size) / fs
-    f_out, a_out = [], []
-    for k in range(n_windows):
-        sl = slice(k * n, (k + 1) * n)
-        xw = x[sl] - np.mean(x[sl])
-        if sweep is not None:
-            ph = sweep.phase(t[sl])
-            basis = np.column_stack([np.sin(ph), np.cos(ph)])
-            coef, *_ = np.linalg.lstsq(basis, xw, rcond=None)
-            a_out.append(math.hypot(*coef))
-            f_out.append(float(np.mean(sweep.frequency(t[sl]))))
-        else:
-            crossings = np.count_nonzero(np.diff(np.signbit(xw)))
-            a_out.append(math.sqrt(2.0) * float(np.std(xw)))
-            f_out.append(crossings / (2.0 * n / fs))
-    return np.array(f_out), np.array(a_out)
-
-
 def _level_reason(ratio: float, slope: float, quantity: str) -> str | None:
     """Why a base amplitude / expected amplitude ``ratio`` (varying as f^slope) is wrong."""
     tol = LIMITS["level_tolerance"]
@@ -141,6 +117,7 @@ def _level_reason(ratio: float, slope: float, quantity: str) -> str | None:
 
 def base_level_checks(dataset) -> list[Check]:
     """The base channel against each run's ``level_g`` (runs with both; none: no check)."""
+    from .signal import window_amplitudes
     from .sweep import Sweep
 
     if dataset.base_channel is None:
@@ -152,7 +129,7 @@ def base_level_checks(dataset) -> list[Check]:
         if run.reason or run.base is None or not run.level_g:
             continue
         sweep = Sweep(**run.sweep) if run.sweep else None
-        f, a = _window_amplitudes(dataset.to_si(run.base), dataset.sample_rate, sweep)
+        f, a = window_amplitudes(dataset.to_si(run.base), dataset.sample_rate, sweep)
         ok = (f > 0) & (a > 0) & np.isfinite(a)
         if np.count_nonzero(ok) < 4:
             continue

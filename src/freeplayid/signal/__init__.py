@@ -15,6 +15,7 @@ from .jump import (
     find_jump_peak,
     reason_dead,
 )
+from .level import window_amplitudes
 from .lockin import lockin
 from .noise import add_noise_for_snr, white_noise
 from .points import (
@@ -29,6 +30,7 @@ __all__ = [
     "ChirpMode",
     "acmp",
     "lockin",
+    "window_amplitudes",
     "ridge_frequency",
     "bandwidth_weight",
     "narrowest_bandwidth",
