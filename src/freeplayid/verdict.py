@@ -45,6 +45,7 @@ LIMITS = {
     "channel_spread": 0.01,  # [-] relative spread of one run's channel frequencies
     "level_tolerance": 0.25,  # [-] base amplitude / level_g accepted within 1 -+ this
     "replay_misfit": 0.05,  # [-] measured vs replayed curves, median difference / peak
+    "zeta_ci_ratio": 2.0,  # [-] an estimated damping ratio's 95 % interval, upper / lower
 }
 
 
@@ -227,7 +228,10 @@ def fit_checks(points, fit, system, extraction, *, mode: int = 0) -> list[Check]
 
 
 def replay_checks(replay) -> list[Check]:
-    """The replay's self-check: measured vs replayed curves per run, and convergence."""
+    """The replay's self-check: the replay could be fitted, measured vs replayed curves per run,
+    convergence, and an estimated damping ratio that the amplitudes pin down."""
+    if getattr(replay, "failure", ""):
+        return [Check("replay_failed", False, replay.failure)]
     limit = LIMITS["replay_misfit"]
     misfit = {r: m for r, m in (replay.misfit or {}).items() if math.isfinite(m)}
     bad = {r: m for r, m in misfit.items() if m > limit}
@@ -243,4 +247,15 @@ def replay_checks(replay) -> list[Check]:
                         f"the corrected fit converged in {len(replay.iterations)} replays"
                         if replay.converged else
                         f"the corrected fit did not converge in {len(replay.iterations)} replays"))
+    damping = getattr(replay, "damping", None)
+    if damping is not None and damping.source == "estimated":
+        ci = damping.zeta_ci95
+        ratio = None if ci is None else ci[1] / ci[0]
+        ok = ratio is not None and ratio <= LIMITS["zeta_ci_ratio"]
+        checks.append(Check(
+            "damping_estimate", ok,
+            f"damping estimated from the peak amplitudes: zeta = {damping.zeta:.3g}"
+            + ("" if ci is None else f" (95 % CI {ci[0]:.3g} to {ci[1]:.3g})")
+            + ("" if ok else "; the amplitudes do not pin it down (give `damping=` or C in "
+               "the model file)"), ratio))
     return checks

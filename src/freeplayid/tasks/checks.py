@@ -77,6 +77,14 @@ def text() -> Rule:
     return lambda v: None if isinstance(v, str) and v.strip() else "a non-empty text"
 
 
+def either(first: Rule, second: Rule) -> Rule:
+    """A value allowed by ``first`` or by ``second``."""
+    def rule(v):
+        a, b = first(v), second(v)
+        return None if a is None or b is None else f"{a} or {b}"
+    return rule
+
+
 def optional(inner: Rule) -> Rule:
     def rule(v):
         why = None if v is None else inner(v)
@@ -186,6 +194,8 @@ def _identify() -> dict[str, Rule]:
         "extraction.jump_width_hz": positive(), "extraction.jump_asymmetry": positive(),
         "extraction.edge_hz": number(0.0), "extraction.min_snr_db": number(),
         **_multistart(), "plot": boolean(), "allow_suspect": boolean(), "replay": boolean(),
+        "damping": optional(either(choice("model", "estimate"), number(0.0, 0.99, open_lo=True))),
+        "replay_bootstrap": integer(0),
     }
 
 
