@@ -334,10 +334,10 @@ def corrected_fit(dataset, system, identification, *, fit_kwargs: dict, damping=
     used = {p.run for p in measured}
     levels = {k: v for k, v in replay_levels(dataset).items() if k in used}
     hat = np.array([identification.kn, identification.delta])
-    kn_damping = float(hat[0])
+    kn_damping = float(hat[0])  # closed-hinge stiffness of an estimated/given modal damping
     if source == "estimated":
         zeta = initial_zeta(system, measured, levels, kn_damping, identification.dofs,
-                            int(fit_kwargs.get("mode", 0)))  # closed-hinge stiffness of an estimated/given modal damping
+                            int(fit_kwargs.get("mode", 0)))
     theta = hat.copy()
     history, converged, rep, rep_ds, failure = [], False, None, None, ""
     zeta_hist: list[tuple[float, float]] = []
