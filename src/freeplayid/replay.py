@@ -17,8 +17,10 @@ which stops when both parameters move by less than ``rtol`` (0.05 %). Whatever t
 from (damping, sweep rate, the describing function, the extraction), the replay has it too, so it
 cancels; what is left is the measurement noise and the model's own error.
 
-This first version needs every run's sweep hint (linear sweeps) and takes the damping from the
-model file (its ``C``).
+Each run's sweep law (linear or logarithmic) is its ``sweep`` hint; a run without one gets the
+law estimated from the base channel when the data set has one, else from its response channels
+(:func:`freeplayid.signal.estimate_sweep`), and the result says which (``sweeps``). The damping
+is the model file's (its ``C``).
 """
 
 from __future__ import annotations
@@ -29,7 +31,8 @@ import numpy as np
 
 from .quantity import G, check_quantity
 
-__all__ = ["ReplayResult", "replay_levels", "replay_dataset", "corrected_fit", "curve_misfit"]
+__all__ = ["ReplayResult", "replay_sweeps", "replay_levels", "replay_dataset", "corrected_fit",
+           "curve_misfit"]
 
 
 @dataclass(frozen=True)
@@ -48,6 +51,10 @@ class ReplayResult:
     converged : bool
     levels : dict of str -> (float, str)
         Each replayed run's level [g] and where it came from ("base channel" or "level_g").
+    sweeps : dict of str -> dict
+        Each replayed run's sweep law (``Sweep.to_dict()`` keys and ``law``) and where it came
+        from (``source``: "hint", "base channel" or "response"; an estimated law also has its
+        fit ``residual_hz``).
     offsets : list of dict
         Per measured point (run, channel): the replayed point's frequency and amplitude
         relative to the measured one at the final estimate (f_rep/f - 1, X_rep/X - 1).
@@ -67,27 +74,63 @@ class ReplayResult:
     offsets: list
     curves: tuple = ()
     misfit: dict | None = None
+    sweeps: dict | None = None
 
 
-def replay_levels(dataset) -> dict:
+def replay_sweeps(dataset) -> dict:
+    """Each usable run's sweep law: its ``sweep`` hint, else estimated from the base channel
+    when the data set has one, else from the response channels (the best-tracked one).
+
+    Returns
+    -------
+    dict of run file -> (Sweep, source, residual [Hz] or None)
+        source is "hint", "base channel" or "response"; the residual is the estimate's
+        (:class:`freeplayid.signal.SweepEstimate`).
+
+    Raises
+    ------
+    ValueError
+        No sweep law can be found in a run without a hint.
+    """
+    from .signal import estimate_sweep
+    from .sweep import Sweep
+
+    out = {}
+    for run in dataset.runs:
+        if run.reason:
+            continue
+        if run.sweep is not None:
+            out[run.file] = (Sweep(**run.sweep), "hint", None)
+            continue
+        source, x = ("base channel", run.base) if run.base is not None else ("response", run.data)
+        try:
+            est = estimate_sweep(dataset.to_si(x), dataset.sample_rate)
+        except ValueError as exc:
+            raise ValueError(f"run {run.file}: no sweep hint and no sweep law in its {source} "
+                             f"({exc}); give the run's `sweep` hint") from None
+        out[run.file] = (est.sweep, source, est.residual_hz)
+    return out
+
+
+def replay_levels(dataset, sweeps: dict | None = None) -> dict:
     """Each usable run's base level [g]: from the base channel's first harmonic when the data set
     has one (least squares at the sweep's phase), else the manifest's ``level_g``.
+
+    ``sweeps`` is :func:`replay_sweeps` of the data set (computed when not given).
 
     Returns
     -------
     dict of run file -> (level [g], source)
     """
     from .signal import window_amplitudes
-    from .sweep import Sweep
 
+    sweeps = replay_sweeps(dataset) if sweeps is None else sweeps
     order = check_quantity(dataset.quantity).order
     out = {}
     for run in dataset.runs:
-        if run.reason:
+        if run.reason or run.file not in sweeps:
             continue
-        if run.sweep is None:
-            raise ValueError(f"run {run.file}: the replay needs the run's sweep hint (`sweep`)")
-        sweep = Sweep(**run.sweep)
+        sweep = sweeps[run.file][0]
         if run.base is not None:
             f, a = window_amplitudes(dataset.to_si(run.base), dataset.sample_rate, sweep)
             # the base moves as A sin(phase): its amplitude in the data's quantity is A / w^(2-k)
@@ -102,33 +145,39 @@ def replay_levels(dataset) -> dict:
 
 
 def replay_dataset(dataset, system, kn: float, delta: float, *, levels: dict | None = None,
-                   dtype=None):
+                   sweeps: dict | None = None, dtype=None):
     """The data set's usable runs simulated at (kn, delta): a data set of the same layout.
 
     Runs sharing a sweep law are simulated in one batch; absolute frame with the base channel
-    when the data set has one, else relative.
+    when the data set has one, else relative. ``sweeps`` and ``levels`` are
+    :func:`replay_sweeps` and :func:`replay_levels` (computed when not given). A replayed run
+    carries a sweep hint only where the measured run has one, so both go through the same
+    extraction.
     """
+    import dataclasses
+
     import torch
 
     from .io import Dataset
     from .simulate import simulate_sweeps, sweep_dataset
-    from .sweep import Sweep
 
-    levels = replay_levels(dataset) if levels is None else levels
+    sweeps = replay_sweeps(dataset) if sweeps is None else sweeps
+    levels = replay_levels(dataset, sweeps) if levels is None else levels
     frame = "absolute" if dataset.base_channel else "relative"
-    groups: dict[tuple, list] = {}
+    hinted = {run.file for run in dataset.runs if run.sweep is not None}
+    groups: dict = {}
     for run in dataset.runs:
         if run.file in levels:
-            groups.setdefault(tuple(sorted(run.sweep.items())), []).append(run.file)
+            groups.setdefault(sweeps[run.file][0], []).append(run.file)
     runs = []
-    for key, files in groups.items():
+    for sweep, files in groups.items():
         res = simulate_sweeps(system, kn=kn, delta=delta, level_g=[levels[f][0] for f in files],
-                              sweep=Sweep(**dict(key)), channels=list(dataset.channels.values()),
+                              sweep=sweep, channels=list(dataset.channels.values()),
                               quantity=dataset.quantity, frame=frame,
                               sample_rate=dataset.sample_rate,
                               dtype=torch.float64 if dtype is None else dtype, progress=False)
         ds = sweep_dataset(res, columns=dataset.channels, units=dataset.units, run_names=files)
-        runs += list(ds.runs)
+        runs += [r if r.file in hinted else dataclasses.replace(r, sweep=None) for r in ds.runs]
     order = {r.file: i for i, r in enumerate(dataset.runs)}
     runs.sort(key=lambda r: order[r.file])
     return Dataset(name=f"replay of {dataset.name}", model=None, quantity=dataset.quantity,
@@ -157,12 +206,13 @@ def corrected_fit(dataset, system, identification, *, fit_kwargs: dict, rtol: fl
     # replay only the runs whose points were fitted: a run rejected in the test (e.g. it stayed
     # in the gap) must not enter the replayed fit as a point the measured fit did not have
     used = {p.run for p in identification.points.used()}
-    levels = {k: v for k, v in replay_levels(dataset).items() if k in used}
+    sweeps = {k: v for k, v in replay_sweeps(dataset).items() if k in used}
+    levels = replay_levels(dataset, sweeps)
     hat = np.array([identification.kn, identification.delta])
     theta = hat.copy()
     history, converged, rep = [], False, None
     for _ in range(max_iter):
-        rep_ds = replay_dataset(dataset, system, *theta, levels=levels)
+        rep_ds = replay_dataset(dataset, system, *theta, levels=levels, sweeps=sweeps)
         rep = identify(rep_ds, system=system, init=tuple(theta), progress=False, replay=False,
                        **fit_kwargs)
         theta_rep = np.array([rep.kn, rep.delta])
@@ -194,7 +244,10 @@ def corrected_fit(dataset, system, identification, *, fit_kwargs: dict, rtol: fl
                         delta_fit=float(hat[1]), iterations=history, converged=converged,
                         levels=levels, offsets=offsets,
                         curves=tuple(rep.points.curves) if rep is not None else (),
-                        misfit=misfit)
+                        misfit=misfit, sweeps={
+                            run: {"source": src, "law": sw.law, **sw.to_dict(),
+                                  **({} if res is None else {"residual_hz": float(res)})}
+                            for run, (sw, src, res) in sweeps.items()})
 
 
 def curve_misfit(measured, replayed) -> float:

@@ -152,7 +152,7 @@ class Identification:
                 "kn_fit": r.kn_fit, "delta_fit": r.delta_fit, "converged": r.converged,
                 "iterations": r.iterations, "offsets": r.offsets,
                 "levels": {k: {"level_g": v[0], "source": v[1]} for k, v in r.levels.items()},
-                "misfit": r.misfit,
+                "misfit": r.misfit, "sweeps": r.sweeps,
             }
         return out
 
@@ -236,6 +236,11 @@ class Identification:
                       f"{it['delta_rep']:.5g} |" for k, it in enumerate(r.iterations)]
             lines += ["", "Levels: " + ", ".join(f"{run} {lv:.4g} g ({src})"
                                                   for run, (lv, src) in r.levels.items())]
+            if r.sweeps:
+                lines += ["", "Sweep laws: " + ", ".join(
+                    f"{run} {_sweep_text(sw)} ({sw['source']}"
+                    + (f", fit residual {sw['residual_hz']:.2g} Hz" if "residual_hz" in sw else "")
+                    + ")" for run, sw in r.sweeps.items())]
             if r.misfit:
                 lines += ["", "Measured vs replayed curves (median difference / measured peak): "
                           + ", ".join(f"{run} {100 * m:.2g} %" for run, m in r.misfit.items())]
@@ -283,3 +288,9 @@ def _validation_lines(v) -> list[str]:
     rows += ["", f"Zero-clearance check: {'passed' if v.passed else 'FAILED'}."]
     return rows
 
+
+def _sweep_text(sw: dict) -> str:
+    """A replay's sweep-law record in words: "30 -> 50 Hz at 0.1 Hz/s"."""
+    rate = (f"{sw['rate_hz_per_s']:.4g} Hz/s" if sw.get("rate_hz_per_s") is not None else
+            f"{sw['octaves_per_min']:.4g} octaves/min")
+    return f"{sw['start_hz']:.5g} -> {sw['stop_hz']:.5g} Hz at {rate}"

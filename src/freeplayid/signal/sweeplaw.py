@@ -139,6 +139,9 @@ def _estimate_one(x: np.ndarray, fs: float, *, window_s, fmin: float, bandwidth_
     fi = sw1.frequency(tk) + dtheta
     w = np.abs(zt) ** 2
     w[(tk < 1.0 / bw) | (tk > T - 1.0 / bw)] = 0.0  # the filter's edge transients
+    # capped at the median power: the resonance (largest, where the response's phase moves
+    # against the excitation's) counts as much as the rest of the sweep, not more
+    w = np.minimum(w, np.median(w[w > 0])) if np.any(w > 0) else w
     fine = {law: _fit_law(law, tk, fi, w, 0.01 * bw) for law in ("linear", "log")}
     if any(c[0] is None for c in fine.values()):
         fine = coarse
