@@ -99,6 +99,9 @@ def _fit_law(law: str, t, f, w, floor: float):
 def _law_sweep(law: str, coef, T: float) -> Sweep:
     """The Sweep of fitted coefficients over [0, T] (ValueError when it is no sweep)."""
     slope, icpt = float(coef[0]), float(coef[1])
+    change = abs(slope) * T * (1.0 if law == "linear" else math.exp(icpt))
+    if change < 1.0 / T:  # below the record's frequency resolution: a tone, not a sweep
+        raise ValueError(f"the frequency changes by {change:.3g} Hz over the record: no sweep")
     if law == "linear":
         f0, f1 = icpt, icpt + slope * T
         if not (f0 > 0 and f1 > 0):
