@@ -218,3 +218,30 @@ def test_replay_keeps_the_hints_it_was_given(sdof):
     assert laws[ds.runs[0].file] == (LOG, "hint", None)
     rep = replay_dataset(ds, sdof, KN, DELTA)
     assert rep.runs[0].sweep == LOG.to_dict()
+
+
+@pytest.mark.parametrize("overrides, error", [
+    (["sweep.rate_hz_per_s=null", "sweep.octaves_per_min=2"], None),
+    (["sweep.octaves_per_min=2"], "got both"),
+    (["sweep.rate_hz_per_s=null"], "got neither"),
+])
+def test_simulate_config_takes_one_sweep_law(overrides, error):
+    from pathlib import Path
+
+    from hydra import compose, initialize_config_dir
+    from omegaconf import OmegaConf
+
+    import freeplayid.tasks  # noqa: F401  (stores model=fin in the ConfigStore)
+    from freeplayid.errors import ConfigError
+    from freeplayid.tasks.checks import SIMULATE, check_config
+
+    conf = Path(__file__).resolve().parents[1] / "conf"
+    with initialize_config_dir(config_dir=str(conf), version_base="1.3"):
+        cfg = compose(config_name="simulate", overrides=overrides)
+    if error is None:
+        check_config(cfg, SIMULATE)
+        sw = Sweep(**OmegaConf.to_container(cfg.sweep, resolve=True))
+        assert sw.law == "log" and sw.duration == pytest.approx(60 * math.log2(50 / 30) / 2)
+    else:
+        with pytest.raises(ConfigError, match=f"`sweep` needs exactly one.*{error}"):
+            check_config(cfg, SIMULATE)
