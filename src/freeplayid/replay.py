@@ -9,23 +9,22 @@ theta_rep(theta) = fit(replay(theta)), the corrected estimate solves
 
     theta_rep(theta) = theta_hat                                     (binding function)
 
-by the fixed point (in log parameters, every bias a factor)
-
-    theta_{k+1} = theta_k * theta_hat / theta_rep(theta_k),
-
-which stops when both parameters move by less than ``rtol`` (0.05 %). Whatever the bias comes
+in log parameters (every bias a factor) by Broyden's quasi-Newton method: it starts from the
+fixed point theta_{k+1} = theta_k * theta_hat / theta_rep(theta_k) (an identity Jacobian) and
+learns the binding function's Jacobian from the replays, so a binding that couples kn and delta,
+or moves less than one to one, still converges; each step is at most a factor 1.5, and the loop
+stops when both parameters move by less than ``rtol`` (0.05 %). Whatever the bias comes
 from (damping, sweep rate, the describing function, the extraction), the replay has it too, so it
 cancels; what is left is the measurement noise and the model's own error.
 
 Damping (``damping=``): the model file's ``C`` when it has one; else (or with
 ``damping="estimate"``) one modal damping ratio zeta for every mode of the closed-hinge stiffness
 at the plain fit's kn, estimated in the same loop from the points' amplitudes: the jump peak of a
-hardening resonance is held down by damping (its amplitude goes roughly as 1/zeta), so
-
-    log zeta_{k+1} = log zeta_k - r_k / s_k,   r_k = median over the points of log(X_rep / X),
-
-with s_k the secant slope dr/dlog(zeta) of the last two replays (-1 to start). Its interval comes
-from the spread of the per-point log ratios. A number (``damping=0.02``) fixes zeta.
+hardening resonance is held down by damping (its amplitude goes roughly as 1/zeta), so the
+statistic r = median over the points of log(X_rep / X) joins the two fit statistics as a third
+equation r(zeta) = 0 of the same Broyden solve (slope -1 to start); its first guess is
+:func:`initial_zeta`. Its interval comes from the spread of the per-point log ratios. A number
+(``damping=0.02``) fixes zeta.
 
 Intervals that see the bias (``n_bootstrap``): B copies of the last replay (the test as the model
 at the corrected estimate runs it), each with fresh white noise of each channel's measured noise
@@ -34,6 +33,10 @@ whole plain pipeline (extraction and fit); each copy's fit theta_b maps to a cor
 by the binding function's local factor, theta * theta_b / theta_rep, and the 2.5/97.5 %
 percentiles of those are the interval. The bootstrap reuses the last replay's correction factor
 instead of re-running the fixed point per copy (the factor varies much less than the noise).
+
+Each run's sweep law (linear or logarithmic) is its ``sweep`` hint; a run without one gets the
+law estimated from the base channel when the data set has one, else from its response channels
+(:func:`freeplayid.signal.estimate_sweep`), and the result says which (``sweeps``).
 """
 
 from __future__ import annotations
@@ -44,8 +47,8 @@ import numpy as np
 
 from .quantity import G, check_quantity
 
-__all__ = ["ReplayResult", "ReplayDamping", "replay_levels", "replay_dataset", "corrected_fit",
-           "curve_misfit", "damped_system", "noise_levels"]
+__all__ = ["ReplayResult", "ReplayDamping", "replay_sweeps", "replay_levels", "replay_dataset",
+           "corrected_fit", "curve_misfit", "damped_system", "noise_levels", "initial_zeta"]
 
 ZETA_START = 0.02  # [-] first guess of an estimated damping ratio (the loop moves it)
 ZETA_RTOL = 0.01  # [-] an estimated zeta has converged when it moves by less than 1 %
@@ -132,6 +135,10 @@ class ReplayResult:
     converged : bool
     levels : dict of str -> (float, str)
         Each replayed run's level [g] and where it came from ("base channel" or "level_g").
+    sweeps : dict of str -> dict
+        Each replayed run's sweep law (``Sweep.to_dict()`` keys and ``law``) and where it came
+        from (``source``: "hint", "base channel" or "response"; an estimated law also has its
+        fit ``residual_hz``).
     offsets : list of dict
         Per measured point (run, channel): the replayed point's frequency and amplitude
         relative to the measured one at the final estimate (f_rep/f - 1, X_rep/X - 1).
@@ -165,27 +172,63 @@ class ReplayResult:
     delta_ci95_replay: tuple | None = None
     n_bootstrap: int = 0
     noise: dict | None = None
+    sweeps: dict | None = None
 
 
-def replay_levels(dataset) -> dict:
+def replay_sweeps(dataset) -> dict:
+    """Each usable run's sweep law: its ``sweep`` hint, else estimated from the base channel
+    when the data set has one, else from the response channels (the best-tracked one).
+
+    Returns
+    -------
+    dict of run file -> (Sweep, source, residual [Hz] or None)
+        source is "hint", "base channel" or "response"; the residual is the estimate's
+        (:class:`freeplayid.signal.SweepEstimate`).
+
+    Raises
+    ------
+    ValueError
+        No sweep law can be found in a run without a hint.
+    """
+    from .signal import estimate_sweep
+    from .sweep import Sweep
+
+    out = {}
+    for run in dataset.runs:
+        if run.reason:
+            continue
+        if run.sweep is not None:
+            out[run.file] = (Sweep(**run.sweep), "hint", None)
+            continue
+        source, x = ("base channel", run.base) if run.base is not None else ("response", run.data)
+        try:
+            est = estimate_sweep(dataset.to_si(x), dataset.sample_rate)
+        except ValueError as exc:
+            raise ValueError(f"run {run.file}: no sweep hint and no sweep law in its {source} "
+                             f"({exc}); give the run's `sweep` hint") from None
+        out[run.file] = (est.sweep, source, est.residual_hz)
+    return out
+
+
+def replay_levels(dataset, sweeps: dict | None = None) -> dict:
     """Each usable run's base level [g]: from the base channel's first harmonic when the data set
     has one (least squares at the sweep's phase), else the manifest's ``level_g``.
+
+    ``sweeps`` is :func:`replay_sweeps` of the data set (computed when not given).
 
     Returns
     -------
     dict of run file -> (level [g], source)
     """
     from .signal import window_amplitudes
-    from .sweep import Sweep
 
+    sweeps = replay_sweeps(dataset) if sweeps is None else sweeps
     order = check_quantity(dataset.quantity).order
     out = {}
     for run in dataset.runs:
-        if run.reason:
+        if run.reason or run.file not in sweeps:
             continue
-        if run.sweep is None:
-            raise ValueError(f"run {run.file}: the replay needs the run's sweep hint (`sweep`)")
-        sweep = Sweep(**run.sweep)
+        sweep = sweeps[run.file][0]
         if run.base is not None:
             f, a = window_amplitudes(dataset.to_si(run.base), dataset.sample_rate, sweep)
             # the base moves as A sin(phase): its amplitude in the data's quantity is A / w^(2-k)
@@ -200,33 +243,39 @@ def replay_levels(dataset) -> dict:
 
 
 def replay_dataset(dataset, system, kn: float, delta: float, *, levels: dict | None = None,
-                   dtype=None):
+                   sweeps: dict | None = None, dtype=None):
     """The data set's usable runs simulated at (kn, delta): a data set of the same layout.
 
     Runs sharing a sweep law are simulated in one batch; absolute frame with the base channel
-    when the data set has one, else relative.
+    when the data set has one, else relative. ``sweeps`` and ``levels`` are
+    :func:`replay_sweeps` and :func:`replay_levels` (computed when not given). A replayed run
+    carries a sweep hint only where the measured run has one, so both go through the same
+    extraction.
     """
+    import dataclasses
+
     import torch
 
     from .io import Dataset
     from .simulate import simulate_sweeps, sweep_dataset
-    from .sweep import Sweep
 
-    levels = replay_levels(dataset) if levels is None else levels
+    sweeps = replay_sweeps(dataset) if sweeps is None else sweeps
+    levels = replay_levels(dataset, sweeps) if levels is None else levels
     frame = "absolute" if dataset.base_channel else "relative"
-    groups: dict[tuple, list] = {}
+    hinted = {run.file for run in dataset.runs if run.sweep is not None}
+    groups: dict = {}
     for run in dataset.runs:
         if run.file in levels:
-            groups.setdefault(tuple(sorted(run.sweep.items())), []).append(run.file)
+            groups.setdefault(sweeps[run.file][0], []).append(run.file)
     runs = []
-    for key, files in groups.items():
+    for sweep, files in groups.items():
         res = simulate_sweeps(system, kn=kn, delta=delta, level_g=[levels[f][0] for f in files],
-                              sweep=Sweep(**dict(key)), channels=list(dataset.channels.values()),
+                              sweep=sweep, channels=list(dataset.channels.values()),
                               quantity=dataset.quantity, frame=frame,
                               sample_rate=dataset.sample_rate,
                               dtype=torch.float64 if dtype is None else dtype, progress=False)
         ds = sweep_dataset(res, columns=dataset.channels, units=dataset.units, run_names=files)
-        runs += list(ds.runs)
+        runs += [r if r.file in hinted else dataclasses.replace(r, sweep=None) for r in ds.runs]
     order = {r.file: i for i, r in enumerate(dataset.runs)}
     runs.sort(key=lambda r: order[r.file])
     return Dataset(name=f"replay of {dataset.name}", model=None, quantity=dataset.quantity,
@@ -319,7 +368,7 @@ def corrected_fit(dataset, system, identification, *, fit_kwargs: dict, damping=
     rtol : float
         Convergence: (kn, delta) move by less than this between replays.
     max_iter : int
-        Most replays of the fixed point.
+        Most replays.
 
     A replay that cannot be fitted (the replayed fin stays in the gap, no jump: a model far
     from the test) ends the loop with ``failure`` set; the verdict then says ``suspect``.
@@ -332,20 +381,26 @@ def corrected_fit(dataset, system, identification, *, fit_kwargs: dict, damping=
     # in the gap) must not enter the replayed fit as a point the measured fit did not have
     measured = identification.points.used()
     used = {p.run for p in measured}
-    levels = {k: v for k, v in replay_levels(dataset).items() if k in used}
+    sweeps = {k: v for k, v in replay_sweeps(dataset).items() if k in used}
+    levels = replay_levels(dataset, sweeps)
     hat = np.array([identification.kn, identification.delta])
     kn_damping = float(hat[0])  # closed-hinge stiffness of an estimated/given modal damping
-    if source == "estimated":
+    estimate = source == "estimated"
+    if estimate:
         zeta = initial_zeta(system, measured, levels, kn_damping, identification.dofs,
                             int(fit_kwargs.get("mode", 0)))
-    theta = hat.copy()
+    # unknowns u = log(kn, delta[, zeta]); residual F(u) = statistics of the replay minus those
+    # of the test: log(kn_rep / kn_hat), log(delta_rep / delta_hat)[, median log(X_rep / X)]
+    u = np.log(np.append(hat, zeta) if estimate else hat.copy())
+    J = np.diag([1.0, 1.0, -1.0][: u.size])  # identity binding; amplitude ~ 1 / zeta
     history, converged, rep, rep_ds, failure = [], False, None, None, ""
-    zeta_hist: list[tuple[float, float]] = []
     ratios = np.array([])
-    sys_k = system
+    prev = None  # (u, F) of the last replay, for Broyden's update
     for _ in range(max_iter):
-        sys_k = system if source == "model" else damped_system(system, zeta, kn_damping)
-        rep_ds = replay_dataset(dataset, sys_k, *theta, levels=levels)
+        theta = np.exp(u[:2])
+        zeta_k = float(np.exp(u[2])) if estimate else zeta
+        sys_k = system if source == "model" else damped_system(system, zeta_k, kn_damping)
+        rep_ds = replay_dataset(dataset, sys_k, *theta, levels=levels, sweeps=sweeps)
         try:
             rep_k = identify(rep_ds, system=system, init=tuple(theta), progress=False,
                              replay=False, **fit_kwargs)
@@ -356,46 +411,50 @@ def corrected_fit(dataset, system, identification, *, fit_kwargs: dict, damping=
             break
         rep = rep_k
         theta_rep = np.array([rep.kn, rep.delta])
-        new = theta * hat / theta_rep
+        F = np.log(theta_rep / hat)
         item = {"kn": float(theta[0]), "delta": float(theta[1]),
                 "kn_rep": float(theta_rep[0]), "delta_rep": float(theta_rep[1])}
-        z_step = 0.0
-        if source == "estimated":
+        if estimate:
             ratios = _amplitude_ratios(measured, rep.points.used())
             r = float(np.median(ratios)) if ratios.size else 0.0
-            item.update(zeta=float(zeta), amplitude_log_ratio=r)
-            zeta_hist.append((float(np.log(zeta)), r))
-            slope = -1.0
-            if len(zeta_hist) >= 2:
-                (l0, r0), (l1, r1) = zeta_hist[-2], zeta_hist[-1]
-                if abs(l1 - l0) > 1e-4:
-                    slope = float(np.clip((r1 - r0) / (l1 - l0), -3.0, -0.1))
-            z_step = float(np.clip(-r / slope, -np.log(3.0), np.log(3.0)))
+            F = np.append(F, r)
+            item.update(zeta=zeta_k, amplitude_log_ratio=r)
         elif source == "given":
             item.update(zeta=float(zeta))
         history.append(item)
-        step = np.abs(new / theta - 1)
+        if prev is not None:
+            # Broyden's rank-one update of the binding function's Jacobian; kept only while the
+            # Jacobian stays a plausible binding (diagonal within a factor 3 of the start's)
+            du, dF = u - prev[0], F - prev[1]
+            if float(du @ du) > 1e-12:
+                J_new = J + np.outer(dF - J @ du, du) / float(du @ du)
+                d0 = np.diag([1.0, 1.0, -1.0][: u.size])
+                ratio = np.diag(J_new) / np.diag(d0)
+                if np.all((ratio > 1 / 3) & (ratio < 3)) and np.linalg.cond(J_new) < 1e3:
+                    J = J_new
+        step = -np.linalg.solve(J, F)
+        step = np.clip(step, -np.log(1.5), np.log(1.5))  # at most a factor 1.5 per replay
+        prev = (u.copy(), F.copy())
         if progress:
-            print(f"replay {len(history)}: kn {theta[0]:.5g} -> {new[0]:.5g}, delta "
-                  f"{theta[1]:.5g} -> {new[1]:.5g}" + (f", zeta {zeta:.4g} -> "
-                  f"{zeta * np.exp(z_step):.4g}" if source == "estimated" else ""))
-        done = bool(np.all(step < rtol)) and abs(z_step) < np.log1p(ZETA_RTOL)
-        theta = new
-        if source == "estimated":
-            zeta = float(zeta * np.exp(z_step))
+            print(f"replay {len(history)}: kn {theta[0]:.5g}, delta {theta[1]:.5g}"
+                  + (f", zeta {zeta_k:.4g}" if estimate else "")
+                  + f"; misfit of the statistics {np.abs(F).max():.2e}")
+        u = u + step
+        done = bool(np.all(np.abs(step[:2]) < np.log1p(rtol)))
+        if estimate:
+            done = done and abs(step[2]) < np.log1p(ZETA_RTOL)
         if done:
             converged = True
             break
+    theta = np.exp(u[:2])
+    if estimate:
+        zeta = float(np.exp(u[2]))
     zeta_ci = None
-    if source == "estimated" and ratios.size >= 2:
-        # spread of the per-point log ratios -> standard error of their centre, through the slope
-        slope = -1.0
-        if len(zeta_hist) >= 2:
-            (l0, r0), (l1, r1) = zeta_hist[-2], zeta_hist[-1]
-            if abs(l1 - l0) > 1e-4:
-                slope = float(np.clip((r1 - r0) / (l1 - l0), -3.0, -0.1))
-        se = 1.2533 * float(np.std(ratios, ddof=1)) / np.sqrt(ratios.size)  # of a median
-        half = 1.96 * se / abs(slope)
+    if estimate and ratios.size >= 2:
+        # spread of the per-point log ratios -> standard error of their median, through the
+        # amplitude's sensitivity to log zeta (the Jacobian's last diagonal entry)
+        se = 1.2533 * float(np.std(ratios, ddof=1)) / np.sqrt(ratios.size)
+        half = 1.96 * se / max(abs(float(J[2, 2])), 0.1)
         zeta_ci = (float(zeta * np.exp(-half)), float(zeta * np.exp(half)))
     damping_used = ReplayDamping(source=source, zeta=None if zeta is None else float(zeta),
                                  zeta_ci95=zeta_ci)
@@ -421,6 +480,8 @@ def corrected_fit(dataset, system, identification, *, fit_kwargs: dict, damping=
         ci_kn, ci_delta = _bootstrap_by_replay(
             rep_ds, system, noise, theta=theta, theta_rep=np.array([rep.kn, rep.delta]),
             n=int(n_bootstrap), seed=int(seed), fit_kwargs=fit_kwargs, progress=progress)
+    if failure:
+        theta = hat.copy()  # nothing to correct with: the plain fit stays
     return ReplayResult(kn=float(theta[0]), delta=float(theta[1]), kn_fit=float(hat[0]),
                         delta_fit=float(hat[1]), iterations=history, converged=converged,
                         levels=levels, offsets=offsets,
@@ -429,7 +490,10 @@ def corrected_fit(dataset, system, identification, *, fit_kwargs: dict, damping=
                         kn_ci95_replay=ci_kn, delta_ci95_replay=ci_delta,
                         n_bootstrap=int(n_bootstrap) if ci_kn is not None else 0,
                         noise=None if noise is None else
-                        {k: [float(x) for x in v] for k, v in noise.items()})
+                        {k: [float(x) for x in v] for k, v in noise.items()},
+                        sweeps={run: {"source": src, "law": sw.law, **sw.to_dict(),
+                                      **({} if res is None else {"residual_hz": float(res)})}
+                                for run, (sw, src, res) in sweeps.items()})
 
 
 def _bootstrap_by_replay(rep_ds, system, noise, *, theta, theta_rep, n, seed, fit_kwargs,

@@ -20,6 +20,10 @@ compares the result or the data with a physical limit, never with a value tuned 
 - ``replay_misfit`` / ``replay_converged`` (with the replay): every run's measured and replayed
   amplitude-frequency curves within 5 % of the peak (median difference), and the corrected fit
   converged.
+- ``sweep_law`` (with the replay): where each replayed run's sweep law came from. A law
+  estimated from the response channels (no hint, no base channel) is a reason for caution, not
+  for suspicion by itself: the check fails only when such a run's replayed curves miss the
+  measured ones (its ``replay_misfit`` above the limit), which a wrong law shows.
 - ``base_level``: the base channel's amplitude against each run's ``level_g``: a factor 9.81,
   1/9.81 or 1000 is a units error, a ratio that varies as a power of the frequency is a quantity
   error (acceleration declared as displacement...).
@@ -243,6 +247,7 @@ def replay_checks(replay) -> list[Check]:
                     "the replay does not reproduce the test: " + ", ".join(
                         f"{r} ({100 * m:.2g} % of the peak)" for r, m in bad.items())
                     + " (model, damping, levels or sweep law?)", worst)]
+    checks.append(_sweep_law_check(replay, misfit, limit))
     checks.append(Check("replay_converged", bool(replay.converged),
                         f"the corrected fit converged in {len(replay.iterations)} replays"
                         if replay.converged else
@@ -259,3 +264,25 @@ def replay_checks(replay) -> list[Check]:
             + ("" if ok else "; the amplitudes do not pin it down (give `damping=` or C in "
                "the model file)"), ratio))
     return checks
+
+
+def _sweep_law_check(replay, misfit: dict, limit: float) -> Check:
+    """Where the replayed sweep laws came from; a law guessed from the responses passes only
+    when the replay reproduces that run (module docstring)."""
+    sweeps = replay.sweeps or {}
+    by_source: dict[str, list[str]] = {}
+    for run, sw in sweeps.items():
+        by_source.setdefault(sw["source"], []).append(run)
+    where = "; ".join(f"{src}: {', '.join(runs)}" for src, runs in by_source.items())
+    guessed = by_source.get("response", [])
+    if not guessed:
+        return Check("sweep_law", True, f"sweep laws from {where or 'no run'}")
+    worst = max((sweeps[r].get("residual_hz", 0.0) for r in guessed), default=0.0)
+    bad = [r for r in guessed if not misfit.get(r, math.inf) <= limit]
+    text = (f"sweep law of run(s) {', '.join(guessed)} estimated from the response channels "
+            f"(no hint, no base channel; fit residual up to {worst:.2g} Hz)")
+    if bad:
+        return Check("sweep_law", False, text + f"; the replay does not reproduce {', '.join(bad)}"
+                     ": the estimated law may be wrong (give the runs' `sweep` hints)", worst)
+    return Check("sweep_law", True, text + "; the replay reproduces them (caution: no hint)",
+                 worst)

@@ -159,7 +159,7 @@ class Identification:
                 "kn_ci95_bootstrap": None if r.kn_ci95_replay is None else list(r.kn_ci95_replay),
                 "delta_ci95_bootstrap": (None if r.delta_ci95_replay is None
                                          else list(r.delta_ci95_replay)),
-                "n_bootstrap": r.n_bootstrap, "noise": r.noise,
+                "n_bootstrap": r.n_bootstrap, "noise": r.noise, "sweeps": r.sweeps,
             }
             out["interval_source"] = self.interval_source
         return out
@@ -244,6 +244,11 @@ class Identification:
                       f"{it['delta_rep']:.5g} |" for k, it in enumerate(r.iterations)]
             lines += ["", "Levels: " + ", ".join(f"{run} {lv:.4g} g ({src})"
                                                   for run, (lv, src) in r.levels.items())]
+            if r.sweeps:
+                lines += ["", "Sweep laws: " + ", ".join(
+                    f"{run} {_sweep_text(sw)} ({sw['source']}"
+                    + (f", fit residual {sw['residual_hz']:.2g} Hz" if "residual_hz" in sw else "")
+                    + ")" for run, sw in r.sweeps.items())]
             if r.damping is not None:
                 lines += ["", f"Damping of the replay: {r.damping.describe()}."]
             if r.failure:
@@ -300,3 +305,9 @@ def _validation_lines(v) -> list[str]:
     rows += ["", f"Zero-clearance check: {'passed' if v.passed else 'FAILED'}."]
     return rows
 
+
+def _sweep_text(sw: dict) -> str:
+    """A replay's sweep-law record in words: "30 -> 50 Hz at 0.1 Hz/s"."""
+    rate = (f"{sw['rate_hz_per_s']:.4g} Hz/s" if sw.get("rate_hz_per_s") is not None else
+            f"{sw['octaves_per_min']:.4g} octaves/min")
+    return f"{sw['start_hz']:.5g} -> {sw['stop_hz']:.5g} Hz at {rate}"

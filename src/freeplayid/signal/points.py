@@ -16,9 +16,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..quantity import check_quantity
-from .acmp import ChirpMode, acmp, ridge_frequency
+from .acmp import ChirpMode, acmp
 from .jump import REASON_FAILED, REASON_NOISY, find_jump_peak, reason_dead
 from .lockin import lockin
+from .sweeplaw import estimate_sweep
 from .validate import check_positive, dead_channel
 
 __all__ = [
@@ -219,7 +220,8 @@ def extract_backbone_points(
     method : {"acmp", "lockin"}
     bandwidth_hz : float [Hz], optional
         Demodulation bandwidth of either method. Default ``max(1 Hz, 2 s x |sweep rate|)``
-        (rate from the hint, else from the STFT ridge): narrow enough to keep the noise bias of
+        (the hint's rate, else the record's own law from :func:`estimate_sweep`; the median
+        rate of a log sweep): narrow enough to keep the noise bias of
         the maximum small, wide enough to follow the drop after the peak without overshoot.
     options : mapping, optional
         Further keyword options of the method (e.g. ``{"if_bandwidth_hz": 0.5}``).
@@ -384,26 +386,35 @@ def _channel_point(
     sl = slice(trim, n - trim)
     ti = np.arange(n)[sl] / fs
     run_opts = dict(opts)
-    if sweep is not None:
-        rate = sweep.signed_rate
-        band = (float(sweep.frequency(ti[0])), float(sweep.frequency(ti[-1])))
+    law = sweep
+    if law is None and "init_freq" not in run_opts:
+        # output-only: the record's own sweep law (linear or log, estimate_sweep) gives the
+        # rate, the band and ACMP's start
+        try:
+            law = estimate_sweep(x, fs, fmin=2.0).sweep
+        except ValueError as exc:
+            raise _ExtractionError(f"no sweep found in the record ({exc})") from None
+        run_opts["init_freq"] = law.frequency(np.arange(n) / fs)
+    if law is not None:
+        rate = law.rate(ti)  # df/dt [Hz/s] per sample: a log sweep's varies
+        band = (float(law.frequency(ti[0])), float(law.frequency(ti[-1])))
     else:
-        # output-only: the (linear) STFT ridge gives the rate, the band and ACMP's start
-        if "init_freq" not in run_opts:
-            run_opts["init_freq"] = ridge_frequency(x, fs, fmin=2.0)
         f_init = np.broadcast_to(np.asarray(run_opts["init_freq"], dtype=float), (n,))
-        rate = float((f_init[sl][-1] - f_init[sl][0]) / (ti[-1] - ti[0]))
+        rate = np.full(ti.shape, (f_init[sl][-1] - f_init[sl][0]) / (ti[-1] - ti[0]))
         band = (float(f_init[sl][0]), float(f_init[sl][-1]))
-        if not np.isfinite(rate) or rate == 0:
+        if not np.isfinite(rate[0]) or rate[0] == 0:
             raise _ExtractionError("the initial frequency is not a sweep (pass `sweep`)")
-    bw = max(1.0, 2.0 * abs(rate)) if bandwidth_hz is None else bandwidth_hz
+    bw = max(1.0, 2.0 * float(np.median(np.abs(rate)))) if bandwidth_hz is None else bandwidth_hz
     mode: ChirpMode = extract(x, fs, sweep=sweep, bandwidth_hz=bw, **run_opts)
     fi = mode.frequency[sl]
     # the first harmonic lives in the swept band; keep a wild IF (noise, after a jump) from
     # blowing up X = A / w^2
     lo, hi = min(band), max(band)
     xi = to_displacement(mode.amplitude[sl], np.clip(fi, 0.5 * lo, 2.0 * hi), quantity)
-    k, reason = find_jump_peak(ti, fi, xi, sweep_rate=rate, band=band, **peak_rule)
+    # the jump rule's widths [Hz] at the sweep's rate where the curve peaks (a log sweep's rate
+    # varies along the record)
+    peak_rate = float(rate[int(np.argmax(np.where(np.isfinite(xi), xi, -np.inf)))])
+    k, reason = find_jump_peak(ti, fi, xi, sweep_rate=peak_rate, band=band, **peak_rule)
     if mode.snr_db < min_snr_db:
         reason = REASON_NOISY
     point = BackbonePoint(

@@ -121,7 +121,7 @@ def _base_signals(sweep: Sweep, t0_index: int, L: int, h: float, s_half: np.ndar
     c, s = np.cos(phase), np.sin(phase)
     return {
         "base": np.stack([u[:-1], v[:-1], a[0:-1:2]]),
-        "quasi_static": np.stack([s, w * c, 2 * np.pi * sweep.signed_rate * c - w * w * s]),
+        "quasi_static": np.stack([s, w * c, 2 * np.pi * sweep.rate(t) * c - w * w * s]),
     }
 
 
@@ -214,7 +214,7 @@ def simulate_sweeps(
     level_g : float or array_like, shape (batch,) [g]
         Base acceleration amplitude; kn, delta, level_g broadcast to one batch.
     sweep : Sweep
-        Linear sweep (up or down); the output covers [0, sweep.duration].
+        Linear or logarithmic sweep (up or down); the output covers [0, sweep.duration].
     channels : sequence of str
         DOF names to record.
     quantity : {"displacement", "velocity", "acceleration"}
