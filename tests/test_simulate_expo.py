@@ -1,0 +1,270 @@
+"""The exponential engine (``engine="expo"``) against references it did not produce."""
+
+import numpy as np
+import pytest
+import scipy.integrate
+import torch
+
+import sdof_reference as ref
+from freeplayid.model import FreeplaySystem, freeplay_force, rayleigh_damping, sdof_system
+from freeplayid.quantity import G
+from freeplayid.simulate import Sweep, build_modal_form, simulate_sweeps
+from freeplayid.simulate.engines import ENGINES, numba_available, resolve_engine
+from freeplayid.simulate.exponential import discretize, expo_step_limit
+from freeplayid.simulate.resample import design_decimator
+from test_simulate import first_harmonic, linear_reference
+
+needs_numba = pytest.mark.skipif(not numba_available(), reason="numba not installed")
+CPU = torch.device("cpu")
+
+
+def chain3(*, stiff_tip: bool = False) -> FreeplaySystem:
+    """3-DOF chain on the base, a freeplay spring between DOFs 2 and 1, Rayleigh damping (2 %
+    at 30 and 50 Hz); ``stiff_tip``: a light, stiff tip DOF (top mode ~60 kHz, overdamped)."""
+    m = np.array([1.0, 0.5, 0.002 if stiff_tip else 0.2])
+    k = np.array([2e5, 6e4, 3e8 if stiff_tip else 3e4])
+    K = np.array([[k[0] + k[1], -k[1], 0], [-k[1], k[1] + k[2], -k[2]], [0, -k[2], k[2]]])
+    M = np.diag(m)
+    return FreeplaySystem(M=M, K=K, C=rayleigh_damping(M, K, f1=30.0, f2=50.0, zeta=0.02),
+                          dof_names=("a", "b", "c"), hinge_pairs=(("c", "b"),),
+                          base_influence=np.ones(3))
+
+
+def solve_ivp_reference(system, *, kn, delta, level, sweep, times):
+    """Relative displacement (T, n) by DOP853 at rtol 1e-11 (freeplay force as a function)."""
+    M, C, K, B, r = system.M, system.damping, system.K, system.hinge_matrix(), system.influence
+    n = M.shape[0]
+    Mi = np.linalg.inv(M)
+
+    def rhs(t, x):
+        y, v = x[:n], x[n:]
+        f = freeplay_force(B.T @ y, kn, delta)
+        return np.concatenate([v, Mi @ (-K @ y - C @ v - B @ f) - r * level * G * np.sin(
+            sweep.phase(t))])
+
+    sol = scipy.integrate.solve_ivp(rhs, (0, times[-1]), np.zeros(2 * n), method="DOP853",
+                                    rtol=1e-11, atol=1e-14, t_eval=times)
+    return sol.y[:n].T
+
+
+# ----------------------------------------------------------------------------- step matrices
+def test_step_matrices_are_the_exact_integrals():
+    # Phi, W, P against quadrature of exp(A (h - tau)) times the Lagrange / hat weights
+    import scipy.linalg
+
+    form = build_modal_form(chain3(), channels=("c",), quantity="displacement",
+                            frame="relative", kn_max=1e4)
+    h = 3e-4
+    st = discretize(form, h)
+    N = form.n_modes
+    A = np.block([[np.zeros((N, N)), np.eye(N)], [-np.diag(form.lam), -form.Cm]])
+    bg = np.concatenate([np.zeros(N), form.g])
+    bf = np.concatenate([np.zeros((N, 1)), form.D])
+    x, w = np.polynomial.legendre.leggauss(30)
+    x, w = 0.5 * (x + 1), 0.5 * w
+    E = np.stack([scipy.linalg.expm(A * h * (1 - xi)) for xi in x])
+    quad = lambda wt: h * np.einsum("k,k,kij->ij", w, wt, E)  # noqa: E731
+    np.testing.assert_allclose(st.Phi, scipy.linalg.expm(A * h), atol=1e-14)
+    for row, wt in zip(st.W, ((1 - x) * (1 - 2 * x), 4 * x * (1 - x), x * (2 * x - 1))):
+        np.testing.assert_allclose(row, quad(wt) @ bg, rtol=1e-10, atol=1e-16)
+    np.testing.assert_allclose(st.P0, -quad(1 - x) @ -bf, rtol=1e-10, atol=1e-16)
+    np.testing.assert_allclose(st.P1, -quad(x) @ -bf, rtol=1e-10, atol=1e-16)
+    np.testing.assert_allclose(st.Gamma, form.D.T @ st.P1[:N], rtol=1e-12)
+
+
+# ----------------------------------------------------------------------------- (1) linear
+@needs_numba
+def test_linear_matches_solve_ivp():
+    # delta larger than any motion: no contact, the linear part is exact; what is left is the
+    # quadratic base load over a step and the FIR's pass-band ripple (<= 1e-6)
+    system = chain3()
+    sw = Sweep(20.0, 40.0, 20.0)
+    res = simulate_sweeps(system, kn=1e4, delta=1.0, level_g=1.0, sweep=sw, channels=("a", "c"),
+                          quantity="displacement", frame="relative", sample_rate=512.0,
+                          dtype=torch.float64, engine="expo", progress=False)
+    y = solve_ivp_reference(system, kn=1e4, delta=1.0, level=1.0, sweep=sw, times=res.time)
+    y = y[:, [0, 2]].T
+    i0 = 51  # after 0.1 s: the start transient of the modes above the FIR's pass band
+    err = np.abs(res.signals[0][:, i0:] - y[:, i0:]).max() / np.abs(y).max()
+    assert err < 3e-6, err
+
+
+# ----------------------------------------------------------------------------- (2) freeplay
+def _run_engine(form, *, kn, delta, level, v0, sweep, fs, m):
+    # the engine driven directly (simulate_sweeps starts at rest; the SDOF reference starts on
+    # the in-gap steady state): one chunk, outputs at fs
+    from freeplayid.simulate.kernel_expo import NumbaExpo
+
+    h = 1.0 / (fs * m)
+    taps = design_decimator(m)
+    n_out = int(np.floor(sweep.duration * fs + 1e-9)) + 1
+    look = (len(taps) - 1) // 2 // m + 1
+    L = (n_out - 1 + look) * m + 1
+    eng = NumbaExpo(form, np.array([kn]), np.array([delta]), np.array([level]),
+                    np.zeros((1, 1)), np.array([[v0]]), h=h, quantity="displacement",
+                    dtype=torch.float64, taps=taps, factor=m)
+    out = np.empty((1, 1, n_out))
+    eng.run(np.sin(sweep.phase(0.5 * np.arange(2 * L + 1) * h)), out)
+    return out[0, 0], eng
+
+
+@needs_numba
+def test_sdof_freeplay_matches_the_independent_reference():
+    # tests/sdof_reference.py: plain-Python RK4 of the SDOF freeplay oscillator (8 substeps per
+    # sample, 61 us: ~2e-6 of its own error at the peak), started on the in-gap steady state
+    sw = Sweep(30.0, 50.0, 1.0)
+    level = 1.0
+    y_ref = ref.simulate_sdof_sweep(level, sw, substeps=8)[0]
+    wn = 2 * np.pi * ref.F_N
+    system = sdof_system(mass=1.0, stiffness=0.0, damping=2 * ref.ZETA * wn)
+    form = build_modal_form(system, channels=("x",), quantity="displacement", frame="relative",
+                            kn_max=wn**2)
+    h_rule = expo_step_limit(form, top_hz=sw.stop_hz, kn_max=wn**2)
+    m = int(np.ceil(1 / (ref.FS * h_rule) - 1e-9))
+    y, _ = _run_engine(form, kn=wn**2, delta=ref.DELTA, level=level,
+                       v0=level * G / (2 * np.pi * sw.start_hz), sweep=sw, fs=ref.FS, m=m)
+    t = np.arange(len(y)) / ref.FS
+    a = first_harmonic(y[None], t, sw)[0]
+    b = first_harmonic(y_ref[None], t, sw)[0]
+    assert b.max() > 3 * ref.DELTA  # the run jumps onto the resonance branch
+    assert abs(a.max() / b.max() - 1) < 1e-4, a.max() / b.max() - 1
+    assert abs(int(a.argmax()) - int(b.argmax())) <= 2  # samples (1 ms of the 1 Hz/s sweep)
+
+
+@needs_numba
+def test_sdof_freeplay_matches_rk4_at_a_small_step():
+    # both from rest, through simulate_sweeps; RK4 at omega_dt 0.3 (its error ~1e-7)
+    wn = 2 * np.pi * ref.F_N
+    system = sdof_system(mass=1.0, stiffness=0.0, damping=2 * ref.ZETA * wn)
+    sw = Sweep(38.0, 50.0, 3.0)
+    kw = dict(kn=wn**2, delta=ref.DELTA, level_g=[0.5, 0.8], sweep=sw, channels=("x",),
+              quantity="acceleration", frame="relative", sample_rate=1024.0,
+              dtype=torch.float64, progress=False)
+    a = simulate_sweeps(system, engine="expo", **kw)
+    b = simulate_sweeps(system, engine="numba", omega_dt=0.3, **kw)
+    assert a.dt > 5 * b.dt
+    ha = first_harmonic(a.signals, a.time, sw)
+    hb = first_harmonic(b.signals, b.time, sw)
+    assert hb.max() > 0  # noqa: PLR2004
+    err = np.abs(ha.max(-1) / hb.max(-1) - 1).max()
+    assert err < 1e-4, err
+    assert np.abs(ha.argmax(-1) - hb.argmax(-1)).max() <= 2
+
+
+# ----------------------------------------------------------------------------- (3) two hinges
+@needs_numba
+def test_contact_solve_matches_the_exhaustive_search():
+    # theta + Gamma f(theta) = a, Gamma of either sign structure, against the quasi-static
+    # module's exhaustive search (the same equation, another implementation)
+    from freeplayid.simulate.kernel_expo import _contact
+    from freeplayid.simulate.quasistatic import solve_hinge_states
+
+    rng = np.random.default_rng(5)
+    for H in (1, 2, 3):
+        for _ in range(40):
+            q = rng.normal(size=(H, H))
+            Gm = q @ q.T * 10.0 ** rng.uniform(-6, -3) + rng.normal(size=(H, H)) * 1e-8
+            kn, d = 10.0 ** rng.uniform(2, 5), rng.choice([0.0, 3e-3])
+            a = rng.normal(size=H) * 5e-3
+            st, tv = np.empty(H), np.empty(H)
+            assert _contact(Gm, a, st, kn, d, np.empty((H, H)), tv, 1e-12)
+            th_b, _ = solve_hinge_states(Gm, a, kn, d, exhaustive=True)
+            np.testing.assert_allclose(tv, th_b, rtol=0, atol=1e-12)
+            assert np.abs(tv + Gm @ freeplay_force(tv, kn, d) - a).max() < 1e-12
+
+
+@needs_numba
+def test_two_hinge_fin_matches_rk4():
+    # default fin (two hinges, dense modal damping), a segment through the resonance at
+    # 4 Hz/s: first-harmonic peaks of both channels vs RK4 at omega_dt 0.5
+    from freeplayid.model import default_fin
+
+    fin = default_fin()
+    sw = Sweep(38.0, 46.0, 4.0)
+    kw = dict(kn=480.0, delta=3e-3, level_g=[0.8, 1.2], sweep=sw,
+              channels=("uz_top_left", "uz_lower_right"), quantity="displacement",
+              frame="relative", sample_rate=256.0, dtype=torch.float64, progress=False)
+    a = simulate_sweeps(fin, engine="expo", **kw)
+    b = simulate_sweeps(fin, engine="numba", omega_dt=0.5, **kw)
+    ha = first_harmonic(a.signals, a.time, sw)
+    hb = first_harmonic(b.signals, b.time, sw)
+    err = np.abs(ha.max(-1) / hb.max(-1) - 1).max()
+    assert err < 1e-3, err
+    assert not a.diverged.any()
+
+
+# ----------------------------------------------------------------------------- (4) stiff, damped
+@needs_numba
+def test_overdamped_high_modes_are_stable_at_a_large_step():
+    # a light, stiff tip: top mode ~60 kHz, Rayleigh-overdamped (an eigenvalue near -1e7/s):
+    # RK4 would need dt < 0.3 us; the exponential engine takes its accuracy step, 1000x that,
+    # and matches the closed-hinge (delta = 0) matrix-exponential reference
+    system = chain3(stiff_tip=True)
+    sw = Sweep(30.0, 40.0, 20.0)
+    kw = dict(kn=1e4, delta=0.0, level_g=1.0, sweep=sw, channels=("a", "c"),
+              quantity="displacement", frame="relative", sample_rate=512.0,
+              dtype=torch.float64, engine="expo", progress=False)
+    res = simulate_sweeps(system, **kw)
+    assert res.dt * res.omega_max > 1000 * 2.785
+    assert not res.diverged.any()
+    y = linear_reference(system, 1e4, 1.0, sw, res.time)[0][:, [0, 2]].T
+    i0 = 51
+    err = np.abs(res.signals[0][:, i0:] - y[:, i0:]).max() / np.abs(y).max()
+    assert err < 1e-4, err
+
+
+# ----------------------------------------------------------------------------- (5) batches
+@needs_numba
+def test_members_do_not_depend_on_the_batch():
+    from freeplayid.model import default_fin
+
+    fin = default_fin()
+    sw = Sweep(40.0, 40.5, 1.0)
+    rng = np.random.default_rng(0)
+    lv = rng.uniform(0.4, 1.2, 70)
+    kn = rng.uniform(300.0, 700.0, 70)
+    kw = dict(delta=3e-3, sweep=sw, channels=("uz_top_left",), quantity="acceleration",
+              frame="absolute", sample_rate=256.0, dtype=torch.float64, engine="expo",
+              progress=False, steps_per_sample=8)
+    full = simulate_sweeps(fin, kn=kn, level_g=lv, **kw)
+    for idx in ([3], [0, 1, 2, 3, 4], list(range(70))):
+        part = simulate_sweeps(fin, kn=kn[idx], level_g=lv[idx], **kw)
+        assert np.array_equal(part.signals, full.signals[idx])
+
+
+# ----------------------------------------------------------------------------- (6) registry
+def test_expo_is_registered_and_declares_its_step_rule(monkeypatch):
+    cls = ENGINES["expo"]
+    assert cls.step_rule == "accuracy" and cls.decimates and not cls.quasi_static
+    assert cls.available() == numba_available()
+    # "auto" stays RK4 (the training bank's cache key and pinned results depend on it)
+    assert resolve_engine("auto", device=CPU)[0] in ("numba", "torch")
+    import freeplayid.simulate.engines.expo as expo
+
+    monkeypatch.setattr(expo, "numba_available", lambda: False)
+    assert not cls.available()
+    with pytest.raises(ValueError, match="runs on the CPU only"):
+        resolve_engine("expo", device=torch.device("cuda"))
+    with pytest.raises(NotImplementedError, match="quasi_static_hz"):
+        resolve_engine("expo", device=CPU, quasi_static=True)
+
+
+@needs_numba
+def test_simulate_sweeps_uses_the_accuracy_step():
+    system = chain3(stiff_tip=True)
+    sw = Sweep(30.0, 40.0, 50.0)
+    res = simulate_sweeps(system, kn=1e4, delta=1e-4, level_g=1.0, sweep=sw, channels=("a",),
+                          sample_rate=512.0, dtype=torch.float64, engine="expo", progress=False)
+    form = build_modal_form(system, channels=("a",), quantity="acceleration", frame="absolute",
+                            kn_max=1e4)
+    m = int(np.ceil(1 / (512.0 * expo_step_limit(form, top_hz=40.0, kn_max=1e4)) - 1e-9))
+    assert res.engine == "expo" and res.steps_per_sample == m
+
+
+def test_kernel_source_digest():
+    pytest.importorskip("numba")
+    from freeplayid.simulate import kernel_expo, kernel_qs
+
+    digest = kernel_qs.kernel_source_digest()
+    assert digest == kernel_expo.KERNEL_SOURCE_SHA256, (
+        f"kernel.py changed: set KERNEL_SOURCE_SHA256 = {digest!r} in kernel_expo.py")
