@@ -32,12 +32,12 @@ from numba.core import event
 
 from .cache import CACHE
 from .engines.protocol import BLOWUP, MODES
-from .exponential import discretize
+from .exponential import discretize, discretize_states, switch_levels
 from .formulation import ModalForm
 from .kernel import FASTMATH, _Announce, _fma
 from .kernel_qs import kernel_source_digest
 
-__all__ = ["NumbaExpo", "KERNEL_SOURCE_SHA256", "MAX_ACTIVE_SET"]
+__all__ = ["NumbaExpo", "KERNEL_SOURCE_SHA256", "MAX_ACTIVE_SET", "MAX_STATE_SETS"]
 
 # numba keys the cache of expo_chunk on this file, but it inlines `_fma` and FASTMATH from
 # kernel.py: the digest of the kernel.py this file goes with (as kernel_qs.py does; checked by
@@ -45,6 +45,9 @@ __all__ = ["NumbaExpo", "KERNEL_SOURCE_SHA256", "MAX_ACTIVE_SET"]
 KERNEL_SOURCE_SHA256 = "7eeed77b974bd3156085b926569590ecfb0b3d84d8fc9953949a1b101b7670e5"
 _CACHE = CACHE and kernel_source_digest() == KERNEL_SOURCE_SHA256
 MAX_ACTIVE_SET = 8  # active-set iterations before the exhaustive search
+# per-state propagation for batches with at most this many distinct kn (one matrix set per kn,
+# 3^H states x (levels + 1) sub-steps each); more distinct kn: the linear-hold scheme
+MAX_STATE_SETS = 8
 
 
 @numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=_CACHE)
@@ -259,6 +262,166 @@ def expo_chunk(i0, i1, z, fz, kn, dl, lev, PhiT, p11, p12, p21, p22, diag, W, P0
                 ring[i, r, c] = acc_r[r, c]
 
 
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=_CACHE)
+def _state_prop(PhiT, W, c, zc, zn, ua, um, ub, d):
+    # zn = Phi_s zc + W0_s ua + Wm_s um + W1_s ub + d c_s (u already times the level)
+    n2 = zc.shape[0]
+    for k in range(n2):
+        zn[k] = _fma(W[0, k], ua, _fma(W[1, k], um, _fma(W[2, k], ub, d * c[k])))
+    for j in range(n2):
+        zj = zc[j]
+        for k in range(n2):
+            zn[k] = _fma(PhiT[j, k], zj, zn[k])
+
+
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=_CACHE)
+def _quad(u0, um, u1, x, one):
+    # the quadratic through u0, um, u1 at x = 0, 1/2, 1 (Lagrange), at x (one: 1 in the dtype)
+    two = one + one
+    return (u0 * (one - x) * (one - two * x) + um * (two + two) * x * (one - x)
+            + u1 * x * (two * x - one))
+
+
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=_CACHE)
+def _hinge_state(D, z, d, th, st):
+    # theta = D^T eta into th, the contact state of each hinge into st; returns the state code
+    H = D.shape[1]
+    N = D.shape[0]
+    code = 0
+    mult = 1
+    for j in range(H):
+        x = z.dtype.type(0.0)
+        for k in range(N):
+            x = _fma(D[k, j], z[k], x)
+        th[j] = x
+        s = 1.0 if x > d else (-1.0 if x < -d else 0.0)
+        st[j] = s
+        code += (int(s) + 1) * mult
+        mult *= 3
+    return code
+
+
+@numba.njit(parallel=True, fastmath=FASTMATH, error_model="numpy", cache=_CACHE)
+def expo_states_chunk(i0, i1, z, kset, dl, lev, kns, levels, PhiT, Ws, cs, P1T, Gm, Ms, es, D,
+                      O, Of, Og, s_half, tol, out, col0, taps, m, half, w0, ring, gi0, bad):
+    # as expo_chunk, with exact steps per contact state (exponential.discretize_states): member
+    # i uses the matrices kset[i] (its kn, kns[kset[i]]). A step is taken in the state of its
+    # start; if a hinge's state at its end differs, it is halved (down to h / 2^levels) and the
+    # sub-step holding the switch is corrected by the residual moment held linear. The state
+    # and f(theta) follow from z, so z is the whole member state.
+    n2 = z.shape[1]
+    N = n2 // 2
+    H = D.shape[1]
+    C = O.shape[0]
+    L = (s_half.shape[0] - 1) // 2
+    R = ring.shape[1]
+    ntap = taps.shape[0]
+    dt = z.dtype
+    cast = z.dtype.type
+    one = cast(1.0)
+    full = 1 << levels
+    for i in numba.prange(i0, i1):
+        zc = np.empty(n2, dt)
+        zn = np.empty(n2, dt)
+        th = np.empty(H, dt)
+        st0 = np.empty(H, dt)
+        st1 = np.empty(H, dt)
+        f0 = np.empty(H, dt)
+        a = np.empty(H, dt)
+        st = np.empty(H, dt)
+        tv = np.empty(H, dt)
+        A = np.empty((H, H), dt)
+        val = np.empty(C, dt)
+        acc_r = np.empty((R, C), dt)
+        for k in range(n2):
+            zc[k] = z[i, k]
+        for r in range(R):
+            for c in range(C):
+                acc_r[r, c] = ring[i, r, c]
+        ki = kset[i]
+        k_n = kns[ki]
+        d = dl[i]
+        lv = lev[i]
+        n_emit = 0
+        for step in range(L):
+            s0 = s_half[2 * step]
+            code = _hinge_state(D, zc, d, th, st0)
+            for j in range(H):
+                f0[j] = k_n * abs(st0[j]) * (th[j] - st0[j] * d)
+            # record at t_k
+            for c in range(C):
+                x = Og[c] * (lv * s0)
+                for k in range(n2):
+                    x = _fma(O[c, k], zc[k], x)
+                for j in range(H):
+                    x = _fma(Of[c, j], f0[j], x)
+                val[c] = x
+            _fir_add1(acc_r, val, gi0 + step, half, ntap, m, taps, w0)
+            n_emit += _fir_emit1(acc_r, gi0 + step, half, ntap, m, out, col0 + n_emit, i)
+            u0 = lv * s0
+            um = lv * s_half[2 * step + 1]
+            u1 = lv * s_half[2 * step + 2]
+            # the step in sub-steps of h / 2^lvl at pos (units h / 2^levels)
+            pos = 0
+            lvl = 0
+            while pos < full:
+                ln = 1 << (levels - lvl)
+                if lvl == 0:
+                    ua, uc, ub = u0, um, u1
+                else:
+                    # the step's quadratic base load at the sub-step's ends and middle
+                    xa = cast(pos / full)
+                    xb = cast((pos + ln) / full)
+                    xm = cast(0.5) * (xa + xb)
+                    ua = _quad(u0, um, u1, xa, one)
+                    uc = _quad(u0, um, u1, xm, one)
+                    ub = _quad(u0, um, u1, xb, one)
+                _state_prop(PhiT[ki, lvl, code], Ws[ki, lvl, code], cs[ki, lvl, code], zc, zn,
+                            ua, uc, ub, d)
+                _hinge_state(D, zn, d, a, st1)
+                same = True
+                for j in range(H):
+                    if st1[j] != st0[j]:
+                        same = False
+                if not same and lvl < levels:
+                    lvl += 1
+                    continue
+                if not same:
+                    # switch inside the finest sub-step: residual moment held linear
+                    Gs = Gm[ki, code]
+                    Mm = Ms[ki, code]
+                    for j in range(H):
+                        x = -d * es[ki, code, j]
+                        for q in range(H):
+                            x = _fma(Mm[j, q], a[q], x)
+                        th[j] = x
+                    if not _contact(Gs, th, st, k_n, d, A, tv, tol):
+                        bad[i] = True
+                        lv = cast(0.0)
+                        u0 = um = u1 = cast(0.0)
+                        for k in range(n2):
+                            zn[k] = 0.0
+                    else:
+                        for j in range(H):
+                            rj = (k_n * abs(st[j]) * (tv[j] - st[j] * d)
+                                  - k_n * abs(st0[j]) * (tv[j] - st0[j] * d))
+                            for k in range(n2):
+                                zn[k] = _fma(-P1T[ki, code, j, k], rj, zn[k])
+                for k in range(n2):
+                    zc[k] = zn[k]
+                pos += ln
+                while lvl > 0 and pos % (2 * ln) == 0:
+                    lvl -= 1
+                    ln *= 2
+                if not same:
+                    code = _hinge_state(D, zc, d, th, st0)
+        for k in range(n2):
+            z[i, k] = zc[k]
+        for r in range(R):
+            for c in range(C):
+                ring[i, r, c] = acc_r[r, c]
+
+
 class _AnnounceExpo(_Announce):
     def on_start(self, ev):
         if ev.data["dispatcher"] is self.dispatcher and self.t0 is None:
@@ -267,14 +430,15 @@ class _AnnounceExpo(_Announce):
             self.t0 = time.perf_counter()
 
 
-def compile_expo(args: tuple, what: str) -> None:
-    """Compile (or load from numba's cache) ``expo_chunk`` for ``args`` by a call on no members;
-    a compile prints one line to stderr, as :func:`.kernel.compile_kernel` does."""
-    listener = _AnnounceExpo(expo_chunk, what)
+def compile_expo(kernel, args: tuple, what: str) -> None:
+    """Compile (or load from numba's cache) ``kernel`` (``expo_chunk`` or
+    ``expo_states_chunk``) for ``args`` by a call on no members; a compile prints one line to
+    stderr, as :func:`.kernel.compile_kernel` does."""
+    listener = _AnnounceExpo(kernel, what)
     with event.install_listener("numba:compile", listener):
-        expo_chunk(0, 0, *args)
+        kernel(0, 0, *args)
     if listener.t0 is not None:
-        path = expo_chunk.stats.cache_path
+        path = kernel.stats.cache_path
         where = f"cached for later runs in {path}" if path else "not cached"
         print(f"{time.perf_counter() - listener.t0:.1f} s, {where}", file=sys.stderr, flush=True)
 
@@ -312,6 +476,24 @@ class NumbaExpo:
         a = lambda x: np.ascontiguousarray(np.asarray(x, dtype=nd))  # noqa: E731
         self.nd = nd
         N, H = form.D.shape
+        B = len(np.atleast_1d(kn))
+        kn_u, kset = np.unique(np.asarray(kn, float).reshape(B), return_inverse=True)
+        # the scheme depends on the batch's distinct kn only, each set on its kn only: a
+        # member's result is the same in every batch that takes the same scheme
+        self.per_state = len(kn_u) <= MAX_STATE_SETS
+        if self.per_state:
+            self.levels = max(switch_levels(form, h, k) for k in kn_u)
+            sets = [discretize_states(form, h, float(k), levels=self.levels) for k in kn_u]
+            self.sets = sets
+            self.kset = np.ascontiguousarray(kset, dtype=np.int64)
+            self.kns = a(kn_u)
+            self.sPhiT = a(np.stack([q.Phi.transpose(0, 1, 3, 2) for q in sets]))
+            self.sW = a(np.stack([q.W for q in sets]))
+            self.sc = a(np.stack([q.c for q in sets]))
+            self.sP1T = a(np.stack([q.P1.transpose(0, 2, 1) for q in sets]))
+            self.sGm = a(np.stack([q.Gm for q in sets]))
+            self.sM = a(np.stack([q.M for q in sets]))
+            self.se = a(np.stack([q.e for q in sets]))
         st = discretize(form, h)
         self.step = st
         self.PhiT = a(st.Phi.T)
@@ -380,10 +562,17 @@ class NumbaExpo:
                 self.O, self.Of, self.Og, np.ascontiguousarray(s_half, dtype=self.nd), self.tol,
                 out, self.outputs, self.taps, self.m, self.half, self.w0, self.ring, self.gi,
                 self.bad)
+        kernel = expo_chunk
+        if self.per_state:
+            kernel = expo_states_chunk
+            args = (self.z, self.kset, self.dl, self.lev, self.kns, self.levels, self.sPhiT,
+                    self.sW, self.sc, self.sP1T, self.sGm, self.sM, self.se, self.D, self.O,
+                    self.Of, self.Og, args[19], self.tol, out, self.outputs, self.taps, self.m,
+                    self.half, self.w0, self.ring, self.gi, self.bad)
         if not self._compiled:
-            compile_expo(args, np.dtype(self.nd).name)
+            compile_expo(kernel, args, np.dtype(self.nd).name)
             self._compiled = True
-        expo_chunk(0, self.batch, *args)
+        kernel(0, self.batch, *args)
         self.gi += L
         self.outputs += n_new
         with np.errstate(invalid="ignore"):
