@@ -74,8 +74,22 @@ def main():
                         "(the beam: its RK4 step is ~0.1 us)")
     p.add_argument("--m", type=int, nargs="*", default=None, help="steps per sample to try")
     p.add_argument("--cache", default="/tmp/expo_ref")
+    p.add_argument("--timing", action="store_true",
+                   help="only time a 5-member batch of the fin's 165 s sweep (30 -> 46.5 Hz at "
+                        "0.1 Hz/s, 256 Hz, levels 0.6-1.4 g): expo at its rule's step vs RK4 "
+                        "(engine='numba', default step), in the same run")
     args = p.parse_args()
     system, ch, kn, delta = model(args.model)
+    if args.timing:
+        kw = dict(kn=kn, delta=delta, level_g=[0.6, 0.8, 1.0, 1.2, 1.4],
+                  sweep=Sweep(30.0, 46.5, 0.1), channels=ch, quantity="acceleration",
+                  frame="relative", sample_rate=256.0, dtype=torch.float64, progress=False)
+        for eng in ("expo", "numba", "expo"):  # expo twice: the first may compile
+            t0 = time.perf_counter()
+            r = simulate_sweeps(system, engine=eng, **kw)
+            print(f"{eng:6s} dt {r.dt * 1e6:6.2f} us: {time.perf_counter() - t0:6.1f} s",
+                  flush=True)
+        return
     rates = args.rates or ([0.5] if args.quick else [0.5, 0.1])
     rates_fs = args.fs or ([256.0] if args.quick else [256.0, 2048.0])
     Path(args.cache).mkdir(parents=True, exist_ok=True)
