@@ -133,7 +133,7 @@ def _contact(G, a, st, kn, d, A, tv, tol):
             return True
     # exhaustive search over the 3^H states (an iteration that cycles)
     n = 1
-    for j in range(H):
+    for _ in range(H):
         n *= 3
     for code in range(n):
         q = code
@@ -310,7 +310,6 @@ def expo_states_chunk(i0, i1, z, kset, dl, lev, kns, levels, PhiT, Ws, cs, P1T, 
     # sub-step holding the switch is corrected by the residual moment held linear. The state
     # and f(theta) follow from z, so z is the whole member state.
     n2 = z.shape[1]
-    N = n2 // 2
     H = D.shape[1]
     C = O.shape[0]
     L = (s_half.shape[0] - 1) // 2
