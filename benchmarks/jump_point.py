@@ -33,10 +33,9 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
-from sdof_reference import DELTA, jump_reference, simulate_sdof_sweep  # noqa: E402
-
 from freeplayid.signal import extract_backbone_points  # noqa: E402
 from freeplayid.sweep import Sweep  # noqa: E402
+from sdof_reference import DELTA, jump_reference, simulate_sdof_sweep  # noqa: E402
 
 RATES = (0.1, 0.5, 1.0)  # [Hz/s]
 NOISE = (0.0, 0.01, 0.05)  # [-] white-noise std / the peak amplitude of the measured quantity

@@ -37,17 +37,17 @@ def _point(x, fs, **kw):
 @pytest.mark.parametrize("method,hint", [("acmp", True), ("acmp", False), ("lockin", True)])
 def test_jump_point_matches_clean_reference(sdof, method, hint):
     x, fs, (_, f_true, x_true) = sdof
-    p = _point(x, fs, method=method, sweep=SWEEP if hint else None)  # the default point
+    p = _point(x, fs, method=method, sweep=SWEEP if hint else None, jump_point="windowed")
     assert abs(p.f_hz - f_true) < TOL_HZ
     assert abs(p.amplitude_m / x_true - 1) < TOL_X
 
 
 @pytest.mark.parametrize("method", ["acmp", "lockin"])
 def test_smoothed_maximum_overshoots(sdof, method):
-    # the rule before, still reachable: the Tikhonov filter's side lobe ahead of the drop puts
-    # the maximum late and high (what the windowed point removes)
+    # the default rule: the Tikhonov filter's side lobe ahead of the drop puts the maximum late
+    # and high (what the windowed point removes)
     x, fs, (_, f_true, x_true) = sdof
-    p = _point(x, fs, method=method, sweep=SWEEP, jump_point="smoothed")
+    p = _point(x, fs, method=method, sweep=SWEEP)
     assert p.f_hz - f_true > 0.03
     assert p.amplitude_m / x_true - 1 > 0.015
 
@@ -59,8 +59,8 @@ def test_jump_point_with_noise(sdof):
     scale = x_true * (2 * math.pi * f_true) ** 2
     for seed in (0, 1):
         xn = x + 0.05 * scale * np.random.default_rng(seed).standard_normal(x.shape)
-        new = _point(xn, fs, method="lockin", sweep=SWEEP)
-        old = _point(xn, fs, method="lockin", sweep=SWEEP, jump_point="smoothed")
+        new = _point(xn, fs, method="lockin", sweep=SWEEP, jump_point="windowed")
+        old = _point(xn, fs, method="lockin", sweep=SWEEP)
         assert abs(new.f_hz - f_true) < 0.1
         assert abs(new.amplitude_m / x_true - 1) < 0.006
         assert abs(new.amplitude_m / x_true - 1) < abs(old.amplitude_m / x_true - 1)
@@ -85,8 +85,8 @@ def test_jump_point_analytic_envelope_both_directions(up):
     env, x = _cliff_chirp(sweep, fs, t_top, t_top + (CLIFF_S if up else -CLIFF_S))
     truth = float(np.max(env))
     kw = dict(quantity="displacement", sweep=sweep, method="lockin")
-    new = extract_backbone_points(x[None, None], fs, **kw).points[0]
-    old = extract_backbone_points(x[None, None], fs, jump_point="smoothed", **kw).points[0]
+    new = extract_backbone_points(x[None, None], fs, jump_point="windowed", **kw).points[0]
+    old = extract_backbone_points(x[None, None], fs, **kw).points[0]
     assert new.used and old.used, (new.reason, old.reason)
     assert abs(new.time_s - t_top) < 0.1
     assert abs(new.f_hz - sweep.frequency(t_top)) < 0.1

@@ -6,11 +6,11 @@ roll-off). That filter passes straight lines exactly, so its kernel has negative
 of the sharp drop after a freeplay jump (the cycle amplitude falls by half within a few cycles)
 the smoothed curve rises above the true one. The true curve peaks on a flat top 0.6-1.3 Hz of
 sweep before the drop; the smoothed one has its maximum on the overshoot, between them. On the
-SDOF freeplay oscillator (benchmarks/jump_point.py) this put the point 0.1-0.27 Hz late and
-0.4-2.7 % high at 0.1-1 Hz/s, for ACMP and the lock-in alike.
+SDOF freeplay oscillator and the fin (benchmarks/jump_point.py) this put the point up to
+0.2 Hz late and 0.4-2.7 % high at 0.1-1 Hz/s, for ACMP and the lock-in alike.
 
-The windowed point (default). Around the jump, the first harmonic is re-estimated on the raw
-record by a Gaussian-weighted least-squares fit at every sample t0,
+The windowed point (``jump_point="windowed"``). Around the jump, the first harmonic is
+re-estimated on the raw record by a Gaussian-weighted least-squares fit at every sample t0,
 
     min_{a, b} sum_t g(t - t0) (x(t) - a cos phi(t) - b sin phi(t))^2,   A(t0) = hypot(a, b),
 

@@ -200,7 +200,7 @@ def extract_backbone_points(
     edge_hz: float = 0.5,
     min_snr_db: float = 0.0,
     require_jump: bool = True,
-    jump_point: str = "windowed",
+    jump_point: str = "smoothed",
     curve_points: int = 2000,
 ) -> BackbonePoints:
     """Backbone fitting points (resonance peak / jump) of every channel of every sweep run.
@@ -234,13 +234,16 @@ def extract_backbone_points(
         Jump rule, see the module docstring and :func:`find_jump_peak`.
     min_snr_db : float [dB]
         Reject as too noisy below this mode-to-residual SNR.
-    jump_point : {"windowed", "smoothed"}
-        Where the point is taken (:mod:`.peak`). "windowed": the maximum of a Gaussian-weighted
-        least-squares first harmonic of the raw record (a non-negative kernel of the extractor's
-        bandwidth, which cannot overshoot ahead of the drop) within the smoothed curve's lobe,
-        at the excitation frequency there. "smoothed": the maximum of the extractor's smoothed
-        curve at its instantaneous frequency (the rule before; 0.1-0.27 Hz late and up to 2.7 %
-        high on the SDOF benchmark). The jump rule and the rejections are the same for both.
+    jump_point : {"smoothed", "windowed"}
+        Where the point is taken (:mod:`.peak`). "smoothed" (default): the maximum of the
+        extractor's smoothed curve at its instantaneous frequency; the filter overshoots ahead
+        of the drop (up to 0.2 Hz late, 0.4-2.7 % high on benchmarks/jump_point.py).
+        "windowed": the maximum of a Gaussian-weighted least-squares first harmonic of the raw
+        record (a non-negative kernel of the extractor's bandwidth, which cannot overshoot)
+        within the smoothed curve's lobe, at the excitation frequency there: within 0.09 Hz and
+        0.21 % noise-free, but with 5 % noise its frequency wanders along the flat top (up to
+        -0.5 Hz on the fin at 1 Hz/s), so it is not the default yet (docs/signal.md, section 6).
+        The jump rule and the rejections are the same for both.
     curve_points : int
         Number of samples kept per curve for figures.
 
