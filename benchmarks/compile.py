@@ -20,7 +20,8 @@ Which kernels the commands compile (``scripts/identify.py`` simulates nothing):
   base-term pass (``assemble._add``), float32;
 - ``scripts/simulate.py quasi_static_hz=1000``: the quasi-static kernel and ``assemble._add``;
 - ``scripts/train.py debug=fast`` (bank: float32, acceleration, relative, full model): the
-  full-model kernel, float32 (the relative frame has no base terms: no ``assemble._add``).
+  full-model kernel, float32 (the relative frame has no base terms: no ``assemble._add``);
+- ``simulate_sweeps(engine="expo")`` (float64): the exponential kernel (``kernel_expo``).
 """
 
 from __future__ import annotations
@@ -71,7 +72,10 @@ CHILD = textwrap.dedent("""
         z = np.zeros((B, form.n_modes))
         kw = dict(h=h, quantity=q, dtype=getattr(np, case["dtype"]), taps=design_decimator(m),
                   factor=m)
-        if case["what"] == "qs":
+        if case["what"] == "expo":
+            from freeplayid.simulate.kernel_expo import NumbaExpo
+            eng = NumbaExpo(form, np.full(B, 480.0), np.full(B, 3e-3), np.ones(B), z, z, **kw)
+        elif case["what"] == "qs":
             qf = condense_modal_form(form, threshold_hz=1000.0, quantity=q, kn_max=480.0)
             z = np.zeros((B, qf.slow.n_modes))
             if q != "displacement":
@@ -81,7 +85,10 @@ CHILD = textwrap.dedent("""
             eng = NumbaRK4(form, np.full(B, 480.0), np.full(B, 3e-3), np.ones(B), z, z, **kw)
         s = np.sin(np.linspace(0.0, 1.0, 201))
         t0 = time.process_time()
-        eng.run(s)
+        if case["what"] == "expo":  # decimates into a given signal array
+            eng.run(s, np.empty((B, 2, eng.emitted(100)), dtype=case["dtype"]))
+        else:
+            eng.run(s)
     cpu = time.process_time() - t0
     from numba.core.registry import CPUDispatcher
     import gc
@@ -126,8 +133,12 @@ KERNELS = {  # name -> case
     "full model, float64": dict(what="full", dtype="float64", quantity="acceleration"),
     "quasi-static, float64": dict(what="qs", dtype="float64", quantity="acceleration"),
     "base terms (assemble), float64": dict(what="assemble", dtype="float64"),
+    "exponential (expo), float64": dict(what="expo", dtype="float64", quantity="acceleration"),
+    "exponential (expo), float32": dict(what="expo", dtype="float32", quantity="acceleration"),
 }
-DEFAULT = list(KERNELS)[:3]
+# the defaults: what the default commands compile, and the float64 exponential kernel (the
+# engine of the replay's small batches when chosen, engine="expo")
+DEFAULT = list(KERNELS)[:3] + ["exponential (expo), float64"]
 CH = ["uz_top_left", "uz_lower_right"]
 COMMANDS = {
     "scripts/simulate.py": dict(what="command", kw=dict(

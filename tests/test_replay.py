@@ -93,3 +93,73 @@ def test_curve_misfit_is_the_relative_median_difference():
     jump = x.copy()
     jump[100:103] = 0.0  # a few samples apart at a jump do not make a misfit
     assert curve_misfit(same, AmplitudeCurve("r", "c", f, jump)) == pytest.approx(0.0)
+
+
+def test_damping_is_estimated_when_the_model_has_none(measured):
+    # the model file has no C: one modal ratio is estimated from the peak amplitudes in the same
+    # loop; the reference's zeta is 0.04 at the contact frequency (the SDOF's only mode)
+    res = identify(measured, system=sdof_system(mass=1.0), multistart=MULTISTART,
+                   progress=False, replay=True)
+    d = res.replay.damping
+    assert d.source == "estimated"
+    assert d.zeta == pytest.approx(ref.ZETA, rel=0.05)
+    assert d.zeta_ci95[0] < d.zeta < d.zeta_ci95[1]
+    assert abs(res.truth_error["delta"]) < 0.02 and abs(res.truth_error["kn"]) < 0.01
+    assert "damping_estimate" in {c.name for c in res.verdict.checks}
+    assert res.to_dict()["replay"]["damping"]["source"] == "estimated"
+    assert "estimated from the peak amplitudes" in res.report()
+
+
+def test_a_given_damping_ratio_overrides_the_model(measured, system):
+    res = identify(measured, system=system, multistart=MULTISTART, progress=False,
+                   replay=True, damping=0.04)
+    assert res.replay.damping.source == "given" and res.replay.damping.zeta == 0.04
+    assert all(it["zeta"] == 0.04 for it in res.replay.iterations)
+    with pytest.raises(ValueError, match="damping"):
+        identify(measured, system=system, multistart=MULTISTART, progress=False, replay=True,
+                 damping=1.5)
+
+
+def test_a_replay_that_cannot_be_fitted_makes_the_verdict_suspect(measured, system):
+    # ten times the damping: the replayed oscillator never reaches the contact (no jump), so
+    # its replay has no point to fit; the answer must say so, not return a confident number
+    res = identify(measured, system=system, multistart=MULTISTART, progress=False,
+                   replay=True, damping=0.4)
+    assert res.replay.failure and not res.verdict.ok
+    assert any("replay" in r for r in res.verdict.reasons)
+    assert res.kn == res.replay.kn_fit  # the plain estimate is kept
+
+
+def test_noise_levels_recover_a_known_noise(measured, system):
+    import dataclasses
+
+    from freeplayid.replay import noise_levels
+
+    rep = replay_dataset(measured, system, WN * WN, ref.DELTA)
+    rng = np.random.default_rng(5)
+    sd = 1.0  # [m/s^2]; the peaks are 70-120 m/s^2
+    noisy = dataclasses.replace(measured, runs=tuple(
+        dataclasses.replace(r, data=r.data + sd * rng.standard_normal(r.data.shape))
+        for r in measured.runs))
+    got = noise_levels(noisy, rep)
+    clean = noise_levels(measured, rep)
+    for run in measured.runs[1:]:  # the 0.4 g run stays in the gap in the reference only
+        # the replay at the truth differs from the reference by far less than the added noise
+        assert clean[run.file][0] < 0.05 * sd
+        assert got[run.file][0] == pytest.approx(sd, rel=0.05)
+
+
+def test_bootstrap_by_replay_gives_intervals_around_the_estimate(measured, system):
+    res = identify(measured, system=system, multistart=MULTISTART, progress=False,
+                   replay=True, replay_bootstrap=8)
+    r = res.replay
+    assert r.n_bootstrap == 8 and r.kn_ci95_replay is not None
+    for name in ("kn", "delta"):
+        lo, hi = getattr(res, f"{name}_ci95")
+        assert lo <= getattr(res, name) <= hi
+        blo, bhi = getattr(r, f"{name}_ci95_replay")
+        assert lo <= blo < bhi <= hi  # the reported interval holds the bootstrap one
+    assert res.interval_source.startswith("bootstrap by replay")
+    d = res.to_dict()
+    assert d["interval_source"] == res.interval_source
+    assert d["replay"]["n_bootstrap"] == 8

@@ -73,11 +73,11 @@ class _InPlace(_Records):
 
 
 def test_unknown_engine_lists_the_valid_names(monkeypatch):
-    with pytest.raises(ValueError, match=r"`engine` must be one of \('auto', 'torch', 'numba'\)"
-                                         r", got 'jax'"):
+    with pytest.raises(ValueError, match=r"`engine` must be one of \('auto', 'torch', 'numba', "
+                                         r"'expo'\), got 'jax'"):
         _run("jax")
     monkeypatch.setitem(ENGINES, "fake", _Records)
-    with pytest.raises(ValueError, match=r"\('auto', 'torch', 'numba', 'fake'\), got 'jx'"):
+    with pytest.raises(ValueError, match=r"\('auto', 'torch', 'numba', 'expo', 'fake'\), got 'jx'"):
         resolve_engine("jx", device=CPU)
 
 

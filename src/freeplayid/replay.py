@@ -9,16 +9,36 @@ theta_rep(theta) = fit(replay(theta)), the corrected estimate solves
 
     theta_rep(theta) = theta_hat                                     (binding function)
 
-by the fixed point (in log parameters, every bias a factor)
-
-    theta_{k+1} = theta_k * theta_hat / theta_rep(theta_k),
-
-which stops when both parameters move by less than ``rtol`` (0.05 %). Whatever the bias comes
+in log parameters (every bias a factor) by Broyden's quasi-Newton method: it starts from the
+fixed point theta_{k+1} = theta_k * theta_hat / theta_rep(theta_k) (an identity Jacobian) and
+learns the binding function's Jacobian from the replays, so a binding that couples kn and delta,
+or moves less than one to one, still converges; each step is at most a factor 1.5, and the loop
+stops when both parameters move by less than ``rtol`` (0.05 %). Without convergence in
+``max_iter`` replays the answer is the replayed parameters whose fit came closest to the test's,
+and the verdict says that it did not converge. Whatever the bias comes
 from (damping, sweep rate, the describing function, the extraction), the replay has it too, so it
 cancels; what is left is the measurement noise and the model's own error.
 
-This first version needs every run's sweep hint (linear sweeps) and takes the damping from the
-model file (its ``C``).
+Damping (``damping=``): the model file's ``C`` when it has one; else (or with
+``damping="estimate"``) one modal damping ratio zeta for every mode of the closed-hinge stiffness
+at the plain fit's kn, estimated in the same loop from the points' amplitudes: the jump peak of a
+hardening resonance is held down by damping (its amplitude goes roughly as 1/zeta), so the
+statistic r = median over the points of log(X_rep / X) joins the two fit statistics as a third
+equation r(zeta) = 0 of the same Broyden solve (slope -1 to start); its first guess is
+:func:`initial_zeta`. Its interval comes from the spread of the per-point log ratios. A number
+(``damping=0.02``) fixes zeta.
+
+Intervals that see the bias (``n_bootstrap``): B copies of the last replay (the test as the model
+at the corrected estimate runs it), each with fresh white noise of each channel's measured noise
+level (robust standard deviation of the measured minus the replayed record), pass through the
+whole plain pipeline (extraction and fit); each copy's fit theta_b maps to a corrected estimate
+by the binding function's local factor, theta * theta_b / theta_rep, and the 2.5/97.5 %
+percentiles of those are the interval. The bootstrap reuses the last replay's correction factor
+instead of re-running the fixed point per copy (the factor varies much less than the noise).
+
+Each run's sweep law (linear or logarithmic) is its ``sweep`` hint; a run without one gets the
+law estimated from the base channel when the data set has one, else from its response channels
+(:func:`freeplayid.signal.estimate_sweep`), and the result says which (``sweeps``).
 """
 
 from __future__ import annotations
@@ -29,7 +49,76 @@ import numpy as np
 
 from .quantity import G, check_quantity
 
-__all__ = ["ReplayResult", "replay_levels", "replay_dataset", "corrected_fit", "curve_misfit"]
+__all__ = ["ReplayResult", "ReplayDamping", "replay_sweeps", "replay_levels", "replay_dataset",
+           "corrected_fit", "curve_misfit", "damped_system", "noise_levels", "initial_zeta"]
+
+ZETA_START = 0.02  # [-] first guess of an estimated damping ratio (the loop moves it)
+ZETA_RTOL = 0.01  # [-] an estimated zeta has converged when it moves by less than 1 %
+
+
+@dataclass(frozen=True)
+class ReplayDamping:
+    """The damping the replay used.
+
+    Attributes
+    ----------
+    source : {"model", "given", "estimated"}
+        The model file's C, a ratio given by the user, or one estimated from the amplitudes.
+    zeta : float or None [-]
+        Modal damping ratio of every closed-hinge mode (None with the model's C).
+    zeta_ci95 : (float, float) or None
+        95 % interval of an estimated zeta (from the per-point amplitude ratios).
+    """
+
+    source: str
+    zeta: float | None = None
+    zeta_ci95: tuple | None = None
+
+    def to_dict(self) -> dict:
+        return {"source": self.source, "zeta": self.zeta,
+                "zeta_ci95": None if self.zeta_ci95 is None else list(self.zeta_ci95)}
+
+    def describe(self) -> str:
+        if self.source == "model":
+            return "the model file's C"
+        text = f"zeta = {self.zeta:.4g} in every closed-hinge mode"
+        if self.source == "given":
+            return text + " (given)"
+        ci = "" if self.zeta_ci95 is None else \
+            f", 95 % CI [{self.zeta_ci95[0]:.4g}, {self.zeta_ci95[1]:.4g}]"
+        return text + f" (estimated from the peak amplitudes{ci})"
+
+
+def damped_system(system, zeta: float, kn: float):
+    """``system`` with modal damping ratio ``zeta`` in every mode of its closed-hinge stiffness
+    at ``kn`` (``model.modal_damping``), replacing its C."""
+    from .model import modal_damping
+
+    return system.replace(C=modal_damping(system.M, system.closed_stiffness(kn), zeta))
+
+
+def noise_levels(measured, replayed, *, window: int = 256) -> dict:
+    """Each run's per-channel noise level in the data's units: the median over windows of
+    ``window`` samples of the RMS of the measured minus the replayed record.
+
+    The median, not the RMS of the whole record: where the measured and replayed jumps fall a
+    few cycles apart, or the start transients differ, the difference is as large as the signal,
+    but only in a few windows; elsewhere it is the noise plus the model's misfit (so the level
+    errs on the large side: wider intervals, not narrower).
+    """
+    rep = {r.file: r for r in replayed.runs}
+    out = {}
+    for run in measured.runs:
+        r = rep.get(run.file)
+        if r is None or run.reason:
+            continue
+        n = min(run.data.shape[-1], r.data.shape[-1])
+        d = np.asarray(run.data[..., :n], float) - np.asarray(r.data[..., :n], float)
+        w = max(8, min(int(window), n))
+        k = n // w
+        blocks = d[..., : k * w].reshape(d.shape[0], k, w)
+        out[run.file] = np.median(np.sqrt(np.mean(blocks * blocks, axis=-1)), axis=-1)
+    return out
 
 
 @dataclass(frozen=True)
@@ -48,6 +137,10 @@ class ReplayResult:
     converged : bool
     levels : dict of str -> (float, str)
         Each replayed run's level [g] and where it came from ("base channel" or "level_g").
+    sweeps : dict of str -> dict
+        Each replayed run's sweep law (``Sweep.to_dict()`` keys and ``law``) and where it came
+        from (``source``: "hint", "base channel" or "response"; an estimated law also has its
+        fit ``residual_hz``).
     offsets : list of dict
         Per measured point (run, channel): the replayed point's frequency and amplitude
         relative to the measured one at the final estimate (f_rep/f - 1, X_rep/X - 1).
@@ -55,6 +148,14 @@ class ReplayResult:
         The last replay's first-harmonic displacement curves (the self-check figure).
     misfit : dict of str -> float
         Per run: :func:`curve_misfit` of its measured and replayed curves (largest channel).
+    damping : ReplayDamping
+        The damping of the replays (the model's C, given, or estimated with its interval).
+    failure : str
+        Why a replay could not be fitted (e.g. the replayed fin never left the gap), or "".
+    kn_ci95_replay, delta_ci95_replay : (float, float) or None
+        Percentile intervals of the bootstrap by replay (``n_bootstrap`` copies), or None.
+    noise : dict of str -> list of float or None
+        Per run: each channel's measured noise level used by the bootstrap [data units].
     """
 
     kn: float
@@ -67,27 +168,69 @@ class ReplayResult:
     offsets: list
     curves: tuple = ()
     misfit: dict | None = None
+    damping: ReplayDamping | None = None
+    failure: str = ""
+    kn_ci95_replay: tuple | None = None
+    delta_ci95_replay: tuple | None = None
+    n_bootstrap: int = 0
+    noise: dict | None = None
+    sweeps: dict | None = None
 
 
-def replay_levels(dataset) -> dict:
+def replay_sweeps(dataset) -> dict:
+    """Each usable run's sweep law: its ``sweep`` hint, else estimated from the base channel
+    when the data set has one, else from the response channels (the best-tracked one).
+
+    Returns
+    -------
+    dict of run file -> (Sweep, source, residual [Hz] or None)
+        source is "hint", "base channel" or "response"; the residual is the estimate's
+        (:class:`freeplayid.signal.SweepEstimate`).
+
+    Raises
+    ------
+    ValueError
+        No sweep law can be found in a run without a hint.
+    """
+    from .signal import estimate_sweep
+    from .sweep import Sweep
+
+    out = {}
+    for run in dataset.runs:
+        if run.reason:
+            continue
+        if run.sweep is not None:
+            out[run.file] = (Sweep(**run.sweep), "hint", None)
+            continue
+        source, x = ("base channel", run.base) if run.base is not None else ("response", run.data)
+        try:
+            est = estimate_sweep(dataset.to_si(x), dataset.sample_rate)
+        except ValueError as exc:
+            raise ValueError(f"run {run.file}: no sweep hint and no sweep law in its {source} "
+                             f"({exc}); give the run's `sweep` hint") from None
+        out[run.file] = (est.sweep, source, est.residual_hz)
+    return out
+
+
+def replay_levels(dataset, sweeps: dict | None = None) -> dict:
     """Each usable run's base level [g]: from the base channel's first harmonic when the data set
     has one (least squares at the sweep's phase), else the manifest's ``level_g``.
+
+    ``sweeps`` is :func:`replay_sweeps` of the data set (computed when not given).
 
     Returns
     -------
     dict of run file -> (level [g], source)
     """
     from .signal import window_amplitudes
-    from .sweep import Sweep
 
+    sweeps = replay_sweeps(dataset) if sweeps is None else sweeps
     order = check_quantity(dataset.quantity).order
     out = {}
     for run in dataset.runs:
-        if run.reason:
+        if run.reason or run.file not in sweeps:
             continue
-        if run.sweep is None:
-            raise ValueError(f"run {run.file}: the replay needs the run's sweep hint (`sweep`)")
-        sweep = Sweep(**run.sweep)
+        sweep = sweeps[run.file][0]
         if run.base is not None:
             f, a = window_amplitudes(dataset.to_si(run.base), dataset.sample_rate, sweep)
             # the base moves as A sin(phase): its amplitude in the data's quantity is A / w^(2-k)
@@ -102,33 +245,39 @@ def replay_levels(dataset) -> dict:
 
 
 def replay_dataset(dataset, system, kn: float, delta: float, *, levels: dict | None = None,
-                   dtype=None):
+                   sweeps: dict | None = None, dtype=None):
     """The data set's usable runs simulated at (kn, delta): a data set of the same layout.
 
     Runs sharing a sweep law are simulated in one batch; absolute frame with the base channel
-    when the data set has one, else relative.
+    when the data set has one, else relative. ``sweeps`` and ``levels`` are
+    :func:`replay_sweeps` and :func:`replay_levels` (computed when not given). A replayed run
+    carries a sweep hint only where the measured run has one, so both go through the same
+    extraction.
     """
+    import dataclasses
+
     import torch
 
     from .io import Dataset
     from .simulate import simulate_sweeps, sweep_dataset
-    from .sweep import Sweep
 
-    levels = replay_levels(dataset) if levels is None else levels
+    sweeps = replay_sweeps(dataset) if sweeps is None else sweeps
+    levels = replay_levels(dataset, sweeps) if levels is None else levels
     frame = "absolute" if dataset.base_channel else "relative"
-    groups: dict[tuple, list] = {}
+    hinted = {run.file for run in dataset.runs if run.sweep is not None}
+    groups: dict = {}
     for run in dataset.runs:
         if run.file in levels:
-            groups.setdefault(tuple(sorted(run.sweep.items())), []).append(run.file)
+            groups.setdefault(sweeps[run.file][0], []).append(run.file)
     runs = []
-    for key, files in groups.items():
+    for sweep, files in groups.items():
         res = simulate_sweeps(system, kn=kn, delta=delta, level_g=[levels[f][0] for f in files],
-                              sweep=Sweep(**dict(key)), channels=list(dataset.channels.values()),
+                              sweep=sweep, channels=list(dataset.channels.values()),
                               quantity=dataset.quantity, frame=frame,
                               sample_rate=dataset.sample_rate,
                               dtype=torch.float64 if dtype is None else dtype, progress=False)
         ds = sweep_dataset(res, columns=dataset.channels, units=dataset.units, run_names=files)
-        runs += list(ds.runs)
+        runs += [r if r.file in hinted else dataclasses.replace(r, sweep=None) for r in ds.runs]
     order = {r.file: i for i, r in enumerate(dataset.runs)}
     runs.sort(key=lambda r: order[r.file])
     return Dataset(name=f"replay of {dataset.name}", model=None, quantity=dataset.quantity,
@@ -137,8 +286,68 @@ def replay_dataset(dataset, system, kn: float, delta: float, *, levels: dict | N
                    base_channel=dataset.base_channel if frame == "absolute" else None)
 
 
-def corrected_fit(dataset, system, identification, *, fit_kwargs: dict, rtol: float = 5e-4,
-                  max_iter: int = 6) -> ReplayResult:
+def _damping_mode(system, damping) -> tuple[str, float | None]:
+    """("model" | "given" | "estimated", zeta) from the ``damping`` argument."""
+    if damping is None:
+        has_c = system.C is not None and bool(np.any(system.C))
+        return ("model", None) if has_c else ("estimated", ZETA_START)
+    if isinstance(damping, str):
+        if damping == "model":
+            if system.C is None or not np.any(system.C):
+                raise ValueError("`damping`='model' but the model file has no damping matrix C; "
+                                 "use damping='estimate' or a ratio such as 0.02")
+            return "model", None
+        if damping == "estimate":
+            return "estimated", ZETA_START
+        raise ValueError(f"`damping` must be None, 'model', 'estimate' or a ratio in (0, 1), "
+                         f"got {damping!r}")
+    z = float(damping)
+    if not (0 < z < 1):
+        raise ValueError(f"`damping` must be None, 'model', 'estimate' or a ratio in (0, 1), "
+                         f"got {damping!r}")
+    return "given", z
+
+
+def initial_zeta(system, points, levels: dict, kn: float, dofs: dict, mode: int = 0) -> float:
+    """First guess of the modal damping ratio from the points: at the top of a resonance the
+    damping force balances the excitation, 2 zeta w_c w q = gamma a_g, so with the closed-hinge
+    mode (w_c, mass-normalised shape phi, modal load gamma per g) and a point of displacement
+    amplitude X at the DOF of its channel, excitation w and level a_g::
+
+        zeta = |phi_dof gamma| a_g / (2 w_c w X)
+
+    (median over the points, kept in [0.002, 0.3]). A swept jump falls before the phase
+    resonance and the absolute frame adds the base motion, so this is only the loop's start.
+    """
+    from .model import modal_analysis
+
+    modes = modal_analysis(system.M, system.closed_stiffness(kn))
+    phi = modes.shapes[:, mode]
+    wc = 2 * np.pi * float(modes.frequencies_hz[mode])
+    gamma = float(phi @ (system.M @ system.influence)) * G
+    guesses = []
+    for p in points:
+        if p.run not in levels or p.channel not in dofs or not p.amplitude_m > 0:
+            continue
+        pd = float(phi[system.dof_index(dofs[p.channel])])
+        w = 2 * np.pi * p.f_hz
+        guesses.append(abs(pd * gamma) * levels[p.run][0] / (2 * wc * w * p.amplitude_m))
+    if not guesses or wc <= 0:
+        return ZETA_START
+    return float(np.clip(np.median(guesses), 0.002, 0.3))
+
+
+def _amplitude_ratios(measured_points, replayed_points) -> np.ndarray:
+    """log(X_replayed / X_measured) of the points found in both, matched by (run, channel)."""
+    rep = {(p.run, p.channel): p for p in replayed_points}
+    out = [np.log(rep[(p.run, p.channel)].amplitude_m / p.amplitude_m)
+           for p in measured_points if (p.run, p.channel) in rep]
+    return np.asarray(out, float)
+
+
+def corrected_fit(dataset, system, identification, *, fit_kwargs: dict, damping=None,
+                  n_bootstrap: int = 0, seed: int = 0, rtol: float = 5e-4, max_iter: int = 8,
+                  progress: bool = False) -> ReplayResult:
     """Bias-corrected (kn, delta) by replaying the test (module docstring).
 
     Parameters
@@ -151,33 +360,115 @@ def corrected_fit(dataset, system, identification, *, fit_kwargs: dict, rtol: fl
     fit_kwargs : dict
         The options of that identification (backbone, extraction, use_sweep_hint, mode), so the
         replays go through the same extraction and fit.
+    damping : None, "model", "estimate" or float
+        The replay's damping: None uses the model's C when it has one and estimates a modal
+        ratio otherwise; a float in (0, 1) is the modal damping ratio of every closed-hinge mode.
+    n_bootstrap : int
+        Copies of the final replay with measured-level noise for the bootstrap intervals (0: none).
+    seed : int
+        Seed of the bootstrap's noise.
+    rtol : float
+        Convergence: (kn, delta) move by less than this between replays.
+    max_iter : int
+        Most replays.
+
+    A replay that cannot be fitted (the replayed fin stays in the gap, no jump: a model far
+    from the test) ends the loop with ``failure`` set; the verdict then says ``suspect``.
     """
     from .identification.pipeline import identify
+    from .identification.result import IdentificationError
 
+    source, zeta = _damping_mode(system, damping)
     # replay only the runs whose points were fitted: a run rejected in the test (e.g. it stayed
     # in the gap) must not enter the replayed fit as a point the measured fit did not have
-    used = {p.run for p in identification.points.used()}
-    levels = {k: v for k, v in replay_levels(dataset).items() if k in used}
+    measured = identification.points.used()
+    used = {p.run for p in measured}
+    sweeps = {k: v for k, v in replay_sweeps(dataset).items() if k in used}
+    levels = replay_levels(dataset, sweeps)
     hat = np.array([identification.kn, identification.delta])
-    theta = hat.copy()
-    history, converged, rep = [], False, None
+    kn_damping = float(hat[0])  # closed-hinge stiffness of an estimated/given modal damping
+    estimate = source == "estimated"
+    if estimate:
+        zeta = initial_zeta(system, measured, levels, kn_damping, identification.dofs,
+                            int(fit_kwargs.get("mode", 0)))
+    # unknowns u = log(kn, delta[, zeta]); residual F(u) = statistics of the replay minus those
+    # of the test: log(kn_rep / kn_hat), log(delta_rep / delta_hat)[, median log(X_rep / X)]
+    u = np.log(np.append(hat, zeta) if estimate else hat.copy())
+    J = np.diag([1.0, 1.0, -1.0][: u.size])  # identity binding; amplitude ~ 1 / zeta
+    history, converged, rep, rep_ds, failure = [], False, None, None, ""
+    ratios = np.array([])
+    prev = None  # (u, F) of the last replay, for Broyden's update
+    best = None  # (u, max |F|) of the replay closest to the test, the answer if none converges
     for _ in range(max_iter):
-        rep_ds = replay_dataset(dataset, system, *theta, levels=levels)
-        rep = identify(rep_ds, system=system, init=tuple(theta), progress=False, replay=False,
-                       **fit_kwargs)
+        theta = np.exp(u[:2])
+        zeta_k = float(np.exp(u[2])) if estimate else zeta
+        sys_k = system if source == "model" else damped_system(system, zeta_k, kn_damping)
+        rep_ds = replay_dataset(dataset, sys_k, *theta, levels=levels, sweeps=sweeps)
+        try:
+            rep_k = identify(rep_ds, system=system, init=tuple(theta), progress=False,
+                             replay=False, **fit_kwargs)
+        except IdentificationError as err:
+            failure = (f"the replay at kn = {theta[0]:.5g} N·m/rad, delta = {theta[1]:.5g} rad "
+                       f"could not be identified ({err}): the model does not behave like the "
+                       "test")
+            break
+        rep = rep_k
         theta_rep = np.array([rep.kn, rep.delta])
-        new = theta * hat / theta_rep
-        history.append({"kn": float(theta[0]), "delta": float(theta[1]),
-                        "kn_rep": float(theta_rep[0]), "delta_rep": float(theta_rep[1])})
-        step = np.abs(new / theta - 1)
-        theta = new
-        if np.all(step < rtol):
+        F = np.log(theta_rep / hat)
+        item = {"kn": float(theta[0]), "delta": float(theta[1]),
+                "kn_rep": float(theta_rep[0]), "delta_rep": float(theta_rep[1])}
+        if estimate:
+            ratios = _amplitude_ratios(measured, rep.points.used())
+            r = float(np.median(ratios)) if ratios.size else 0.0
+            F = np.append(F, r)
+            item.update(zeta=zeta_k, amplitude_log_ratio=r)
+        elif source == "given":
+            item.update(zeta=float(zeta))
+        history.append(item)
+        if best is None or np.abs(F).max() < best[1]:
+            best = (u.copy(), float(np.abs(F).max()))
+        if prev is not None:
+            # Broyden's rank-one update of the binding function's Jacobian (kept while it stays
+            # well conditioned): near the gap the binding can even fall as delta rises (a larger
+            # gap at the same levels moves the lowest points towards it), which the identity
+            # start does not know
+            du, dF = u - prev[0], F - prev[1]
+            if float(du @ du) > 1e-12:
+                J_new = J + np.outer(dF - J @ du, du) / float(du @ du)
+                if np.all(np.isfinite(J_new)) and np.linalg.cond(J_new) < 1e4:
+                    J = J_new
+        step = -np.linalg.solve(J, F)
+        step = np.clip(step, -np.log(1.5), np.log(1.5))  # at most a factor 1.5 per replay
+        prev = (u.copy(), F.copy())
+        if progress:
+            print(f"replay {len(history)}: kn {theta[0]:.5g}, delta {theta[1]:.5g}"
+                  + (f", zeta {zeta_k:.4g}" if estimate else "")
+                  + f"; misfit of the statistics {np.abs(F).max():.2e}")
+        u = u + step
+        done = bool(np.all(np.abs(step[:2]) < np.log1p(rtol)))
+        if estimate:
+            done = done and abs(step[2]) < np.log1p(ZETA_RTOL)
+        if done:
             converged = True
             break
+    if not converged and best is not None:
+        u = best[0]  # no convergence: the replayed parameters whose fit came closest to the test
+    theta = np.exp(u[:2])
+    if estimate:
+        zeta = float(np.exp(u[2]))
+    zeta_ci = None
+    if estimate and ratios.size >= 2:
+        # spread of the per-point log ratios -> standard error of their median, through the
+        # amplitude's sensitivity to log zeta (the Jacobian's last diagonal entry)
+        se = 1.2533 * float(np.std(ratios, ddof=1)) / np.sqrt(ratios.size)
+        half = 1.96 * se / max(abs(float(J[2, 2])), 0.1)
+        zeta_ci = (float(zeta * np.exp(-half)), float(zeta * np.exp(half)))
+    damping_used = ReplayDamping(source=source, zeta=None if zeta is None else float(zeta),
+                                 zeta_ci95=zeta_ci)
     offsets = []
     if rep is not None:
         replayed = {(p.run, p.channel): p for p in rep.points.used()}
-        for p in identification.points.used():
+        for p in measured:
             q = replayed.get((p.run, p.channel))
             if q is not None:
                 offsets.append({"run": p.run, "channel": p.channel,
@@ -190,11 +481,62 @@ def corrected_fit(dataset, system, identification, *, fit_kwargs: dict, rtol: fl
             r = replayed_curves.get((c.run, c.channel))
             if r is not None and c.run in levels:
                 misfit[c.run] = max(misfit.get(c.run, 0.0), curve_misfit(c, r))
+    ci_kn = ci_delta = noise = None
+    if n_bootstrap > 0 and rep is not None and not failure:
+        noise = noise_levels(dataset, rep_ds)
+        ci_kn, ci_delta = _bootstrap_by_replay(
+            rep_ds, system, noise, theta=theta, theta_rep=np.array([rep.kn, rep.delta]),
+            n=int(n_bootstrap), seed=int(seed), fit_kwargs=fit_kwargs, progress=progress)
+    if failure:
+        theta = hat.copy()  # nothing to correct with: the plain fit stays
     return ReplayResult(kn=float(theta[0]), delta=float(theta[1]), kn_fit=float(hat[0]),
                         delta_fit=float(hat[1]), iterations=history, converged=converged,
                         levels=levels, offsets=offsets,
                         curves=tuple(rep.points.curves) if rep is not None else (),
-                        misfit=misfit)
+                        misfit=misfit, damping=damping_used, failure=failure,
+                        kn_ci95_replay=ci_kn, delta_ci95_replay=ci_delta,
+                        n_bootstrap=int(n_bootstrap) if ci_kn is not None else 0,
+                        noise=None if noise is None else
+                        {k: [float(x) for x in v] for k, v in noise.items()},
+                        sweeps={run: {"source": src, "law": sw.law, **sw.to_dict(),
+                                      **({} if res is None else {"residual_hz": float(res)})}
+                                for run, (sw, src, res) in sweeps.items()})
+
+
+def _bootstrap_by_replay(rep_ds, system, noise, *, theta, theta_rep, n, seed, fit_kwargs,
+                         progress):
+    """Percentile 95 % intervals of theta * theta_b / theta_rep over ``n`` noisy copies of the
+    replay ``rep_ds`` (module docstring)."""
+    import dataclasses
+
+    from tqdm.auto import tqdm
+
+    from .identification.pipeline import identify
+    from .identification.result import IdentificationError
+
+    rng = np.random.default_rng(seed)
+    samples = []
+    for _ in tqdm(range(n), desc="bootstrap by replay", disable=not progress, leave=False):
+        runs = []
+        for run in rep_ds.runs:
+            sd = noise.get(run.file)
+            if sd is None:
+                runs.append(run)
+                continue
+            noisy = run.data + sd[:, None] * rng.standard_normal(run.data.shape)
+            runs.append(dataclasses.replace(run, data=noisy))
+        copy = dataclasses.replace(rep_ds, runs=tuple(runs))
+        try:
+            fit = identify(copy, system=system, init=tuple(theta_rep), progress=False,
+                           replay=False, **fit_kwargs)
+        except IdentificationError:
+            continue  # a copy whose noise hides a jump: it adds no sample
+        samples.append(theta * np.array([fit.kn, fit.delta]) / theta_rep)
+    if len(samples) < max(5, n // 2):
+        return None, None
+    arr = np.asarray(samples)
+    lo, hi = np.percentile(arr, [2.5, 97.5], axis=0)
+    return (float(lo[0]), float(hi[0])), (float(lo[1]), float(hi[1]))
 
 
 def curve_misfit(measured, replayed) -> float:

@@ -9,45 +9,118 @@ import numpy as np
 
 from .quantity import G
 
-__all__ = ["Sweep"]
+__all__ = ["Sweep", "SWEEP_LAWS"]
+
+SWEEP_LAWS = ("linear", "log")
+
+
+def _positive(name: str, v) -> None:
+    number = isinstance(v, (int, float, np.floating, np.integer)) and not isinstance(v, bool)
+    if not (number and math.isfinite(v) and v > 0):
+        raise ValueError(f"Sweep `{name}` must be a finite number > 0, got {v!r}")
 
 
 @dataclass(frozen=True)
 class Sweep:
-    """Linear sine sweep ``a_g(t) = A sin(2 pi (f0 t + s t^2 / 2))``, s = +-rate.
+    """Sine sweep ``a_g(t) = A sin(phase(t))``, linear in Hz/s or logarithmic in octaves/min.
+
+    Give exactly one of ``rate_hz_per_s`` (linear law) and ``octaves_per_min`` (log law)::
+
+        Sweep(30, 50, 0.1)                       # linear, 0.1 Hz/s, 200 s
+        Sweep(20, 80, octaves_per_min=2)         # logarithmic, 2 octaves/min, 60 s
+
+    The same keys make a data set's ``sweep:`` hint (``{start_hz: 20, stop_hz: 80,
+    octaves_per_min: 2}``) and a config's ``sweep`` group; :meth:`to_dict` writes them.
+
+    Laws, with s = +-rate [Hz/s] and k = +-octaves_per_min / 60 [octaves/s], the sign of
+    ``stop - start``, and ``kappa = k ln 2`` [1/s]::
+
+        linear: f(t) = f0 + s t        phase(t) = 2 pi (f0 t + s t^2 / 2)
+        log:    f(t) = f0 2^(k t)      phase(t) = 2 pi f0 (2^(k t) - 1) / (k ln 2)
+
+    (the phase is the integral of 2 pi f from 0: both start at phase 0). A log sweep spends
+    equal time per octave, so its rate ``df/dt = kappa f(t)`` grows with the frequency.
 
     Parameters
     ----------
     start_hz, stop_hz : float [Hz], > 0 and different
         Up-sweep if stop > start, down-sweep otherwise.
-    rate_hz_per_s : float [Hz/s], > 0
-        Magnitude of the sweep rate.
+    rate_hz_per_s : float [Hz/s], > 0, optional
+        Magnitude of a linear sweep's rate.
+    octaves_per_min : float [octaves/min], > 0, optional
+        Magnitude of a logarithmic sweep's rate.
     """
 
     start_hz: float
     stop_hz: float
-    rate_hz_per_s: float
+    rate_hz_per_s: float | None = None
+    octaves_per_min: float | None = None
 
     def __post_init__(self) -> None:
-        for name in ("start_hz", "stop_hz", "rate_hz_per_s"):
-            v = getattr(self, name)
-            number = isinstance(v, (int, float, np.floating, np.integer))
-            if not (number and math.isfinite(v) and v > 0):
-                raise ValueError(f"Sweep `{name}` must be a finite number > 0, got {v!r}")
+        given = [n for n in ("rate_hz_per_s", "octaves_per_min") if getattr(self, n) is not None]
+        if len(given) != 1:
+            raise ValueError(
+                "Sweep needs exactly one of `rate_hz_per_s` (linear sweep [Hz/s]) and "
+                f"`octaves_per_min` (logarithmic sweep [octaves/min]), got "
+                f"{'both' if given else 'neither'} (rate_hz_per_s={self.rate_hz_per_s!r}, "
+                f"octaves_per_min={self.octaves_per_min!r})"
+            )
+        for name in ("start_hz", "stop_hz", *given):
+            _positive(name, getattr(self, name))
         if self.start_hz == self.stop_hz:
             raise ValueError(
                 f"Sweep `start_hz` and `stop_hz` must differ, both are {self.start_hz!r}"
             )
 
     @property
+    def law(self) -> str:
+        """"linear" or "log"."""
+        return "linear" if self.rate_hz_per_s is not None else "log"
+
+    @property
+    def _kappa(self) -> float:
+        """Log law: d ln f / dt = +-octaves_per_min ln 2 / 60 [1/s]."""
+        return math.copysign(self.octaves_per_min * math.log(2.0) / 60.0,
+                             self.stop_hz - self.start_hz)
+
+    @property
     def signed_rate(self) -> float:
-        """Sweep rate with its sign [Hz/s] (negative for a down-sweep)."""
+        """A linear sweep's rate with its sign [Hz/s] (negative for a down-sweep).
+
+        Raises ``ValueError`` for a log sweep, whose rate varies: use :meth:`rate` (at times) or
+        :attr:`mean_rate`.
+        """
+        if self.law != "linear":
+            raise ValueError("a logarithmic sweep has no constant rate: use `Sweep.rate(t)` "
+                             "or `Sweep.mean_rate`")
         return math.copysign(self.rate_hz_per_s, self.stop_hz - self.start_hz)
+
+    @property
+    def mean_rate(self) -> float:
+        """(stop - start) / duration [Hz/s], signed; a linear sweep's :attr:`signed_rate`."""
+        if self.law == "linear":
+            return self.signed_rate
+        return (self.stop_hz - self.start_hz) / self.duration
 
     @property
     def duration(self) -> float:
         """Length of the sweep [s]."""
-        return abs(self.stop_hz - self.start_hz) / self.rate_hz_per_s
+        if self.law == "linear":
+            return abs(self.stop_hz - self.start_hz) / self.rate_hz_per_s
+        return abs(math.log2(self.stop_hz / self.start_hz)) * 60.0 / self.octaves_per_min
+
+    def describe(self) -> str:
+        """The law in words: "30 -> 50 Hz at 0.1 Hz/s" or "20 -> 80 Hz at 2 octaves/min"."""
+        rate = (f"{self.rate_hz_per_s:g} Hz/s" if self.law == "linear" else
+                f"{self.octaves_per_min:g} octaves/min")
+        return f"{self.start_hz:g} -> {self.stop_hz:g} Hz at {rate}"
+
+    def to_dict(self) -> dict:
+        """The hint's keys: ``start_hz``, ``stop_hz`` and ``rate_hz_per_s`` or
+        ``octaves_per_min`` (``Sweep(**d)`` rebuilds it)."""
+        key = "rate_hz_per_s" if self.law == "linear" else "octaves_per_min"
+        return {"start_hz": float(self.start_hz), "stop_hz": float(self.stop_hz),
+                key: float(getattr(self, key))}
 
     def record_mismatch(self, n_samples: int, sample_rate: float) -> str:
         """Why a record of ``n_samples`` at ``sample_rate`` [Hz] cannot be this sweep, or "".
@@ -69,7 +142,7 @@ class Sweep:
         """
         fs = float(sample_rate)
         top = max(self.start_hz, self.stop_hz)
-        law = f"{self.start_hz:g} -> {self.stop_hz:g} Hz at {self.rate_hz_per_s:g} Hz/s"
+        law = self.describe()
         if top >= fs / 2:
             return (f"sweep hint ({law}) reaches {top:g} Hz, at or above the Nyquist frequency "
                     f"{fs / 2:g} Hz of the {fs:g} Hz record")
@@ -83,17 +156,33 @@ class Sweep:
         return ""
 
     def frequency(self, t):
-        """Instantaneous frequency f0 + s t [Hz] at times ``t`` [s]."""
-        return self.start_hz + self.signed_rate * np.asarray(t, dtype=float)
+        """Instantaneous frequency f(t) [Hz] at times ``t`` [s] (class docstring)."""
+        t = np.asarray(t, dtype=float)
+        if self.law == "linear":
+            return self.start_hz + self.signed_rate * t
+        return self.start_hz * np.exp(self._kappa * t)
+
+    def rate(self, t):
+        """The frequency's time derivative df/dt [Hz/s] at times ``t`` [s], signed."""
+        t = np.asarray(t, dtype=float)
+        if self.law == "linear":
+            return np.full(t.shape, self.signed_rate)
+        return self._kappa * self.frequency(t)
 
     def phase(self, t):
-        """Phase 2 pi (f0 t + s t^2 / 2) [rad] at times ``t`` [s]."""
+        """Phase, the integral of 2 pi f from 0 to ``t`` [rad] at times ``t`` [s]."""
         t = np.asarray(t, dtype=float)
-        return 2 * np.pi * (self.start_hz * t + 0.5 * self.signed_rate * t * t)
+        if self.law == "linear":
+            return 2 * np.pi * (self.start_hz * t + 0.5 * self.signed_rate * t * t)
+        k = self._kappa
+        return 2 * np.pi * self.start_hz * np.expm1(k * t) / k
 
     def time_at(self, freq_hz):
         """Time [s] at which the sweep passes ``freq_hz``."""
-        return (np.asarray(freq_hz, dtype=float) - self.start_hz) / self.signed_rate
+        f = np.asarray(freq_hz, dtype=float)
+        if self.law == "linear":
+            return (f - self.start_hz) / self.signed_rate
+        return np.log(f / self.start_hz) / self._kappa
 
     def acceleration(self, t, level_g: float = 1.0):
         """Base acceleration [m/s^2] at times ``t`` [s] for an amplitude of ``level_g`` [g]."""

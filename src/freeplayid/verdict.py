@@ -20,6 +20,10 @@ compares the result or the data with a physical limit, never with a value tuned 
 - ``replay_misfit`` / ``replay_converged`` (with the replay): every run's measured and replayed
   amplitude-frequency curves within 5 % of the peak (median difference), and the corrected fit
   converged.
+- ``sweep_law`` (with the replay): where each replayed run's sweep law came from. A law
+  estimated from the response channels (no hint, no base channel) is a reason for caution, not
+  for suspicion by itself: the check fails only when such a run's replayed curves miss the
+  measured ones (its ``replay_misfit`` above the limit), which a wrong law shows.
 - ``base_level``: the base channel's amplitude against each run's ``level_g``: a factor 9.81,
   1/9.81 or 1000 is a units error, a ratio that varies as a power of the frequency is a quantity
   error (acceleration declared as displacement...).
@@ -45,6 +49,7 @@ LIMITS = {
     "channel_spread": 0.01,  # [-] relative spread of one run's channel frequencies
     "level_tolerance": 0.25,  # [-] base amplitude / level_g accepted within 1 -+ this
     "replay_misfit": 0.05,  # [-] measured vs replayed curves, median difference / peak
+    "zeta_ci_ratio": 2.0,  # [-] an estimated damping ratio's 95 % interval, upper / lower
 }
 
 
@@ -227,7 +232,10 @@ def fit_checks(points, fit, system, extraction, *, mode: int = 0) -> list[Check]
 
 
 def replay_checks(replay) -> list[Check]:
-    """The replay's self-check: measured vs replayed curves per run, and convergence."""
+    """The replay's self-check: the replay could be fitted, measured vs replayed curves per run,
+    convergence, and an estimated damping ratio that the amplitudes pin down."""
+    if getattr(replay, "failure", ""):
+        return [Check("replay_failed", False, replay.failure)]
     limit = LIMITS["replay_misfit"]
     misfit = {r: m for r, m in (replay.misfit or {}).items() if math.isfinite(m)}
     bad = {r: m for r, m in misfit.items() if m > limit}
@@ -239,8 +247,42 @@ def replay_checks(replay) -> list[Check]:
                     "the replay does not reproduce the test: " + ", ".join(
                         f"{r} ({100 * m:.2g} % of the peak)" for r, m in bad.items())
                     + " (model, damping, levels or sweep law?)", worst)]
+    checks.append(_sweep_law_check(replay, misfit, limit))
     checks.append(Check("replay_converged", bool(replay.converged),
                         f"the corrected fit converged in {len(replay.iterations)} replays"
                         if replay.converged else
                         f"the corrected fit did not converge in {len(replay.iterations)} replays"))
+    damping = getattr(replay, "damping", None)
+    if damping is not None and damping.source == "estimated":
+        ci = damping.zeta_ci95
+        ratio = None if ci is None else ci[1] / ci[0]
+        ok = ratio is not None and ratio <= LIMITS["zeta_ci_ratio"]
+        checks.append(Check(
+            "damping_estimate", ok,
+            f"damping estimated from the peak amplitudes: zeta = {damping.zeta:.3g}"
+            + ("" if ci is None else f" (95 % CI {ci[0]:.3g} to {ci[1]:.3g})")
+            + ("" if ok else "; the amplitudes do not pin it down (give `damping=` or C in "
+               "the model file)"), ratio))
     return checks
+
+
+def _sweep_law_check(replay, misfit: dict, limit: float) -> Check:
+    """Where the replayed sweep laws came from; a law guessed from the responses passes only
+    when the replay reproduces that run (module docstring)."""
+    sweeps = replay.sweeps or {}
+    by_source: dict[str, list[str]] = {}
+    for run, sw in sweeps.items():
+        by_source.setdefault(sw["source"], []).append(run)
+    where = "; ".join(f"{src}: {', '.join(runs)}" for src, runs in by_source.items())
+    guessed = by_source.get("response", [])
+    if not guessed:
+        return Check("sweep_law", True, f"sweep laws from {where or 'no run'}")
+    worst = max((sweeps[r].get("residual_hz", 0.0) for r in guessed), default=0.0)
+    bad = [r for r in guessed if not misfit.get(r, math.inf) <= limit]
+    text = (f"sweep law of run(s) {', '.join(guessed)} estimated from the response channels "
+            f"(no hint, no base channel; fit residual up to {worst:.2g} Hz)")
+    if bad:
+        return Check("sweep_law", False, text + f"; the replay does not reproduce {', '.join(bad)}"
+                     ": the estimated law may be wrong (give the runs' `sweep` hints)", worst)
+    return Check("sweep_law", True, text + "; the replay reproduces them (caution: no hint)",
+                 worst)

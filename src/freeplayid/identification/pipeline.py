@@ -99,6 +99,8 @@ def identify(
     seed: int = 0,
     progress: bool = True,
     replay: bool = False,
+    damping=None,
+    replay_bootstrap: int = 0,
 ) -> Identification:
     """Identify (kn, delta) from a measured (or simulated) sine-sweep data set.
 
@@ -135,6 +137,12 @@ def identify(
         (:func:`freeplayid.replay.corrected_fit`, indirect inference): the result's kn and delta
         are then the corrected ones, the intervals shifted with them, and ``replay`` holds the
         iterations, the levels used and each point's offset.
+    damping : None, "model", "estimate" or float
+        Damping of the replay: None takes the model's C when it has one and estimates one modal
+        damping ratio from the peak amplitudes otherwise; a float in (0, 1) fixes that ratio.
+    replay_bootstrap : int
+        With ``replay``: noisy copies of the final replay for bootstrap intervals that see the
+        bias (0: none; the intervals are then the Jacobian ones, moved with the estimate).
 
     Returns
     -------
@@ -217,24 +225,42 @@ def identify(
     )
     if replay:
         result = _with_replay(result, dataset, system, backbone=backbone, extraction=extraction,
-                              use_sweep_hint=use_sweep_hint, mode=int(mode), t0=t0)
+                              use_sweep_hint=use_sweep_hint, mode=int(mode), t0=t0,
+                              damping=damping, n_bootstrap=int(replay_bootstrap), seed=int(seed),
+                              progress=progress)
     return result
 
 
-def _with_replay(result, dataset, system, *, t0, **fit_kwargs):
-    """``result`` with the bias-corrected (kn, delta) of :func:`freeplayid.replay.corrected_fit`;
-    the Jacobian intervals move with the estimate (same relative width)."""
+def _with_replay(result, dataset, system, *, t0, damping, n_bootstrap, seed, progress,
+                 **fit_kwargs):
+    """``result`` with the bias-corrected (kn, delta) of :func:`freeplayid.replay.corrected_fit`.
+
+    Intervals: the Jacobian ones moved with the estimate (same relative width); with the
+    bootstrap by replay, the smallest interval holding both (``interval_source`` says which).
+    A replay that failed keeps the plain estimate and makes the verdict ``suspect``.
+    """
     import dataclasses
 
     from ..replay import corrected_fit
     from ..verdict import make_verdict, replay_checks
 
-    rep = corrected_fit(dataset, system, result, fit_kwargs=fit_kwargs)
-    sk, sd = rep.kn / result.kn, rep.delta / result.delta
+    rep = corrected_fit(dataset, system, result, fit_kwargs=fit_kwargs, damping=damping,
+                        n_bootstrap=n_bootstrap, seed=seed, progress=progress)
     verdict = make_verdict(result.verdict.checks + tuple(replay_checks(rep)))
+    if rep.failure:
+        return dataclasses.replace(result, verdict=verdict, replay=rep,
+                                   runtime_s=time.perf_counter() - t0)
+    sk, sd = rep.kn / result.kn, rep.delta / result.delta
+    kn_ci = tuple(v * sk for v in result.kn_ci95)
+    delta_ci = tuple(v * sd for v in result.delta_ci95)
+    source = "Jacobian (moved with the estimate)"
+    if rep.kn_ci95_replay is not None:
+        kn_ci = (min(kn_ci[0], rep.kn_ci95_replay[0]), max(kn_ci[1], rep.kn_ci95_replay[1]))
+        delta_ci = (min(delta_ci[0], rep.delta_ci95_replay[0]),
+                    max(delta_ci[1], rep.delta_ci95_replay[1]))
+        source = (f"bootstrap by replay ({rep.n_bootstrap} copies) joined with the Jacobian "
+                  "interval")
     return dataclasses.replace(
-        result, kn=rep.kn, delta=rep.delta, verdict=verdict,
-        kn_ci95=tuple(v * sk for v in result.kn_ci95),
-        delta_ci95=tuple(v * sd for v in result.delta_ci95),
-        runtime_s=time.perf_counter() - t0, replay=rep,
+        result, kn=rep.kn, delta=rep.delta, verdict=verdict, kn_ci95=kn_ci, delta_ci95=delta_ci,
+        runtime_s=time.perf_counter() - t0, replay=rep, interval_source=source,
     )

@@ -94,6 +94,7 @@ class Identification:
     dataset: dict = field(default_factory=dict)
     verdict: object = None
     replay: object = None
+    interval_source: str = "Jacobian"
     validation: object | None = None
 
     @property
@@ -153,7 +154,14 @@ class Identification:
                 "iterations": r.iterations, "offsets": r.offsets,
                 "levels": {k: {"level_g": v[0], "source": v[1]} for k, v in r.levels.items()},
                 "misfit": r.misfit,
+                "damping": None if r.damping is None else r.damping.to_dict(),
+                "failure": r.failure or None,
+                "kn_ci95_bootstrap": None if r.kn_ci95_replay is None else list(r.kn_ci95_replay),
+                "delta_ci95_bootstrap": (None if r.delta_ci95_replay is None
+                                         else list(r.delta_ci95_replay)),
+                "n_bootstrap": r.n_bootstrap, "noise": r.noise, "sweeps": r.sweeps,
             }
+            out["interval_source"] = self.interval_source
         return out
 
     def backbone_overlay(self) -> dict:
@@ -236,6 +244,20 @@ class Identification:
                       f"{it['delta_rep']:.5g} |" for k, it in enumerate(r.iterations)]
             lines += ["", "Levels: " + ", ".join(f"{run} {lv:.4g} g ({src})"
                                                   for run, (lv, src) in r.levels.items())]
+            if r.sweeps:
+                lines += ["", "Sweep laws: " + ", ".join(
+                    f"{run} {_sweep_text(sw)} ({sw['source']}"
+                    + (f", fit residual {sw['residual_hz']:.2g} Hz" if "residual_hz" in sw else "")
+                    + ")" for run, sw in r.sweeps.items())]
+            if r.damping is not None:
+                lines += ["", f"Damping of the replay: {r.damping.describe()}."]
+            if r.failure:
+                lines += ["", f"**Replay failed:** {r.failure}; the estimate above is the plain "
+                          "fit's."]
+            lines += ["", f"95 % intervals: {self.interval_source}."]
+            if r.kn_ci95_replay is not None:
+                lines += [f"Bootstrap by replay alone: kn {_ci(r.kn_ci95_replay)}, delta "
+                          f"{_ci(r.delta_ci95_replay)}."]
             if r.misfit:
                 lines += ["", "Measured vs replayed curves (median difference / measured peak): "
                           + ", ".join(f"{run} {100 * m:.2g} %" for run, m in r.misfit.items())]
@@ -283,3 +305,9 @@ def _validation_lines(v) -> list[str]:
     rows += ["", f"Zero-clearance check: {'passed' if v.passed else 'FAILED'}."]
     return rows
 
+
+def _sweep_text(sw: dict) -> str:
+    """A replay's sweep-law record in words: "30 -> 50 Hz at 0.1 Hz/s"."""
+    rate = (f"{sw['rate_hz_per_s']:.4g} Hz/s" if sw.get("rate_hz_per_s") is not None else
+            f"{sw['octaves_per_min']:.4g} octaves/min")
+    return f"{sw['start_hz']:.5g} -> {sw['stop_hz']:.5g} Hz at {rate}"

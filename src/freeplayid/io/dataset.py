@@ -12,7 +12,11 @@ channels: {acc_tl: uz_top_left, acc_lr: uz_lower_right}   # run-file column -> m
 base_channel: acc_base          # optional
 runs:
   - {file: sweep_0.60g.csv, level_g: 0.60, sweep: {start_hz: 30, stop_hz: 50, rate_hz_per_s: 0.1}}
+  - {file: sweep_0.80g.csv, level_g: 0.80, sweep: {start_hz: 20, stop_hz: 80, octaves_per_min: 2}}
 ```
+
+A ``sweep`` hint gives a linear (``rate_hz_per_s``) or a logarithmic (``octaves_per_min``) law,
+not both (:class:`freeplayid.sweep.Sweep`).
 
 A run file is read by the reader of its suffix (:mod:`freeplayid.io.readers`: CSV, gzipped CSV,
 UFF 58, MATLAB ``.mat``, NI ``.tdms``); every check that does not depend on the file type (the
@@ -45,7 +49,8 @@ __all__ = ["Dataset", "DatasetError", "Run", "read_dataset", "write_dataset"]
 MANIFEST_KEYS = ("name", "model", "quantity", "units", "sample_rate", "channels",
                  "base_channel", "truth", "runs", "reference_modes")
 RUN_KEYS = ("file", "level_g", "sweep")
-SWEEP_KEYS = ("start_hz", "stop_hz", "rate_hz_per_s")
+SWEEP_RATE_KEYS = ("rate_hz_per_s", "octaves_per_min")  # linear, logarithmic: exactly one
+SWEEP_KEYS = ("start_hz", "stop_hz", *SWEEP_RATE_KEYS)
 CSV_SUFFIXES = (".csv", ".csv.gz")  # what write_dataset writes
 
 @dataclass(frozen=True)
@@ -62,7 +67,9 @@ class Run:
     level_g : float or None [g]
         Informational base level.
     sweep : dict or None
-        Optional hint ``{start_hz, stop_hz, rate_hz_per_s}``.
+        Optional hint ``{start_hz, stop_hz, rate_hz_per_s}`` (linear sweep) or
+        ``{start_hz, stop_hz, octaves_per_min}`` (logarithmic), the keys of
+        :class:`freeplayid.sweep.Sweep`.
     base : ndarray, shape (T,), or None
         The base (control) channel, if the data set has one.
     reason : str
@@ -535,10 +542,18 @@ def read_dataset(path: str | os.PathLike, *, check_model: bool = True) -> Datase
             if not isinstance(sweep, dict):
                 raise DatasetError(f"{at}.sweep must be a mapping of {list(SWEEP_KEYS)}")
             _check_keys(sweep, SWEEP_KEYS, f"{at}.sweep: ")
-            miss = [s_ for s_ in SWEEP_KEYS if s_ not in sweep]
-            if miss:
-                raise DatasetError(f"{at}.sweep misses {miss}; it needs {list(SWEEP_KEYS)}")
-            sweep = {s_: _number(sweep[s_], f"{at}.sweep.{s_}") for s_ in SWEEP_KEYS}
+            miss = [s_ for s_ in ("start_hz", "stop_hz") if s_ not in sweep]
+            rates = [s_ for s_ in SWEEP_RATE_KEYS if s_ in sweep]
+            if miss or not rates:
+                raise DatasetError(
+                    f"{at}.sweep misses {miss + ([] if rates else [' or '.join(SWEEP_RATE_KEYS)])}"
+                    "; it needs `start_hz`, `stop_hz` and `rate_hz_per_s` (linear) or "
+                    "`octaves_per_min` (logarithmic)")
+            if len(rates) > 1:
+                raise DatasetError(f"{at}.sweep gives both `rate_hz_per_s` and "
+                                   "`octaves_per_min`; give one (linear or logarithmic sweep)")
+            sweep = {s_: _number(sweep[s_], f"{at}.sweep.{s_}")
+                     for s_ in ("start_hz", "stop_hz", *rates)}
             if sweep["start_hz"] == sweep["stop_hz"]:
                 raise DatasetError(f"{at}.sweep: `start_hz` and `stop_hz` must differ")
         specs.append((name, f, level, sweep))

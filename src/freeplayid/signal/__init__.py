@@ -3,6 +3,7 @@
 - :func:`acmp`: adaptive chirp mode pursuit, one chirp mode, banded O(N) solves;
 - :func:`lockin`: demodulation with the known sweep phase (reference, baseline);
 - :func:`extract_backbone_points`: Eq. 9, base subtraction, resonance peak / jump, rejections;
+- :func:`estimate_sweep`: the sweep law (linear or log) of a record without a hint;
 - noise helpers for simulated records.
 """
 
@@ -25,12 +26,15 @@ from .points import (
     extract_backbone_points,
     to_displacement,
 )
+from .sweeplaw import SweepEstimate, estimate_sweep
 
 __all__ = [
     "ChirpMode",
     "acmp",
     "lockin",
     "window_amplitudes",
+    "estimate_sweep",
+    "SweepEstimate",
     "ridge_frequency",
     "bandwidth_weight",
     "narrowest_bandwidth",

@@ -102,6 +102,44 @@ def check_bandwidth(bandwidth_hz: float, working_rate: float, name: str) -> None
         )
 
 
+def ridge_track(x, fs: float, *, window_s: float = 1.0, fmin: float = 0.0):
+    """The short-time Fourier ridge: per-frame spectral peak, refined by parabolic interpolation.
+
+    Parameters
+    ----------
+    x : ndarray, shape (N,) [any]
+    fs : float [Hz]
+    window_s : float [s]
+        STFT window (half overlap); frequency resolution ~ 1/window_s.
+    fmin : float [Hz]
+        Ignore spectral lines below this (offsets, drifts).
+
+    Returns
+    -------
+    t : ndarray, shape (F,) [s]
+        Frame centres.
+    f : ndarray, shape (F,) [Hz]
+        Ridge frequency of each frame.
+    power : ndarray, shape (F,)
+        The peak's spectral power (a weight).
+    df : float [Hz]
+        The STFT's bin width.
+    """
+    n = x.shape[0]
+    nper = int(min(n, max(16, round(window_s * fs))))
+    f, t, z = sps.stft(x, fs=fs, nperseg=nper, noverlap=nper // 2, boundary=None, padded=False)
+    p = np.abs(z) ** 2
+    p[f < fmin, :] = 0.0
+    k = np.argmax(p, axis=0)
+    k = np.clip(k, 1, len(f) - 2)
+    cols = np.arange(p.shape[1])
+    lm, l0, lp = (np.log(p[k + d, cols] + 1e-300) for d in (-1, 0, 1))
+    den = lm - 2 * l0 + lp
+    off = np.where(np.abs(den) > 0, 0.5 * (lm - lp) / np.where(den == 0, 1, den), 0.0)
+    fr = f[k] + np.clip(off, -1, 1) * (f[1] - f[0])
+    return t, fr, p[k, cols], float(f[1] - f[0])
+
+
 def ridge_frequency(
     signal, sample_rate: float, *, window_s: float = 1.0, fmin: float = 0.0, degree: int = 1
 ) -> np.ndarray:
@@ -129,23 +167,12 @@ def ridge_frequency(
     x = as_signal(signal, "signal")
     fs = check_positive(sample_rate, "sample_rate")
     n = x.shape[0]
-    nper = int(min(n, max(16, round(window_s * fs))))
-    f, t, z = sps.stft(x, fs=fs, nperseg=nper, noverlap=nper // 2, boundary=None, padded=False)
-    p = np.abs(z) ** 2
-    p[f < fmin, :] = 0.0
-    k = np.argmax(p, axis=0)
-    k = np.clip(k, 1, len(f) - 2)
-    cols = np.arange(p.shape[1])
-    lm, l0, lp = (np.log(p[k + d, cols] + 1e-300) for d in (-1, 0, 1))
-    den = lm - 2 * l0 + lp
-    off = np.where(np.abs(den) > 0, 0.5 * (lm - lp) / np.where(den == 0, 1, den), 0.0)
-    fr = f[k] + np.clip(off, -1, 1) * (f[1] - f[0])
-    w = p[k, cols]
+    t, fr, w, df = ridge_track(x, fs, window_s=window_s, fmin=fmin)
     deg = min(degree, max(0, len(t) - 1))
     coef = np.polyfit(t, fr, deg, w=np.sqrt(w))
     for _ in range(2):  # robust re-weighting: down-weight frames far from the fit
         r = fr - np.polyval(coef, t)
-        scale = 1.4826 * np.median(np.abs(r)) + (f[1] - f[0])
+        scale = 1.4826 * np.median(np.abs(r)) + df
         ww = w / (1.0 + (r / (2 * scale)) ** 2)
         coef = np.polyfit(t, fr, deg, w=np.sqrt(ww))
     return np.polyval(coef, np.arange(n) / fs)

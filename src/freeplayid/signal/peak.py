@@ -25,9 +25,9 @@ them rather than low-passing ``2 x e^{-i phi}`` removes the 2 f term exactly.
 The point is the maximum of ``X = A / w^p`` (Eq. 9, ``w`` the response's instantaneous frequency,
 as for the curve) over the lobe of the smoothed curve around its maximum (where it stays above
 ``jump_ratio`` times the maximum), and its frequency is the excitation frequency there: the
-sweep law when the hint is given, else the extractor's initial frequency (the straight line
-fitted to the STFT ridge, i.e. the excitation's linear law seen in the record). The response's
-own frequency lags the excitation near the fold (by 0.08 Hz at 1 Hz/s on the SDOF oscillator).
+sweep law: the hint's, else the record's own (:func:`.sweeplaw.estimate_sweep`), else (a given
+``init_freq``) a robust straight line through the extracted instantaneous frequency. The
+response's own frequency lags the excitation near the fold (by 0.07-0.09 Hz at 1 Hz/s).
 """
 
 from __future__ import annotations

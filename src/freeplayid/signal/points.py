@@ -16,10 +16,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..quantity import check_quantity
-from .acmp import ChirpMode, acmp, ridge_frequency
+from .acmp import ChirpMode, acmp
 from .jump import REASON_FAILED, REASON_NOISY, find_jump_peak, reason_dead
 from .lockin import lockin
 from .peak import JUMP_POINTS
+from .sweeplaw import estimate_sweep
 from .validate import check_positive, dead_channel
 
 __all__ = [
@@ -49,9 +50,9 @@ class BackbonePoint:
     ----------
     run, channel : str
     f_hz : float [Hz]
-        Excitation frequency at the jump point (``jump_point="windowed"``: the sweep law, or
-        without it the extractor's linear initial law; ``"smoothed"``: the extracted
-        instantaneous frequency at the curve's maximum).
+        Excitation frequency at the jump point (``jump_point="windowed"``: the sweep law, the
+        hint's or the record's own from :func:`.sweeplaw.estimate_sweep`; ``"smoothed"``: the
+        extracted instantaneous frequency at the curve's maximum).
     amplitude_m : float [m]
         First-harmonic displacement amplitude there (Eq. 9 applied before the maximum).
     used : bool
@@ -224,7 +225,8 @@ def extract_backbone_points(
     method : {"acmp", "lockin"}
     bandwidth_hz : float [Hz], optional
         Demodulation bandwidth of either method. Default ``max(1 Hz, 2 s x |sweep rate|)``
-        (rate from the hint, else from the STFT ridge): narrow enough to keep the noise bias of
+        (the hint's rate, else the record's own law from :func:`estimate_sweep`; the median
+        rate of a log sweep): narrow enough to keep the noise bias of
         the maximum small, wide enough to follow the drop after the peak without overshoot.
     options : mapping, optional
         Further keyword options of the method (e.g. ``{"if_bandwidth_hz": 0.5}``).
@@ -419,20 +421,25 @@ def _channel_point(
     sl = slice(trim, n - trim)
     ti = np.arange(n)[sl] / fs
     run_opts = dict(opts)
-    if sweep is not None:
-        rate = sweep.signed_rate
-        band = (float(sweep.frequency(ti[0])), float(sweep.frequency(ti[-1])))
-        f_init = None
+    law = sweep
+    if law is None and "init_freq" not in run_opts:
+        # output-only: the record's own sweep law (linear or log, estimate_sweep) gives the
+        # rate, the band and ACMP's start
+        try:
+            law = estimate_sweep(x, fs, fmin=2.0).sweep
+        except ValueError as exc:
+            raise _ExtractionError(f"no sweep found in the record ({exc})") from None
+        run_opts["init_freq"] = law.frequency(np.arange(n) / fs)
+    if law is not None:
+        rate = law.rate(ti)  # df/dt [Hz/s] per sample: a log sweep's varies
+        band = (float(law.frequency(ti[0])), float(law.frequency(ti[-1])))
     else:
-        # output-only: the (linear) STFT ridge gives the rate, the band and ACMP's start
-        if "init_freq" not in run_opts:
-            run_opts["init_freq"] = ridge_frequency(x, fs, fmin=2.0)
         f_init = np.broadcast_to(np.asarray(run_opts["init_freq"], dtype=float), (n,))
-        rate = float((f_init[sl][-1] - f_init[sl][0]) / (ti[-1] - ti[0]))
+        rate = np.full(ti.shape, (f_init[sl][-1] - f_init[sl][0]) / (ti[-1] - ti[0]))
         band = (float(f_init[sl][0]), float(f_init[sl][-1]))
-        if not np.isfinite(rate) or rate == 0:
+        if not np.isfinite(rate[0]) or rate[0] == 0:
             raise _ExtractionError("the initial frequency is not a sweep (pass `sweep`)")
-    bw = max(1.0, 2.0 * abs(rate)) if bandwidth_hz is None else bandwidth_hz
+    bw = max(1.0, 2.0 * float(np.median(np.abs(rate)))) if bandwidth_hz is None else bandwidth_hz
     mode: ChirpMode = extract(x, fs, sweep=sweep, bandwidth_hz=bw, **run_opts)
     fi = mode.frequency[sl]
     # the first harmonic lives in the swept band; keep a wild IF (noise, after a jump) from
@@ -442,7 +449,10 @@ def _channel_point(
         return np.clip(f, 0.5 * lo, 2.0 * hi)
 
     xi = to_displacement(mode.amplitude[sl], clip(fi), quantity)
-    k, reason = find_jump_peak(ti, fi, xi, sweep_rate=rate, band=band, **peak_rule)
+    # the jump rule's widths [Hz] at the sweep's rate where the curve peaks (a log sweep's rate
+    # varies along the record)
+    peak_rate = float(rate[int(np.argmax(np.where(np.isfinite(xi), xi, -np.inf)))])
+    k, reason = find_jump_peak(ti, fi, xi, sweep_rate=peak_rate, band=band, **peak_rule)
     if mode.snr_db < min_snr_db:
         reason = REASON_NOISY
     kp, xp = JUMP_POINTS[jump_point](
@@ -451,9 +461,9 @@ def _channel_point(
     )
     if xp is None:  # the smoothed curve's own maximum and frequency
         f_point, xp = float(fi[kp]), float(xi[kp])
-    elif sweep is not None:
-        f_point = float(sweep.frequency(ti[kp]))
-    else:
+    elif law is not None:  # the hint, else the record's own law (estimate_sweep)
+        f_point = float(law.frequency(ti[kp]))
+    else:  # a given `init_freq`: the straight line through the response's frequency
         f_point = float(_linear_law(ti, fi, mode.amplitude[sl])(ti[kp]))
     point = BackbonePoint(
         run=names[0],

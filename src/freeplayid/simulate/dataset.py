@@ -83,7 +83,7 @@ def sweep_dataset(
         raise ValueError(f"`noise` must have shape {result.signals.shape}, "
                          f"got {np.shape(noise)}")
     sw = result.sweep
-    hint = {"start_hz": sw.start_hz, "stop_hz": sw.stop_hz, "rate_hz_per_s": sw.rate_hz_per_s}
+    hint = sw.to_dict()
     with_base = q == "acceleration" and result.frame == "absolute"
     runs = []
     for k, i in enumerate(members):

@@ -13,6 +13,7 @@ from ..model.system import FreeplaySystem
 from ..quantity import G, derivative_order, si_unit
 from ..sweep import Sweep
 from .engines import Engine, EngineSetup, resolve_engine
+from .exponential import expo_step_limit
 from .formulation import METHODS, ModalTruncation, build_modal_form, rk4_step_limit
 from .quasistatic import QuasiStatic, condense_modal_form
 from .resample import StreamingDecimator, derivative_taps, design_decimator
@@ -48,7 +49,7 @@ class SweepResult:
     diverged : ndarray, shape (batch,) bool
         Members whose state became non-finite or absurdly large; frozen, the others unaffected.
     dt : float [s]
-        RK4 step actually used (1 / (sample_rate * steps_per_sample)).
+        Step actually used (1 / (sample_rate * steps_per_sample)).
     sample_rate : float [Hz]
     kn, delta, level_g : ndarray, shape (batch,) [N m/rad], [rad], [g]
         Broadcast parameters of each member.
@@ -56,7 +57,7 @@ class SweepResult:
     method : str
         relative | large_mass.
     engine : str
-        The registry name (``engines.ENGINES``) of the engine that ran: torch | numba.
+        The registry name (``engines.ENGINES``) of the engine that ran: torch | numba | expo.
     omega_max : float [rad/s]
         Fastest closed-hinge eigenvalue magnitude that set the step.
     truncation : ModalTruncation or None
@@ -121,7 +122,7 @@ def _base_signals(sweep: Sweep, t0_index: int, L: int, h: float, s_half: np.ndar
     c, s = np.cos(phase), np.sin(phase)
     return {
         "base": np.stack([u[:-1], v[:-1], a[0:-1:2]]),
-        "quasi_static": np.stack([s, w * c, 2 * np.pi * sweep.signed_rate * c - w * w * s]),
+        "quasi_static": np.stack([s, w * c, 2 * np.pi * sweep.rate(t) * c - w * w * s]),
     }
 
 
@@ -214,7 +215,7 @@ def simulate_sweeps(
     level_g : float or array_like, shape (batch,) [g]
         Base acceleration amplitude; kn, delta, level_g broadcast to one batch.
     sweep : Sweep
-        Linear sweep (up or down); the output covers [0, sweep.duration].
+        Linear or logarithmic sweep (up or down); the output covers [0, sweep.duration].
     channels : sequence of str
         DOF names to record.
     quantity : {"displacement", "velocity", "acceleration"}
@@ -228,10 +229,13 @@ def simulate_sweeps(
     device : str or torch.device, optional
         Default: CUDA if available, else CPU; the CPU with ``quasi_static_hz`` (numba only).
     dtype : torch.float32 or torch.float64
-    engine : {"auto", "torch", "numba"} or another key of ``engines.ENGINES``
-        "auto": the compiled numba kernel on CPU when numba is installed, else torch.
+    engine : {"auto", "torch", "numba", "expo"} or another key of ``engines.ENGINES``
+        "auto": the compiled numba RK4 kernel on CPU when numba is installed, else torch.
+        "expo": the exponential integrator (CPU, numba; docs/simulate.md, "Exponential
+        engine"): exact linear part and contact, step by accuracy, fast for small batches.
     omega_dt : float [-]
-        Bound on omega_max * dt for the fastest closed-hinge mode (<= 2.5).
+        RK4 engines: bound on omega_max * dt for the fastest closed-hinge mode (<= 2.5). Not
+        used by an engine whose step is set by accuracy (``Engine.step_rule``).
     steps_per_sample : int, optional
         Override the automatic m (no stability check: a member may then diverge).
     cutoff_hz : float [Hz], optional
@@ -292,10 +296,12 @@ def simulate_sweeps(
     kn_a, dl_a, lv_a = (x.reshape(-1) for x in (kn_a, dl_a, lv_a))
     batch = kn_a.shape[0]
 
+    # the step rule is declared by the engine (Engine.step_rule), not implied by its name
     plan = _step_plan(system, kn_max=float(kn_a.max()), sweep=sweep, sample_rate=sample_rate,
                       channels=channels, quantity=quantity, frame=frame, method=method,
                       cutoff_hz=cutoff_hz, quasi_static_hz=quasi_static_hz, omega_dt=omega_dt,
-                      steps_per_sample=steps_per_sample, large_mass_ratio=large_mass_ratio)
+                      steps_per_sample=steps_per_sample, large_mass_ratio=large_mass_ratio,
+                      step_rule=getattr(engine_cls, "step_rule", "stability"))
     form, qs, m, h, taps, taps_d = plan.form, plan.qs, plan.m, plan.h, plan.taps, plan.taps_d
     n_out, n_steps = plan.n_out, plan.n_steps
 
@@ -383,10 +389,12 @@ class _StepPlan:
 
 def _step_plan(system, *, kn_max, sweep, sample_rate, channels, quantity, frame, method,
                cutoff_hz, quasi_static_hz, omega_dt, steps_per_sample, large_mass_ratio,
-               filters: bool = True) -> _StepPlan:
-    """The modal form, the RK4 step and the step count of a simulation (before running it);
+               filters: bool = True, step_rule: str = "stability") -> _StepPlan:
+    """The modal form, the step and the step count of a simulation (before running it);
     without ``filters`` no decimator is designed (its length grows with m) and the count leaves
-    out the filter look-ahead (a few samples)."""
+    out the filter look-ahead (a few samples). ``step_rule`` is the engine's
+    (``Engine.step_rule``): "stability" (RK4, ``omega_dt``) or "accuracy"
+    (``exponential.expo_step_limit``)."""
     qs = None
     if quasi_static_hz is not None:
         if cutoff_hz is not None:
@@ -401,8 +409,14 @@ def _step_plan(system, *, kn_max, sweep, sample_rate, channels, quantity, frame,
         qs = condense_modal_form(form, threshold_hz=quasi_static_hz, quantity=quantity,
                                  kn_max=kn_max)
         form = qs.slow
+    if step_rule not in ("stability", "accuracy"):
+        raise ValueError(f"`step_rule` must be 'stability' or 'accuracy', got {step_rule!r}")
     if steps_per_sample is None:
-        h_max = rk4_step_limit(form.omega_max, omega_dt=omega_dt)
+        if step_rule == "accuracy":
+            h_max = expo_step_limit(form, top_hz=max(sweep.start_hz, sweep.stop_hz),
+                                    kn_max=kn_max)
+        else:
+            h_max = rk4_step_limit(form.omega_max, omega_dt=omega_dt)
         m = max(1, math.ceil(1.0 / (sample_rate * h_max) - 1e-9))
     else:
         if not (isinstance(steps_per_sample, (int, np.integer)) and steps_per_sample >= 1):

@@ -113,6 +113,8 @@ class BankSpec:
         d.pop("chunk_sweeps")  # how the work is cut does not change the data
         if d["quasi_static_hz"] is None:  # the full model: keys of banks built before the option
             d.pop("quasi_static_hz")
+        if d["sweep"].get("octaves_per_min") is None:  # linear: keys of banks before log sweeps
+            d["sweep"].pop("octaves_per_min", None)
         return _digest({"bank": d, "model": system.fingerprint(), "format": _FORMAT})
 
     def draw(self) -> tuple[np.ndarray, np.ndarray]:

@@ -77,6 +77,14 @@ def text() -> Rule:
     return lambda v: None if isinstance(v, str) and v.strip() else "a non-empty text"
 
 
+def either(first: Rule, second: Rule) -> Rule:
+    """A value allowed by ``first`` or by ``second``."""
+    def rule(v):
+        a, b = first(v), second(v)
+        return None if a is None or b is None else f"{a} or {b}"
+    return rule
+
+
 def optional(inner: Rule) -> Rule:
     def rule(v):
         why = None if v is None else inner(v)
@@ -154,7 +162,17 @@ def check_fields(cfg: DictConfig, rules: Mapping[str, Rule], *, required: bool =
 
 def _sweep(prefix: str) -> dict[str, Rule]:
     return {f"{prefix}.start_hz": positive(), f"{prefix}.stop_hz": positive(),
-            f"{prefix}.rate_hz_per_s": positive()}
+            f"{prefix}.rate_hz_per_s": optional(positive()),
+            f"{prefix}.octaves_per_min": optional(positive())}
+
+
+def _check_sweep_law(node, prefix: str) -> None:
+    """Exactly one of the linear rate and the log rate (freeplayid.sweep.Sweep)."""
+    given = [k for k in ("rate_hz_per_s", "octaves_per_min") if node[k] is not None]
+    if len(given) != 1:
+        raise ConfigError(f"`{prefix}` needs exactly one of `rate_hz_per_s` (linear sweep "
+                          "[Hz/s]) and `octaves_per_min` (log sweep [octaves/min]), got "
+                          f"{'both' if given else 'neither'}; set the other to null")
 
 
 def _extraction_method() -> Rule:
@@ -193,6 +211,8 @@ def _identify() -> dict[str, Rule]:
         "extraction.edge_hz": number(0.0), "extraction.min_snr_db": number(),
         "extraction.jump_point": _jump_point(),
         **_multistart(), "plot": boolean(), "allow_suspect": boolean(), "replay": boolean(),
+        "damping": optional(either(choice("model", "estimate"), number(0.0, 0.99, open_lo=True))),
+        "replay_bootstrap": integer(0),
     }
 
 
@@ -295,6 +315,7 @@ def _check_cases(cfg: DictConfig) -> None:
         raise ConfigError(f"`dataset.split` must be three fractions summing to 1, got {split}")
     if cfg.dataset.bank.sweep.start_hz == cfg.dataset.bank.sweep.stop_hz:
         raise ConfigError("`dataset.bank.sweep.start_hz` and `stop_hz` must differ")
+    _check_sweep_law(cfg.dataset.bank.sweep, "dataset.bank.sweep")
     if cfg.dataset.cases.axis == "delta" and min(cfg.dataset.cases.values) <= 0:
         raise ConfigError("`dataset.cases.values` must be clearances > 0 [rad] for axis delta, "
                           f"got {list(cfg.dataset.cases.values)}")
@@ -306,6 +327,7 @@ def _check_simulate(cfg: DictConfig) -> None:
     if cfg.sweep.start_hz == cfg.sweep.stop_hz:
         raise ConfigError(f"`sweep.start_hz` and `sweep.stop_hz` must differ, both are "
                           f"{cfg.sweep.start_hz!r}")
+    _check_sweep_law(cfg.sweep, "sweep")
     units = QUANTITY[cfg.quantity].units
     if cfg.units not in units:
         raise ConfigError(f"`units` for {cfg.quantity} must be one of {list(units)}, "

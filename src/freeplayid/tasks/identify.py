@@ -145,7 +145,8 @@ def _identify(cfg: DictConfig, stage: Path, t0: float) -> dict:
         use_sweep_hint=bool(cfg.use_sweep_hint),
         multistart=OmegaConf.to_container(cfg.multistart, resolve=True),
         mode=int(cfg.mode), n_bootstrap=int(cfg.n_bootstrap), seed=int(cfg.seed),
-        replay=bool(cfg.replay),
+        replay=bool(cfg.replay), damping=cfg.damping,
+        replay_bootstrap=int(cfg.replay_bootstrap),
     )
     est = result.inverse_estimate
     if est:

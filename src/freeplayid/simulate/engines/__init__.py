@@ -7,6 +7,9 @@ independent (one member's divergence never touches another):
 - ``"numba"`` (:class:`NumbaEngine`, ``numba.py``): the compiled CPU kernels (``kernel.py``,
   ``kernel_qs.py``), a fused RK4 step with the members in the innermost (SIMD) loop, blocks of
   members spread over threads, decimating on the fly.
+- ``"expo"`` (:class:`ExpoEngine`, ``expo.py``): not RK4 but the exponential integrator of
+  ``exponential.py`` (exact linear part, exact implicit contact per member, step by accuracy),
+  compiled (``kernel_expo.py``), one member per thread task, decimating on the fly.
 
 One RK4 step of x = (eta, v), a(eta, v, s) the right-hand side of (ETA) and s = sin(phase)::
 
@@ -28,6 +31,7 @@ from __future__ import annotations
 
 import torch
 
+from .expo import ExpoEngine
 from .numba import NumbaEngine, numba_available
 from .protocol import BLOWUP, MODES, Engine, EngineSetup
 from .torch import TorchEngine, TorchRK4
@@ -39,6 +43,7 @@ __all__ = [
     "EngineSetup",
     "TorchEngine",
     "NumbaEngine",
+    "ExpoEngine",
     "TorchRK4",
     "resolve_engine",
     "numba_available",
@@ -50,8 +55,10 @@ __all__ = [
 ENGINES: dict[str, type[Engine]] = {
     "torch": TorchEngine,
     "numba": NumbaEngine,
+    "expo": ExpoEngine,
 }
-# preference of engine="auto": the compiled kernels on the CPU, torch everywhere else
+# preference of engine="auto": the compiled RK4 kernels on the CPU, torch everywhere else (not
+# "expo": the training bank's cache key and pinned results are RK4's)
 AUTO = ("numba", "torch")
 _DEVICE_NAMES = {"cpu": "CPU", "cuda": "CUDA"}
 

@@ -69,7 +69,7 @@ class EngineSetup:
 
 
 class Engine(Protocol):
-    """A fixed-step RK4 engine of the modal equations, run chunk by chunk by ``simulate_sweeps``.
+    """A fixed-step engine of the modal equations, run chunk by chunk by ``simulate_sweeps``.
 
     The class declares what it can do; ``simulate_sweeps`` validates the engine, device and
     quasi-static combination from these declarations and never branches on an engine's name.
@@ -85,6 +85,15 @@ class Engine(Protocol):
         completes into the signal array ``out`` in place (the caller then adds the base terms in
         one compiled pass). False: ``run`` returns the chunk's step-rate records, which the
         caller decimates.
+    step_rule : {"stability", "accuracy"}, optional
+        How ``simulate_sweeps`` sets the step (``run._step_plan``). "stability" (the default when
+        a class does not declare it; the RK4 engines): ``omega_max * dt <= omega_dt`` of the
+        fastest closed-hinge mode (``formulation.rk4_step_limit``). "accuracy": an engine with
+        no stability bound (the exponential one) runs at the step of
+        ``exponential.expo_step_limit`` (steps per period of the sweep's top frequency and of the
+        closed-hinge modes that a contact excites); ``omega_dt`` is then not used. Either way
+        the step is a whole fraction of the output sample interval, and ``steps_per_sample``
+        overrides it.
     record_width : int
         Values held per member and step of a chunk (bounds the steps per chunk in memory).
     """
@@ -92,6 +101,7 @@ class Engine(Protocol):
     devices: ClassVar[tuple[str, ...] | None]
     quasi_static: ClassVar[bool]
     decimates: ClassVar[bool]
+    step_rule: ClassVar[str]
     record_width: int
 
     def __init__(self, setup: EngineSetup) -> None: ...

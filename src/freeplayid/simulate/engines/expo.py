@@ -1,0 +1,49 @@
+"""The exponential engine: the compiled CPU kernel of the exponential integrator
+(``exponential.py``, ``kernel_expo.py``), which decimates on the fly into the signal array.
+
+Its step is set by accuracy, not stability (``Engine.step_rule = "accuracy"``): the linear modal
+dynamics are integrated exactly, the contact implicitly and exactly per member, so a stiff or
+overdamped mode costs nothing. numba is optional; the kernel is imported when an engine is built.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .numba import numba_available
+from .protocol import EngineSetup
+
+__all__ = ["ExpoEngine"]
+
+
+class ExpoEngine:
+    """:class:`.protocol.Engine` of :class:`.kernel_expo.NumbaExpo`: CPU only, full model,
+    decimates in place, step by the accuracy rule (:func:`..exponential.expo_step_limit`)."""
+
+    devices = ("cpu",)
+    quasi_static = False
+    decimates = True
+    step_rule = "accuracy"
+
+    def __init__(self, setup: EngineSetup):
+        from ..kernel_expo import NumbaExpo
+
+        s = setup
+        self.kernel = NumbaExpo(s.form, s.kn, s.delta, s.level_g, s.eta0, s.v0, h=s.h,
+                                quantity=s.quantity, dtype=s.dtype, taps=s.taps, factor=s.factor)
+        self.record_width = self.kernel.width
+
+    @classmethod
+    def available(cls) -> bool:
+        return numba_available()
+
+    def run(self, s_half: np.ndarray, out: np.ndarray | None = None) -> int:
+        if out is None:
+            raise ValueError("the expo engine decimates into `out`; it must be given")
+        before = self.kernel.outputs
+        self.kernel.run(s_half, out=out)
+        return self.kernel.outputs - before
+
+    @property
+    def diverged(self) -> np.ndarray:
+        return self.kernel.diverged

@@ -1,0 +1,589 @@
+"""Compiled CPU kernel of the exponential integrator (``exponential.py``), numba.
+
+Layout for small batches: one member per ``prange`` iteration, its state ``z = (eta, eta')``
+contiguous, so the 2N-long column updates of ``z <- Phi z`` vectorise (``Phi`` stored
+transposed: ``z_new += Phi[:, j] z_j`` is an independent fused multiply-add per row, no
+reassociation needed). With classical damping (diagonal ``Cm``) ``Phi`` is 2 x 2 per mode and
+the kernel uses those four diagonals only. One member costs what one member costs: a batch of
+5 uses 2 cores for 5 members, not 64 lanes of padding as the RK4 kernel does.
+
+The contact solve ``theta + Gamma f(theta) = a`` is per member and exact: each hinge's state
+(-1, 0, +1) is guessed from ``a``, the state's linear h x h system solved (elimination without
+pivoting: ``I + kn Gamma P`` is close to I for the short steps of the step rule), the state
+re-checked and the iteration repeated (at most ``MAX_ACTIVE_SET`` times), then the exhaustive
+search over the 3^h states; a member with no consistent state is flagged and frozen at rest.
+
+The anti-aliasing FIR is fused as in ``kernel.py`` (same ring arithmetic: each recorded value is
+added to its open outputs, an output is emitted when its last tap arrives, the ring persists
+between chunks); its helpers here are the single-lane forms of ``kernel._fir_add`` /
+``_fir_emit`` (those loop over ``BLOCK`` member lanes). The FASTMATH flags, the numpy error model
+and the explicit ``_fma`` are those of ``kernel.py`` (its comments: cached and fresh compiles
+give the same bits).
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+
+import numba
+import numpy as np
+from numba.core import event
+
+from .cache import CACHE
+from .engines.protocol import BLOWUP, MODES
+from .exponential import discretize, discretize_states, switch_levels
+from .formulation import ModalForm
+from .kernel import FASTMATH, _Announce, _fma
+from .kernel_qs import kernel_source_digest
+
+__all__ = ["NumbaExpo", "KERNEL_SOURCE_SHA256", "MAX_ACTIVE_SET", "MAX_STATE_SETS"]
+
+# numba keys the cache of expo_chunk on this file, but it inlines `_fma` and FASTMATH from
+# kernel.py: the digest of the kernel.py this file goes with (as kernel_qs.py does; checked by
+# tests/test_simulate_expo.py), so that an edit there comes with an edit here
+KERNEL_SOURCE_SHA256 = "7eeed77b974bd3156085b926569590ecfb0b3d84d8fc9953949a1b101b7670e5"
+_CACHE = CACHE and kernel_source_digest() == KERNEL_SOURCE_SHA256
+MAX_ACTIVE_SET = 8  # active-set iterations before the exhaustive search
+# per-state propagation for batches with at most this many distinct kn (one matrix set per kn,
+# 3^H states x (levels + 1) sub-steps each); more distinct kn: the linear-hold scheme
+MAX_STATE_SETS = 8
+
+
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=_CACHE)
+def _fir_add1(acc_r, val, gi, half, ntap, m, taps, w0):
+    # kernel._fir_add for one member: acc_r (R, C), val (C,)
+    R = acc_r.shape[0]
+    C = acc_r.shape[1]
+    j = gi + half
+    if gi == 0:
+        for kk in range(w0.shape[0]):
+            wk = w0[kk]
+            r = kk % R
+            for c in range(C):
+                acc_r[r, c] = _fma(wk, val[c], acc_r[r, c])
+    else:
+        for kk in range(max(0, (j - ntap + m) // m), j // m + 1):
+            wk = taps[j - kk * m]
+            r = kk % R
+            for c in range(C):
+                acc_r[r, c] = _fma(wk, val[c], acc_r[r, c])
+
+
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=_CACHE)
+def _fir_emit1(acc_r, gi, half, ntap, m, out, col, i):
+    # kernel._fir_emit for member i: the output step gi completed, if any, to out[i, :, col]
+    R = acc_r.shape[0]
+    C = acc_r.shape[1]
+    jd = gi + half - ntap + 1
+    if jd < 0 or jd % m != 0:
+        return 0
+    r = (jd // m) % R
+    if col < out.shape[2]:
+        for c in range(C):
+            out[i, c, col] = acc_r[r, c]
+    for c in range(C):
+        acc_r[r, c] = 0.0
+    return 1
+
+
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="never", cache=_CACHE)
+def _solve_state(G, a, st, kn, d, A, tv):
+    # (I + kn G P) theta = a + kn G P s d, P = diag|s|, into tv: elimination without pivoting
+    H = G.shape[0]
+    for i in range(H):
+        r = a[i]
+        for j in range(H):
+            sj = st[j]
+            q = kn * G[i, j] * abs(sj)
+            A[i, j] = q + (1.0 if i == j else 0.0)
+            r = _fma(q * sj, d, r)
+        tv[i] = r
+    for k in range(H):
+        for i in range(k + 1, H):
+            f = A[i, k] / A[k, k]
+            for j in range(k + 1, H):
+                A[i, j] = _fma(-f, A[k, j], A[i, j])
+            tv[i] = _fma(-f, tv[k], tv[i])
+    for i in range(H - 1, -1, -1):
+        r = tv[i]
+        for j in range(i + 1, H):
+            r = _fma(-A[i, j], tv[j], r)
+        tv[i] = r / A[i, i]
+
+
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="never", cache=_CACHE)
+def _contact(G, a, st, kn, d, A, tv, tol):
+    # theta + G f(theta) = a: the contact state of each hinge (st, -1/0/+1) and theta (tv);
+    # returns False if no state is consistent
+    H = G.shape[0]
+    for j in range(H):
+        st[j] = 1.0 if a[j] > d else (-1.0 if a[j] < -d else 0.0)
+    for _ in range(MAX_ACTIVE_SET):
+        _solve_state(G, a, st, kn, d, A, tv)
+        same = True
+        for j in range(H):
+            x = tv[j]
+            e = tol * (abs(x) + d)
+            s = 1.0 if x > d + e else (-1.0 if x < -d - e else (0.0 if abs(x) < d - e else st[j]))
+            if s != st[j]:
+                same = False
+                st[j] = s
+        if same:
+            return True
+    # exhaustive search over the 3^H states (an iteration that cycles)
+    n = 1
+    for j in range(H):
+        n *= 3
+    for code in range(n):
+        q = code
+        for j in range(H):
+            st[j] = float(q % 3 - 1)
+            q //= 3
+        _solve_state(G, a, st, kn, d, A, tv)
+        ok = True
+        for j in range(H):
+            x = tv[j]
+            e = tol * (abs(x) + d)
+            if st[j] == 0.0:
+                ok = ok and abs(x) <= d + e
+            else:
+                ok = ok and st[j] * x >= d - e
+        if ok:
+            return True
+    return False
+
+
+@numba.njit(parallel=True, fastmath=FASTMATH, error_model="numpy", cache=_CACHE)
+def expo_chunk(i0, i1, z, fz, kn, dl, lev, PhiT, p11, p12, p21, p22, diag, W, P0T, P1T, D, G,
+               O, Of, Og, s_half, tol, out, col0, taps, m, half, w0, ring, gi0, bad):
+    # steps gi0 .. gi0 + L - 1 of members i0 .. i1 - 1 (none: compile only). z (batch, 2N) state
+    # at the chunk start, fz (batch, H) f(theta) there, ring (batch, R, C) the open outputs of
+    # the fused FIR (kernel.rk4_chunk: output k gets weight taps[j - k m] of the value of step
+    # gi, j = gi + half, and is written to out[i, :, col0 + n] once complete). The recorded value
+    # at t_k is O z_k + Of f_k + Og level s_k (eta, eta' or eta'' through S). A member without a
+    # consistent contact state is flagged in `bad` and frozen at rest with no load.
+    n2 = z.shape[1]
+    N = n2 // 2
+    H = D.shape[1]
+    C = O.shape[0]
+    L = (s_half.shape[0] - 1) // 2
+    R = ring.shape[1]
+    ntap = taps.shape[0]
+    dt = z.dtype
+    zero = z.dtype.type(0.0)  # typed: in float32 a bare 0.0 would make the _fma float64
+    for i in numba.prange(i0, i1):
+        zc = np.empty(n2, dt)
+        zn = np.empty(n2, dt)
+        f0 = np.empty(H, dt)
+        f1 = np.empty(H, dt)
+        a = np.empty(H, dt)
+        st = np.empty(H, dt)
+        tv = np.empty(H, dt)
+        A = np.empty((H, H), dt)
+        val = np.empty(C, dt)
+        acc_r = np.empty((R, C), dt)
+        for k in range(n2):
+            zc[k] = z[i, k]
+        for j in range(H):
+            f0[j] = fz[i, j]
+        for r in range(R):
+            for c in range(C):
+                acc_r[r, c] = ring[i, r, c]
+        k_n = kn[i]
+        d = dl[i]
+        lv = lev[i]
+        n_emit = 0
+        for step in range(L):
+            s0 = s_half[2 * step]
+            # record at t_k
+            for c in range(C):
+                x = Og[c] * (lv * s0)
+                for k in range(n2):
+                    x = _fma(O[c, k], zc[k], x)
+                for j in range(H):
+                    x = _fma(Of[c, j], f0[j], x)
+                val[c] = x
+            _fir_add1(acc_r, val, gi0 + step, half, ntap, m, taps, w0)
+            n_emit += _fir_emit1(acc_r, gi0 + step, half, ntap, m, out, col0 + n_emit, i)
+            # free response and the base load
+            u0 = lv * s0
+            um = lv * s_half[2 * step + 1]
+            u1 = lv * s_half[2 * step + 2]
+            if diag:
+                for k in range(N):
+                    e_ = zc[k]
+                    v_ = zc[N + k]
+                    zn[k] = _fma(p12[k], v_, p11[k] * e_)
+                    zn[N + k] = _fma(p22[k], v_, p21[k] * e_)
+            else:
+                for k in range(n2):
+                    zn[k] = 0.0
+                for j in range(n2):
+                    zj = zc[j]
+                    for k in range(n2):
+                        zn[k] = _fma(PhiT[j, k], zj, zn[k])
+            for k in range(n2):
+                zn[k] = _fma(W[0, k], u0, _fma(W[1, k], um, _fma(W[2, k], u1, zn[k])))
+            for j in range(H):
+                fj = f0[j]
+                for k in range(n2):
+                    zn[k] = _fma(-P0T[j, k], fj, zn[k])
+            # the contact at t_{k+1}: theta = a - G f(theta)
+            for j in range(H):
+                x = zero
+                for k in range(N):
+                    x = _fma(D[k, j], zn[k], x)
+                a[j] = x
+            if not _contact(G, a, st, k_n, d, A, tv, tol):
+                bad[i] = True
+                lv = zero
+                for k in range(n2):
+                    zn[k] = 0.0
+                for j in range(H):
+                    f1[j] = 0.0
+            else:
+                for j in range(H):
+                    f1[j] = k_n * abs(st[j]) * (tv[j] - st[j] * d)
+                for j in range(H):
+                    fj = f1[j]
+                    for k in range(n2):
+                        zn[k] = _fma(-P1T[j, k], fj, zn[k])
+            for k in range(n2):
+                zc[k] = zn[k]
+            for j in range(H):
+                f0[j] = f1[j]
+        for k in range(n2):
+            z[i, k] = zc[k]
+        for j in range(H):
+            fz[i, j] = f0[j]
+        for r in range(R):
+            for c in range(C):
+                ring[i, r, c] = acc_r[r, c]
+
+
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=_CACHE)
+def _state_prop(PhiT, W, c, zc, zn, ua, um, ub, d):
+    # zn = Phi_s zc + W0_s ua + Wm_s um + W1_s ub + d c_s (u already times the level)
+    n2 = zc.shape[0]
+    for k in range(n2):
+        zn[k] = _fma(W[0, k], ua, _fma(W[1, k], um, _fma(W[2, k], ub, d * c[k])))
+    for j in range(n2):
+        zj = zc[j]
+        for k in range(n2):
+            zn[k] = _fma(PhiT[j, k], zj, zn[k])
+
+
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=_CACHE)
+def _quad(u0, um, u1, x, one):
+    # the quadratic through u0, um, u1 at x = 0, 1/2, 1 (Lagrange), at x (one: 1 in the dtype)
+    two = one + one
+    return (u0 * (one - x) * (one - two * x) + um * (two + two) * x * (one - x)
+            + u1 * x * (two * x - one))
+
+
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=_CACHE)
+def _hinge_state(D, z, d, th, st):
+    # theta = D^T eta into th, the contact state of each hinge into st; returns the state code
+    H = D.shape[1]
+    N = D.shape[0]
+    code = 0
+    mult = 1
+    for j in range(H):
+        x = z.dtype.type(0.0)
+        for k in range(N):
+            x = _fma(D[k, j], z[k], x)
+        th[j] = x
+        s = 1.0 if x > d else (-1.0 if x < -d else 0.0)
+        st[j] = s
+        code += (int(s) + 1) * mult
+        mult *= 3
+    return code
+
+
+@numba.njit(parallel=True, fastmath=FASTMATH, error_model="numpy", cache=_CACHE)
+def expo_states_chunk(i0, i1, z, kset, dl, lev, kns, levels, PhiT, Ws, cs, P1T, Gm, Ms, es, D,
+                      O, Of, Og, s_half, tol, out, col0, taps, m, half, w0, ring, gi0, bad):
+    # as expo_chunk, with exact steps per contact state (exponential.discretize_states): member
+    # i uses the matrices kset[i] (its kn, kns[kset[i]]). A step is taken in the state of its
+    # start; if a hinge's state at its end differs, it is halved (down to h / 2^levels) and the
+    # sub-step holding the switch is corrected by the residual moment held linear. The state
+    # and f(theta) follow from z, so z is the whole member state.
+    n2 = z.shape[1]
+    N = n2 // 2
+    H = D.shape[1]
+    C = O.shape[0]
+    L = (s_half.shape[0] - 1) // 2
+    R = ring.shape[1]
+    ntap = taps.shape[0]
+    dt = z.dtype
+    cast = z.dtype.type
+    one = cast(1.0)
+    full = 1 << levels
+    for i in numba.prange(i0, i1):
+        zc = np.empty(n2, dt)
+        zn = np.empty(n2, dt)
+        th = np.empty(H, dt)
+        st0 = np.empty(H, dt)
+        st1 = np.empty(H, dt)
+        f0 = np.empty(H, dt)
+        a = np.empty(H, dt)
+        st = np.empty(H, dt)
+        tv = np.empty(H, dt)
+        A = np.empty((H, H), dt)
+        val = np.empty(C, dt)
+        acc_r = np.empty((R, C), dt)
+        for k in range(n2):
+            zc[k] = z[i, k]
+        for r in range(R):
+            for c in range(C):
+                acc_r[r, c] = ring[i, r, c]
+        ki = kset[i]
+        k_n = kns[ki]
+        d = dl[i]
+        lv = lev[i]
+        n_emit = 0
+        for step in range(L):
+            s0 = s_half[2 * step]
+            code = _hinge_state(D, zc, d, th, st0)
+            for j in range(H):
+                f0[j] = k_n * abs(st0[j]) * (th[j] - st0[j] * d)
+            # record at t_k
+            for c in range(C):
+                x = Og[c] * (lv * s0)
+                for k in range(n2):
+                    x = _fma(O[c, k], zc[k], x)
+                for j in range(H):
+                    x = _fma(Of[c, j], f0[j], x)
+                val[c] = x
+            _fir_add1(acc_r, val, gi0 + step, half, ntap, m, taps, w0)
+            n_emit += _fir_emit1(acc_r, gi0 + step, half, ntap, m, out, col0 + n_emit, i)
+            u0 = lv * s0
+            um = lv * s_half[2 * step + 1]
+            u1 = lv * s_half[2 * step + 2]
+            # the step in sub-steps of h / 2^lvl at pos (units h / 2^levels)
+            pos = 0
+            lvl = 0
+            while pos < full:
+                ln = 1 << (levels - lvl)
+                if lvl == 0:
+                    ua, uc, ub = u0, um, u1
+                else:
+                    # the step's quadratic base load at the sub-step's ends and middle
+                    xa = cast(pos / full)
+                    xb = cast((pos + ln) / full)
+                    xm = cast(0.5) * (xa + xb)
+                    ua = _quad(u0, um, u1, xa, one)
+                    uc = _quad(u0, um, u1, xm, one)
+                    ub = _quad(u0, um, u1, xb, one)
+                _state_prop(PhiT[ki, lvl, code], Ws[ki, lvl, code], cs[ki, lvl, code], zc, zn,
+                            ua, uc, ub, d)
+                _hinge_state(D, zn, d, a, st1)
+                same = True
+                for j in range(H):
+                    if st1[j] != st0[j]:
+                        same = False
+                if not same and lvl < levels:
+                    lvl += 1
+                    continue
+                if not same:
+                    # switch inside the finest sub-step: residual moment held linear
+                    Gs = Gm[ki, code]
+                    Mm = Ms[ki, code]
+                    for j in range(H):
+                        x = -d * es[ki, code, j]
+                        for q in range(H):
+                            x = _fma(Mm[j, q], a[q], x)
+                        th[j] = x
+                    if not _contact(Gs, th, st, k_n, d, A, tv, tol):
+                        bad[i] = True
+                        lv = cast(0.0)
+                        u0 = um = u1 = cast(0.0)
+                        for k in range(n2):
+                            zn[k] = 0.0
+                    else:
+                        for j in range(H):
+                            rj = (k_n * abs(st[j]) * (tv[j] - st[j] * d)
+                                  - k_n * abs(st0[j]) * (tv[j] - st0[j] * d))
+                            for k in range(n2):
+                                zn[k] = _fma(-P1T[ki, code, j, k], rj, zn[k])
+                for k in range(n2):
+                    zc[k] = zn[k]
+                pos += ln
+                while lvl > 0 and pos % (2 * ln) == 0:
+                    lvl -= 1
+                    ln *= 2
+                if not same:
+                    code = _hinge_state(D, zc, d, th, st0)
+        for k in range(n2):
+            z[i, k] = zc[k]
+        for r in range(R):
+            for c in range(C):
+                ring[i, r, c] = acc_r[r, c]
+
+
+class _AnnounceExpo(_Announce):
+    def on_start(self, ev):
+        if ev.data["dispatcher"] is self.dispatcher and self.t0 is None:
+            print(f"compiling the numba exponential kernel ({self.what})...", end=" ",
+                  file=sys.stderr, flush=True)
+            self.t0 = time.perf_counter()
+
+
+def compile_expo(kernel, args: tuple, what: str) -> None:
+    """Compile (or load from numba's cache) ``kernel`` (``expo_chunk`` or
+    ``expo_states_chunk``) for ``args`` by a call on no members; a compile prints one line to
+    stderr, as :func:`.kernel.compile_kernel` does."""
+    listener = _AnnounceExpo(kernel, what)
+    with event.install_listener("numba:compile", listener):
+        kernel(0, 0, *args)
+    if listener.t0 is not None:
+        path = kernel.stats.cache_path
+        where = f"cached for later runs in {path}" if path else "not cached"
+        print(f"{time.perf_counter() - listener.t0:.1f} s, {where}", file=sys.stderr, flush=True)
+
+
+class NumbaExpo:
+    """Exponential-integrator engine state: the members, the step matrices, the fused FIR.
+
+    Parameters
+    ----------
+    form : ModalForm
+    kn, delta, level_g : ndarray, shape (batch,) [N m/rad], [rad], [g]
+    eta0, v0 : ndarray, shape (batch, N)
+        Initial modal state.
+    h : float [s]
+        Step.
+    quantity : str
+        Recorded quantity (displacement | velocity | acceleration).
+    dtype : numpy or torch float32 / float64
+    taps : ndarray, shape (n_taps,)
+        Anti-aliasing FIR at the step rate.
+    factor : int
+        Steps per output sample.
+    """
+
+    def __init__(self, form: ModalForm, kn, delta, level_g, eta0, v0, *, h, quantity, dtype,
+                 taps, factor):
+        import torch
+
+        if dtype in (torch.float32, np.float32):
+            nd = np.float32
+        elif dtype in (torch.float64, np.float64):
+            nd = np.float64
+        else:
+            raise ValueError(f"`dtype` must be float32 or float64, got {dtype!r}")
+        a = lambda x: np.ascontiguousarray(np.asarray(x, dtype=nd))  # noqa: E731
+        self.nd = nd
+        N, H = form.D.shape
+        B = len(np.atleast_1d(kn))
+        kn_u, kset = np.unique(np.asarray(kn, float).reshape(B), return_inverse=True)
+        # the scheme depends on the batch's distinct kn only, each set on its kn only: a
+        # member's result is the same in every batch that takes the same scheme
+        self.per_state = len(kn_u) <= MAX_STATE_SETS
+        if self.per_state:
+            self.levels = max(switch_levels(form, h, k) for k in kn_u)
+            sets = [discretize_states(form, h, float(k), levels=self.levels) for k in kn_u]
+            self.sets = sets
+            self.kset = np.ascontiguousarray(kset, dtype=np.int64)
+            self.kns = a(kn_u)
+            self.sPhiT = a(np.stack([q.Phi.transpose(0, 1, 3, 2) for q in sets]))
+            self.sW = a(np.stack([q.W for q in sets]))
+            self.sc = a(np.stack([q.c for q in sets]))
+            self.sP1T = a(np.stack([q.P1.transpose(0, 2, 1) for q in sets]))
+            self.sGm = a(np.stack([q.Gm for q in sets]))
+            self.sM = a(np.stack([q.M for q in sets]))
+            self.se = a(np.stack([q.e for q in sets]))
+        st = discretize(form, h)
+        self.step = st
+        self.PhiT = a(st.Phi.T)
+        self.diag = bool(form.c_diagonal)
+        idx = np.arange(N)
+        self.p11, self.p12 = a(st.Phi[idx, idx]), a(st.Phi[idx, N + idx])
+        self.p21, self.p22 = a(st.Phi[N + idx, idx]), a(st.Phi[N + idx, N + idx])
+        self.W, self.P0T, self.P1T = a(st.W), a(st.P0.T), a(st.P1.T)
+        self.D, self.G = a(form.D), a(st.Gamma)
+        # recorded value = O z + Of f + Og level s (eta, eta' or eta'' = -lam eta - Cm eta'
+        # - D f + g level s, all through S)
+        S = form.S
+        mode = MODES[quantity]
+        C = S.shape[0]
+        O, Of, Og = np.zeros((C, 2 * N)), np.zeros((C, H)), np.zeros(C)
+        if mode == 0:
+            O[:, :N] = S
+        elif mode == 1:
+            O[:, N:] = S
+        else:
+            O[:, :N] = -S * form.lam[None, :]
+            O[:, N:] = -S @ form.Cm
+            Of = -S @ form.D
+            Og = S @ form.g
+        self.O, self.Of, self.Og = a(O), a(Of), a(Og)
+        self.batch = B = len(np.atleast_1d(kn))
+        self.kn, self.dl, self.lev = a(kn), a(delta), a(level_g)
+        self.z = a(np.hstack([np.asarray(eta0, float).reshape(B, N),
+                              np.asarray(v0, float).reshape(B, N)]))
+        theta0 = np.asarray(eta0, float).reshape(B, N) @ form.D
+        dl0 = np.asarray(delta, float)[:, None]
+        self.fz = a(np.asarray(kn, float)[:, None] * (theta0 - np.clip(theta0, -dl0, dl0)))
+        self.tol = nd(64 * np.finfo(nd).eps)
+        self.alive = np.ones(B, dtype=np.bool_)
+        self.bad = np.zeros(B, dtype=np.bool_)
+        self.taps = a(taps)
+        self.m = int(factor)
+        self.half = (len(taps) - 1) // 2
+        w = [np.sum(taps[: self.half - k * self.m + 1]) for k in range(self.half // self.m + 1)]
+        self.w0 = a(w)
+        self.ring = np.zeros((B, len(taps) // self.m + 2, C), dtype=nd)
+        self.gi = 0
+        self.outputs = 0
+        self.width = C
+        self._compiled = False
+
+    def emitted(self, L: int) -> int:
+        """Number of output samples the next chunk of ``L`` steps completes."""
+        m, half, gi0 = self.m, self.half, self.gi
+        k_first = max(0, -(-(gi0 - half) // m))
+        k_last = (gi0 + L - 1 - half) // m
+        return max(0, k_last - k_first + 1)
+
+    def run(self, s_half: np.ndarray, out: np.ndarray) -> np.ndarray:
+        """Integrate one chunk of ``L = (len(s_half) - 1) / 2`` steps, decimating into ``out``
+        (batch, width, n_samples), columns ``outputs .. outputs + emitted(L) - 1``."""
+        if (out.ndim != 3 or out.shape[0] != self.batch or out.shape[1] != self.width
+                or out.dtype != self.nd or not out.flags.c_contiguous):
+            raise ValueError(
+                f"`out` must be a C-contiguous {np.dtype(self.nd).name} array of shape "
+                f"({self.batch}, {self.width}, n_samples), got {out.dtype} {out.shape}")
+        L = (len(s_half) - 1) // 2
+        n_new = self.emitted(L)
+        args = (self.z, self.fz, self.kn, self.dl, self.lev, self.PhiT, self.p11, self.p12,
+                self.p21, self.p22, self.diag, self.W, self.P0T, self.P1T, self.D, self.G,
+                self.O, self.Of, self.Og, np.ascontiguousarray(s_half, dtype=self.nd), self.tol,
+                out, self.outputs, self.taps, self.m, self.half, self.w0, self.ring, self.gi,
+                self.bad)
+        kernel = expo_chunk
+        if self.per_state:
+            kernel = expo_states_chunk
+            args = (self.z, self.kset, self.dl, self.lev, self.kns, self.levels, self.sPhiT,
+                    self.sW, self.sc, self.sP1T, self.sGm, self.sM, self.se, self.D, self.O,
+                    self.Of, self.Og, args[19], self.tol, out, self.outputs, self.taps, self.m,
+                    self.half, self.w0, self.ring, self.gi, self.bad)
+        if not self._compiled:
+            compile_expo(kernel, args, np.dtype(self.nd).name)
+            self._compiled = True
+        kernel(0, self.batch, *args)
+        self.gi += L
+        self.outputs += n_new
+        with np.errstate(invalid="ignore"):
+            bad = self.bad | ~(np.abs(self.z) <= BLOWUP).all(1)
+        if bad.any():
+            self.alive &= ~bad
+            self.lev[bad] = 0.0
+            self.z[bad] = 0.0
+            self.fz[bad] = 0.0
+        return out
+
+    @property
+    def diverged(self) -> np.ndarray:
+        return ~self.alive

@@ -1,0 +1,371 @@
+"""The exponential engine (``engine="expo"``) against references it did not produce."""
+
+import numpy as np
+import pytest
+import scipy.integrate
+import torch
+
+import sdof_reference as ref
+from freeplayid.model import FreeplaySystem, freeplay_force, rayleigh_damping, sdof_system
+from freeplayid.quantity import G
+from freeplayid.simulate import Sweep, build_modal_form, simulate_sweeps
+from freeplayid.simulate.engines import ENGINES, numba_available, resolve_engine
+from freeplayid.simulate.exponential import (discretize, discretize_states, expo_step_limit,
+                                             state_code)
+from freeplayid.simulate.resample import design_decimator
+from test_simulate import first_harmonic, linear_reference
+
+needs_numba = pytest.mark.skipif(not numba_available(), reason="numba not installed")
+CPU = torch.device("cpu")
+
+
+def chain3(*, stiff_tip: bool = False) -> FreeplaySystem:
+    """3-DOF chain on the base, a freeplay spring between DOFs 2 and 1, Rayleigh damping (2 %
+    at 30 and 50 Hz); ``stiff_tip``: a light, stiff tip DOF (top mode ~60 kHz, overdamped)."""
+    m = np.array([1.0, 0.5, 0.002 if stiff_tip else 0.2])
+    k = np.array([2e5, 6e4, 3e8 if stiff_tip else 3e4])
+    K = np.array([[k[0] + k[1], -k[1], 0], [-k[1], k[1] + k[2], -k[2]], [0, -k[2], k[2]]])
+    M = np.diag(m)
+    return FreeplaySystem(M=M, K=K, C=rayleigh_damping(M, K, f1=30.0, f2=50.0, zeta=0.02),
+                          dof_names=("a", "b", "c"), hinge_pairs=(("c", "b"),),
+                          base_influence=np.ones(3))
+
+
+def solve_ivp_reference(system, *, kn, delta, level, sweep, times):
+    """Relative displacement (T, n) by DOP853 at rtol 1e-11 (freeplay force as a function)."""
+    M, C, K, B, r = system.M, system.damping, system.K, system.hinge_matrix(), system.influence
+    n = M.shape[0]
+    Mi = np.linalg.inv(M)
+
+    def rhs(t, x):
+        y, v = x[:n], x[n:]
+        f = freeplay_force(B.T @ y, kn, delta)
+        return np.concatenate([v, Mi @ (-K @ y - C @ v - B @ f) - r * level * G * np.sin(
+            sweep.phase(t))])
+
+    sol = scipy.integrate.solve_ivp(rhs, (0, times[-1]), np.zeros(2 * n), method="DOP853",
+                                    rtol=1e-11, atol=1e-14, t_eval=times)
+    return sol.y[:n].T
+
+
+# ----------------------------------------------------------------------------- step matrices
+def test_step_matrices_are_the_exact_integrals():
+    # Phi, W, P against quadrature of exp(A (h - tau)) times the Lagrange / hat weights
+    import scipy.linalg
+
+    form = build_modal_form(chain3(), channels=("c",), quantity="displacement",
+                            frame="relative", kn_max=1e4)
+    h = 3e-4
+    st = discretize(form, h)
+    N = form.n_modes
+    A = np.block([[np.zeros((N, N)), np.eye(N)], [-np.diag(form.lam), -form.Cm]])
+    bg = np.concatenate([np.zeros(N), form.g])
+    bf = np.concatenate([np.zeros((N, 1)), form.D])
+    x, w = np.polynomial.legendre.leggauss(30)
+    x, w = 0.5 * (x + 1), 0.5 * w
+    E = np.stack([scipy.linalg.expm(A * h * (1 - xi)) for xi in x])
+    quad = lambda wt: h * np.einsum("k,k,kij->ij", w, wt, E)  # noqa: E731
+    np.testing.assert_allclose(st.Phi, scipy.linalg.expm(A * h), atol=1e-14)
+    for row, wt in zip(st.W, ((1 - x) * (1 - 2 * x), 4 * x * (1 - x), x * (2 * x - 1))):
+        np.testing.assert_allclose(row, quad(wt) @ bg, rtol=1e-10, atol=1e-16)
+    np.testing.assert_allclose(st.P0, -quad(1 - x) @ -bf, rtol=1e-10, atol=1e-16)
+    np.testing.assert_allclose(st.P1, -quad(x) @ -bf, rtol=1e-10, atol=1e-16)
+    np.testing.assert_allclose(st.Gamma, form.D.T @ st.P1[:N], rtol=1e-12)
+
+
+def test_state_matrices_are_the_exact_integrals():
+    # per contact state: Phi_s = expm(A_s h) (contact stiffness inside A), W_s, c_s and the
+    # residual input P1_s against Gauss-Legendre quadrature of exp(A_s (h - tau)), at each level
+    import scipy.linalg
+
+    form = build_modal_form(chain3(), channels=("c",), quantity="displacement",
+                            frame="relative", kn_max=1e4)
+    h, kn = 4e-4, 1e4
+    ss = discretize_states(form, h, kn, levels=2)
+    N = form.n_modes
+    x, w = np.polynomial.legendre.leggauss(30)
+    x, w = 0.5 * (x + 1), 0.5 * w
+    for s in (-1, 0, 1):
+        code = state_code([s])
+        assert ss.states[code, 0] == s
+        A = np.block([[np.zeros((N, N)), np.eye(N)],
+                      [-np.diag(form.lam) - kn * abs(s) * form.D @ form.D.T, -form.Cm]])
+        bg = np.concatenate([np.zeros(N), form.g])
+        bc = np.concatenate([np.zeros(N), kn * s * form.D[:, 0]])
+        for lv in range(3):
+            hl = h / 2**lv
+            E = np.stack([scipy.linalg.expm(A * hl * (1 - xi)) for xi in x])
+            quad = lambda wt: hl * np.einsum("k,k,kij->ij", w, wt, E)  # noqa: B023, E731
+            np.testing.assert_allclose(ss.Phi[lv, code], scipy.linalg.expm(A * hl), atol=1e-13)
+            for row, wt in zip(ss.W[lv, code],
+                               ((1 - x) * (1 - 2 * x), 4 * x * (1 - x), x * (2 * x - 1))):
+                np.testing.assert_allclose(row, quad(wt) @ bg, rtol=1e-10, atol=1e-16)
+            np.testing.assert_allclose(ss.c[lv, code], quad(np.ones_like(x)) @ bc, rtol=1e-10,
+                                       atol=1e-16)
+        np.testing.assert_allclose(ss.P1[code], quad(x) @ np.concatenate(
+            [np.zeros((N, 1)), form.D]), rtol=1e-10, atol=1e-18)
+
+
+# ----------------------------------------------------------------------------- (1) linear
+@needs_numba
+def test_linear_matches_solve_ivp():
+    # delta larger than any motion: no contact, the linear part is exact; what is left is the
+    # quadratic base load over a step and the FIR's pass-band ripple (<= 1e-6)
+    system = chain3()
+    sw = Sweep(20.0, 40.0, 20.0)
+    res = simulate_sweeps(system, kn=1e4, delta=1.0, level_g=1.0, sweep=sw, channels=("a", "c"),
+                          quantity="displacement", frame="relative", sample_rate=512.0,
+                          dtype=torch.float64, engine="expo", progress=False)
+    y = solve_ivp_reference(system, kn=1e4, delta=1.0, level=1.0, sweep=sw, times=res.time)
+    y = y[:, [0, 2]].T
+    i0 = 51  # after 0.1 s: the start transient of the modes above the FIR's pass band
+    err = np.abs(res.signals[0][:, i0:] - y[:, i0:]).max() / np.abs(y).max()
+    assert err < 3e-6, err
+
+
+# ----------------------------------------------------------------------------- (2) freeplay
+def _run_engine(form, *, kn, delta, level, v0, sweep, fs, m):
+    # the engine driven directly (simulate_sweeps starts at rest; the SDOF reference starts on
+    # the in-gap steady state): one chunk, outputs at fs
+    from freeplayid.simulate.kernel_expo import NumbaExpo
+
+    h = 1.0 / (fs * m)
+    taps = design_decimator(m)
+    n_out = int(np.floor(sweep.duration * fs + 1e-9)) + 1
+    look = (len(taps) - 1) // 2 // m + 1
+    L = (n_out - 1 + look) * m + 1
+    eng = NumbaExpo(form, np.array([kn]), np.array([delta]), np.array([level]),
+                    np.zeros((1, 1)), np.array([[v0]]), h=h, quantity="displacement",
+                    dtype=torch.float64, taps=taps, factor=m)
+    out = np.empty((1, 1, n_out))
+    eng.run(np.sin(sweep.phase(0.5 * np.arange(2 * L + 1) * h)), out)
+    return out[0, 0], eng
+
+
+@needs_numba
+def test_sdof_freeplay_matches_the_independent_reference():
+    # tests/sdof_reference.py: plain-Python RK4 of the SDOF freeplay oscillator (8 substeps per
+    # sample, 61 us: ~2e-6 of its own error at the peak), started on the in-gap steady state
+    sw = Sweep(30.0, 50.0, 1.0)
+    level = 1.0
+    y_ref = ref.simulate_sdof_sweep(level, sw, substeps=8)[0]
+    wn = 2 * np.pi * ref.F_N
+    system = sdof_system(mass=1.0, stiffness=0.0, damping=2 * ref.ZETA * wn)
+    form = build_modal_form(system, channels=("x",), quantity="displacement", frame="relative",
+                            kn_max=wn**2)
+    h_rule = expo_step_limit(form, top_hz=sw.stop_hz, kn_max=wn**2)
+    m = int(np.ceil(1 / (ref.FS * h_rule) - 1e-9))
+    y, _ = _run_engine(form, kn=wn**2, delta=ref.DELTA, level=level,
+                       v0=level * G / (2 * np.pi * sw.start_hz), sweep=sw, fs=ref.FS, m=m)
+    t = np.arange(len(y)) / ref.FS
+    a = first_harmonic(y[None], t, sw)[0]
+    b = first_harmonic(y_ref[None], t, sw)[0]
+    assert b.max() > 3 * ref.DELTA  # the run jumps onto the resonance branch
+    assert abs(a.max() / b.max() - 1) < 1e-4, a.max() / b.max() - 1
+    assert abs(int(a.argmax()) - int(b.argmax())) <= 2  # samples (1 ms of the 1 Hz/s sweep)
+
+
+@needs_numba
+def test_sdof_freeplay_matches_rk4_at_a_small_step():
+    # both from rest, through simulate_sweeps; RK4 at a 15 us step (on the SDOF its own step
+    # would be 0.5 ms: RK4 across the contact kinks needs a short one)
+    wn = 2 * np.pi * ref.F_N
+    system = sdof_system(mass=1.0, stiffness=0.0, damping=2 * ref.ZETA * wn)
+    sw = Sweep(38.0, 50.0, 3.0)
+    kw = dict(kn=wn**2, delta=ref.DELTA, level_g=[0.5, 0.8], sweep=sw, channels=("x",),
+              quantity="acceleration", frame="relative", sample_rate=1024.0,
+              dtype=torch.float64, progress=False)
+    a = simulate_sweeps(system, engine="expo", **kw)
+    b = simulate_sweeps(system, engine="numba", steps_per_sample=64, **kw)
+    ha = first_harmonic(a.signals, a.time, sw)
+    hb = first_harmonic(b.signals, b.time, sw)
+    assert hb.max() > 0  # noqa: PLR2004
+    err = np.abs(ha.max(-1) / hb.max(-1) - 1).max()
+    assert err < 1e-4, err
+    assert np.abs(ha.argmax(-1) - hb.argmax(-1)).max() <= 2
+
+
+# ----------------------------------------------------------------------------- (3) two hinges
+@needs_numba
+def test_contact_solve_matches_the_exhaustive_search():
+    # theta + Gamma f(theta) = a, Gamma of either sign structure, against the quasi-static
+    # module's exhaustive search (the same equation, another implementation)
+    from freeplayid.simulate.kernel_expo import _contact
+    from freeplayid.simulate.quasistatic import solve_hinge_states
+
+    rng = np.random.default_rng(5)
+    for H in (1, 2, 3):
+        for _ in range(40):
+            q = rng.normal(size=(H, H))
+            Gm = q @ q.T * 10.0 ** rng.uniform(-6, -3) + rng.normal(size=(H, H)) * 1e-8
+            kn, d = 10.0 ** rng.uniform(2, 5), rng.choice([0.0, 3e-3])
+            a = rng.normal(size=H) * 5e-3
+            st, tv = np.empty(H), np.empty(H)
+            assert _contact(Gm, a, st, kn, d, np.empty((H, H)), tv, 1e-12)
+            th_b, _ = solve_hinge_states(Gm, a, kn, d, exhaustive=True)
+            np.testing.assert_allclose(tv, th_b, rtol=0, atol=1e-12)
+            assert np.abs(tv + Gm @ freeplay_force(tv, kn, d) - a).max() < 1e-12
+
+
+@needs_numba
+def test_two_hinge_fin_matches_rk4():
+    # default fin (two hinges, dense modal damping, knuckle modes to 9 kHz in the hinge
+    # rotation), a segment through the jump at 4 Hz/s, at the rule's step (~55 us): first-harmonic
+    # jump of both channels vs RK4 at omega_dt 0.5 (8.7 us). The linear-hold scheme erred 1e-2
+    # here at 43 us. Level 1.2 g (a lower level rattles before the jump: there RK4 at two small
+    # steps differs by ~1e-3 itself)
+    from freeplayid.model import default_fin
+
+    fin = default_fin()
+    sw = Sweep(38.0, 46.0, 4.0)
+    kw = dict(kn=480.0, delta=3e-3, level_g=[1.2, 1.4], sweep=sw,
+              channels=("uz_top_left", "uz_lower_right"), quantity="displacement",
+              frame="relative", sample_rate=256.0, dtype=torch.float64, progress=False)
+    b = simulate_sweeps(fin, engine="numba", omega_dt=0.5, **kw)
+    a = simulate_sweeps(fin, engine="expo", **kw)
+    assert not a.diverged.any() and a.dt > 5e-5
+    ha = first_harmonic(a.signals, a.time, sw)
+    hb = first_harmonic(b.signals, b.time, sw)
+    assert np.abs(ha.max(-1) / hb.max(-1) - 1).max() < 2e-4
+    assert np.abs(ha.argmax(-1) - hb.argmax(-1)).max() == 0
+
+
+def chain_two_hinges() -> FreeplaySystem:
+    """A base mass with two flaps on freeplay hinges of different inertia: their hinges close
+    and open at different times."""
+    m = np.array([1.0, 0.3, 0.12])
+    M = np.diag(m)
+    K = np.array([[2e5, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]])
+    K = K + np.diag([0.0, 2e3, 5e2])
+    return FreeplaySystem(M=M, K=K, C=rayleigh_damping(M, K + np.diag([0, 1e4, 1e4]), f1=30.0,
+                                                      f2=50.0, zeta=0.02),
+                          dof_names=("a", "b", "c"), hinge_pairs=(("b", "a"), ("c", "a")),
+                          base_influence=np.ones(3))
+
+
+@needs_numba
+def test_two_hinges_switching_at_different_times_match_dop853():
+    system = chain_two_hinges()
+    sw = Sweep(20.0, 40.0, 10.0)
+    kn, delta, level = 1e4, 2e-4, 0.5
+    res = simulate_sweeps(system, kn=kn, delta=delta, level_g=level, sweep=sw,
+                          channels=("b", "c"), quantity="displacement", frame="relative",
+                          sample_rate=1024.0, dtype=torch.float64, engine="expo",
+                          progress=False)
+    assert res.engine == "expo" and not res.diverged.any()
+    y = solve_ivp_reference(system, kn=kn, delta=delta, level=level, sweep=sw, times=res.time)
+    B = system.hinge_matrix()
+    theta = y @ B
+    closed = np.abs(theta) > delta
+    assert closed.any(0).all() and (~closed).any(0).all()  # both hinges switch ...
+    assert (closed[:, 0] != closed[:, 1]).mean() > 0.05  # ... at different times
+    # first harmonic (the raw record holds the contact's high-frequency content, which the
+    # engine's anti-aliasing FIR removes and the reference keeps)
+    ha = first_harmonic(res.signals, res.time, sw)[0]
+    hb = first_harmonic(y[None, :, 1:].transpose(0, 2, 1), res.time, sw)[0]
+    err = np.abs(ha.max(-1) / hb.max(-1) - 1).max()
+    assert err < 1e-4, err
+    assert np.abs(ha.argmax(-1) - hb.argmax(-1)).max() <= 1
+
+
+# ----------------------------------------------------------------------------- (4) stiff, damped
+@needs_numba
+def test_overdamped_high_modes_are_stable_at_a_large_step():
+    # a light, stiff tip: top mode ~60 kHz, Rayleigh-overdamped (an eigenvalue near -1e7/s):
+    # RK4 would need dt < 0.3 us; the exponential engine takes its accuracy step, > 100x that,
+    # and matches the closed-hinge (delta = 0) matrix-exponential reference
+    system = chain3(stiff_tip=True)
+    sw = Sweep(30.0, 40.0, 20.0)
+    kw = dict(kn=1e4, delta=0.0, level_g=1.0, sweep=sw, channels=("a", "c"),
+              quantity="displacement", frame="relative", sample_rate=512.0,
+              dtype=torch.float64, engine="expo", progress=False)
+    res = simulate_sweeps(system, **kw)
+    assert res.dt * res.omega_max > 100 * 2.785
+    assert not res.diverged.any()
+    y = linear_reference(system, 1e4, 1.0, sw, res.time)[0][:, [0, 2]].T
+    i0 = 51
+    err = np.abs(res.signals[0][:, i0:] - y[:, i0:]).max() / np.abs(y).max()
+    assert err < 1e-4, err
+
+
+# ----------------------------------------------------------------------------- (5) batches
+@needs_numba
+@pytest.mark.parametrize("scheme", ["per_state", "linear_hold"])
+def test_members_do_not_depend_on_the_batch(scheme, monkeypatch):
+    # per_state: 3 distinct kn (a matrix set each); linear_hold: the fallback for batches with
+    # more distinct kn than MAX_STATE_SETS (forced here for all)
+    from freeplayid.model import default_fin
+    from freeplayid.simulate import kernel_expo
+
+    if scheme == "linear_hold":
+        monkeypatch.setattr(kernel_expo, "MAX_STATE_SETS", 0)
+    fin = default_fin()
+    sw = Sweep(40.0, 40.5, 1.0)
+    rng = np.random.default_rng(0)
+    lv = rng.uniform(0.4, 1.2, 24)
+    kn = rng.choice([300.0, 480.0, 700.0], 24)
+    kw = dict(delta=3e-3, sweep=sw, channels=("uz_top_left",), quantity="acceleration",
+              frame="absolute", sample_rate=256.0, dtype=torch.float64, engine="expo",
+              progress=False, steps_per_sample=8)
+    full = simulate_sweeps(fin, kn=kn, level_g=lv, **kw)
+    for idx in ([3], [0, 1, 2, 3, 4], list(range(24))):
+        part = simulate_sweeps(fin, kn=kn[idx], level_g=lv[idx], **kw)
+        assert np.array_equal(part.signals, full.signals[idx])
+
+
+@needs_numba
+def test_mixed_kn_falls_back_to_the_linear_hold():
+    # more distinct kn than MAX_STATE_SETS: the linear-hold scheme, which converges to the
+    # per-state one (same model, another contact treatment)
+    from freeplayid.simulate import kernel_expo
+
+    system = chain3()
+    kn = np.linspace(5e3, 2e4, kernel_expo.MAX_STATE_SETS + 1)
+    sw = Sweep(40.0, 60.0, 20.0)
+    kw = dict(delta=2e-5, level_g=0.3, sweep=sw, channels=("c",), quantity="displacement",
+              frame="relative", sample_rate=512.0, dtype=torch.float64, engine="expo",
+              progress=False, steps_per_sample=64)
+    mixed = simulate_sweeps(system, kn=kn, **kw)
+    one = simulate_sweeps(system, kn=kn[[-1]], **kw)
+    assert not mixed.diverged.any()
+    y = one.signals[0]
+    assert np.abs(mixed.signals[-1] - y).max() < 1e-3 * np.abs(y).max()
+    assert not np.array_equal(mixed.signals[-1], y)  # the two schemes did run
+
+
+# ----------------------------------------------------------------------------- (6) registry
+def test_expo_is_registered_and_declares_its_step_rule(monkeypatch):
+    cls = ENGINES["expo"]
+    assert cls.step_rule == "accuracy" and cls.decimates and not cls.quasi_static
+    assert cls.available() == numba_available()
+    # "auto" stays RK4 (the training bank's cache key and pinned results depend on it)
+    assert resolve_engine("auto", device=CPU)[0] in ("numba", "torch")
+    import freeplayid.simulate.engines.expo as expo
+
+    monkeypatch.setattr(expo, "numba_available", lambda: False)
+    assert not cls.available()
+    with pytest.raises(ValueError, match="runs on the CPU only"):
+        resolve_engine("expo", device=torch.device("cuda"))
+    with pytest.raises(NotImplementedError, match="quasi_static_hz"):
+        resolve_engine("expo", device=CPU, quasi_static=True)
+
+
+@needs_numba
+def test_simulate_sweeps_uses_the_accuracy_step():
+    system = chain3(stiff_tip=True)
+    sw = Sweep(30.0, 40.0, 50.0)
+    res = simulate_sweeps(system, kn=1e4, delta=1e-4, level_g=1.0, sweep=sw, channels=("a",),
+                          sample_rate=512.0, dtype=torch.float64, engine="expo", progress=False)
+    form = build_modal_form(system, channels=("a",), quantity="acceleration", frame="absolute",
+                            kn_max=1e4)
+    m = int(np.ceil(1 / (512.0 * expo_step_limit(form, top_hz=40.0, kn_max=1e4)) - 1e-9))
+    assert res.engine == "expo" and res.steps_per_sample == m
+
+
+def test_kernel_source_digest():
+    pytest.importorskip("numba")
+    from freeplayid.simulate import kernel_expo, kernel_qs
+
+    digest = kernel_qs.kernel_source_digest()
+    assert digest == kernel_expo.KERNEL_SOURCE_SHA256, (
+        f"kernel.py changed: set KERNEL_SOURCE_SHA256 = {digest!r} in kernel_expo.py")
