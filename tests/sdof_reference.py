@@ -23,7 +23,7 @@ def exact_backbone_hz(amplitude):
     return F_N / (1.0 + 2.0 * DELTA / (math.pi * (np.asarray(amplitude) - DELTA)))
 
 
-def simulate_sdof_sweep(level_g, sweep, *, fs=FS, substeps=2):
+def simulate_sdof_sweep(level_g, sweep, *, fs=FS, substeps=2, jit=False):
     """RK4 of ``y'' + 2 zeta w_n y' + f(y) = -a_g(t)`` (m = 1), y relative to the base.
 
     Plain-Python scalar loop (~1 us per stage), step 1/(fs substeps) (6.1e-4 s / 2 at 2048 Hz,
@@ -35,6 +35,8 @@ def simulate_sdof_sweep(level_g, sweep, *, fs=FS, substeps=2):
     ----------
     level_g : float [g]
     sweep : freeplayid.simulate.Sweep
+    jit : bool
+        Compile the same loop with numba (for long records at high rates: the benchmarks).
 
     Returns
     -------
@@ -49,9 +51,21 @@ def simulate_sdof_sweep(level_g, sweep, *, fs=FS, substeps=2):
     h = 1.0 / (fs * substeps)
     twopi = 2 * math.pi
 
+    loop = _jit_loop() if jit else _loop
+    ys, vs = loop(amp, f0, s, n, h, substeps, kn, c, DELTA)
+    tt = np.arange(n) / fs
+    ag = amp * np.sin(twopi * (f0 * tt + 0.5 * s * tt * tt))
+    fp = np.where(ys > DELTA, kn * (ys - DELTA), np.where(ys < -DELTA, kn * (ys + DELTA), 0.0))
+    return ys, vs, -ag - c * vs - fp, ag
+
+
+def _loop(amp, f0, s, n, h, substeps, kn, c, delta):
+    """The RK4 steps of :func:`simulate_sdof_sweep`: (y, v) at every ``substeps``-th step."""
+    twopi = 2 * math.pi
+
     def acc(t, y, v):
         ag = amp * math.sin(twopi * (f0 * t + 0.5 * s * t * t))
-        fp = kn * (y - DELTA) if y > DELTA else (kn * (y + DELTA) if y < -DELTA else 0.0)
+        fp = kn * (y - delta) if y > delta else (kn * (y + delta) if y < -delta else 0.0)
         return -ag - c * v - fp
 
     y, v, t = 0.0, amp / (twopi * f0), 0.0
@@ -69,7 +83,71 @@ def simulate_sdof_sweep(level_g, sweep, *, fs=FS, substeps=2):
             y += h / 6 * (v + 2 * v2 + 2 * v3 + v4)
             v += h / 6 * (a1 + 2 * a2 + 2 * a3 + a4)
             t += h
-    tt = np.arange(n) / fs
-    ag = amp * np.sin(twopi * (f0 * tt + 0.5 * s * tt * tt))
-    fp = np.where(ys > DELTA, kn * (ys - DELTA), np.where(ys < -DELTA, kn * (ys + DELTA), 0.0))
-    return ys, vs, -ag - c * vs - fp, ag
+    return ys, vs
+
+
+_JITTED = []
+
+
+def _jit_loop():
+    if not _JITTED:
+        import numba
+
+        _JITTED.append(numba.njit(cache=False)(_loop))
+    return _JITTED[0]
+
+
+def cycle_amplitudes(y, fs):
+    """First-harmonic amplitude of every response cycle of a densely sampled record.
+
+    A cycle runs from one zero up-crossing of ``y`` to the next (crossings linearly
+    interpolated); its first Fourier coefficients over its own period T are the trapezoidal
+    integrals ``(2/T) int y cos, sin (2 pi (t - t_a) / T) dt``. No filter and no sweep law: the
+    reference the extractors are checked against.
+
+    Parameters
+    ----------
+    y : ndarray, shape (T,) [m]
+    fs : float [Hz]
+
+    Returns
+    -------
+    t_mid : ndarray, shape (C,) [s]
+        Middle of each cycle.
+    amplitude : ndarray, shape (C,) [m]
+    """
+    t = np.arange(y.size) / fs
+    neg = np.signbit(y)
+    up = np.nonzero(neg[:-1] & ~neg[1:])[0]
+    tc = t[up] - y[up] / (y[up + 1] - y[up]) / fs
+    t_mid, amp = [], []
+    for a, b, ta, tb in zip(up[:-1], up[1:], tc[:-1], tc[1:], strict=True):
+        tt = np.concatenate(([ta], t[a + 1 : b + 1], [tb]))
+        yy = np.concatenate(([0.0], y[a + 1 : b + 1], [0.0]))
+        w = 2 * np.pi / (tb - ta)
+        cos_c = np.trapezoid(yy * np.cos(w * (tt - ta)), tt)
+        sin_c = np.trapezoid(yy * np.sin(w * (tt - ta)), tt)
+        t_mid.append(0.5 * (ta + tb))
+        amp.append(2 / (tb - ta) * math.hypot(cos_c, sin_c))
+    return np.array(t_mid), np.array(amp)
+
+
+def jump_reference(y, fs, sweep):
+    """The true jump point of a clean, densely sampled displacement record.
+
+    The largest cycle (:func:`cycle_amplitudes`), refined by a parabola through it and its two
+    neighbours; the excitation frequency is the sweep law at that time.
+
+    Returns
+    -------
+    time_s, f_hz, amplitude_m : float [s], [Hz], [m]
+    """
+    tm, amp = cycle_amplitudes(y, fs)
+    k = int(np.argmax(amp))
+    tk, ak = tm[k], amp[k]
+    if 0 < k < amp.size - 1:
+        p = np.polyfit(tm[k - 1 : k + 2] - tm[k], amp[k - 1 : k + 2], 2)
+        if p[0] < 0:
+            dt = float(np.clip(-p[1] / (2 * p[0]), tm[k - 1] - tm[k], tm[k + 1] - tm[k]))
+            tk, ak = tm[k] + dt, float(np.polyval(p, dt))
+    return float(tk), float(sweep.frequency(tk)), float(ak)

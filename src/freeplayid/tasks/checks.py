@@ -181,6 +181,12 @@ def _extraction_method() -> Rule:
     return choice(*sorted(EXTRACTION_METHODS))
 
 
+def _jump_point() -> Rule:
+    from ..signal.peak import JUMP_POINTS
+
+    return choice(*sorted(JUMP_POINTS))
+
+
 def _backbone() -> Rule:
     from ..backbone import BACKBONE_METHODS
 
@@ -203,6 +209,7 @@ def _identify() -> dict[str, Rule]:
         "extraction.jump_ratio": number(0.0, 1.0, open_lo=True),
         "extraction.jump_width_hz": positive(), "extraction.jump_asymmetry": positive(),
         "extraction.edge_hz": number(0.0), "extraction.min_snr_db": number(),
+        "extraction.jump_point": _jump_point(),
         **_multistart(), "plot": boolean(), "allow_suspect": boolean(), "replay": boolean(),
         "damping": optional(either(choice("model", "estimate"), number(0.0, 0.99, open_lo=True))),
         "replay_bootstrap": integer(0),
