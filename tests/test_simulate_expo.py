@@ -10,8 +10,12 @@ from freeplayid.model import FreeplaySystem, freeplay_force, rayleigh_damping, s
 from freeplayid.quantity import G
 from freeplayid.simulate import Sweep, build_modal_form, simulate_sweeps
 from freeplayid.simulate.engines import ENGINES, numba_available, resolve_engine
-from freeplayid.simulate.exponential import (discretize, discretize_states, expo_step_limit,
-                                             state_code)
+from freeplayid.simulate.exponential import (
+    discretize,
+    discretize_states,
+    expo_step_limit,
+    state_code,
+)
 from freeplayid.simulate.resample import design_decimator
 from test_simulate import first_harmonic, linear_reference
 

@@ -231,6 +231,26 @@ def fit_checks(points, fit, system, extraction, *, mode: int = 0) -> list[Check]
     return checks
 
 
+def validation_checks(validation) -> list[Check]:
+    """The zero-clearance check (``reference_modes``) as a verdict check: a model whose sealed
+    modes miss the hammer test's is not the structure that was swept, whatever the fit says
+    (none without reference modes)."""
+    if validation is None:
+        return []
+    err = np.abs(np.asarray(validation.error_hz, float))
+    rel = err / np.maximum(np.abs(np.asarray(validation.reference_hz, float)), 1e-12)
+    k = int(np.argmax(rel)) if rel.size else 0
+    worst = (f"mode {k + 1}: {validation.model_hz[k]:.4g} Hz against "
+             f"{validation.reference_hz[k]:.4g} Hz, MAC {validation.mac[k]:.3f}"
+             if rel.size else "no mode")
+    msg = (f"the model closed at the estimate matches the sealed fin's modes (worst {worst})"
+           if validation.passed else
+           f"the model closed at the estimate does not match the sealed fin's modes ({worst}): "
+           "the linear model is not the tested structure")
+    return [Check("zero_clearance", bool(validation.passed), msg,
+                  float(rel[k]) if rel.size else None)]
+
+
 def replay_checks(replay) -> list[Check]:
     """The replay's self-check: the replay could be fitted, measured vs replayed curves per run,
     convergence, and an estimated damping ratio that the amplitudes pin down."""

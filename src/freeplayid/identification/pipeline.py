@@ -163,7 +163,7 @@ def identify(
     from ..fit import FittingPoints, fit_backbone, multistart_grid
     from ..io import DatasetError, read_dataset
     from ..model import FreeplaySystem, load_system
-    from ..verdict import base_level_checks, fit_checks, make_verdict
+    from ..verdict import base_level_checks, fit_checks, make_verdict, validation_checks
 
     t0 = time.perf_counter()
     backbone_method(backbone, argument="backbone")  # an unknown name fails before any work
@@ -192,8 +192,10 @@ def identify(
         starts, label = init, None
     fit = fit_backbone(points, system, init=starts, init_label=label, backbone=backbone,
                        mode=int(mode), n_bootstrap=int(n_bootstrap), seed=int(seed))
+    validation = _zero_clearance_check(dataset, system, fit.kn)
     verdict = make_verdict(base_level_checks(dataset)
-                           + fit_checks(points, fit, system, pts, mode=int(mode)))
+                           + fit_checks(points, fit, system, pts, mode=int(mode))
+                           + validation_checks(validation))
     result = Identification(
         kn=fit.kn,
         delta=fit.delta,
@@ -221,7 +223,7 @@ def identify(
             "channels": dict(dataset.channels), "base_channel": dataset.base_channel,
         },
         verdict=verdict,
-        validation=_zero_clearance_check(dataset, system, fit.kn),
+        validation=validation,
     )
     if replay:
         result = _with_replay(result, dataset, system, backbone=backbone, extraction=extraction,
