@@ -1,4 +1,5 @@
-"""Sweep-simulation throughput: scipy RK45 vs the torch engine vs the compiled numba kernel.
+"""Sweep-simulation throughput: scipy RK45 vs the torch engine vs the compiled numba kernel vs the
+exponential engine (``expo``; small batches of a replay and large ones, same run).
 
     python benchmarks/simulate.py            # full table (a few minutes on 2 cores)
     python benchmarks/simulate.py --quick    # smoke run (short segments, noisier numbers)
@@ -156,6 +157,17 @@ def main() -> None:
                     rows.append((f"numba kernel, batch {b}, quasi-static above {fq:g} Hz "
                                  f"({qs.slow}/{qs.total} integrated)", str(dt)[6:], b, seg,
                                  rate, r))
+        # small batches (one identification's replay: 5 runs) and the exponential engine
+        # (step set by accuracy, exact between hinge switches; docs/simulate.md), same run
+        for dt in (torch.float32, torch.float64):
+            for b in (5, 64, 1024):
+                seg = max((0.1 if q else 2.0) * 64 / b, 0.05)
+                if b < 1024:
+                    rate, r = time_sim(system, b, seg, engine="numba", dtype=dt)
+                    rows.append((f"numba kernel, batch {b}", str(dt)[6:], b, seg, rate, r))
+                rate, r = time_sim(system, b, seg, engine="expo", dtype=dt)
+                rows.append((f"expo (exponential, per contact state), batch {b}", str(dt)[6:], b,
+                             seg, rate, r))
         b = 1024
         rate, r = time_sim(system, b, 0.1 if q else 2.0, engine="numba", dtype=torch.float32,
                            cutoff_hz=args.cutoff_hz)
@@ -174,7 +186,7 @@ def main() -> None:
     print(head)
     print("-" * len(head))
     for name, dt, _b, seg, rate, r in rows:
-        if r is None or r.quasi_static is not None:
+        if r is None or r.quasi_static is not None or r.engine == "expo":
             print(f"{name:<72} {dt:<8} "
                   f"{'adaptive' if r is None else f'{r.dt * 1e6:.2f}':>8} {seg:>7.3g} "
                   f"{rate:>10.4g} {rate / scipy_rate:>9.3g} {'':>8}")
@@ -187,7 +199,7 @@ def main() -> None:
               f"{rate / scipy_rate:>9.3g} {100 * rate / limit:>7.1f}%")
     best = max((row for row in rows[1:] if "CUDA" not in row[0]),
                key=lambda row: row[4] if row[5].truncation is None
-               and row[5].quasi_static is None else 0)
+               and row[5].quasi_static is None and row[5].engine != "expo" else 0)
     f = build_modal_form(system, channels=CH, quantity="acceleration", frame="absolute",
                          kn_max=KN)
     limit = mm[best[1]] / (flops_per_step(f, len(CH), best[5].steps_per_sample) * FULL

@@ -195,3 +195,14 @@ def test_a_model_with_twice_the_stiffness_is_suspect(example):
     assert not res.verdict.ok
     assert any("does not match the sealed fin's modes" in r for r in res.verdict.reasons)
     assert {c.name: c for c in res.verdict.checks}["zero_clearance"].passed is False
+
+
+def test_a_test_without_levels_cannot_be_replayed_and_says_so(measured, system):
+    import dataclasses
+
+    bare = dataclasses.replace(measured, base_channel=None, runs=tuple(
+        dataclasses.replace(r, base=None, level_g=None) for r in measured.runs))
+    res = identify(bare, system=system, multistart=MULTISTART, progress=False, replay=True)
+    assert "cannot be replayed" in res.replay.failure and "level" in res.replay.failure
+    assert not res.verdict.ok and res.kn == res.replay.kn_fit
+    assert "Replay failed" in res.report() and res.to_dict()["replay"]["failure"]

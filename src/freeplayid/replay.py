@@ -389,9 +389,15 @@ def corrected_fit(dataset, system, identification, *, fit_kwargs: dict, damping=
     # in the gap) must not enter the replayed fit as a point the measured fit did not have
     measured = identification.points.used()
     used = {p.run for p in measured}
-    sweeps = {k: v for k, v in replay_sweeps(dataset).items() if k in used}
-    levels = replay_levels(dataset, sweeps)
     hat = np.array([identification.kn, identification.delta])
+    try:
+        sweeps = {k: v for k, v in replay_sweeps(dataset).items() if k in used}
+        levels = replay_levels(dataset, sweeps)
+    except ValueError as err:  # no level or no sweep law for a run: the test cannot be replayed
+        return ReplayResult(kn=float(hat[0]), delta=float(hat[1]), kn_fit=float(hat[0]),
+                            delta_fit=float(hat[1]), iterations=[], converged=False, levels={},
+                            offsets=[], damping=None,
+                            failure=f"the test cannot be replayed: {err}")
     kn_damping = float(hat[0])  # closed-hinge stiffness of an estimated/given modal damping
     estimate = source == "estimated"
     if estimate:
