@@ -182,7 +182,7 @@ def summarise(rows: list[dict]) -> str:
         zerr = np.abs([e / t - 1 for t, e in z])
         extra.append(f"damping ratio estimated within {100 * np.median(zerr):.1f} % (median), "
                      f"{100 * np.max(zerr):.1f} % (worst)")
-    return "\n".join(lines + [x for x in extra if x])
+    return "\n".join(lines + [""] + [x for x in extra if x])
 
 
 MARKER = "<!-- replay study: benchmarks/replay_study.py -->"
@@ -232,7 +232,7 @@ def main() -> None:
         table = summarise(rows)
         print(table)
         if args.doc:
-            write_doc(Path(args.doc), table, n=len(rows), seed=args.seed,
+            write_doc(Path(args.doc), table, n=args.cases, seed=args.seed,
                       bootstrap=args.bootstrap, note=args.note)
         return
     cases = draw_cases(args.cases, args.seed)
@@ -245,7 +245,9 @@ def main() -> None:
                   f"(plain {100 * row.get('delta_err_plain', math.nan):+.2f} %), kn err "
                   f"{100 * row.get('kn_err', math.nan):+.2f} %, covers "
                   f"{row.get('delta_cover')}/{row.get('kn_cover')}, {row.get('verdict')}, "
-                  f"{row.get('wall_s', math.nan):.0f} s", file=sys.stderr, flush=True)
+                  f"{row.get('wall_s', math.nan):.0f} s"
+                  + (f" ({row['reasons']})" if row.get("reasons") else ""),
+                  file=sys.stderr, flush=True)
     table = summarise(rows)
     print(table)
     if args.out:
