@@ -8,22 +8,22 @@ overdamped mode costs nothing. numba is optional; the kernel is imported when an
 
 from __future__ import annotations
 
-import numpy as np
-
-from .numba import numba_available
+from .numba import NumbaEngine, numba_available
 from .protocol import EngineSetup
 
 __all__ = ["ExpoEngine"]
 
 
-class ExpoEngine:
+class ExpoEngine(NumbaEngine):
     """:class:`.protocol.Engine` of :class:`.kernel_expo.NumbaExpo`: CPU only, full model,
-    decimates in place, step by the accuracy rule (:func:`..exponential.expo_step_limit`)."""
+    decimates in place, step by the accuracy rule (:func:`..exponential.expo_step_limit`).
+    Running and divergence are the numba engine's (its kernel has the same interface)."""
 
     devices = ("cpu",)
     quasi_static = False
     decimates = True
     step_rule = "accuracy"
+    name = "expo"
 
     def __init__(self, setup: EngineSetup):
         from ..kernel_expo import NumbaExpo
@@ -36,14 +36,3 @@ class ExpoEngine:
     @classmethod
     def available(cls) -> bool:
         return numba_available()
-
-    def run(self, s_half: np.ndarray, out: np.ndarray | None = None) -> int:
-        if out is None:
-            raise ValueError("the expo engine decimates into `out`; it must be given")
-        before = self.kernel.outputs
-        self.kernel.run(s_half, out=out)
-        return self.kernel.outputs - before
-
-    @property
-    def diverged(self) -> np.ndarray:
-        return self.kernel.diverged

@@ -30,6 +30,7 @@ class NumbaEngine:
     devices = ("cpu",)
     quasi_static = True
     decimates = True
+    name = "numba"
 
     def __init__(self, setup: EngineSetup):
         s = setup
@@ -51,7 +52,7 @@ class NumbaEngine:
 
     def run(self, s_half: np.ndarray, out: np.ndarray | None = None) -> int:
         if out is None:
-            raise ValueError("the numba engine decimates into `out`; it must be given")
+            raise ValueError(f"the {self.name} engine decimates into `out`; it must be given")
         before = self.kernel.outputs
         self.kernel.run(s_half, out=out)
         return self.kernel.outputs - before
