@@ -3,8 +3,11 @@
     python benchmarks/replay_study.py                 # 50 cases (about an hour on 2 cores)
     python benchmarks/replay_study.py --cases 6       # smoke run
     python benchmarks/replay_study.py --out runs/replay_study   # also per-case CSV + markdown
-    python benchmarks/replay_study.py --from-csv runs/replay_study/cases.csv --doc docs/results.md
+    python benchmarks/replay_study.py --from runs/replay_study/cases.jsonl --doc docs/results.md
                                                       # the table into docs/results.md, no rerun
+    python benchmarks/replay_study.py --first 29 --out runs/rest   # resume: cases 29.. only
+    python benchmarks/replay_study.py --from log.txt runs/rest/cases.jsonl --doc docs/results.md
+                                                      # merge an earlier run's log and the rest
 
 Every case is the default fin with a random hinge (kn log-uniform in [300, 800] N m/rad, delta
 log-uniform in [1, 5] mrad) and modal damping of 2 % or 5 % in every closed-hinge mode
@@ -26,6 +29,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import json
 import math
 import sys
 import time
@@ -156,12 +160,14 @@ def summarise(rows: list[dict]) -> str:
     def block(label, dk, kk, cover):
         d = np.abs([r[dk] for r in good])
         k = np.abs([r.get(kk, math.nan) for r in good])
-        succ = np.mean((d < 0.01) & (k < 0.02)) * len(good) / n if good else 0.0
+        known = ~np.isnan(k)  # rows from an older log have no kn error of the plain fit
+        succ = np.mean((d < 0.01) & (k < 0.02))[()] * len(good) / n if known.all() else 0.0
         cov_d = f"{100 * np.mean([r['delta_cover'] for r in good]):.0f} %" if cover else "–"
         cov_k = f"{100 * np.mean([r['kn_cover'] for r in good]):.0f} %" if cover else "–"
-        kmed = "–" if np.all(np.isnan(k)) else f"{100 * np.median(k):.2f} %"
-        succ_txt = "–" if np.all(np.isnan(k)) else f"{100 * succ:.0f} %"
-        if np.all(np.isnan(k)):  # the log has no kn error of the plain fit: delta alone
+        kmed = "–" if not known.any() else f"{100 * np.median(k[known]):.2f} %" + (
+            "" if known.all() else f" ({known.sum()} cases)")
+        succ_txt = f"{100 * succ:.0f} %"
+        if not known.all():  # some rows have no kn error of the plain fit: delta alone
             succ_txt = f"δ < 1 %: {100 * np.mean(d < 0.01) * len(good) / n:.0f} %"
         lines.append(f"| {label} | {n} | {succ_txt} | {100 * np.median(d):.2f} % | "
                      f"{100 * np.percentile(d, 95):.2f} % | {kmed} | {cov_d} | {cov_k} |")
@@ -171,17 +177,22 @@ def summarise(rows: list[dict]) -> str:
         block("corrected fit (replay)", "delta_err", "kn_err", True)
     failed = n - len(good)
     wall = float(np.median([r["wall_s"] for r in good])) if good else math.nan
+    suspect = [f"case {r['case']:.0f}: {r['reasons']}" for r in rows
+               if r.get("verdict") == "suspect" and r.get("reasons")]
     extra = ["", f"identification failed in {failed} case(s)" if failed else "",
              f"verdict ok: {sum(r.get('verdict') == 'ok' for r in rows)} / {n}; "
              + (f"replays converged: {sum(bool(r.get('converged')) for r in rows)} / {n}; "
                 f"median replays per case {np.median([r.get('replays', 0) for r in rows]):.0f}; "
                 if all("replays" in r for r in rows) else "")
              + f"median wall time per case {wall:.0f} s"]
-    if good and all("zeta_est" in r for r in good):
-        z = [(r["zeta"], r["zeta_est"]) for r in good]
+    if suspect:
+        extra.append("suspect verdicts: " + " | ".join(suspect))
+    z = [(r["zeta"], r["zeta_est"]) for r in good if "zeta_est" in r and "zeta" in r]
+    if z:
         zerr = np.abs([e / t - 1 for t, e in z])
         extra.append(f"damping ratio estimated within {100 * np.median(zerr):.1f} % (median), "
-                     f"{100 * np.max(zerr):.1f} % (worst)")
+                     f"{100 * np.max(zerr):.1f} % (worst)"
+                     + ("" if len(z) == len(good) else f" over the {len(z)} cases that log it"))
     return "\n".join(lines + [""] + [x for x in extra if x])
 
 
@@ -213,34 +224,43 @@ def write_doc(path: Path, table: str, *, n: int, seed: int, bootstrap: int, note
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cases", type=int, default=50)
+    ap.add_argument("--first", type=int, default=0,
+                    help="run only cases FIRST.. of the drawn CASES (resume an unfinished run)")
     ap.add_argument("--seed", type=int, default=7)
     ap.add_argument("--bootstrap", type=int, default=10, help="replay bootstrap copies")
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--out", default=None, help="folder for cases.csv and table.md")
-    ap.add_argument("--from-csv", default=None, help="summarise an earlier run's cases.csv")
-    ap.add_argument("--from-log", default=None,
-                    help="summarise the cases an earlier (maybe unfinished) run logged on stderr")
+    ap.add_argument("--from", dest="sources", nargs="+", default=None, metavar="FILE",
+                    help="summarise earlier runs instead of running: cases.jsonl / cases.csv "
+                         "files or stderr logs, merged by case (later files win)")
     ap.add_argument("--doc", default=None, help="write the table into this markdown file")
     ap.add_argument("--note", default="", help="text under the table in --doc")
     args = ap.parse_args()
-    if args.from_csv or args.from_log:
-        if args.from_csv:
-            with open(args.from_csv, newline="") as fh:
-                rows = [_parse(r) for r in csv.DictReader(fh)]
-        else:
-            rows = _parse_log(Path(args.from_log).read_text())
+    if args.sources:
+        merged: dict[int, dict] = {}
+        for src in args.sources:
+            for r in _read_rows(Path(src)):
+                merged[int(r["case"])] = r
+        rows = [merged[c] for c in sorted(merged)]
         table = summarise(rows)
         print(table)
         if args.doc:
             write_doc(Path(args.doc), table, n=args.cases, seed=args.seed,
                       bootstrap=args.bootstrap, note=args.note)
         return
-    cases = draw_cases(args.cases, args.seed)
+    cases = draw_cases(args.cases, args.seed)[args.first:]
     jobs = [(c, args.seed, args.bootstrap) for c in cases]
     rows = []
+    out = Path(args.out) if args.out else None
+    if out:
+        out.mkdir(parents=True, exist_ok=True)
+        (out / "cases.jsonl").write_text("")
     with ProcessPoolExecutor(max_workers=args.jobs) as pool:
         for row in pool.map(run_case, jobs):
             rows.append(row)
+            if out:  # one line per finished case: an interrupted run keeps what it did
+                with open(out / "cases.jsonl", "a") as fh:
+                    fh.write(json.dumps(row, default=_plain) + "\n")
             print(f"case {row['case']}: delta err {100 * row.get('delta_err', math.nan):+.2f} % "
                   f"(plain {100 * row.get('delta_err_plain', math.nan):+.2f} %), kn err "
                   f"{100 * row.get('kn_err', math.nan):+.2f} %, covers "
@@ -250,9 +270,7 @@ def main() -> None:
                   file=sys.stderr, flush=True)
     table = summarise(rows)
     print(table)
-    if args.out:
-        out = Path(args.out)
-        out.mkdir(parents=True, exist_ok=True)
+    if out:
         keys = sorted({k for r in rows for k in r})
         with open(out / "cases.csv", "w", newline="") as fh:
             w = csv.DictWriter(fh, fieldnames=keys)
@@ -262,6 +280,21 @@ def main() -> None:
     if args.doc:
         write_doc(Path(args.doc), table, n=len(rows), seed=args.seed, bootstrap=args.bootstrap,
                   note=args.note)
+
+
+def _plain(value):
+    """numpy scalars (bool_, float64) as the Python values json writes."""
+    return value.item() if hasattr(value, "item") else str(value)
+
+
+def _read_rows(path: Path) -> list[dict]:
+    """Rows of an earlier run: its cases.jsonl, cases.csv or stderr log."""
+    if path.suffix == ".jsonl":
+        return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+    if path.suffix == ".csv":
+        with open(path, newline="") as fh:
+            return [_parse(r) for r in csv.DictReader(fh)]
+    return _parse_log(path.read_text())
 
 
 def _parse_log(text: str) -> list[dict]:
