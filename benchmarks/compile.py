@@ -139,6 +139,11 @@ KERNELS = {  # name -> case
 # the defaults: what the default commands compile, and the float64 exponential kernel (the
 # engine of the replay's small batches when chosen, engine="expo")
 DEFAULT = list(KERNELS)[:3] + ["exponential (expo), float64"]
+# what the default commands compile with their default options: scripts/simulate.py and the
+# bank of scripts/train.py / compare.py (full model + base terms, float32) and the replay of
+# scripts/identify.py replay=true (expo, float64); quasi_static_hz is an opt-in option
+DEFAULT_COMMANDS = ["full model, float32", "base terms (assemble), float32",
+                    "exponential (expo), float64"]
 CH = ["uz_top_left", "uz_lower_right"]
 COMMANDS = {
     "scripts/simulate.py": dict(what="command", kw=dict(
@@ -177,16 +182,23 @@ def main() -> None:
         print(f"{'kernel / command':40s} {'':{w}s} {'cold [s]':>9s} {'cached [s]':>10s}  "
               f"compiled (signatures)")
         total = dict.fromkeys(srcs, 0.0)
+        default = dict.fromkeys(srcs, 0.0)
         for name, case in cases.items():
             for rev, src in srcs.items():
                 cold, warm, sigs = measure(case, src)
                 if case["what"] != "command":
                     total[rev] += cold - warm
+                if name in DEFAULT_COMMANDS:
+                    default[rev] += cold - warm
                 what = ", ".join(f"{k} x{v}" for k, v in sorted(sigs.items()))
                 print(f"{name:40s} {rev:{w}s} {cold:9.1f} {warm:10.2f}  {what}", flush=True)
         for rev in srcs:
             print(f"{'total of the kernel rows (cold - cached)':40s} {rev:{w}s} "
                   f"{total[rev]:9.1f}")
+        if all(k in cases for k in DEFAULT_COMMANDS):
+            for rev in srcs:
+                print(f"{'default commands (no quasi-static opt.)':40s} {rev:{w}s} "
+                      f"{default[rev]:9.1f}")
 
 
 def cpu_name() -> str:

@@ -3,6 +3,7 @@ exponential engine (``expo``; small batches of a replay and large ones, same run
 
     python benchmarks/simulate.py            # full table (a few minutes on 2 cores)
     python benchmarks/simulate.py --quick    # smoke run (short segments, noisier numbers)
+    python benchmarks/simulate.py --only-small   # the replay's small batches and the beam only
 
 Model: ``freeplayid.model.default_fin()`` if this checkout has it, else the 12-DOF stand-in of
 ``tests/conftest.py`` (printed). Sweep: the paper's 30 -> 50 Hz at 0.1 Hz/s (200 s), kn = 2.35e6
@@ -11,6 +12,11 @@ acceleration channels at 2048 Hz, automatic step. Every row times
 a segment of the sweep and scales to the full 200 s (the cost per step does not depend on the
 sweep frequency); the segment lengths are printed. The arithmetic limit is
 flops per member-step x steps per sweep / the measured dense-matmul flop rate.
+
+Two summaries close the table: a 5-run replay (5 members of a 200 s sweep, float64) by RK4 and
+by the exponential engine, and a 200 s sweep x 5 levels of a Rayleigh-damped 15-DOF beam fin
+whose top mode is above 40 kHz (``benchmarks/expo_models.py``; RK4's stability step there is
+sub-microsecond, so its row is timed on a few milliseconds and scaled).
 """
 
 from __future__ import annotations
@@ -63,6 +69,20 @@ def time_sim(system, batch, seconds, **kw) -> tuple[float, object]:
     return batch * sw.duration / (el * FULL), r  # full sweeps per second
 
 
+def time_whole(system, batch, quick, **kw) -> tuple[float, object, Sweep]:
+    """Full sweeps per second of a whole sweep (the paper's 30 -> 50 Hz at 0.1 Hz/s; quick:
+    38 -> 42 Hz), after a warm-up."""
+    sw = Sweep(38.0, 42.0, 0.1) if quick else Sweep(30.0, 50.0, 0.1)
+    lv = np.linspace(0.3, 1.0, batch)
+    simulate_sweeps(system, kn=KN, delta=DELTA, level_g=lv[: min(batch, 4)], sweep=segment(0.05),
+                    channels=CH, progress=False, **kw)  # warm-up
+    t0 = time.perf_counter()
+    r = simulate_sweeps(system, kn=KN, delta=DELTA, level_g=lv, sweep=sw, channels=CH,
+                        progress=False, **kw)
+    el = time.perf_counter() - t0
+    return batch * sw.duration / (el * FULL), r, sw
+
+
 def time_scipy(system, seconds) -> float:
     from scipy.integrate import solve_ivp
 
@@ -85,6 +105,32 @@ def time_scipy(system, seconds) -> float:
     solve_ivp(rhs, (0, sw.duration), np.zeros(2 * n), method="RK45", rtol=1e-6, atol=1e-12,
               t_eval=t_eval)
     return sw.duration / ((time.perf_counter() - t0) * FULL)
+
+
+def beam_rows(quick: bool) -> list[tuple[str, float, float]]:
+    """(engine, step [us], seconds for a 200 s sweep x 5 levels) of the Rayleigh-damped beam
+    fin (``benchmarks/expo_models.py``), float64, relative acceleration at 256 Hz; each engine
+    timed on the whole 30 -> 50 Hz sweep (expo: its cost follows the hinge switches) or on a
+    segment at 48 Hz and scaled (RK4: a constant cost per step)."""
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from expo_models import beam_fin
+
+    system, ch, kn, delta = beam_fin()
+    out = []
+    whole = Sweep(45.0, 47.0, 0.1) if quick else Sweep(30.0, 50.0, 0.1)
+    rk4 = Sweep(48.0, 48.0 + 0.1 * (0.002 if quick else 0.01), 0.1)
+    for engine, sw in (("expo", whole), ("numba", rk4)):
+        kw = dict(kn=kn, delta=delta, level_g=[0.4, 0.6, 0.8, 1.0, 1.2], channels=list(ch),
+                  quantity="acceleration", frame="relative", sample_rate=256.0,
+                  dtype=torch.float64, progress=False, engine=engine)
+        simulate_sweeps(system, sweep=Sweep(48.0, 48.0 + 0.1 * 0.01, 0.1), **kw)  # warm-up
+        t0 = time.perf_counter()
+        r = simulate_sweeps(system, sweep=sw, **kw)
+        el = time.perf_counter() - t0
+        name = "exponential engine" if engine == "expo" else "RK4 (numba)"
+        out.append((f"{name}, timed on {sw.start_hz:g}->{sw.stop_hz:g} Hz ({sw.duration:g} s)",
+                    r.dt * 1e6, el * FULL / sw.duration))
+    return out
 
 
 def flops_per_step(form, n_channels, m) -> float:
@@ -115,6 +161,8 @@ def main() -> None:
                    help="quasi-static condensation rows (numba, batch 1024) [Hz]")
     p.add_argument("--only-numba", action="store_true",
                    help="numba rows only (full model and its quasi-static/truncation variants)")
+    p.add_argument("--only-small", action="store_true",
+                   help="only the small-batch (replay) rows and the beam model")
     args = p.parse_args()
     q = args.quick
     torch.set_num_threads(os.cpu_count() or 1)
@@ -129,12 +177,13 @@ def main() -> None:
     seg = 0.05 if q else 0.5
     rows.append(("scipy solve_ivp RK45 (rtol 1e-6), 1 sweep", "float64", 1, seg,
                  time_scipy(system, seg), None))
-    for dt in (() if args.only_numba else (torch.float32, torch.float64)):
+    big = not args.only_small
+    for dt in (() if args.only_numba or not big else (torch.float32, torch.float64)):
         for b in (1, 256, 1024):
             seg = (0.005 if q else 0.05) * (4 if b == 1 else 1)
             rate, r = time_sim(system, b, seg, engine="torch", dtype=dt)
             rows.append((f"torch eager, batch {b}", str(dt)[6:], b, seg, rate, r))
-    if torch.cuda.is_available():
+    if torch.cuda.is_available() and big:
         for dt in (torch.float32, torch.float64):
             for b in (1024, 16384):
                 seg = 0.05 if q else 1.0
@@ -144,7 +193,7 @@ def main() -> None:
     try:
         import numba  # noqa: F401
 
-        for dt in (torch.float32, torch.float64):
+        for dt in ((torch.float32, torch.float64) if big else ()):
             for b in ((1024,) if args.only_numba else (256, 1024, 4096)):
                 seg = max((0.1 if q else 2.0) * 1024 / b, 0.05)
                 rate, r = time_sim(system, b, seg, engine="numba", dtype=dt)
@@ -158,24 +207,30 @@ def main() -> None:
                                  f"({qs.slow}/{qs.total} integrated)", str(dt)[6:], b, seg,
                                  rate, r))
         # small batches (one identification's replay: 5 runs) and the exponential engine
-        # (step set by accuracy, exact between hinge switches; docs/simulate.md), same run
+        # (step set by accuracy, exact between hinge switches; docs/simulate.md), same run. Its
+        # cost per step grows with the hinge switches (a step holding one is halved until the
+        # switch is located), so it is timed on whole sweeps, not on a segment at resonance
         for dt in (torch.float32, torch.float64):
-            for b in (5, 64, 1024):
+            for b in (5, 64) if big else (5,):
                 seg = max((0.1 if q else 2.0) * 64 / b, 0.05)
-                if b < 1024:
-                    rate, r = time_sim(system, b, seg, engine="numba", dtype=dt)
-                    rows.append((f"numba kernel, batch {b}", str(dt)[6:], b, seg, rate, r))
-                rate, r = time_sim(system, b, seg, engine="expo", dtype=dt)
-                rows.append((f"expo (exponential, per contact state), batch {b}", str(dt)[6:], b,
-                             seg, rate, r))
+                rate, r = time_sim(system, b, seg, engine="numba", dtype=dt)
+                rows.append((f"numba kernel, batch {b}", str(dt)[6:], b, seg, rate, r))
+            for b in (5, 16) if big else (5,):
+                rate, r, sw = time_whole(system, b, q, engine="expo", dtype=dt)
+                rows.append((f"expo (exponential, per contact state), batch {b}, whole "
+                             f"{sw.start_hz:g}->{sw.stop_hz:g} Hz sweep", str(dt)[6:], b,
+                             sw.duration, rate, r))
         b = 1024
-        rate, r = time_sim(system, b, 0.1 if q else 2.0, engine="numba", dtype=torch.float32,
-                           cutoff_hz=args.cutoff_hz)
-        tr = r.truncation
-        rows.append((f"numba kernel, batch {b}, modes <= {args.cutoff_hz:g} Hz "
-                     f"({tr.kept}/{tr.total}, static err {tr.static_error:.1e})", "float32", b,
-                     0.1 if q else 2.0, rate, r))
+        if big:
+            rate, r = time_sim(system, b, 0.1 if q else 2.0, engine="numba", dtype=torch.float32,
+                               cutoff_hz=args.cutoff_hz)
+            tr = r.truncation
+            rows.append((f"numba kernel, batch {b}, modes <= {args.cutoff_hz:g} Hz "
+                         f"({tr.kept}/{tr.total}, static err {tr.static_error:.1e})", "float32",
+                         b, 0.1 if q else 2.0, rate, r))
+        beam = beam_rows(q)
     except ImportError:
+        beam = []
         print("numba not installed: no compiled-kernel rows")
     scipy_rate = rows[0][4]
     mm = {"float32": matmul_rate(torch.float32), "float64": matmul_rate(torch.float64)}
@@ -197,6 +252,17 @@ def main() -> None:
         limit = mm[dt] / (flops_per_step(f, len(CH), r.steps_per_sample) * steps)
         print(f"{name:<72} {dt:<8} {r.dt * 1e6:>8.2f} {seg:>7.3g} {rate:>10.4g} "
               f"{rate / scipy_rate:>9.3g} {100 * rate / limit:>7.1f}%")
+    small = {(r[5].engine, r[1]): r for r in rows[1:] if r[2] == 5 and r[5] is not None}
+    if small:
+        print("\n5-run replay (5 members, one 200 s sweep each; the replay's batch; RK4 "
+              "scaled from its segment, expo timed on the whole sweep):")
+        for (eng, dt), row in sorted(small.items()):
+            print(f"  {eng:<6} {dt:<8} step {row[5].dt * 1e6:6.1f} us: {5 / row[4]:8.1f} s")
+    for label, dt_us, seconds in beam:
+        print(f"beam fin (Rayleigh, top mode > 40 kHz), 200 s sweep x 5 levels, {label}: "
+              f"step {dt_us:.3g} us, {seconds:.3g} s ({seconds / 3600:.3g} h)")
+    if args.only_small:
+        return
     best = max((row for row in rows[1:] if "CUDA" not in row[0]),
                key=lambda row: row[4] if row[5].truncation is None
                and row[5].quasi_static is None and row[5].engine != "expo" else 0)

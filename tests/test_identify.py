@@ -110,7 +110,6 @@ def test_bundled_example_within_2_percent(tmp_path):
     assert proc.returncode == 0, proc.stderr[-3000:]
     m = json.loads((run / "metrics.json").read_text())
     assert abs(m["kn_rel_error"]) < 0.02 and abs(m["delta_rel_error"]) < 0.02
-    assert m["runtime_s"] < 60
 
 
 def test_identify_refuses_points_at_one_resonance(tmp_path):

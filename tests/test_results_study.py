@@ -30,7 +30,7 @@ def identify(levels, sweep):
     # fin's range
     res = freeplayid.identify(sweep_dataset(r, run_names=[f"{v} g" for v in levels]), system=fin,
                               multistart={"n": 3, "kn_range": (1e2, 1e4),
-                                          "delta_range": (1e-3, 1e-2)})
+                                          "delta_range": (1e-3, 1e-2)}, replay=False)
     return res.points, res.fit, truth
 
 

@@ -180,7 +180,7 @@ def test_identify_on_a_log_sweep(sdof):
     # 4 % damping puts kn ~3 % and delta ~13 % high, with the hint or without it, by ACMP or
     # lock-in; the reference is the simulated truth
     for kw in ({}, {"use_sweep_hint": False}, {"extraction": {"method": "lockin"}}):
-        res = identify(ds, system=sdof, multistart=MS, progress=False, **kw)
+        res = identify(ds, system=sdof, multistart=MS, progress=False, replay=False, **kw)
         assert abs(res.kn / KN - 1) < 0.05 and abs(res.delta / DELTA - 1) < 0.2, kw
         assert len(res.points.used()) == 3 and res.verdict.ok, (kw, res.verdict.reasons)
 
