@@ -52,6 +52,8 @@ FAULTS = [
     ("train", ["debug=fast", "dataset.cases.axis=level"], "`dataset.cases.axis`"),
     ("compare", ["debug=fast", "compare.cases_per_value=0"], "`compare.cases_per_value`"),
     ("compare", ["debug=fast", "compare.backbone=nonsense"], "`compare.backbone`"),
+    ("compare", ["debug=fast", "compare.corrected_cases_per_value=-1"],
+     "`compare.corrected_cases_per_value`"),
 ]
 
 

@@ -1,5 +1,7 @@
 """Simulated data sets of the inverse model: cache, resume, scale invariance, splits, errors."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 import torch
@@ -120,6 +122,52 @@ def test_noisy_cases_are_seeded_cached_and_labelled(system, bank, monkeypatch):
     monkeypatch.setattr(ds, "_noisy_case", lambda *a: pytest.fail("extracted again"))
     again = build_cases(b, spec, cache_dir=cache, progress=False)
     np.testing.assert_array_equal(again.amplitude, ps.amplitude)
+
+
+def test_a_stored_case_is_rebuilt_as_the_records_it_was_extracted_from(bank):
+    """rebuild_case: the same sweeps, scale and noise draw; its points are the stored ones."""
+    b, cache = bank
+    spec = CaseSpec(axis="noise_g", values=(0.0, 0.5), delta_range=(1e-4, 2e-4),
+                    cases_per_value=2, runs=(2, 3), n_jobs=1, seed=5)
+    ps = build_cases(b, spec, cache_dir=cache, progress=False)
+    plan = ds.plan_cases(b, spec)
+    assert len(plan) == 4 * 2 * 2 and ps.meta["plan_index"].size == ps.n_cases
+    test = ps.subset(np.arange(ps.n_cases)[::-1])  # a subset keeps each case's plan entry
+    noisy = test.meta["noise_g"] > 0
+    assert noisy.any() and (~noisy).any()
+    for i in range(test.n_cases):
+        data = ds.rebuild_case(b, spec, test, i, plan=plan)
+        k = int(test.meta["kn_index"][i])
+        assert data.truth == {"kn": b.kn[k], "delta": test.delta[i]}
+        assert list(data.channels) == ["x"] and data.units == "m/s^2"
+        assert len(data.runs) == test.meta["n_runs"][i]
+        levels = [r.level_g for r in data.runs]
+        assert max(levels) == pytest.approx(test.meta["level_max_g"][i], rel=1e-12)
+        got = []
+        for run in data.runs:  # one run at a time with its hint, as identify extracts
+            assert Sweep(**run.sweep) == SWEEP
+            res = extract_backbone_points([run.data], data.sample_rate, quantity="acceleration",
+                                          channel_names=["x"], run_names=[run.file],
+                                          sweep=Sweep(**run.sweep), **spec.extraction)
+            got += [(p.amplitude_m, p.f_hz) for p in res.points if p.used]
+        rows = test.case == i
+        got = np.array(got).reshape(-1, 2)
+        assert got.shape[0] == rows.sum() >= 2
+        rtol = 1e-9 if noisy[i] else 1e-6  # noise-free: stored points are scaled extractions
+        np.testing.assert_allclose(got[:, 0], test.amplitude[rows], rtol=rtol)
+        np.testing.assert_allclose(got[:, 1], test.frequency[rows], rtol=1e-9)
+        # the records: the bank's sweeps scaled, plus noise of the case's std only
+        r0 = int(data.runs[0].file.split("s")[-1])
+        clean = b.signals[k, r0, 0].astype(float) * (test.delta[i] / DELTA_REF)
+        resid = data.runs[0].data[0] - clean
+        assert np.std(resid) == pytest.approx(test.meta["noise_g"][i] * 9.80665, rel=0.05)
+    old = dataclasses.replace(ps, meta={k: v for k, v in ps.meta.items() if k != "plan_index"})
+    with pytest.raises(ValueError, match=r"plan_index.*delete their cache folder cases-"):
+        ds.rebuild_case(b, spec, old, 0)
+    other = CaseSpec(axis="noise_g", values=(0.0, 0.5), delta_range=(1e-4, 2e-4),
+                     cases_per_value=2, runs=(2, 3), n_jobs=1, seed=6)
+    with pytest.raises(ValueError, match="another bank or spec"):
+        ds.rebuild_case(b, other, ps, 0)
 
 
 def test_split_by_kn_keeps_kn_values_apart(bank):

@@ -80,23 +80,87 @@ def test_identify_refuses_a_checkpoint_of_another_model(trained, tmp_path):
 
 
 def test_compare_writes_tables_and_figures(trained):
+    """The compare task, with the corrected fits (replay) on one case per noise value."""
+    import csv
+    import math
+
     tmp, run = trained
     out = tmp / "compare"
     proc = _run("compare.py", ["debug=fast", "compare.cases_per_value=1", "compare.n_jobs=1",
+                               "compare.corrected_cases_per_value=1",
                                f"dataset.cache_dir={tmp / 'datasets'}",
                                f"inverse.checkpoint={run / 'checkpoint.ckpt'}",
                                f"hydra.run.dir={out}"], tmp)
     assert proc.returncode == 0, proc.stderr[-3000:]
     m = json.loads((out / "metrics.json").read_text())
     methods = {r["method"] for r in m["summary"]}
-    assert methods == {"network", "network+fit", "single-start", "multi-start"}
+    assert methods == {"network", "network+fit", "single-start", "multi-start",
+                       "network+corrected", "multi-start+corrected"}
     assert m["evaluation_ratio_multistart_to_network_fit"] > 1.0
-    rows = (out / "compare.csv").read_text().splitlines()
-    assert len(rows) == 1 + 4 * m["n_cases"]
+    rows = list(csv.DictReader(open(out / "compare.csv")))
+    picked = m["corrected"]["cases"]
+    assert len(picked) == len({r["noise_g"] for r in rows}) == 4  # one case per noise value
+    assert len(rows) == 4 * m["n_cases"] + 2 * len(picked)
+    assert f"corrected fits (replay) on {len(picked)} cases: case {picked[0]} (" in proc.stdout
+    by = {(int(r["case"]), r["method"]): r for r in rows}
+    ran = 0
+    for i in picked:
+        for corr, plain in (("network+corrected", "network+fit"),
+                            ("multi-start+corrected", "multi-start")):
+            r = by[(i, corr)]
+            if r["verdict"] == "failed":  # e.g. every point at one resonance: identify refuses
+                assert r["failure"] and r["n_replays"] == "0" and r["kn"] == "nan"
+                continue
+            ran += 1
+            assert r["verdict"] in ("ok", "suspect") and int(r["n_replays"]) >= 1
+            assert math.isfinite(float(r["kn_error"])) and math.isfinite(float(r["delta_error"]))
+            # the plain fit's evaluations plus every replay's refit
+            assert int(r["n_evaluations"]) > int(by[(i, plain)]["n_evaluations"])
+            if float(r["noise_g"]) == 0.0:  # the replay removes most of the noise-free bias
+                assert abs(float(r["delta_error"])) < 0.5 * abs(float(by[(i, plain)]
+                                                                     ["delta_error"]))
+    assert ran >= 4  # at least two cases ran both corrected fits
+    c = m["corrected"]
+    assert {s["method"] for s in c["summary"]} == methods
+    assert all(s["n"] == 1 for s in c["summary"])  # every method on the same 4 cases
+    assert min(c["replays_mean"].values()) >= 1
     table = (out / "compare.md").read_text()
     assert "multi-start" in table and "| noise [g] |" in table
+    assert "## The 4 cases with corrected fits, every method" in table
+    assert "| multi-start+corrected |" in table
     for f in ("compare_errors.png", "compare_cost.png", "compare_summary.csv"):
         assert (out / f).stat().st_size > 0
+
+
+def test_compare_refuses_a_cases_cache_without_plan_index(trained, tmp_path):
+    """Cases cached before plan_index: the corrected fits cannot rebuild their records."""
+    import shutil
+
+    import numpy as np
+
+    from freeplayid.inverse import PointSets
+
+    tmp, run = trained
+    cache = tmp_path / "datasets"
+    shutil.copytree(tmp / "datasets", cache)
+    (folder,) = cache.glob("cases-*")
+    ps = PointSets.load(folder / "cases.npz")
+    assert "plan_index" in ps.meta
+    old = PointSets(**{**ps.__dict__, "meta": {k: v for k, v in ps.meta.items()
+                                                if k != "plan_index"}})
+    old.save(folder / "cases.npz")
+    assert np.array_equal(PointSets.load(folder / "cases.npz").kn, ps.kn)
+    out = tmp_path / "compare"
+    proc = _run("compare.py", ["debug=fast", "compare.corrected_cases_per_value=1",
+                               f"dataset.cache_dir={cache}",
+                               f"inverse.checkpoint={run / 'checkpoint.ckpt'}",
+                               f"hydra.run.dir={out}"], tmp_path)
+    assert proc.returncode != 0 and "Traceback" not in proc.stderr, proc.stderr[-3000:]
+    lines = [ln for ln in proc.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("compare: "), lines
+    assert str(folder) in lines[0] and "delete that folder" in lines[0]
+    assert "fits" not in proc.stdout  # stopped before any fit
+    assert not (out / "metrics.json").exists()
 
 
 def test_fit_backbone_takes_an_inverse_model_as_its_start():

@@ -69,6 +69,9 @@ def test_corrected_fit_reports_its_iterations(measured, system):
     res = identify(measured, system=system, multistart=MULTISTART, progress=False, replay=True)
     r = res.replay
     assert r.iterations and r.iterations[0]["kn"] == pytest.approx(r.kn_fit)
+    # each replay's refit counts its objective evaluations (one start: a few tens, not a grid)
+    assert all(isinstance(it["n_evaluations"], int) and 3 <= it["n_evaluations"] < 200
+               for it in r.iterations)
     assert set(r.levels) == {"s0.6.csv", "s0.8.csv", "s1.0.csv"}  # only the fitted runs
     assert len(r.offsets) == 3 and all(abs(o["f_offset"]) < 5e-3 for o in r.offsets)
     assert abs(res.truth_error["delta"]) < 0.02 and abs(res.truth_error["kn"]) < 0.01

@@ -254,6 +254,8 @@ _METHOD_STYLE = {
     "network+fit": ("tab:green", "network-initialised fit"),
     "single-start": ("tab:orange", "single-start fit"),
     "multi-start": ("tab:blue", "multi-start fit"),
+    "network+corrected": ("tab:olive", "network + corrected fit (replay)"),
+    "multi-start+corrected": ("tab:cyan", "multi-start + corrected fit (replay)"),
 }
 
 
@@ -321,9 +323,10 @@ def plot_inverse_predictions(ax, truth, estimate, log_std, *, groups=None, group
 def plot_compare_errors(ax, rows, *, quantity="delta", axis_name=""):
     """Absolute relative error of each method per axis value (box plots, log scale).
 
-    ``rows``: the per-case rows of :func:`freeplayid.studies.fit_cases` and
-    :func:`~freeplayid.studies.network_rows` (``method``, ``axis_value``,
-    ``delta_error``, ``kn_error``).
+    ``rows``: the per-case rows of :func:`freeplayid.studies.fit_cases`,
+    :func:`~freeplayid.studies.corrected_cases` and :func:`~freeplayid.studies.network_rows`
+    (``method``, ``axis_value``, ``delta_error``, ``kn_error``); the corrected methods' boxes
+    hold only the cases they ran on.
     """
     methods = [m for m in _METHOD_STYLE if any(r["method"] == m for r in rows)]
     values = sorted({r["axis_value"] for r in rows})

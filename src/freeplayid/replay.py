@@ -132,8 +132,8 @@ class ReplayResult:
     kn_fit, delta_fit : float
         The plain fit of the measured points (theta_hat).
     iterations : list of dict
-        Per iteration: the replayed parameters (kn, delta) and the fit of their replay
-        (kn_rep, delta_rep).
+        Per iteration: the replayed parameters (kn, delta), the fit of their replay
+        (kn_rep, delta_rep) and that fit's objective evaluations (n_evaluations).
     converged : bool
     levels : dict of str -> (float, str)
         Each replayed run's level [g] and where it came from ("base channel" or "level_g").
@@ -428,7 +428,8 @@ def corrected_fit(dataset, system, identification, *, fit_kwargs: dict, damping=
         theta_rep = np.array([rep.kn, rep.delta])
         F = np.log(theta_rep / hat)
         item = {"kn": float(theta[0]), "delta": float(theta[1]),
-                "kn_rep": float(theta_rep[0]), "delta_rep": float(theta_rep[1])}
+                "kn_rep": float(theta_rep[0]), "delta_rep": float(theta_rep[1]),
+                "n_evaluations": int(rep.fit.n_evaluations)}
         if estimate:
             ratios = _amplitude_ratios(measured, rep.points.used())
             r = float(np.median(ratios)) if ratios.size else 0.0

@@ -10,6 +10,12 @@ sweep, scaled (the extraction is scale-equivariant to 1e-8).
 Cases are cached under ``cache_dir`` in a folder named by a hash of everything that defines
 them (the bank's key, the draws, the seeds, the extraction options), written chunk by chunk, so
 an interrupted build resumes where it stopped.
+
+The cache keeps only the extracted points. The draws are a deterministic function of the spec's
+seed (:func:`plan_cases`), and each stored case records its entry of that plan
+(``meta["plan_index"]``), so :func:`rebuild_case` makes a stored case's records again, noise
+included, as an in-memory :class:`~freeplayid.io.Dataset` (what the bias-corrected fit,
+which replays the test, needs).
 """
 
 from __future__ import annotations
@@ -18,6 +24,7 @@ import json
 import math
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -25,7 +32,8 @@ from ..inverse.points import PointSets
 from ..quantity import G
 from .bank import _FORMAT, DELTA_REF, SweepBank, _atomic_savez, _digest, _pair
 
-__all__ = ["CaseSpec", "AXES", "build_cases", "split_by_kn"]
+__all__ = ["CaseSpec", "AXES", "PlannedCase", "plan_cases", "build_cases", "rebuild_case",
+           "require_plan_index", "split_by_kn"]
 
 AXES = ("noise_g", "delta")  # ablation axes of a case set
 
@@ -117,11 +125,81 @@ def _extract(signals, fs, sweep, channels, extraction, names) -> list[tuple[int,
     return [(channels.index(p.channel), p.amplitude_m, p.f_hz) for p in res.points if p.used]
 
 
-def _noisy_case(bank_signals, scale, noise_ms2, seed, fs, sweep, channels, extraction):
-    rng = np.random.default_rng(seed)
+def _case_records(bank_signals, scale, noise_ms2, seed) -> np.ndarray:
+    """Records (runs, C, T) [m/s^2] of one case: the bank's sweeps scaled, plus white noise of
+    std ``noise_ms2`` [m/s^2] drawn from ``seed`` (none when it is 0)."""
     x = bank_signals.astype(np.float64) * scale
-    x += rng.normal(0.0, noise_ms2, x.shape)
+    if noise_ms2 > 0:
+        x += np.random.default_rng(seed).normal(0.0, noise_ms2, x.shape)
+    return x
+
+
+def _noisy_case(bank_signals, scale, noise_ms2, seed, fs, sweep, channels, extraction):
+    x = _case_records(bank_signals, scale, noise_ms2, seed)
     return _extract(x, fs, sweep, channels, extraction, [f"run{i}" for i in range(len(x))])
+
+
+class PlannedCase(NamedTuple):
+    """One case of :func:`plan_cases`.
+
+    Attributes
+    ----------
+    kn_index : int
+        Index into the bank's ``kn``.
+    axis_value : float
+        The axis value the case was drawn for (noise std [g] or clearance [rad]).
+    delta : float [rad]
+        The case's clearance.
+    noise_g : float [g]
+        White-noise std added to every channel (0: noise-free).
+    runs : ndarray of int
+        The bank's sweeps (indices into its ``n_ratios``) of the case, sorted.
+    seed : int
+        Seed of the case's noise draw.
+    """
+
+    kn_index: int
+    axis_value: float
+    delta: float
+    noise_g: float
+    runs: np.ndarray
+    seed: int
+
+
+def plan_cases(bank: SweepBank, spec: CaseSpec) -> list[PlannedCase]:
+    """Every case ``spec`` draws from ``bank``, before extraction (deterministic in ``spec.seed``).
+
+    kn-major: every kn of the bank, every axis value, ``cases_per_value`` draws, each with its
+    clearance, its runs among the kn's sweeps that did not diverge, and its noise seed.
+
+    Raises
+    ------
+    ValueError
+        ``spec.runs`` asks for more sweeps than the bank has per kn.
+    """
+    k_n, r_n = bank.ratio.shape
+    lo, hi = spec.runs[0], min(spec.runs[1], r_n)
+    if lo > r_n:
+        raise ValueError(f"`runs` low {lo} exceeds the bank's {r_n} sweeps per kn")
+    rng = np.random.default_rng(spec.seed)
+    if spec.axis == "delta":
+        edges = np.log(spec.delta_bins())
+        order = np.argsort(spec.values)
+        bin_of = {spec.values[j]: (edges[i], edges[i + 1]) for i, j in enumerate(order)}
+    plan = []
+    for k in range(k_n):
+        for v in spec.values:
+            for _ in range(int(spec.cases_per_value)):
+                if spec.axis == "delta":
+                    delta, noise = float(np.exp(rng.uniform(*bin_of[v]))), spec.noise_g
+                else:
+                    delta = float(np.exp(rng.uniform(*np.log(spec.delta_range))))
+                    noise = v
+                ok = np.flatnonzero(~bank.diverged[k])
+                m = min(int(rng.integers(lo, hi + 1)), ok.size)
+                runs = np.sort(rng.choice(ok, m, replace=False))
+                plan.append(PlannedCase(k, v, delta, noise, runs, int(rng.integers(2**63))))
+    return plan
 
 
 def build_cases(
@@ -142,7 +220,9 @@ def build_cases(
     -------
     PointSets
         The kept cases; ``meta`` holds per case ``kn_index`` (index into ``bank.kn``),
-        ``axis_value``, ``noise_g`` [g], ``n_runs`` and ``level_max_g`` [g].
+        ``axis_value``, ``noise_g`` [g], ``n_runs``, ``level_max_g`` [g] and ``plan_index``
+        (its entry of :func:`plan_cases`, for :func:`rebuild_case`; cases cached before it
+        was stored lack it).
     """
     from joblib import Parallel, delayed
     from tqdm import tqdm
@@ -155,28 +235,7 @@ def build_cases(
     folder.mkdir(parents=True, exist_ok=True)
     chans = bank.spec.channels
     fs, sweep = bank.spec.sample_rate, bank.spec.sweep
-    k_n, r_n = bank.ratio.shape
-    lo, hi = spec.runs[0], min(spec.runs[1], r_n)
-    if lo > r_n:
-        raise ValueError(f"`runs` low {lo} exceeds the bank's {r_n} sweeps per kn")
-    rng = np.random.default_rng(spec.seed)
-    if spec.axis == "delta":
-        edges = np.log(spec.delta_bins())
-        order = np.argsort(spec.values)
-        bin_of = {spec.values[j]: (edges[i], edges[i + 1]) for i, j in enumerate(order)}
-    plan = []  # (kn index, axis value, delta, noise_g, run indices, case seed)
-    for k in range(k_n):
-        for v in spec.values:
-            for _ in range(int(spec.cases_per_value)):
-                if spec.axis == "delta":
-                    delta, noise = float(np.exp(rng.uniform(*bin_of[v]))), spec.noise_g
-                else:
-                    delta = float(np.exp(rng.uniform(*np.log(spec.delta_range))))
-                    noise = v
-                ok = np.flatnonzero(~bank.diverged[k])
-                m = min(int(rng.integers(lo, hi + 1)), ok.size)
-                runs = np.sort(rng.choice(ok, m, replace=False))
-                plan.append((k, v, delta, noise, runs, int(rng.integers(2**63))))
+    plan = plan_cases(bank, spec)
 
     # Noise-free extraction: once per sweep (at DELTA_REF), scaled per case.
     clean_path = folder / "clean.npz"
@@ -236,6 +295,7 @@ def build_cases(
         "noise_g": np.array([p[3] for p in plan], float),
         "n_runs": np.array([len(p[4]) for p in plan]),
         "level_max_g": np.array([bank.ratio[p[0], p[4]].max() * p[2] for p in plan]),
+        "plan_index": np.arange(len(plan)),
     }
     ps = PointSets(
         channels=chans, case=new_index[case[sel]].astype(np.int64),
@@ -248,6 +308,79 @@ def build_cases(
     (folder / "spec.json").write_text(json.dumps(info, indent=2, default=float))
     ps.save(final)
     return ps
+
+
+def require_plan_index(bank: SweepBank, spec: CaseSpec, ps: PointSets) -> None:
+    """ValueError unless ``ps`` records each case's plan entry (``meta["plan_index"]``), as
+    cases cached before it was stored do not; the message names their cache folder."""
+    if "plan_index" not in ps.meta:
+        raise ValueError(f"the cases have no meta['plan_index'] (cached before it was stored); "
+                         f"delete their cache folder cases-{spec.key(bank)} to rebuild them")
+
+
+def rebuild_case(bank: SweepBank, spec: CaseSpec, ps: PointSets, i: int, *,
+                 plan: list[PlannedCase] | None = None):
+    """Case ``i`` of ``ps`` as the records :func:`build_cases` extracted its points from.
+
+    The same bank sweeps, scaled by ``delta / DELTA_REF``, with the same noise draw (the case's
+    seed); extracting them with ``spec.extraction`` gives the stored points again (to rounding
+    for a noisy case; to 1e-6 for a noise-free one, whose stored points are scaled extractions
+    of the reference records).
+
+    Parameters
+    ----------
+    bank : SweepBank
+        The bank the cases were drawn from.
+    spec : CaseSpec
+        The spec that drew them.
+    ps : PointSets
+        ``build_cases(bank, spec)`` or a subset of it (:meth:`PointSets.subset` keeps ``meta``).
+    i : int
+        Case index in ``ps``.
+    plan : list of PlannedCase, optional
+        ``plan_cases(bank, spec)``, computed when not given (pass it when rebuilding many).
+
+    Returns
+    -------
+    freeplayid.io.Dataset
+        In memory (``path`` and ``model`` None): relative acceleration [m/s^2] of the bank's
+        channels (column = DOF name), one run per sweep named ``k<kn index>s<sweep index>``
+        with its ``level_g`` [g] and the bank's sweep law as its ``sweep`` hint; ``truth`` is
+        the case's kn [N m/rad] and delta [rad].
+
+    Raises
+    ------
+    ValueError
+        ``ps`` has no ``meta["plan_index"]`` (cases cached before it was stored: delete their
+        ``cases-<key>`` folder to rebuild them), or case ``i`` is not the plan's entry (``ps``
+        comes from another bank or spec).
+    """
+    from ..io import Dataset, Run
+
+    require_plan_index(bank, spec, ps)
+    plan = plan_cases(bank, spec) if plan is None else plan
+    j = int(ps.meta["plan_index"][i])
+    if not 0 <= j < len(plan):
+        raise ValueError(f"case {i}: plan_index {j} outside the plan's {len(plan)} cases; the "
+                         "cases come from another bank or spec")
+    case = plan[j]
+    if case.kn_index != int(ps.meta["kn_index"][i]) or case.delta != float(ps.delta[i]):
+        raise ValueError(f"case {i}: the plan's entry {j} has another kn or delta than the "
+                         "stored case; the cases come from another bank or spec")
+    k = case.kn_index
+    x = _case_records(bank.signals[k, case.runs], case.delta / DELTA_REF, case.noise_g * G,
+                      case.seed)
+    hint = bank.spec.sweep.to_dict()
+    runs = tuple(
+        Run(file=f"k{k}s{int(r)}", time=np.asarray(bank.time, dtype=float), data=x[m],
+            level_g=float(bank.ratio[k, r] * case.delta), sweep=dict(hint))
+        for m, r in enumerate(case.runs)
+    )
+    return Dataset(name=f"planned case {j} (kn index {k}, delta {case.delta:.4g} rad, noise "
+                        f"{case.noise_g:g} g)", model=None, quantity="acceleration",
+                   units="m/s^2", sample_rate=float(bank.spec.sample_rate),
+                   channels={c: c for c in bank.spec.channels}, runs=runs,
+                   truth={"kn": float(bank.kn[k]), "delta": float(case.delta)})
 
 
 def split_by_kn(ps: PointSets, n_kn: int, fractions: tuple[float, ...]) -> list[PointSets]:

@@ -5,7 +5,15 @@ Methods compared on the same cases (``METHODS``):
 - ``network``: the inverse model's estimate, no fit;
 - ``network+fit``: one backbone fit started from the network's estimate;
 - ``single-start``: one fit started from a fixed guess (the centre of the priors);
-- ``multi-start``: the pure-fitting baseline, a grid of starts (the best optimum wins).
+- ``multi-start``: the pure-fitting baseline, a grid of starts (the best optimum wins);
+- ``network+corrected``: the bias-corrected fit (``identify(..., replay=True)``, docs/identify.md
+  section 3b) started from the network's estimate;
+- ``multi-start+corrected``: the bias-corrected fit started from the multi-start grid.
+
+The two corrected methods replay the test by simulation, so they need each case's records, not
+only its points: :func:`corrected_cases` rebuilds them from the bank
+(:func:`freeplayid.studies.rebuild_case`) and runs on a chosen subset of the cases (each costs
+several simulated replays). Their cost is the plain fit's evaluations plus every replay's refit.
 
 Errors are relative, ``estimate / truth - 1``; a case succeeds when ``|delta error| <
 success_delta`` and ``|kn error| < success_kn``. The cost of a fit is its number of objective
@@ -18,16 +26,23 @@ share within bounds, calibration of its uncertainty).
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..inverse.points import PointSets
 from ..model.system import FreeplaySystem
 
-__all__ = ["METHODS", "fit_cases", "summarise", "network_rows", "network_metrics"]
+if TYPE_CHECKING:
+    from .bank import SweepBank
+    from .cases import CaseSpec
 
-METHODS = ("network", "network+fit", "single-start", "multi-start")
+__all__ = ["METHODS", "CORRECTED", "fit_cases", "corrected_cases", "summarise", "network_rows",
+           "network_metrics"]
+
+CORRECTED = ("network+corrected", "multi-start+corrected")
+METHODS = ("network", "network+fit", "single-start", "multi-start", *CORRECTED)
 
 
 def network_rows(ps: PointSets, kn, delta, *, wall_s: float) -> list[dict]:
@@ -100,6 +115,109 @@ def fit_cases(
         for _, _, rec, init, label in tqdm(jobs, desc="fits", unit="fit", disable=not progress)
     )
     return [_row(ps, i, m, *res) for (i, m, *_), res in zip(jobs, out, strict=True)]
+
+
+def _corrected_one(dataset, system, init, multistart, backbone, extraction):
+    """(kn, delta, evaluations, wall [s], replay converged, replays, verdict, failure) of one
+    case's corrected fit; a case that cannot be identified gives NaN estimates, verdict
+    "failed" and the reason."""
+    from ..identification.pipeline import identify
+
+    t0 = time.perf_counter()
+    try:
+        res = identify(dataset, system=system, init=init,
+                       multistart=None if init is not None else multistart, backbone=backbone,
+                       extraction=extraction, use_sweep_hint=True, replay=True, progress=False)
+    except ValueError as err:  # IdentificationError, or every start diverged: a failed case
+        return np.nan, np.nan, 0, time.perf_counter() - t0, False, 0, "failed", str(err)
+    rep = res.replay
+    n_eval = res.fit.n_evaluations + sum(int(it["n_evaluations"]) for it in rep.iterations)
+    return (res.kn, res.delta, n_eval, time.perf_counter() - t0, bool(rep.converged),
+            len(rep.iterations), res.verdict.status, rep.failure)
+
+
+def corrected_cases(
+    ps: PointSets,
+    cases: Sequence[int],
+    system: FreeplaySystem,
+    *,
+    bank: SweepBank,
+    spec: CaseSpec,
+    network_estimate: tuple[np.ndarray, np.ndarray] | None,
+    multistart: Mapping,
+    backbone: str = "dfa",
+    n_jobs: int = 1,
+    progress: bool = True,
+) -> list[dict]:
+    """The bias-corrected fits (``CORRECTED``) on the cases ``cases`` of ``ps``.
+
+    Each case's records are rebuilt (:func:`freeplayid.studies.rebuild_case`) and identified
+    by :func:`freeplayid.identify` with ``replay=True``, ``use_sweep_hint=True`` and the
+    spec's extraction: ``network+corrected`` starts its plain fit from the network's estimate,
+    ``multi-start+corrected`` from the multi-start grid.
+
+    Parameters
+    ----------
+    ps : PointSets
+        Cases of ``build_cases(bank, spec)`` (or a subset), with ``meta["plan_index"]``.
+    cases : sequence of int
+        Indices into ``ps``.
+    system : FreeplaySystem
+        The model the bank was simulated with (the replays use its damping).
+    bank : SweepBank
+    spec : CaseSpec
+    network_estimate : (kn (N,) [N m/rad], delta (N,) [rad]) or None
+        The network's estimate of every case of ``ps``; None skips ``network+corrected``.
+    multistart : mapping
+        ``n``, ``kn_range`` [N m/rad], ``delta_range`` [rad] of the grid
+        (:func:`freeplayid.fit.multistart_grid`).
+    backbone : str
+    n_jobs : int
+        Worker processes (joblib; -1: all cores); the records are rebuilt here, one case ahead
+        of the workers, and the wall time is measured in the worker.
+
+    Returns
+    -------
+    list of dict
+        One row per (case, method), the keys of :func:`fit_cases`'s rows with ``case`` the
+        index into ``ps``, plus ``n_replays`` (simulated replays), ``verdict`` ("ok",
+        "suspect", or "failed" when the case could not be identified: NaN estimates, 0
+        evaluations) and ``failure`` (why it failed, why a replay could not be fitted, or "");
+        ``converged`` says whether the replay loop converged and ``n_evaluations`` is the
+        plain fit's objective evaluations plus those of every replay's refit.
+
+    Raises
+    ------
+    ValueError
+        ``ps`` has no ``meta["plan_index"]`` (:func:`freeplayid.studies.rebuild_case`).
+    """
+    from joblib import Parallel, delayed
+    from tqdm import tqdm
+
+    from .cases import plan_cases, rebuild_case, require_plan_index
+
+    require_plan_index(bank, spec, ps)
+    plan = plan_cases(bank, spec)
+    ms = {"n": int(multistart["n"]), "kn_range": tuple(multistart["kn_range"]),
+          "delta_range": tuple(multistart["delta_range"])}
+    jobs = []
+    for i in (int(c) for c in cases):
+        if network_estimate is not None:
+            init = (float(network_estimate[0][i]), float(network_estimate[1][i]))
+            jobs.append((i, "network+corrected", init))
+        jobs.append((i, "multi-start+corrected", None))
+    out = Parallel(n_jobs=n_jobs, batch_size=1)(
+        delayed(_corrected_one)(rebuild_case(bank, spec, ps, i, plan=plan), system, init, ms,
+                                backbone, dict(spec.extraction))
+        for i, _, init in tqdm(jobs, desc="corrected fits", unit="fit", disable=not progress)
+    )
+    rows = []
+    for (i, m, _), (kn, delta, n_eval, wall, conv, n_rep, verdict, why) in zip(jobs, out,
+                                                                                strict=True):
+        row = _row(ps, i, m, kn, delta, n_eval, wall, conv)
+        row.update(n_replays=int(n_rep), verdict=str(verdict), failure=str(why))
+        rows.append(row)
+    return rows
 
 
 def summarise(

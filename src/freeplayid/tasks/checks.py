@@ -275,6 +275,7 @@ def _compare() -> dict[str, Rule]:
     return {
         **_train(), "inverse.checkpoint": optional(text()),
         "compare.cases_per_value": integer(1),
+        "compare.corrected_cases_per_value": integer(0),
         "compare.single_start": optional(numbers(positive(), length=2)),
         "compare.backbone": _backbone(), "compare.n_jobs": integer(), **_multistart(),
     }

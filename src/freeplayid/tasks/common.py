@@ -22,8 +22,8 @@ from ..model.system import FreeplaySystem
 if TYPE_CHECKING:
     from ..studies import StudyData
 
-__all__ = ["build_system", "register_configs", "study_data", "train_network", "run_dir",
-           "write_metrics", "writing_to", "check_run_dir", "MODEL_KINDS"]
+__all__ = ["build_system", "register_configs", "study_specs", "study_data", "train_network",
+           "run_dir", "write_metrics", "writing_to", "check_run_dir", "MODEL_KINDS"]
 
 MODEL_KINDS = ("fin", "npz", "sdof")
 
@@ -94,28 +94,38 @@ def _channels(cfg: DictConfig, system: FreeplaySystem) -> tuple:
     return tuple(d for d in system.dof_names if d.startswith("uz_")) or tuple(system.dof_names)
 
 
-def study_data(cfg: DictConfig, *, progress: bool = True) -> StudyData:
-    """:func:`freeplayid.studies.prepare_study` of ``cfg.model`` and ``cfg.dataset``.
+def study_specs(cfg: DictConfig, system: FreeplaySystem) -> tuple:
+    """What ``cfg.dataset`` asks of :func:`freeplayid.studies.prepare_study` for ``system``.
 
-    The channels are ``dataset.channels``, else ``model.channels``, else every ``uz_*`` DOF;
-    ``dataset.cache_dir`` is relative to the directory the command was started from. The
-    returned ``build_s`` includes building the model.
+    Returns
+    -------
+    (BankSpec, CaseSpec, split, cache_dir)
+        ``split`` the three fractions, ``cache_dir`` the absolute path of
+        ``dataset.cache_dir`` (relative to the directory the command was started from); the
+        channels are ``dataset.channels``, else ``model.channels``, else every ``uz_*`` DOF.
     """
     from hydra.utils import to_absolute_path
 
     from ..simulate import Sweep
-    from ..studies import BankSpec, CaseSpec, prepare_study
+    from ..studies import BankSpec, CaseSpec
 
-    t0 = time.perf_counter()
-    system = build_system(cfg.model)
     d = OmegaConf.to_container(cfg.dataset, resolve=True)
     b = dict(d["bank"])
     b["sweep"] = Sweep(**b["sweep"])
-    data = prepare_study(
-        system, bank_spec=BankSpec(channels=_channels(cfg, system), **b),
-        case_spec=CaseSpec(**d["cases"]), split=tuple(d["split"]),
-        cache_dir=Path(to_absolute_path(str(d["cache_dir"]))), progress=progress,
-    )
+    return (BankSpec(channels=_channels(cfg, system), **b), CaseSpec(**d["cases"]),
+            tuple(d["split"]), Path(to_absolute_path(str(d["cache_dir"]))))
+
+
+def study_data(cfg: DictConfig, *, progress: bool = True) -> StudyData:
+    """:func:`freeplayid.studies.prepare_study` of ``cfg.model`` and ``cfg.dataset``
+    (:func:`study_specs`). The returned ``build_s`` includes building the model."""
+    from ..studies import prepare_study
+
+    t0 = time.perf_counter()
+    system = build_system(cfg.model)
+    bank_spec, case_spec, split, cache_dir = study_specs(cfg, system)
+    data = prepare_study(system, bank_spec=bank_spec, case_spec=case_spec, split=split,
+                         cache_dir=cache_dir, progress=progress)
     return dataclasses.replace(data, build_s=time.perf_counter() - t0)
 
 
