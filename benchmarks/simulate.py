@@ -57,29 +57,31 @@ def segment(seconds: float) -> Sweep:
     return Sweep(40.0, 40.0 + 0.1 * seconds, 0.1)  # the paper's rate, around the resonance
 
 
-def time_sim(system, batch, seconds, **kw) -> tuple[float, object]:
-    sw = segment(seconds)
-    lv = np.linspace(0.3, 1.0, batch)
-    simulate_sweeps(system, kn=KN, delta=DELTA, level_g=lv[: min(batch, 4)], sweep=segment(0.05),
-                    channels=CH, progress=False, **kw)  # warm-up (numba compile, allocator)
+def timed(system, sweep, level_g, *, kn, delta, channels=CH, **kw) -> tuple[float, object]:
+    """(wall seconds, result) of ``simulate_sweeps`` over ``sweep``, after a 0.01 s warm-up with
+    the same options (numba compile, allocator)."""
+    rate = float(sweep.rate(0.0))
+    warm = Sweep(sweep.start_hz, sweep.start_hz + 0.01 * rate, rate)
+    simulate_sweeps(system, kn=kn, delta=delta, level_g=level_g[: min(len(level_g), 4)],
+                    sweep=warm, channels=channels, progress=False, **kw)
     t0 = time.perf_counter()
-    r = simulate_sweeps(system, kn=KN, delta=DELTA, level_g=lv, sweep=sw, channels=CH,
-                        progress=False, **kw)
-    el = time.perf_counter() - t0
-    return batch * sw.duration / (el * FULL), r  # full sweeps per second
+    r = simulate_sweeps(system, kn=kn, delta=delta, level_g=level_g, sweep=sweep,
+                        channels=channels, progress=False, **kw)
+    return time.perf_counter() - t0, r
+
+
+def time_sim(system, batch, seconds, **kw) -> tuple[float, object]:
+    """Full sweeps per second from a ``seconds`` segment around the resonance."""
+    sw = segment(seconds)
+    el, r = timed(system, sw, np.linspace(0.3, 1.0, batch), kn=KN, delta=DELTA, **kw)
+    return batch * sw.duration / (el * FULL), r
 
 
 def time_whole(system, batch, quick, **kw) -> tuple[float, object, Sweep]:
     """Full sweeps per second of a whole sweep (the paper's 30 -> 50 Hz at 0.1 Hz/s; quick:
-    38 -> 42 Hz), after a warm-up."""
+    38 -> 42 Hz)."""
     sw = Sweep(38.0, 42.0, 0.1) if quick else Sweep(30.0, 50.0, 0.1)
-    lv = np.linspace(0.3, 1.0, batch)
-    simulate_sweeps(system, kn=KN, delta=DELTA, level_g=lv[: min(batch, 4)], sweep=segment(0.05),
-                    channels=CH, progress=False, **kw)  # warm-up
-    t0 = time.perf_counter()
-    r = simulate_sweeps(system, kn=KN, delta=DELTA, level_g=lv, sweep=sw, channels=CH,
-                        progress=False, **kw)
-    el = time.perf_counter() - t0
+    el, r = timed(system, sw, np.linspace(0.3, 1.0, batch), kn=KN, delta=DELTA, **kw)
     return batch * sw.duration / (el * FULL), r, sw
 
 
@@ -120,13 +122,9 @@ def beam_rows(quick: bool) -> list[tuple[str, float, float]]:
     whole = Sweep(45.0, 47.0, 0.1) if quick else Sweep(30.0, 50.0, 0.1)
     rk4 = Sweep(48.0, 48.0 + 0.1 * (0.002 if quick else 0.01), 0.1)
     for engine, sw in (("expo", whole), ("numba", rk4)):
-        kw = dict(kn=kn, delta=delta, level_g=[0.4, 0.6, 0.8, 1.0, 1.2], channels=list(ch),
-                  quantity="acceleration", frame="relative", sample_rate=256.0,
-                  dtype=torch.float64, progress=False, engine=engine)
-        simulate_sweeps(system, sweep=Sweep(48.0, 48.0 + 0.1 * 0.01, 0.1), **kw)  # warm-up
-        t0 = time.perf_counter()
-        r = simulate_sweeps(system, sweep=sw, **kw)
-        el = time.perf_counter() - t0
+        el, r = timed(system, sw, [0.4, 0.6, 0.8, 1.0, 1.2], kn=kn, delta=delta,
+                      channels=list(ch), quantity="acceleration", frame="relative",
+                      sample_rate=256.0, dtype=torch.float64, engine=engine)
         name = "exponential engine" if engine == "expo" else "RK4 (numba)"
         out.append((f"{name}, timed on {sw.start_hz:g}->{sw.stop_hz:g} Hz ({sw.duration:g} s)",
                     r.dt * 1e6, el * FULL / sw.duration))

@@ -243,7 +243,7 @@ def build_cases(
         with np.load(clean_path) as z:
             clean = {(int(a), int(b)): z[f"p{a}_{b}"] for a, b in z["keys"]}
     else:
-        need = sorted({(k, int(r)) for k, _, _, n, runs, _ in plan if n == 0 for r in runs})
+        need = sorted({(c.kn_index, int(r)) for c in plan if c.noise_g == 0 for r in c.runs})
         out = Parallel(n_jobs=spec.n_jobs, batch_size=16)(
             delayed(_extract)(bank.signals[k, r][None], fs, sweep, chans, spec.extraction,
                               [f"k{k}s{r}"])
@@ -261,10 +261,11 @@ def build_cases(
         path = folder / f"part-{c0 // chunk:04d}.npz"
         block = plan[c0:c0 + chunk]
         if not path.is_file():
-            noisy = [i for i, p in enumerate(block) if p[3] > 0]
+            noisy = [i for i, c in enumerate(block) if c.noise_g > 0]
             got = Parallel(n_jobs=spec.n_jobs, batch_size=4)(
-                delayed(_noisy_case)(bank.signals[block[i][0], block[i][4]],
-                                     block[i][2] / DELTA_REF, block[i][3] * G, block[i][5],
+                delayed(_noisy_case)(bank.signals[block[i].kn_index, block[i].runs],
+                                     block[i].delta / DELTA_REF, block[i].noise_g * G,
+                                     block[i].seed,
                                      fs, sweep, chans, spec.extraction)
                 for i in noisy
             )
@@ -290,17 +291,17 @@ def build_cases(
     sel = keep[case]
     new_index = np.cumsum(keep) - 1
     meta = {
-        "kn_index": np.array([p[0] for p in plan]),
-        "axis_value": np.array([p[1] for p in plan], float),
-        "noise_g": np.array([p[3] for p in plan], float),
-        "n_runs": np.array([len(p[4]) for p in plan]),
-        "level_max_g": np.array([bank.ratio[p[0], p[4]].max() * p[2] for p in plan]),
+        "kn_index": np.array([c.kn_index for c in plan]),
+        "axis_value": np.array([c.axis_value for c in plan], float),
+        "noise_g": np.array([c.noise_g for c in plan], float),
+        "n_runs": np.array([len(c.runs) for c in plan]),
+        "level_max_g": np.array([bank.ratio[c.kn_index, c.runs].max() * c.delta for c in plan]),
         "plan_index": np.arange(len(plan)),
     }
     ps = PointSets(
         channels=chans, case=new_index[case[sel]].astype(np.int64),
         channel=pts[sel, 0].astype(np.int64), amplitude=pts[sel, 1], frequency=pts[sel, 2],
-        kn=bank.kn[meta["kn_index"][keep]], delta=np.array([p[2] for p in plan])[keep],
+        kn=bank.kn[meta["kn_index"][keep]], delta=np.array([c.delta for c in plan])[keep],
         meta={k: v[keep] for k, v in meta.items()},
     )
     info = {"spec": asdict(spec), "bank": bank.key, "n_planned": len(plan),
