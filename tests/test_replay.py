@@ -68,7 +68,10 @@ def test_replay_at_the_truth_reproduces_the_measured_points(measured, system):
 def test_corrected_fit_reports_its_iterations(measured, system):
     res = identify(measured, system=system, multistart=MULTISTART, progress=False, replay=True)
     r = res.replay
-    assert r.iterations and r.iterations[0]["kn"] == pytest.approx(r.kn_fit)
+    # the replays start at the fit of the points taken with the statistic's jump point
+    assert r.jump_point == "drop" and r.kn_statistic != r.kn_fit
+    assert r.iterations and r.iterations[0]["kn"] == pytest.approx(r.kn_statistic)
+    assert r.kn_fit == pytest.approx(res.fit.kn)  # the plain fit, as reported
     # each replay's refit counts its objective evaluations (one start: a few tens, not a grid)
     assert all(isinstance(it["n_evaluations"], int) and 3 <= it["n_evaluations"] < 200
                for it in r.iterations)

@@ -156,6 +156,13 @@ class ReplayResult:
         Percentile intervals of the bootstrap by replay (``n_bootstrap`` copies), or None.
     noise : dict of str -> list of float or None
         Per run: each channel's measured noise level used by the bootstrap [data units].
+    jump_point : str
+        The jump-point rule of the statistic the replays match (module docstring).
+    kn_statistic, delta_statistic : float
+        The fit of the measured points taken with ``jump_point`` (the binding's target; the
+        plain fit itself when it used that rule).
+    statistic_ci95 : ((float, float), (float, float)) or None
+        That fit's Jacobian 95 % intervals of kn and delta.
     """
 
     kn: float
@@ -175,6 +182,10 @@ class ReplayResult:
     n_bootstrap: int = 0
     noise: dict | None = None
     sweeps: dict | None = None
+    jump_point: str = ""
+    kn_statistic: float = float("nan")
+    delta_statistic: float = float("nan")
+    statistic_ci95: tuple | None = None
 
 
 def replay_sweeps(dataset) -> dict:
@@ -353,7 +364,7 @@ def _amplitude_ratios(measured_points, replayed_points) -> np.ndarray:
 
 def corrected_fit(dataset, system, identification, *, fit_kwargs: dict, damping=None,
                   n_bootstrap: int = 0, seed: int = 0, rtol: float = 5e-4, max_iter: int = 8,
-                  progress: bool = False) -> ReplayResult:
+                  jump_point: str | None = "drop", progress: bool = False) -> ReplayResult:
     """Bias-corrected (kn, delta) by replaying the test (module docstring).
 
     Parameters
@@ -377,6 +388,12 @@ def corrected_fit(dataset, system, identification, *, fit_kwargs: dict, damping=
         Convergence: (kn, delta) move by less than this between replays.
     max_iter : int
         Most replays.
+    jump_point : str or None
+        Jump-point rule of the statistic (:data:`freeplayid.signal.JUMP_POINTS`): the measured
+        data are extracted again with it when the plain identification used another rule, and
+        every replay is extracted with it. "drop" (default): the frequency where the curve
+        drops, the amplitude just ahead of it (module docstring). None: the plain
+        identification's own rule.
 
     A replay that cannot be fitted (the replayed fin stays in the gap, no jump: a model far
     from the test) ends the loop with ``failure`` set; the verdict then says ``suspect``.
@@ -385,6 +402,26 @@ def corrected_fit(dataset, system, identification, *, fit_kwargs: dict, damping=
     from .identification.result import IdentificationError
 
     source, zeta = _damping_mode(system, damping)
+    plain = identification
+    extraction = dict(fit_kwargs.get("extraction") or {})
+    own_rule = extraction.get("jump_point", "smoothed")
+    jump_point = own_rule if jump_point is None else jump_point
+    if jump_point != own_rule:
+        # the statistic: the measured data extracted with the statistic's jump point
+        fit_kwargs = {**fit_kwargs, "extraction": {**extraction, "jump_point": jump_point}}
+        try:
+            identification = identify(dataset, system=system, init=(plain.kn, plain.delta),
+                                      progress=False, replay=False, **fit_kwargs)
+        except IdentificationError as err:
+            hat = np.array([plain.kn, plain.delta])
+            return ReplayResult(kn=float(hat[0]), delta=float(hat[1]), kn_fit=float(hat[0]),
+                                delta_fit=float(hat[1]), iterations=[], converged=False,
+                                levels={}, offsets=[], damping=None, jump_point=jump_point,
+                                failure=f"the measured points taken with jump_point "
+                                        f"{jump_point!r} cannot be fitted: {err}")
+    stat = {"jump_point": jump_point, "kn_statistic": float(identification.kn),
+            "delta_statistic": float(identification.delta),
+            "statistic_ci95": (tuple(identification.kn_ci95), tuple(identification.delta_ci95))}
     # replay only the runs whose points were fitted: a run rejected in the test (e.g. it stayed
     # in the gap) must not enter the replayed fit as a point the measured fit did not have
     measured = identification.points.used()
@@ -394,11 +431,11 @@ def corrected_fit(dataset, system, identification, *, fit_kwargs: dict, damping=
         sweeps = {k: v for k, v in replay_sweeps(dataset).items() if k in used}
         levels = replay_levels(dataset, sweeps)
     except ValueError as err:  # no level or no sweep law for a run: the test cannot be replayed
-        return ReplayResult(kn=float(hat[0]), delta=float(hat[1]), kn_fit=float(hat[0]),
-                            delta_fit=float(hat[1]), iterations=[], converged=False, levels={},
-                            offsets=[], damping=None,
-                            failure=f"the test cannot be replayed: {err}")
-    kn_damping = float(hat[0])  # closed-hinge stiffness of an estimated/given modal damping
+        return ReplayResult(kn=float(plain.kn), delta=float(plain.delta),
+                            kn_fit=float(plain.kn), delta_fit=float(plain.delta), iterations=[],
+                            converged=False, levels={}, offsets=[], damping=None,
+                            failure=f"the test cannot be replayed: {err}", **stat)
+    kn_damping = float(plain.kn)  # closed-hinge stiffness of an estimated/given modal damping
     estimate = source == "estimated"
     if estimate:
         zeta = initial_zeta(system, measured, levels, kn_damping, identification.dofs,
@@ -490,7 +527,7 @@ def corrected_fit(dataset, system, identification, *, fit_kwargs: dict, damping=
     misfit: dict[str, float] = {}
     if rep is not None:
         replayed_curves = {(c.run, c.channel): c for c in rep.points.curves}
-        for c in identification.points.curves:
+        for c in plain.points.curves:
             r = replayed_curves.get((c.run, c.channel))
             if r is not None and c.run in levels:
                 misfit[c.run] = max(misfit.get(c.run, 0.0), curve_misfit(c, r))
@@ -501,9 +538,10 @@ def corrected_fit(dataset, system, identification, *, fit_kwargs: dict, damping=
             rep_ds, system, noise, theta=theta, theta_rep=np.array([rep.kn, rep.delta]),
             n=int(n_bootstrap), seed=int(seed), fit_kwargs=fit_kwargs, progress=progress)
     if failure:
-        theta = hat.copy()  # nothing to correct with: the plain fit stays
-    return ReplayResult(kn=float(theta[0]), delta=float(theta[1]), kn_fit=float(hat[0]),
-                        delta_fit=float(hat[1]), iterations=history, converged=converged,
+        theta = np.array([plain.kn, plain.delta])  # nothing to correct with: the plain fit stays
+    return ReplayResult(kn=float(theta[0]), delta=float(theta[1]), kn_fit=float(plain.kn),
+                        delta_fit=float(plain.delta), iterations=history, converged=converged,
+                        **stat,
                         levels=levels, offsets=offsets,
                         curves=tuple(rep.points.curves) if rep is not None else (),
                         misfit=misfit, damping=damping_used, failure=failure,

@@ -101,6 +101,7 @@ def identify(
     replay: bool = True,
     damping=None,
     replay_bootstrap: int = 0,
+    replay_jump_point: str | None = "drop",
 ) -> Identification:
     """Identify (kn, delta) from a measured (or simulated) sine-sweep data set.
 
@@ -144,6 +145,11 @@ def identify(
     replay_bootstrap : int
         With ``replay``: noisy copies of the final replay for bootstrap intervals that see the
         bias (0: none; the intervals are then the Jacobian ones, moved with the estimate).
+    replay_jump_point : str or None
+        With ``replay``: the jump-point rule of the points the replays match
+        (:func:`freeplayid.replay.corrected_fit`): "drop" (default; the frequency where the
+        curve drops, far less noisy than the maximum's on a flat top), or None for
+        ``extraction``'s own rule.
 
     Returns
     -------
@@ -168,6 +174,12 @@ def identify(
 
     t0 = time.perf_counter()
     backbone_method(backbone, argument="backbone")  # an unknown name fails before any work
+    if replay and replay_jump_point is not None:
+        from ..signal.peak import JUMP_POINTS
+
+        if replay_jump_point not in JUMP_POINTS:
+            raise ValueError(f"`replay_jump_point` must be one of {sorted(JUMP_POINTS)} or "
+                             f"None, got {replay_jump_point!r}")
     if isinstance(dataset, (str, os.PathLike)):
         dataset = read_dataset(dataset)
     if system is None:
@@ -230,15 +242,16 @@ def identify(
         result = _with_replay(result, dataset, system, backbone=backbone, extraction=extraction,
                               use_sweep_hint=use_sweep_hint, mode=int(mode), t0=t0,
                               damping=damping, n_bootstrap=int(replay_bootstrap), seed=int(seed),
-                              progress=progress)
+                              jump_point=replay_jump_point, progress=progress)
     return result
 
 
-def _with_replay(result, dataset, system, *, t0, damping, n_bootstrap, seed, progress,
-                 **fit_kwargs):
+def _with_replay(result, dataset, system, *, t0, damping, n_bootstrap, seed, jump_point,
+                 progress, **fit_kwargs):
     """``result`` with the bias-corrected (kn, delta) of :func:`freeplayid.replay.corrected_fit`.
 
-    Intervals: the Jacobian ones moved with the estimate (same relative width); with the
+    Intervals: the Jacobian ones of the statistic's fit (the points the replays match) moved
+    with the estimate (same relative width); with the
     bootstrap by replay, the smallest interval holding both (``interval_source`` says which).
     A replay that failed keeps the plain estimate and makes the verdict ``suspect``.
     """
@@ -248,14 +261,16 @@ def _with_replay(result, dataset, system, *, t0, damping, n_bootstrap, seed, pro
     from ..verdict import make_verdict, replay_checks
 
     rep = corrected_fit(dataset, system, result, fit_kwargs=fit_kwargs, damping=damping,
-                        n_bootstrap=n_bootstrap, seed=seed, progress=progress)
+                        n_bootstrap=n_bootstrap, seed=seed, jump_point=jump_point,
+                        progress=progress)
     verdict = make_verdict(result.verdict.checks + tuple(replay_checks(rep)))
     if rep.failure:
         return dataclasses.replace(result, verdict=verdict, replay=rep,
                                    runtime_s=time.perf_counter() - t0)
-    sk, sd = rep.kn / result.kn, rep.delta / result.delta
-    kn_ci = tuple(v * sk for v in result.kn_ci95)
-    delta_ci = tuple(v * sd for v in result.delta_ci95)
+    (kn_ci, delta_ci) = rep.statistic_ci95
+    sk, sd = rep.kn / rep.kn_statistic, rep.delta / rep.delta_statistic
+    kn_ci = tuple(v * sk for v in kn_ci)
+    delta_ci = tuple(v * sd for v in delta_ci)
     source = "Jacobian (moved with the estimate)"
     if rep.kn_ci95_replay is not None:
         kn_ci = (min(kn_ci[0], rep.kn_ci95_replay[0]), max(kn_ci[1], rep.kn_ci95_replay[1]))

@@ -151,6 +151,8 @@ class Identification:
             r = self.replay
             out["replay"] = {
                 "kn_fit": r.kn_fit, "delta_fit": r.delta_fit, "converged": r.converged,
+                "jump_point": r.jump_point, "kn_statistic": r.kn_statistic,
+                "delta_statistic": r.delta_statistic,
                 "iterations": r.iterations, "offsets": r.offsets,
                 "levels": {k: {"level_g": v[0], "source": v[1]} for k, v in r.levels.items()},
                 "misfit": r.misfit,
@@ -237,7 +239,9 @@ class Identification:
                       f"Plain fit: kn = {r.kn_fit:.5g} N·m/rad, delta = {r.delta_fit:.5g} rad; "
                       f"corrected: kn = {self.kn:.5g}, delta = {self.delta:.5g} "
                       f"({'converged' if r.converged else '**not converged**'} after "
-                      f"{len(r.iterations)} replays).", "",
+                      f"{len(r.iterations)} replays). The replays match the fit of the points "
+                      f"taken with jump point `{r.jump_point}`: kn = {r.kn_statistic:.5g}, "
+                      f"delta = {r.delta_statistic:.5g}.", "",
                       "| replay | kn [N·m/rad] | delta [rad] | fit of the replay: kn | delta |",
                       "|---|---|---|---|---|"]
             lines += [f"| {k + 1} | {it['kn']:.5g} | {it['delta']:.5g} | {it['kn_rep']:.5g} | "

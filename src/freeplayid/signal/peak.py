@@ -95,12 +95,35 @@ def _lobe(xi: np.ndarray, k: int, ratio: float) -> tuple[int, int]:
             int(after[0]) if after.size else xi.shape[0])
 
 
+def _drop_point(k, *, xi, ratio, steep_after, fs, bandwidth_hz, **_):
+    """Fractional index of the drop (where the smoothed curve falls through ``ratio`` times its
+    maximum on the jump's steep side, linearly interpolated) and the smoothed amplitude one
+    filter time ``1 / bandwidth_hz`` ahead of it (on the flat top; not its maximum, which noise
+    biases upwards)."""
+    level = ratio * xi[k]
+    if steep_after:
+        side = np.nonzero(xi[k:] < level)[0]
+    else:
+        side = np.nonzero(xi[: k + 1][::-1] < level)[0]
+    if side.size == 0:  # no drop in the record (a rejected point): the maximum itself
+        return k, float(xi[k])
+    if steep_after:
+        i = k + int(side[0])  # first sample below the level; i - 1 is above it
+        crossing = i - 1 + float((xi[i - 1] - level) / (xi[i - 1] - xi[i]))
+        ahead = max(float(k), crossing - fs / bandwidth_hz)
+    else:
+        i = k - int(side[0])  # last sample below the level before the maximum; i + 1 above
+        crossing = i + float((level - xi[i]) / (xi[i + 1] - xi[i]))
+        ahead = min(float(k), crossing + fs / bandwidth_hz)
+    return crossing, float(np.interp(ahead, np.arange(xi.shape[0]), xi))
+
+
 def _smoothed_point(k, **_):
     """The maximum of the extractor's smoothed curve (the behaviour before the windowed point)."""
     return k, None
 
 
-def _windowed_point(k, *, x, fs, mode, trim, xi, ratio, bandwidth_hz, to_disp, clip):
+def _windowed_point(k, *, x, fs, mode, trim, xi, ratio, bandwidth_hz, to_disp, clip, **_):
     """Index (in the analysed part) and displacement amplitude of the windowed jump point."""
     start, stop = _lobe(xi, k, ratio)
     amp = windowed_amplitude(x, mode.phase, fs, sigma_s=gaussian_sigma(bandwidth_hz),
@@ -112,4 +135,4 @@ def _windowed_point(k, *, x, fs, mode, trim, xi, ratio, bandwidth_hz, to_disp, c
 
 # name -> jump point rule (extract_backbone_points' `jump_point`); a new rule is one function
 # here and one line
-JUMP_POINTS = {"windowed": _windowed_point, "smoothed": _smoothed_point}
+JUMP_POINTS = {"windowed": _windowed_point, "smoothed": _smoothed_point, "drop": _drop_point}

@@ -458,13 +458,15 @@ def _channel_point(
     kp, xp = JUMP_POINTS[jump_point](
         k, x=x, fs=fs, mode=mode, trim=trim, xi=xi, ratio=peak_rule["jump_ratio"],
         bandwidth_hz=bw, to_disp=lambda a, f: to_displacement(a, f, quantity), clip=clip,
+        steep_after=peak_rate > 0,
     )
+    t_point = float(np.interp(kp, np.arange(ti.shape[0]), ti))  # "drop": a fractional index
     if xp is None:  # the smoothed curve's own maximum and frequency
         f_point, xp = float(fi[kp]), float(xi[kp])
     elif law is not None:  # the hint, else the record's own law (estimate_sweep)
-        f_point = float(law.frequency(ti[kp]))
+        f_point = float(law.frequency(t_point))
     else:  # a given `init_freq`: the straight line through the response's frequency
-        f_point = float(_linear_law(ti, fi, mode.amplitude[sl])(ti[kp]))
+        f_point = float(_linear_law(ti, fi, mode.amplitude[sl])(t_point))
     point = BackbonePoint(
         run=names[0],
         channel=names[1],
@@ -472,7 +474,7 @@ def _channel_point(
         amplitude_m=xp,
         used=reason == "",
         reason=reason,
-        time_s=float(ti[kp]),
+        time_s=t_point,
         snr_db=mode.snr_db,
     )
     step = max(1, xi.shape[0] // curve_points)

@@ -212,7 +212,7 @@ def _identify() -> dict[str, Rule]:
         "extraction.jump_point": _jump_point(),
         **_multistart(), "plot": boolean(), "allow_suspect": boolean(), "replay": boolean(),
         "damping": optional(either(choice("model", "estimate"), number(0.0, 0.99, open_lo=True))),
-        "replay_bootstrap": integer(0),
+        "replay_bootstrap": integer(0), "replay_jump_point": optional(_jump_point()),
     }
 
 

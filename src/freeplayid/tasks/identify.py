@@ -146,7 +146,7 @@ def _identify(cfg: DictConfig, stage: Path, t0: float) -> dict:
         multistart=OmegaConf.to_container(cfg.multistart, resolve=True),
         mode=int(cfg.mode), n_bootstrap=int(cfg.n_bootstrap), seed=int(cfg.seed),
         replay=bool(cfg.replay), damping=cfg.damping,
-        replay_bootstrap=int(cfg.replay_bootstrap),
+        replay_bootstrap=int(cfg.replay_bootstrap), replay_jump_point=cfg.replay_jump_point,
     )
     est = result.inverse_estimate
     if est:
