@@ -107,6 +107,41 @@ def test_windowed_amplitude_constant_envelope_and_width():
 
 
 def test_jump_point_unknown_name():
-    with pytest.raises(ValueError, match=r"`jump_point` must be one of \['smoothed', 'windowed'\]"):
+    with pytest.raises(ValueError,
+                       match=r"`jump_point` must be one of \['drop', 'smoothed', 'windowed'\]"):
         extract_backbone_points(np.zeros((1, 1, 4096)) + 1.0, 256.0, quantity="displacement",
                                 jump_point="peak")
+
+
+@pytest.mark.parametrize("up", [True, False])
+def test_drop_point_at_the_analytic_cliff(up):
+    # "drop": the excitation frequency where the smoothed curve falls through half its maximum,
+    # on the jump's steep side (after the top for an up-sweep, before it for a down-sweep)
+    fs = 512.0
+    sweep = Sweep(30.0, 40.0, 1.0) if up else Sweep(40.0, 30.0, 1.0)
+    t_top = 6.0 if up else 4.0
+    t_cliff = t_top + (CLIFF_S if up else -CLIFF_S)
+    env, x = _cliff_chirp(sweep, fs, t_top, t_cliff)
+    p = extract_backbone_points(x[None, None], fs, quantity="displacement", sweep=sweep,
+                                method="lockin", jump_point="drop").points[0]
+    assert p.used, p.reason
+    assert abs(p.time_s - t_cliff) < 0.05  # the envelope's half level is 0.015 s past t_cliff
+    assert abs(p.f_hz - sweep.frequency(t_cliff)) < 0.05
+    assert abs(p.amplitude_m / float(np.max(env)) - 1) < 0.03  # on the top, filter overshoot
+
+
+def test_drop_point_frequency_is_steady_in_noise(sdof):
+    # 5 % of the peak acceleration: the drop's frequency moves by < 0.005 Hz, where the
+    # maximum's wanders along the flat top (the windowed point: by 0.01-0.05 Hz)
+    x, fs, (_, f_true, x_true) = sdof
+    scale = x_true * (2 * math.pi * f_true) ** 2
+    clean = {jp: _point(x, fs, method="lockin", sweep=SWEEP, jump_point=jp)
+             for jp in ("drop", "windowed")}
+    moved = {"drop": [], "windowed": []}
+    for seed in range(4):
+        xn = x + 0.05 * scale * np.random.default_rng(seed).standard_normal(x.shape)
+        for jp in moved:
+            p = _point(xn, fs, method="lockin", sweep=SWEEP, jump_point=jp)
+            moved[jp].append(abs(p.f_hz - clean[jp].f_hz))
+    assert max(moved["drop"]) < 0.005
+    assert max(moved["windowed"]) > 0.01
