@@ -33,6 +33,7 @@ FAULTS = [
     ("identify", ["damping=1.5"], "`damping`"),
     ("identify", ["damping=rayleigh"], "`damping`"),
     ("identify", ["replay_bootstrap=-1"], "`replay_bootstrap`"),
+    ("identify", ["replay_jump_point=peak"], "`replay_jump_point`"),
     ("simulate", SIM + ["levels=[-0.4]"], "`levels`"),
     ("simulate", SIM + ["levels=[]"], "`levels`"),
     ("simulate", SIM + ["kn=0"], "`kn`"),

@@ -156,6 +156,22 @@ def test_noise_levels_recover_a_known_noise(measured, system):
         assert got[run.file][0] == pytest.approx(sd, rel=0.05)
 
 
+def test_the_replay_statistic_can_be_the_plain_points(measured, system):
+    # replay_jump_point=None: the replays match the plain fit's own (smoothed) points, so the
+    # loop starts at the plain fit; both statistics land on the truth of this clean reference
+    res = identify(measured, system=system, multistart=MULTISTART, progress=False, replay=True,
+                   replay_jump_point=None)
+    r = res.replay
+    assert r.jump_point == "smoothed" and r.kn_statistic == r.kn_fit
+    assert r.iterations[0]["kn"] == pytest.approx(r.kn_fit)
+    assert abs(res.truth_error["delta"]) < 0.02 and abs(res.truth_error["kn"]) < 0.01
+
+
+def test_an_unknown_replay_jump_point_fails_before_any_work(measured, system):
+    with pytest.raises(ValueError, match=r"`replay_jump_point` must be one of \['drop', "):
+        identify(measured, system=system, replay=True, replay_jump_point="peak")
+
+
 def test_bootstrap_by_replay_gives_intervals_around_the_estimate(measured, system):
     res = identify(measured, system=system, multistart=MULTISTART, progress=False,
                    replay=True, replay_bootstrap=8)
