@@ -142,9 +142,11 @@ def summarise(rows: list[dict]) -> str:
     for g in NOISE_G:
         sel = [r for r in rows if r["noise_g"] == g]
         if sel:
+            med = {rule: np.nanmedian([abs(r.get(rule + "_delta_err", math.nan)) for r in sel])
+                   for rule in RULES}
             by_noise.append(f"{g:g} g: " + ", ".join(
-                f"{rule} median abs δ {100 * np.nanmedian([abs(r.get(rule + '_delta_err', math.nan)) for r in sel]):.2f} %"
-                for rule in RULES) + f" ({len(sel)} cases)")
+                f"{rule} median abs δ {100 * m:.2f} %" for rule, m in med.items())
+                + f" ({len(sel)} cases)")
     dropped = (f"{len(failed)} drawn case(s) without two usable resonances left out"
                if failed else "")
     return "\n".join(lines + [""] + by_noise + ([dropped] if dropped else []))

@@ -220,3 +220,29 @@ def test_unknown_fit_backbone_lists_the_registered_methods():
         fit_backbone(pts, two_dof_system(), backbone="ihb")
     with pytest.raises(ValueError, match=re.escape(msg)):
         BackboneModel(two_dof_system(), ["uz_in"], backbone="ihb")
+
+
+def test_jacobian_intervals_by_run_count_each_run_once():
+    # Reference: ordinary least squares by hand (numpy.linalg.lstsq, the t quantile from
+    # scipy) on one row per run. Duplicating every run's row (two channels with the same
+    # residual) must not narrow the by-run interval, while the per-point one shrinks.
+    import scipy.stats
+
+    from freeplayid.fit.uncertainty import jacobian_intervals
+
+    rng = np.random.default_rng(3)
+    J1 = np.column_stack([np.ones(5), np.linspace(-1.0, 1.0, 5)])  # 5 runs, 2 parameters
+    r1 = 0.01 * rng.standard_normal(5)
+    x = np.log([500.0, 3e-3])
+    s2 = float(r1 @ r1) / 3
+    half = scipy.stats.t.ppf(0.975, 3) * np.sqrt(np.diag(s2 * np.linalg.inv(J1.T @ J1)))
+    ref_kn = (500.0 * np.exp(-half[0]), 500.0 * np.exp(half[0]))
+    J2, r2 = np.repeat(J1, 2, axis=0), np.repeat(r1, 2)
+    runs = [f"run{i}" for i in range(5) for _ in range(2)]
+    kn_run, _ = jacobian_intervals(x, r2, J2, groups=runs)
+    kn_pt, _ = jacobian_intervals(x, r2, J2)
+    np.testing.assert_allclose(kn_run, ref_kn, rtol=1e-12)
+    assert kn_pt[1] - kn_pt[0] < 0.5 * (ref_kn[1] - ref_kn[0])  # too narrow by ~2.6x
+    # two runs fit exactly: nothing measures the noise
+    kn2, delta2 = jacobian_intervals(x, r2[:4], J2[:4], groups=runs[:4])
+    assert kn2 == (0.0, float("inf")) and delta2 == (0.0, float("inf"))

@@ -421,7 +421,7 @@ def corrected_fit(dataset, system, identification, *, fit_kwargs: dict, damping=
                                         f"{jump_point!r} cannot be fitted: {err}")
     stat = {"jump_point": jump_point, "kn_statistic": float(identification.kn),
             "delta_statistic": float(identification.delta),
-            "statistic_ci95": (tuple(identification.kn_ci95), tuple(identification.delta_ci95))}
+            "statistic_ci95": _by_run_intervals(identification)}
     # replay only the runs whose points were fitted: a run rejected in the test (e.g. it stayed
     # in the gap) must not enter the replayed fit as a point the measured fit did not have
     measured = identification.points.used()
@@ -552,6 +552,15 @@ def corrected_fit(dataset, system, identification, *, fit_kwargs: dict, damping=
                         sweeps={run: {"source": src, "law": sw.law, **sw.to_dict(),
                                       **({} if res is None else {"residual_hz": float(res)})}
                                 for run, (sw, src, res) in sweeps.items()})
+
+
+def _by_run_intervals(identification) -> tuple:
+    """The statistic fit's Jacobian intervals with each run's points as one observation (the
+    channels of a run share its jump); the per-point ones when the fit has no runs."""
+    fit = identification.fit
+    if fit.kn_ci95_by_run is None:
+        return tuple(identification.kn_ci95), tuple(identification.delta_ci95)
+    return tuple(fit.kn_ci95_by_run), tuple(fit.delta_ci95_by_run)
 
 
 def _bootstrap_by_replay(rep_ds, system, noise, *, theta, theta_rep, n, seed, fit_kwargs,

@@ -38,8 +38,8 @@ import numpy as np
 
 from .quantity import G, check_quantity
 
-__all__ = ["Check", "Verdict", "LIMITS", "base_level_checks", "fit_checks", "make_verdict",
-           "replay_checks"]
+__all__ = ["Check", "Verdict", "LIMITS", "base_level_checks", "fit_checks", "interval_check",
+           "make_verdict", "replay_checks"]
 
 LIMITS = {
     "delta_max_rad": 0.05,  # [rad] largest plausible half-gap
@@ -204,12 +204,7 @@ def fit_checks(points, fit, system, extraction, *, mode: int = 0) -> list[Check]
                         f"highest point at Theta/delta = {hi:.3g}" + ("" if hi < 0.99 * s_max
                         else ": beyond the backbone's range, the fit sees only the closed-hinge "
                         "frequency (quantity or units?)"), hi))
-    wide = [f"{name} [{ci[0]:.4g}, {ci[1]:.4g}]" for name, ci, v in
-            (("kn", fit.kn_ci95, kn), ("delta", fit.delta_ci95, delta))
-            if not (np.isfinite(ci[1]) and ci[1] - ci[0] <= v)]
-    checks.append(Check("interval_width", not wide,
-                        "95 % intervals narrower than the estimates" if not wide else
-                        "95 % interval wider than the estimate: " + ", ".join(wide)))
+    checks.append(interval_check(kn, delta, fit.kn_ci95, fit.delta_ci95))
     by_run: dict[str, list[float]] = {}
     for p in extraction.used():
         by_run.setdefault(p.run, []).append(p.f_hz)
@@ -229,6 +224,16 @@ def fit_checks(points, fit, system, extraction, *, mode: int = 0) -> list[Check]
                             f" > {limit:.2e} (channel scatter {scatter:.1e}): the points do not "
                             "lie on one backbone of this model"), fit.residual_rms))
     return checks
+
+
+def interval_check(kn: float, delta: float, kn_ci95, delta_ci95) -> Check:
+    """``interval_width``: each 95 % interval no wider than its estimate (and finite)."""
+    wide = [f"{name} [{ci[0]:.4g}, {ci[1]:.4g}]" for name, ci, v in
+            (("kn", kn_ci95, kn), ("delta", delta_ci95, delta))
+            if not (np.isfinite(ci[1]) and ci[1] - ci[0] <= v)]
+    return Check("interval_width", not wide,
+                 "95 % intervals narrower than the estimates" if not wide else
+                 "95 % interval wider than the estimate: " + ", ".join(wide))
 
 
 def validation_checks(validation) -> list[Check]:

@@ -58,6 +58,10 @@ class FitResult:
     message : str
     starts : list of dict
         Every start's outcome (start, kn, delta, cost).
+    kn_ci95_by_run, delta_ci95_by_run : (float, float) or None
+        The Jacobian intervals with each run's points taken as one observation
+        (:func:`.uncertainty.jacobian_intervals` with ``groups``): the points of one run share
+        its jump, so their residuals are not independent. None when the points have no runs.
     """
 
     kn: float
@@ -77,6 +81,8 @@ class FitResult:
     kn_ci95_bootstrap: tuple | None = None
     delta_ci95_bootstrap: tuple | None = None
     starts: list = field(default_factory=list)
+    kn_ci95_by_run: tuple | None = None
+    delta_ci95_by_run: tuple | None = None
 
 
 def multistart_grid(
@@ -251,6 +257,9 @@ def fit_backbone(
 
     res = sol.fun
     kn_ci, delta_ci = jacobian_intervals(sol.x, res, sol.jac)
+    kn_ci_run = delta_ci_run = None
+    if points.run is not None:
+        kn_ci_run, delta_ci_run = jacobian_intervals(sol.x, res, sol.jac, groups=points.run)
     kn, delta = np.exp(sol.x)
 
     boot_kn = boot_delta = None
@@ -282,6 +291,8 @@ def fit_backbone(
         message=str(sol.message),
         kn_ci95_bootstrap=boot_kn,
         delta_ci95_bootstrap=boot_delta,
+        kn_ci95_by_run=kn_ci_run,
+        delta_ci95_by_run=delta_ci_run,
         starts=[
             {"start": s_, "kn": float(np.exp(r.x[0])), "delta": float(np.exp(r.x[1])), "cost": c}
             for c, r, s_ in runs

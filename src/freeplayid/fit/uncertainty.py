@@ -7,6 +7,14 @@ Jacobian: the fit works in x = (ln kn, ln delta); at the optimum the Gauss-Newto
 (p points, two parameters; p - 2 floored at 1), and the interval of x_k is
 x_k +- t_0.975(p - 2) sqrt(cov_kk), mapped back by exp (so it is asymmetric in kn and delta).
 
+By run (``groups``): the points of one sweep run (its channels) share one jump, so their
+residuals move together with the run's noise and the formula above, counting them as independent,
+is too narrow (with two channels whose residuals are equal, by sqrt((p - 2) / (g - 2)) and
+through the t quantile's degrees of freedom). Averaging the residuals and the Jacobian rows of
+each run's points and applying the formula to those g run means (g - 2 degrees of freedom,
+floored at 1) is right both when the channels' errors are shared and when they are independent
+(then s^2 / m and J^T J / m cancel; only the degrees of freedom are fewer).
+
 Bootstrap: the points are resampled with replacement, the fit is re-solved from the optimum for
 each resample, and the 2.5 / 97.5 percentiles of the estimates form the interval.
 """
@@ -24,7 +32,7 @@ __all__ = ["jacobian_intervals", "bootstrap_intervals"]
 Interval = tuple[float, float]
 
 
-def jacobian_intervals(x, residuals, jacobian) -> tuple[Interval, Interval]:
+def jacobian_intervals(x, residuals, jacobian, groups=None) -> tuple[Interval, Interval]:
     """Gauss-Newton 95 % intervals of (kn, delta) from the fit in log parameters.
 
     Parameters
@@ -35,6 +43,9 @@ def jacobian_intervals(x, residuals, jacobian) -> tuple[Interval, Interval]:
         Residuals at the optimum.
     jacobian : ndarray, shape (p, 2) [-]
         d residuals / d x at the optimum.
+    groups : sequence, shape (p,), optional
+        Each point's run: one observation per run (module docstring); with two runs or fewer
+        nothing measures the noise and the intervals are (0, inf).
 
     Returns
     -------
@@ -42,8 +53,15 @@ def jacobian_intervals(x, residuals, jacobian) -> tuple[Interval, Interval]:
     delta_ci95 : (float, float) [rad]
         (inf-wide when J^T J is singular).
     """
-    res = residuals
-    J = jacobian
+    res = np.asarray(residuals, float)
+    J = np.asarray(jacobian, float)
+    if groups is not None:  # one observation per group: its points' mean residual and row
+        labels = list(dict.fromkeys(groups))
+        idx = np.array([labels.index(g) for g in groups])
+        res = np.array([res[idx == k].mean() for k in range(len(labels))])
+        J = np.array([J[idx == k].mean(axis=0) for k in range(len(labels))])
+        if res.size <= 2:  # two runs fit exactly: nothing measures their noise
+            return (0.0, float("inf")), (0.0, float("inf"))
     dof = max(res.size - 2, 1)
     s2 = float(res @ res) / dof
     try:

@@ -250,15 +250,16 @@ def _with_replay(result, dataset, system, *, t0, damping, n_bootstrap, seed, jum
                  progress, **fit_kwargs):
     """``result`` with the bias-corrected (kn, delta) of :func:`freeplayid.replay.corrected_fit`.
 
-    Intervals: the Jacobian ones of the statistic's fit (the points the replays match) moved
-    with the estimate (same relative width); with the
-    bootstrap by replay, the smallest interval holding both (``interval_source`` says which).
+    Intervals: the Jacobian ones of the statistic's fit (the points the replays match, each
+    run's points one observation: :func:`freeplayid.fit.uncertainty.jacobian_intervals`) moved
+    with the estimate (same relative width); with the bootstrap by replay, the smallest
+    interval holding both (``interval_source`` says which).
     A replay that failed keeps the plain estimate and makes the verdict ``suspect``.
     """
     import dataclasses
 
     from ..replay import corrected_fit
-    from ..verdict import make_verdict, replay_checks
+    from ..verdict import interval_check, make_verdict, replay_checks
 
     rep = corrected_fit(dataset, system, result, fit_kwargs=fit_kwargs, damping=damping,
                         n_bootstrap=n_bootstrap, seed=seed, jump_point=jump_point,
@@ -278,6 +279,9 @@ def _with_replay(result, dataset, system, *, t0, damping, n_bootstrap, seed, jum
                     max(delta_ci[1], rep.delta_ci95_replay[1]))
         source = (f"bootstrap by replay ({rep.n_bootstrap} copies) joined with the Jacobian "
                   "interval")
+    # the interval check on the reported intervals, not the plain fit's
+    verdict = make_verdict([c for c in verdict.checks if c.name != "interval_width"]
+                           + [interval_check(rep.kn, rep.delta, kn_ci, delta_ci)])
     return dataclasses.replace(
         result, kn=rep.kn, delta=rep.delta, verdict=verdict, kn_ci95=kn_ci, delta_ci95=delta_ci,
         runtime_s=time.perf_counter() - t0, replay=rep, interval_source=source,
