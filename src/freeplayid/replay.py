@@ -19,6 +19,18 @@ and the verdict says that it did not converge. Whatever the bias comes
 from (damping, sweep rate, the describing function, the extraction), the replay has it too, so it
 cancels; what is left is the measurement noise and the model's own error.
 
+The statistic (``jump_point``). theta_hat and theta_rep may be any statistic of the test, biased
+or not, as long as both go through the same steps; what matters is its noise. The plain fit's
+points sit at the maximum of each run's curve, which lies on a flat top 0.1-0.5 Hz of sweep long,
+so its frequency wanders with the noise (0.03-0.17 Hz between noise draws at 0.2 g on the fin).
+By default the replays therefore match the points taken with ``jump_point="drop"``
+(:mod:`freeplayid.signal.peak`): the excitation frequency where the curve drops through half its
+maximum (0.0001-0.0008 Hz between the same draws) and the amplitude one filter time ahead of
+the drop. The measured data are extracted once more with that rule; the plain fit stays what it
+was (``kn_fit``, ``delta_fit``). The Jacobian intervals moved with the estimate are the
+statistic fit's, with each run's points counted as one observation (the channels of a run share
+its jump).
+
 Damping (``damping=``): the model file's ``C`` when it has one; else (or with
 ``damping="estimate"``) one modal damping ratio zeta for every mode of the closed-hinge stiffness
 at the plain fit's kn, estimated in the same loop from the points' amplitudes: the jump peak of a
