@@ -151,3 +151,25 @@ def test_identify_script_refuses_a_suspect_result(tmp_path):
     assert last.startswith("identify: the result is suspect") and "allow_suspect" in last
     rec = yaml.safe_load((run / "identification.json").read_text())
     assert rec["verdict"] == "suspect" and rec["verdict_reasons"]
+
+
+def test_a_binding_that_jumps_is_suspect():
+    # replays 3 and 4 of a noisy compare-like case (kn 327 N m/rad, delta 1.32 mrad, 0.2 g):
+    # delta moved by 0.55 % and the replayed fit's delta by 5.4 % (a run's point changed branch)
+    from freeplayid.verdict import replay_checks
+
+    def it(kn, delta, kn_rep, delta_rep):
+        return {"kn": kn, "delta": delta, "kn_rep": kn_rep, "delta_rep": delta_rep}
+
+    class Rep:  # the ReplayResult fields replay_checks reads
+        failure, misfit, sweeps, damping, converged = "", {}, {}, None, True
+        iterations = [it(353.9, 1.4612e-3, 381.10, 1.6099e-3),
+                      it(328.8, 1.3263e-3, 358.67, 1.5052e-3),
+                      it(322.97, 1.2741e-3, 354.43, 1.46688e-3),
+                      it(322.29, 1.2667e-3, 348.12, 1.39025e-3)]
+
+    checks = {c.name: c for c in replay_checks(Rep())}
+    assert not checks["replay_binding"].passed
+    assert "delta jumped by 5.4 %" in checks["replay_binding"].message
+    Rep.iterations = Rep.iterations[:3]  # a smooth approach: 8 % and 4 % moves for 9 % and 4 %
+    assert {c.name: c for c in replay_checks(Rep())}["replay_binding"].passed

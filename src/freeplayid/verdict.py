@@ -20,6 +20,11 @@ compares the result or the data with a physical limit, never with a value tuned 
 - ``replay_misfit`` / ``replay_converged`` (with the replay): every run's measured and replayed
   amplitude-frequency curves within 5 % of the peak (median difference), and the corrected fit
   converged.
+- ``replay_binding`` (with the replay): the replayed fit moves with (kn, delta) without jumps. When
+  two replays whose delta (or kn) differ by less than a fifth of the move of their fits' delta
+  (kn) and that move exceeds 1 %, a replayed point changed branch between them (a run whose
+  jump appears or vanishes near the estimate): the statistics have no solution across that jump,
+  and the estimate can lie anywhere within it, whatever the intervals say.
 - ``sweep_law`` (with the replay): where each replayed run's sweep law came from. A law
   estimated from the response channels (no hint, no base channel) is a reason for caution, not
   for suspicion by itself: the check fails only when such a run's replayed curves miss the
@@ -50,6 +55,8 @@ LIMITS = {
     "level_tolerance": 0.25,  # [-] base amplitude / level_g accepted within 1 -+ this
     "replay_misfit": 0.05,  # [-] measured vs replayed curves, median difference / peak
     "zeta_ci_ratio": 2.0,  # [-] an estimated damping ratio's 95 % interval, upper / lower
+    "binding_jump": 0.01,  # [-] a replayed fit's move (log) that counts as a jump ...
+    "binding_slope": 5.0,  # [-] ... when it is this many times its parameters' move
 }
 
 
@@ -273,6 +280,7 @@ def replay_checks(replay) -> list[Check]:
                         f"{r} ({100 * m:.2g} % of the peak)" for r, m in bad.items())
                     + " (model, damping, levels or sweep law?)", worst)]
     checks.append(_sweep_law_check(replay, misfit, limit))
+    checks.append(_binding_check(replay.iterations))
     checks.append(Check("replay_converged", bool(replay.converged),
                         f"the corrected fit converged in {len(replay.iterations)} replays"
                         if replay.converged else
@@ -289,6 +297,26 @@ def replay_checks(replay) -> list[Check]:
             + ("" if ok else "; the amplitudes do not pin it down (give `damping=` or C in "
                "the model file)"), ratio))
     return checks
+
+
+def _binding_check(iterations) -> Check:
+    """``replay_binding``: no two replays whose fits differ by a jump (module docstring)."""
+    worst = None  # (move of the fit, move of the parameter, name)
+    for a, b in zip(iterations, iterations[1:]):
+        for name in ("kn", "delta"):
+            move = abs(math.log(b[f"{name}_rep"] / a[f"{name}_rep"]))
+            cause = abs(math.log(b[name] / a[name]))
+            if (move > LIMITS["binding_jump"] and move > LIMITS["binding_slope"] * cause
+                    and (worst is None or move > worst[0])):
+                worst = (move, cause, name)
+    if worst is None:
+        return Check("replay_binding", True, "the replayed fits move smoothly with (kn, delta)")
+    move, cause, name = worst
+    return Check("replay_binding", False,
+                 f"the replayed fit's {name} jumped by {100 * move:.2g} % when the replayed "
+                 f"{name} moved by {100 * cause:.2g} %: a replayed point changes branch near "
+                 "the estimate (a run at the edge of jumping?), which can lie anywhere across "
+                 "that jump", move)
 
 
 def _sweep_law_check(replay, misfit: dict, limit: float) -> Check:
