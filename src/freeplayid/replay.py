@@ -418,27 +418,9 @@ def corrected_fit(dataset, system, identification, *, fit_kwargs: dict, damping=
     extraction = dict(fit_kwargs.get("extraction") or {})
     own_rule = extraction.get("jump_point", "smoothed")
     jump_point = own_rule if jump_point is None else jump_point
-    if jump_point != own_rule:
-        # the statistic: the measured data extracted with the statistic's jump point
-        fit_kwargs = {**fit_kwargs, "extraction": {**extraction, "jump_point": jump_point}}
-        try:
-            identification = identify(dataset, system=system, init=(plain.kn, plain.delta),
-                                      progress=False, replay=False, **fit_kwargs)
-        except IdentificationError as err:
-            hat = np.array([plain.kn, plain.delta])
-            return ReplayResult(kn=float(hat[0]), delta=float(hat[1]), kn_fit=float(hat[0]),
-                                delta_fit=float(hat[1]), iterations=[], converged=False,
-                                levels={}, offsets=[], damping=None, jump_point=jump_point,
-                                failure=f"the measured points taken with jump_point "
-                                        f"{jump_point!r} cannot be fitted: {err}")
-    stat = {"jump_point": jump_point, "kn_statistic": float(identification.kn),
-            "delta_statistic": float(identification.delta),
-            "statistic_ci95": _by_run_intervals(identification)}
     # replay only the runs whose points were fitted: a run rejected in the test (e.g. it stayed
     # in the gap) must not enter the replayed fit as a point the measured fit did not have
-    measured = identification.points.used()
-    used = {p.run for p in measured}
-    hat = np.array([identification.kn, identification.delta])
+    used = {p.run for p in plain.points.used()}
     try:
         sweeps = {k: v for k, v in replay_sweeps(dataset).items() if k in used}
         levels = replay_levels(dataset, sweeps)
@@ -446,7 +428,36 @@ def corrected_fit(dataset, system, identification, *, fit_kwargs: dict, damping=
         return ReplayResult(kn=float(plain.kn), delta=float(plain.delta),
                             kn_fit=float(plain.kn), delta_fit=float(plain.delta), iterations=[],
                             converged=False, levels={}, offsets=[], damping=None,
-                            failure=f"the test cannot be replayed: {err}", **stat)
+                            jump_point=jump_point,
+                            failure=f"the test cannot be replayed: {err}")
+    stat_ds = dataset  # what the statistic is extracted from, and the replays' template
+    if jump_point != own_rule:
+        # the statistic: the measured data extracted with the statistic's jump point and with
+        # the sweep law the replays are simulated with as every run's hint (its frequency is
+        # read off that law, and a law estimated again from each replayed record would move by
+        # up to 0.1 Hz between replays); the replays carry the same hints
+        stat_ds = _with_sweep_hints(dataset, sweeps)
+        fit_kwargs = {**fit_kwargs, "use_sweep_hint": True,
+                      "extraction": {**extraction, "jump_point": jump_point}}
+        try:
+            identification = identify(stat_ds, system=system, init=(plain.kn, plain.delta),
+                                      progress=False, replay=False, **fit_kwargs)
+        except IdentificationError as err:
+            return ReplayResult(kn=float(plain.kn), delta=float(plain.delta),
+                                kn_fit=float(plain.kn), delta_fit=float(plain.delta),
+                                iterations=[], converged=False, levels={}, offsets=[],
+                                damping=None, jump_point=jump_point,
+                                failure=f"the measured points taken with jump_point "
+                                        f"{jump_point!r} cannot be fitted: {err}")
+    stat = {"jump_point": jump_point, "kn_statistic": float(identification.kn),
+            "delta_statistic": float(identification.delta),
+            "statistic_ci95": _by_run_intervals(identification)}
+    measured = identification.points.used()
+    if {p.run for p in measured} != used:  # the statistic fitted other runs: replay those
+        used = {p.run for p in measured}
+        sweeps = {k: v for k, v in replay_sweeps(dataset).items() if k in used}
+        levels = replay_levels(dataset, sweeps)
+    hat = np.array([identification.kn, identification.delta])
     kn_damping = float(plain.kn)  # closed-hinge stiffness of an estimated/given modal damping
     estimate = source == "estimated"
     if estimate:
@@ -464,7 +475,7 @@ def corrected_fit(dataset, system, identification, *, fit_kwargs: dict, damping=
         theta = np.exp(u[:2])
         zeta_k = float(np.exp(u[2])) if estimate else zeta
         sys_k = system if source == "model" else damped_system(system, zeta_k, kn_damping)
-        rep_ds = replay_dataset(dataset, sys_k, *theta, levels=levels, sweeps=sweeps)
+        rep_ds = replay_dataset(stat_ds, sys_k, *theta, levels=levels, sweeps=sweeps)
         try:
             rep_k = identify(rep_ds, system=system, init=tuple(theta), progress=False,
                              replay=False, **fit_kwargs)
@@ -564,6 +575,15 @@ def corrected_fit(dataset, system, identification, *, fit_kwargs: dict, damping=
                         sweeps={run: {"source": src, "law": sw.law, **sw.to_dict(),
                                       **({} if res is None else {"residual_hz": float(res)})}
                                 for run, (sw, src, res) in sweeps.items()})
+
+
+def _with_sweep_hints(dataset, sweeps: dict):
+    """``dataset`` with each run of ``sweeps`` that has no hint given its replayed law as one."""
+    import dataclasses
+
+    runs = tuple(dataclasses.replace(r, sweep=sweeps[r.file][0].to_dict())
+                 if r.sweep is None and r.file in sweeps else r for r in dataset.runs)
+    return dataclasses.replace(dataset, runs=runs)
 
 
 def _by_run_intervals(identification) -> tuple:
