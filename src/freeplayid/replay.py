@@ -418,18 +418,22 @@ def corrected_fit(dataset, system, identification, *, fit_kwargs: dict, damping=
     extraction = dict(fit_kwargs.get("extraction") or {})
     own_rule = extraction.get("jump_point", "smoothed")
     jump_point = own_rule if jump_point is None else jump_point
+
+    def plain_only(why: str) -> ReplayResult:  # nothing to correct with: the plain fit stays
+        return ReplayResult(kn=float(plain.kn), delta=float(plain.delta), kn_fit=float(plain.kn),
+                            delta_fit=float(plain.delta), iterations=[], converged=False,
+                            levels={}, offsets=[], damping=None, jump_point=jump_point,
+                            failure=why)
+
     # replay only the runs whose points were fitted: a run rejected in the test (e.g. it stayed
     # in the gap) must not enter the replayed fit as a point the measured fit did not have
     used = {p.run for p in plain.points.used()}
     try:
-        sweeps = {k: v for k, v in replay_sweeps(dataset).items() if k in used}
+        laws = replay_sweeps(dataset)
+        sweeps = {k: v for k, v in laws.items() if k in used}
         levels = replay_levels(dataset, sweeps)
     except ValueError as err:  # no level or no sweep law for a run: the test cannot be replayed
-        return ReplayResult(kn=float(plain.kn), delta=float(plain.delta),
-                            kn_fit=float(plain.kn), delta_fit=float(plain.delta), iterations=[],
-                            converged=False, levels={}, offsets=[], damping=None,
-                            jump_point=jump_point,
-                            failure=f"the test cannot be replayed: {err}")
+        return plain_only(f"the test cannot be replayed: {err}")
     stat_ds = dataset  # what the statistic is extracted from, and the replays' template
     if jump_point != own_rule:
         # the statistic: the measured data extracted with the statistic's jump point and with
@@ -443,20 +447,19 @@ def corrected_fit(dataset, system, identification, *, fit_kwargs: dict, damping=
             identification = identify(stat_ds, system=system, init=(plain.kn, plain.delta),
                                       progress=False, replay=False, **fit_kwargs)
         except IdentificationError as err:
-            return ReplayResult(kn=float(plain.kn), delta=float(plain.delta),
-                                kn_fit=float(plain.kn), delta_fit=float(plain.delta),
-                                iterations=[], converged=False, levels={}, offsets=[],
-                                damping=None, jump_point=jump_point,
-                                failure=f"the measured points taken with jump_point "
-                                        f"{jump_point!r} cannot be fitted: {err}")
+            return plain_only(f"the measured points taken with jump_point {jump_point!r} "
+                              f"cannot be fitted: {err}")
     stat = {"jump_point": jump_point, "kn_statistic": float(identification.kn),
             "delta_statistic": float(identification.delta),
             "statistic_ci95": _by_run_intervals(identification)}
     measured = identification.points.used()
     if {p.run for p in measured} != used:  # the statistic fitted other runs: replay those
         used = {p.run for p in measured}
-        sweeps = {k: v for k, v in replay_sweeps(dataset).items() if k in used}
-        levels = replay_levels(dataset, sweeps)
+        sweeps = {k: v for k, v in laws.items() if k in used}
+        try:
+            levels = replay_levels(dataset, sweeps)
+        except ValueError as err:
+            return plain_only(f"the test cannot be replayed: {err}")
     hat = np.array([identification.kn, identification.delta])
     kn_damping = float(plain.kn)  # closed-hinge stiffness of an estimated/given modal damping
     estimate = source == "estimated"

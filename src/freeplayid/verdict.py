@@ -43,8 +43,8 @@ import numpy as np
 
 from .quantity import G, check_quantity
 
-__all__ = ["Check", "Verdict", "LIMITS", "base_level_checks", "fit_checks", "interval_check",
-           "make_verdict", "replay_checks"]
+__all__ = ["Check", "Verdict", "LIMITS", "base_level_checks", "fit_checks", "gap_ratios",
+           "interval_check", "make_verdict", "replay_checks"]
 
 LIMITS = {
     "delta_max_rad": 0.05,  # [rad] largest plausible half-gap
@@ -163,11 +163,14 @@ def base_level_checks(dataset) -> list[Check]:
                   f"(median ratio {np.median(ratios):.3f})", float(np.median(ratios)))]
 
 
-def _gap_ratios(points, system, kn: float, delta: float, mode: int):
-    """Theta_max / delta of each point on the fitted backbone, and the grid's largest ratio."""
+def gap_ratios(points, system, kn: float, delta: float, mode: int, model=None):
+    """Theta_max / delta of each point on the fitted backbone, and the grid's largest ratio.
+
+    ``model``: a ``BackboneModel`` of ``system`` holding the points' channels to reuse (its
+    per-kn curve cache); default a new DFA one."""
     from .fit import BackboneModel
 
-    bm = BackboneModel(system, sorted(set(points.channel)), mode=mode)
+    bm = model or BackboneModel(system, sorted(set(points.channel)), mode=mode)
     _, log_amp = bm.curve(kn)
     out = np.empty(len(points.channel))
     for i, (c, a) in enumerate(zip(points.channel, points.amplitude_m, strict=True)):
@@ -200,7 +203,7 @@ def fit_checks(points, fit, system, extraction, *, mode: int = 0) -> list[Check]
                         f"delta = {delta:.4g} rad" + ("" if delta <= dmax else
                         f" exceeds {dmax} rad: no hinge freeplay is that large (units, "
                         "quantity or channel mapping?)"), delta))
-    ratios, s_max = _gap_ratios(points, system, kn, delta, mode)
+    ratios, s_max = gap_ratios(points, system, kn, delta, mode)
     lo, hi = float(np.nanmin(ratios)), float(np.nanmax(ratios))
     need = LIMITS["min_gap_ratio"]
     checks.append(Check("contact_margin", bool(lo >= need),

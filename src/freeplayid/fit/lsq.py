@@ -85,16 +85,17 @@ class FitResult:
     delta_ci95_by_run: tuple | None = None
 
 
-def _plausible_first(runs, points, system, mode):
+def _plausible_first(runs, points, model):
     """The lowest-cost start whose optimum puts every point at Theta/delta >= the verdict's
     ``min_gap_ratio`` (1.5), else the lowest-cost one.
 
     Near contact the describing-function backbone is wrong (-7 % at 1.5), and with few points a
     start can find an optimum that fits them there, with a huge kn and a delta at the lowest
     point's amplitude, at a lower cost than the physical one (seen with 2 runs: kn 2e7 at cost
-    4e-8 against kn 465 at 1.2e-7). ``runs`` is sorted by cost.
+    4e-8 against kn 465 at 1.2e-7). ``runs`` is sorted by cost; ``model`` is the fit's DFA
+    backbone model (its curves are cached per kn).
     """
-    from ..verdict import LIMITS, _gap_ratios
+    from ..verdict import LIMITS, gap_ratios
 
     tried = set()
     for r in runs:
@@ -103,7 +104,7 @@ def _plausible_first(runs, points, system, mode):
         if key in tried or not (np.isfinite(kn) and np.isfinite(delta)):
             continue
         tried.add(key)
-        ratios, _ = _gap_ratios(points, system, kn, delta, mode)
+        ratios, _ = gap_ratios(points, model.system, kn, delta, model.mode, model=model)
         if np.all(np.isfinite(ratios)) and ratios.min() >= LIMITS["min_gap_ratio"]:
             return r
     return runs[0]
@@ -271,7 +272,7 @@ def fit_backbone(
     if not runs:
         raise ValueError(f"every start of the fit diverged (starts: {starts})")
     runs.sort(key=lambda r: r[0])
-    _, sol, start = _plausible_first(runs, points, system, mode) if len(runs) > 1 else runs[0]
+    _, sol, start = _plausible_first(runs, points, dfa_model) if len(runs) > 1 else runs[0]
     if scout is not dfa_model:
         sol = solve(dfa_model, sol.x)
     active = dfa_model

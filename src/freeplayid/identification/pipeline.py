@@ -264,9 +264,9 @@ def _with_replay(result, dataset, system, *, t0, damping, n_bootstrap, seed, jum
     rep = corrected_fit(dataset, system, result, fit_kwargs=fit_kwargs, damping=damping,
                         n_bootstrap=n_bootstrap, seed=seed, jump_point=jump_point,
                         progress=progress)
-    verdict = make_verdict(result.verdict.checks + tuple(replay_checks(rep)))
+    checks = result.verdict.checks + tuple(replay_checks(rep))
     if rep.failure:
-        return dataclasses.replace(result, verdict=verdict, replay=rep,
+        return dataclasses.replace(result, verdict=make_verdict(checks), replay=rep,
                                    runtime_s=time.perf_counter() - t0)
     (kn_ci, delta_ci) = rep.statistic_ci95
     sk, sd = rep.kn / rep.kn_statistic, rep.delta / rep.delta_statistic
@@ -280,7 +280,7 @@ def _with_replay(result, dataset, system, *, t0, damping, n_bootstrap, seed, jum
         source = (f"bootstrap by replay ({rep.n_bootstrap} copies) joined with the Jacobian "
                   "interval")
     # the interval check on the reported intervals, not the plain fit's
-    verdict = make_verdict([c for c in verdict.checks if c.name != "interval_width"]
+    verdict = make_verdict([c for c in checks if c.name != "interval_width"]
                            + [interval_check(rep.kn, rep.delta, kn_ci, delta_ci)])
     return dataclasses.replace(
         result, kn=rep.kn, delta=rep.delta, verdict=verdict, kn_ci95=kn_ci, delta_ci95=delta_ci,

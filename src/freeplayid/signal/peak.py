@@ -101,20 +101,15 @@ def _drop_point(k, *, xi, ratio, steep_after, fs, bandwidth_hz, **_):
     filter time ``1 / bandwidth_hz`` ahead of it (on the flat top; not its maximum, which noise
     biases upwards)."""
     level = ratio * xi[k]
-    if steep_after:
-        side = np.nonzero(xi[k:] < level)[0]
-    else:
-        side = np.nonzero(xi[: k + 1][::-1] < level)[0]
-    if side.size == 0:  # no drop in the record (a rejected point): the maximum itself
-        return k, float(xi[k])
-    if steep_after:
-        i = k + int(side[0])  # first sample below the level; i - 1 is above it
-        crossing = i - 1 + float((xi[i - 1] - level) / (xi[i - 1] - xi[i]))
+    start, stop = _lobe(xi, k, ratio)
+    if steep_after and stop < xi.shape[0]:  # stop: the first sample below the level
+        crossing = stop - 1 + float((xi[stop - 1] - level) / (xi[stop - 1] - xi[stop]))
         ahead = max(float(k), crossing - fs / bandwidth_hz)
-    else:
-        i = k - int(side[0])  # last sample below the level before the maximum; i + 1 above
-        crossing = i + float((level - xi[i]) / (xi[i + 1] - xi[i]))
+    elif not steep_after and start > 0:  # start - 1: the last sample below the level
+        crossing = start - 1 + float((level - xi[start - 1]) / (xi[start] - xi[start - 1]))
         ahead = min(float(k), crossing + fs / bandwidth_hz)
+    else:  # no drop in the record (a rejected point): the maximum itself
+        return k, float(xi[k])
     return crossing, float(np.interp(ahead, np.arange(xi.shape[0]), xi))
 
 
