@@ -151,6 +151,10 @@ def test_every_primary_composes_with_every_experiment(primary, experiment, debug
     over = debug + ([f"+experiment={experiment}"] if experiment else [])
     with initialize_config_dir(config_dir=str(CONF), version_base="1.3"):
         cfg = compose(config_name=primary, overrides=over)
+    from freeplayid.tasks.checks import _TABLES, check_config
+
+    if primary in _TABLES:  # every shipped combination passes its command's own check
+        check_config(cfg, primary)
     if primary not in ("train", "compare"):
         return
     from freeplayid.simulate import Sweep

@@ -317,9 +317,10 @@ def _check_cases(cfg: DictConfig) -> None:
     if cfg.dataset.bank.sweep.start_hz == cfg.dataset.bank.sweep.stop_hz:
         raise ConfigError("`dataset.bank.sweep.start_hz` and `stop_hz` must differ")
     _check_sweep_law(cfg.dataset.bank.sweep, "dataset.bank.sweep")
-    if cfg.dataset.cases.axis == "delta" and min(cfg.dataset.cases.values) <= 0:
+    values = list(cfg.dataset.cases["values"])  # `.values` is the mapping's method
+    if cfg.dataset.cases.axis == "delta" and min(values) <= 0:
         raise ConfigError("`dataset.cases.values` must be clearances > 0 [rad] for axis delta, "
-                          f"got {list(cfg.dataset.cases.values)}")
+                          f"got {values}")
 
 
 def _check_simulate(cfg: DictConfig) -> None:
