@@ -1,6 +1,7 @@
-"""The corrected fit on noisy tests like the compare studies': which jump point the replays match.
+"""The corrected fit on noisy tests like the compare studies': which statistic the replays match.
 
-    python benchmarks/replay_noise.py                     # 12 cases (about 30 min on 2 cores)
+    python benchmarks/replay_noise.py                     # 16 cases (about 40 min on 2 cores)
+    python benchmarks/replay_noise.py --variants smoothed drop weighted   # all three
     python benchmarks/replay_noise.py --cases 3 --jobs 1  # smoke run
     python benchmarks/replay_noise.py --from runs/noise/cases.jsonl   # the table again, no rerun
 
@@ -12,12 +13,13 @@ float32 (as the study banks), with white noise of 0.1, 0.2 or 0.3 g (cycling) on
 The identification gets each run's ``level_g`` and sweep hint and the lock-in extraction (as
 the compare task's corrected rows) and starts its fit 5 % off the truth (as from the network).
 
-Each case runs the plain fit and two corrected fits (``replay=True``) that differ only in the
-jump point of the points the replays match (``replay_jump_point``): "smoothed" (the plain
-fit's points: the maximum of the smoothed curve) and "drop" (the frequency where the curve
-drops, the amplitude just ahead of it). A drawn case whose usable points lie at one resonance is
-left out (counted under the table). A case succeeds when |delta error| < 1 % and |kn error|
-< 2 %; an interval (Jacobian, moved with the estimate) covers when it holds the truth.
+Each case runs the plain fit and corrected fits (``replay=True``) that differ only in the
+statistic the replays match: "smoothed" (the plain fit's points: the maximum of the smoothed
+curve, every point the same weight), "drop" (the frequency where the curve drops, the amplitude
+just ahead of it; every point the same weight) and "weighted" (the drop points, each weighted by
+its amplitude noise: the default of ``identify``). A drawn case whose usable points lie at one
+resonance is left out (counted under the table). A case succeeds when |delta error| < 1 % and
+|kn error| < 2 %; an interval (Jacobian, moved with the estimate) covers when it holds the truth.
 """
 
 from __future__ import annotations
@@ -34,7 +36,9 @@ import numpy as np
 SWEEP = (30.0, 56.0, 0.1)  # start [Hz], stop [Hz], rate [Hz/s] (conf/dataset/sim.yaml)
 SAMPLE_RATE = 256.0  # [Hz]
 NOISE_G = (0.1, 0.2, 0.3)  # [g] white noise std (the noise study's nonzero levels)
-RULES = ("smoothed", "drop")
+# variant -> (replay_jump_point, replay_weighted)
+VARIANTS = {"smoothed": ("smoothed", False), "drop": ("drop", False), "weighted": ("drop", True)}
+RULES = ("drop", "weighted")  # the variants run by default (--variants)
 
 
 def draw_cases(n: int, seed: int) -> list[dict]:
@@ -79,18 +83,19 @@ def make_dataset(case: dict):
                         truth={"kn": case["kn"], "delta": case["delta"]})
 
 
-def run_case(case: dict) -> dict:
+def run_case(case: dict, rules=RULES) -> dict:
     from freeplayid import identify
 
     row = {k: case[k] for k in ("case", "kn", "delta", "noise_g")}
     row["runs"] = len(case["levels"])
     fin, ds = make_dataset(case)
     init = (1.05 * case["kn"], 0.95 * case["delta"])
-    for rule in RULES:
+    for rule in rules:
+        jump_point, weighted = VARIANTS[rule]
         try:
             res = identify(ds, system=fin, init=init, extraction={"method": "lockin"},
-                           use_sweep_hint=True, replay=True, replay_jump_point=rule,
-                           progress=False)
+                           use_sweep_hint=True, replay=True, replay_jump_point=jump_point,
+                           replay_weighted=weighted, progress=False)
         except ValueError as err:  # no usable points: a failed case for both rules
             row[f"{rule}_failure"] = str(err)[:200]
             continue
@@ -108,7 +113,7 @@ def run_case(case: dict) -> dict:
     return row
 
 
-def summarise(rows: list[dict]) -> str:
+def summarise(rows: list[dict], rules=RULES) -> str:
     """The table over the cases the plain fit could identify (the compare studies drop a case
     whose points lie at fewer than two resonances too)."""
     failed = [r for r in rows if "delta_err_plain" not in r]
@@ -135,15 +140,17 @@ def summarise(rows: list[dict]) -> str:
             f"{verdict} |")
 
     line("plain fit", "delta_err_plain", "kn_err_plain")
-    for rule in RULES:
-        line(f"corrected, replays match `{rule}` points", f"{rule}_delta_err",
+    labels = {"smoothed": "`smoothed` points", "drop": "`drop` points",
+              "weighted": "`drop` points, weighted"}
+    for rule in rules:
+        line(f"corrected, replays match {labels[rule]}", f"{rule}_delta_err",
              f"{rule}_kn_err", prefix=f"{rule}_")
     by_noise = []
     for g in NOISE_G:
         sel = [r for r in rows if r["noise_g"] == g]
         if sel:
             med = {rule: np.nanmedian([abs(r.get(rule + "_delta_err", math.nan)) for r in sel])
-                   for rule in RULES}
+                   for rule in rules}
             by_noise.append(f"{g:g} g: " + ", ".join(
                 f"{rule} median abs δ {100 * m:.2f} %" for rule, m in med.items())
                 + f" ({len(sel)} cases)")
@@ -154,16 +161,19 @@ def summarise(rows: list[dict]) -> str:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--cases", type=int, default=12)
+    ap.add_argument("--cases", type=int, default=16)
     ap.add_argument("--seed", type=int, default=11)
     ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--variants", nargs="+", choices=sorted(VARIANTS), default=list(RULES),
+                    help="statistics of the corrected fits (default: drop weighted)")
     ap.add_argument("--out", default=None, help="folder for cases.jsonl and table.md")
     ap.add_argument("--from", dest="source", default=None, metavar="JSONL",
                     help="summarise an earlier run's cases.jsonl instead of running")
     args = ap.parse_args()
     if args.source:
         rows = [json.loads(x) for x in Path(args.source).read_text().splitlines() if x.strip()]
-        print(summarise(rows))
+        print(summarise(rows, [v for v in VARIANTS if any(v + "_delta_err" in r
+                                                          for r in rows)]))
         return
     out = Path(args.out) if args.out else None
     if out:
@@ -171,17 +181,18 @@ def main() -> None:
         (out / "cases.jsonl").write_text("")
     rows = []
     with ProcessPoolExecutor(max_workers=args.jobs) as pool:
-        for row in pool.map(run_case, draw_cases(args.cases, args.seed)):
+        cases = draw_cases(args.cases, args.seed)
+        for row in pool.map(run_case, cases, [tuple(args.variants)] * len(cases)):
             rows.append(row)
             if out:  # one line per finished case: an interrupted run keeps what it did
                 with open(out / "cases.jsonl", "a") as fh:
                     fh.write(json.dumps(row) + "\n")
             print(f"case {row['case']}: noise {row['noise_g']:g} g, {row['runs']} runs; delta err "
                   + ", ".join(f"{rule} {100 * row.get(rule + '_delta_err', math.nan):+.2f} %"
-                              for rule in RULES)
+                              for rule in args.variants)
                   + f" (plain {100 * row.get('delta_err_plain', math.nan):+.2f} %)",
                   file=sys.stderr, flush=True)
-    table = summarise(rows)
+    table = summarise(rows, tuple(args.variants))
     print(table)
     if out:
         (out / "table.md").write_text(table + "\n")

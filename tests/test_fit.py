@@ -246,3 +246,26 @@ def test_jacobian_intervals_by_run_count_each_run_once():
     # two runs fit exactly: nothing measures the noise
     kn2, delta2 = jacobian_intervals(x, r2[:4], J2[:4], groups=runs[:4])
     assert kn2 == (0.0, float("inf")) and delta2 == (0.0, float("inf"))
+
+
+def test_weights_count_a_point_as_often_as_its_weight_squared():
+    # weighted least squares with weight sqrt(m) on a point is the plain fit with the point
+    # repeated m times: the reference needs no weights at all
+    sys_ = two_dof_system()
+    pts = _points(dfa_backbone(sys_, kn=KN, delta=DELTA, s=S), noise=0.004, seed=3)
+    reps = np.array([1, 3, 1, 2, 1, 1, 4, 1, 1, 2])
+    idx = np.repeat(np.arange(len(pts)), reps)
+    repeated = FittingPoints(channel=[pts.channel[i] for i in idx],
+                             amplitude_m=pts.amplitude_m[idx], f_hz=pts.f_hz[idx])
+    weighted = fit_backbone(pts, sys_, init=(1.5e4, 1.2e-3), weights=np.sqrt(reps))
+    plain = fit_backbone(repeated, sys_, init=(1.5e4, 1.2e-3))
+    unweighted = fit_backbone(pts, sys_, init=(1.5e4, 1.2e-3))
+    assert weighted.kn == pytest.approx(plain.kn, rel=1e-6)
+    assert weighted.delta == pytest.approx(plain.delta, rel=1e-6)
+    assert abs(weighted.delta / unweighted.delta - 1) > 1e-4  # the weights did change the fit
+    # the reported residuals are the unweighted ones
+    np.testing.assert_allclose(weighted.residuals, plain.residuals[np.r_[0, np.cumsum(reps)[:-1]]],
+                               rtol=1e-5, atol=1e-9)
+    for bad in ([1.0] * 3, [0.0] + [1.0] * 9, [np.nan] + [1.0] * 9):
+        with pytest.raises(ValueError, match="`weights` must be 10 finite numbers > 0"):
+            fit_backbone(pts, sys_, init=(1.5e4, 1.2e-3), weights=bad)

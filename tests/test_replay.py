@@ -68,9 +68,14 @@ def test_replay_at_the_truth_reproduces_the_measured_points(measured, system):
 def test_corrected_fit_reports_its_iterations(measured, system):
     res = identify(measured, system=system, multistart=MULTISTART, progress=False, replay=True)
     r = res.replay
-    # the replays start at the fit of the points taken with the statistic's jump point
+    # the replays start at the fit of the points taken with the statistic's jump point; their
+    # target is that fit with each point weighted by its amplitude noise (measured against the
+    # first replay), close to it on this clean reference
     assert r.jump_point == "drop" and r.kn_statistic != r.kn_fit
-    assert r.iterations and r.iterations[0]["kn"] == pytest.approx(r.kn_statistic)
+    assert r.iterations and r.iterations[0]["kn"] == pytest.approx(r.kn_statistic, rel=0.01)
+    assert len(r.weights) == 3 and {w["run"] for w in r.weights} == {"s0.6.csv", "s0.8.csv",
+                                                                    "s1.0.csv"}
+    assert np.median([w["weight"] for w in r.weights]) == pytest.approx(1.0)
     assert r.kn_fit == pytest.approx(res.fit.kn)  # the plain fit, as reported
     # each replay's refit counts its objective evaluations (one start: a few tens, not a grid)
     assert all(isinstance(it["n_evaluations"], int) and 3 <= it["n_evaluations"] < 200
@@ -157,12 +162,12 @@ def test_noise_levels_recover_a_known_noise(measured, system):
 
 
 def test_the_replay_statistic_can_be_the_plain_points(measured, system):
-    # replay_jump_point=None: the replays match the plain fit's own (smoothed) points, so the
+    # replay_jump_point=None without weights: the replays match the plain fit itself, so the
     # loop starts at the plain fit; both statistics land on the truth of this clean reference
     res = identify(measured, system=system, multistart=MULTISTART, progress=False, replay=True,
-                   replay_jump_point=None)
+                   replay_jump_point=None, replay_weighted=False)
     r = res.replay
-    assert r.jump_point == "smoothed" and r.kn_statistic == r.kn_fit
+    assert r.jump_point == "smoothed" and r.kn_statistic == r.kn_fit and r.weights is None
     assert r.iterations[0]["kn"] == pytest.approx(r.kn_fit)
     assert abs(res.truth_error["delta"]) < 0.02 and abs(res.truth_error["kn"]) < 0.01
 
@@ -229,3 +234,38 @@ def test_a_test_without_levels_cannot_be_replayed_and_says_so(measured, system):
     assert "cannot be replayed" in res.replay.failure and "level" in res.replay.failure
     assert not res.verdict.ok and res.kn == res.replay.kn_fit
     assert "Replay failed" in res.report() and res.to_dict()["replay"]["failure"]
+
+
+def _df_slope(amplitude, delta):
+    """d ln f / d ln X of the SDOF describing-function backbone, f ~ sqrt(k_eq(X)),
+    k_eq = kn (1 - 2/pi (asin r + r sqrt(1 - r^2))), r = delta / X (by central differences of
+    the formula, independent of the package's backbone)."""
+    def lnf(x):
+        r = delta / x
+        return 0.5 * np.log(1 - 2 / np.pi * (np.arcsin(r) + r * np.sqrt(1 - r * r)))
+    h = 1e-4
+    return (lnf(amplitude * np.exp(h)) - lnf(amplitude * np.exp(-h))) / (2 * h)
+
+
+def test_point_weights_follow_noise_over_amplitude_and_the_backbone_slope(measured, system):
+    from freeplayid.fit import FittingPoints
+    from freeplayid.replay import WEIGHT_FLOOR, point_weights
+
+    kn = WN * WN
+    pts = FittingPoints(channel=["x"] * 3, amplitude_m=[2.0e-4, 3.0e-4, 5.0e-4],
+                        f_hz=[40.0, 45.0, 48.0], run=["s0.6.csv", "s0.8.csv", "s1.0.csv"])
+    sigma = {"s0.6.csv": 0.5, "s0.8.csv": 0.8, "s1.0.csv": 1.0}  # [m/s^2]
+    noise = {k: np.array([v]) for k, v in sigma.items()}
+    weights, table = point_weights(pts, noise, measured, system, kn, ref.DELTA)
+    # residual noise |slope| sigma / A, A = X (2 pi f)^2 in the data's units (m/s^2)
+    a = pts.amplitude_m * (2 * np.pi * pts.f_hz) ** 2
+    scale = np.abs(_df_slope(pts.amplitude_m, ref.DELTA)) * np.array(list(sigma.values())) / a
+    expect = np.median(scale) / np.maximum(scale, WEIGHT_FLOOR * np.median(scale))
+    got = np.array([weights[(r, "x")] for r in pts.run])
+    np.testing.assert_allclose(got, expect, rtol=1e-2)  # the slope over a finite step
+    assert [t["weight"] for t in table] == pytest.approx(list(got))
+    assert got[0] < got[1] < got[2]  # the point near the gap: steep backbone, small amplitude
+    # a point whose noise is tiny weighs at most 1 / WEIGHT_FLOOR times the median point
+    noise["s1.0.csv"] = np.array([1e-6])
+    weights, _ = point_weights(pts, noise, measured, system, kn, ref.DELTA)
+    assert weights[("s1.0.csv", "x")] == pytest.approx(1 / WEIGHT_FLOOR)

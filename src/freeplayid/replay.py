@@ -62,10 +62,15 @@ import numpy as np
 from .quantity import G, check_quantity
 
 __all__ = ["ReplayResult", "ReplayDamping", "replay_sweeps", "replay_levels", "replay_dataset",
-           "corrected_fit", "curve_misfit", "damped_system", "noise_levels", "initial_zeta"]
+           "corrected_fit", "curve_misfit", "damped_system", "noise_levels", "initial_zeta",
+           "point_weights"]
 
 ZETA_START = 0.02  # [-] first guess of an estimated damping ratio (the loop moves it)
 ZETA_RTOL = 0.01  # [-] an estimated zeta has converged when it moves by less than 1 %
+# [-] each point's residual noise is taken as at least this fraction of the median point's, so
+# no point weighs more than 1 / WEIGHT_FLOOR times the median one (its noise is estimated, not
+# known, and the model's own error is not noise)
+WEIGHT_FLOOR = 0.25
 
 
 @dataclass(frozen=True)
@@ -175,6 +180,10 @@ class ReplayResult:
         plain fit itself when it used that rule).
     statistic_ci95 : ((float, float), (float, float)) or None
         That fit's Jacobian 95 % intervals of kn and delta.
+    weights : list of dict or None
+        Per measured point of the statistic (run, channel): the relative amplitude noise and the
+        relative frequency-residual noise it makes, and the point's weight in the statistic's fit
+        (:func:`point_weights`); None when every point weighs the same.
     """
 
     kn: float
@@ -198,6 +207,7 @@ class ReplayResult:
     kn_statistic: float = float("nan")
     delta_statistic: float = float("nan")
     statistic_ci95: tuple | None = None
+    weights: list | None = None
 
 
 def replay_sweeps(dataset) -> dict:
@@ -366,6 +376,83 @@ def initial_zeta(system, points, levels: dict, kn: float, dofs: dict, mode: int 
     return float(np.clip(np.median(guesses), 0.002, 0.3))
 
 
+def point_weights(points, noise: dict, dataset, system, kn: float, delta: float, *,
+                  mode: int = 0) -> tuple[dict, list]:
+    """Each point's weight in the statistic's fit: 1 / the noise of its relative frequency
+    residual that its amplitude noise makes, relative to the median point's.
+
+    A point's amplitude X is read off its channel's first-harmonic curve; white noise of level
+    sigma (:func:`noise_levels`, data units) moves it by about sigma / A relative, A = X w^order
+    (the amplitude in the data's units), the same for every point up to the extraction's noise
+    bandwidth, which only scales all weights. Through the backbone that is a relative frequency
+    residual of |d ln f_BC / d ln X| sigma / A. The weaker channel of a run (the lower-right
+    accelerometer on the fin, 4x smaller) then counts less; its amplitude scatters by 1-4 % at
+    0.2-0.3 g where the jump frequency itself moves by < 0.01 %. Each point's residual noise is
+    floored at ``WEIGHT_FLOOR`` times the median's.
+
+    Parameters
+    ----------
+    points : FittingPoints
+        The statistic's points (channel = DOF name, with runs).
+    noise : dict of str -> ndarray
+        Per run, each data channel's noise level (:func:`noise_levels`).
+    dataset : Dataset
+        For the channel order, quantity and units.
+    system, kn, delta, mode
+        The backbone at the estimate (its slope at each point).
+
+    Returns
+    -------
+    weights : dict of (run, DOF name) -> float
+    table : list of dict
+        Per point: run, channel, noise_ratio (record noise / the point's amplitude, data
+        units), residual_scale (|slope| times that) and weight.
+    """
+    from .fit import BackboneModel
+    from .quantity import check_quantity
+
+    order = check_quantity(dataset.quantity).order
+    column = {dof: i for i, dof in enumerate(dataset.channels.values())}
+    model = BackboneModel(system, points.channel, mode=mode)
+    cidx = np.array([model.channels.index(c) for c in points.channel])
+    amp, f = np.asarray(points.amplitude_m), np.asarray(points.f_hz)
+    h = 0.02  # [-] about one step of the curve's ln X grid (the slope across it)
+    slope = np.log(model.frequency(amp * np.exp(h), cidx, kn, delta)
+                   / model.frequency(amp * np.exp(-h), cidx, kn, delta)) / (2 * h)
+    a_data = amp * (2 * np.pi * f) ** order / dataset.si_scale
+    runs = points.run or (None,) * len(points)
+    sigma = np.array([noise[r][column[c]] if r in noise else np.nan
+                      for r, c in zip(runs, points.channel, strict=True)], dtype=float)
+    rel = sigma / a_data
+    res = np.abs(slope) * rel
+    known = np.isfinite(res) & (res > 0)
+    if not np.any(known):
+        return {}, []
+    med = float(np.median(res[known]))
+    res = np.where(known, np.maximum(res, WEIGHT_FLOOR * med), med)
+    w = med / res
+    table = [{"run": r, "channel": c, "noise_ratio": float(a), "residual_scale": float(e),
+              "weight": float(x)}
+             for r, c, a, e, x in zip(runs, points.channel, rel, res, w, strict=True)]
+    return {(r, c): float(x) for r, c, x in zip(runs, points.channel, w, strict=True)}, table
+
+
+def _refit(ident, system, weights: dict, fit_kwargs: dict):
+    """``ident`` (an Identification) fitted again to its own points with ``weights``."""
+    import dataclasses
+
+    from .fit import FittingPoints, fit_backbone
+    from .identification.pipeline import weights_of
+
+    pts = FittingPoints.from_extraction(ident.points, dofs=ident.dofs)
+    fit = fit_backbone(pts, system, init=(ident.kn, ident.delta), init_label=ident.fit.init,
+                       backbone=fit_kwargs.get("backbone", "dfa"),
+                       mode=int(fit_kwargs.get("mode", 0)), weights=weights_of(pts, weights))
+    return dataclasses.replace(ident, kn=fit.kn, delta=fit.delta, kn_ci95=tuple(fit.kn_ci95),
+                               delta_ci95=tuple(fit.delta_ci95),
+                               residual_rms=fit.residual_rms, fit=fit)
+
+
 def _amplitude_ratios(measured_points, replayed_points) -> np.ndarray:
     """log(X_replayed / X_measured) of the points found in both, matched by (run, channel)."""
     rep = {(p.run, p.channel): p for p in replayed_points}
@@ -376,7 +463,8 @@ def _amplitude_ratios(measured_points, replayed_points) -> np.ndarray:
 
 def corrected_fit(dataset, system, identification, *, fit_kwargs: dict, damping=None,
                   n_bootstrap: int = 0, seed: int = 0, rtol: float = 5e-4, max_iter: int = 8,
-                  jump_point: str | None = "drop", progress: bool = False) -> ReplayResult:
+                  jump_point: str | None = "drop", weighted: bool = True,
+                  progress: bool = False) -> ReplayResult:
     """Bias-corrected (kn, delta) by replaying the test (module docstring).
 
     Parameters
@@ -406,10 +494,14 @@ def corrected_fit(dataset, system, identification, *, fit_kwargs: dict, damping=
         every replay is extracted with it. "drop" (default): the frequency where the curve
         drops, the amplitude just ahead of it (module docstring). None: the plain
         identification's own rule.
+    weighted : bool
+        Weight the statistic's points by their amplitude noise (:func:`point_weights`, from the
+        measured noise against the first replay; the same weights in every later fit).
 
     A replay that cannot be fitted (the replayed fin stays in the gap, no jump: a model far
     from the test) ends the loop with ``failure`` set; the verdict then says ``suspect``.
     """
+    from .fit import FittingPoints
     from .identification.pipeline import identify
     from .identification.result import IdentificationError
 
@@ -471,6 +563,7 @@ def corrected_fit(dataset, system, identification, *, fit_kwargs: dict, damping=
     u = np.log(np.append(hat, zeta) if estimate else hat.copy())
     J = np.diag([1.0, 1.0, -1.0][: u.size])  # identity binding; amplitude ~ 1 / zeta
     history, converged, rep, rep_ds, failure = [], False, None, None, ""
+    weight_table = None
     ratios = np.array([])
     prev = None  # (u, F) of the last replay, for Broyden's update
     best = None  # (u, max |F|) of the replay closest to the test, the answer if none converges
@@ -487,6 +580,25 @@ def corrected_fit(dataset, system, identification, *, fit_kwargs: dict, damping=
                        f"could not be identified ({err}): the model does not behave like the "
                        "test")
             break
+        if weighted and weight_table is None:
+            # the first replay is the clean reference of the measured noise: weight the points
+            # by it, refit the test's statistic and this replay with the weights, and keep them
+            # for every later fit (the binding needs one fixed statistic)
+            fitted = FittingPoints.from_extraction(identification.points,
+                                                   dofs=identification.dofs)
+            weights, weight_table = point_weights(
+                fitted, noise_levels(stat_ds, rep_ds), stat_ds, system, *hat,
+                mode=int(fit_kwargs.get("mode", 0)))
+            if weights:
+                identification = _refit(identification, system, weights, fit_kwargs)
+                rep_k = _refit(rep_k, system, weights, fit_kwargs)
+                fit_kwargs = {**fit_kwargs, "point_weights": weights}
+                hat = np.array([identification.kn, identification.delta])
+                stat.update(kn_statistic=float(identification.kn),
+                            delta_statistic=float(identification.delta),
+                            statistic_ci95=_by_run_intervals(identification))
+            else:
+                weight_table = []
         rep = rep_k
         theta_rep = np.array([rep.kn, rep.delta])
         F = np.log(theta_rep / hat)
@@ -567,7 +679,7 @@ def corrected_fit(dataset, system, identification, *, fit_kwargs: dict, damping=
         theta = np.array([plain.kn, plain.delta])  # nothing to correct with: the plain fit stays
     return ReplayResult(kn=float(theta[0]), delta=float(theta[1]), kn_fit=float(plain.kn),
                         delta_fit=float(plain.delta), iterations=history, converged=converged,
-                        **stat,
+                        **stat, weights=weight_table or None,
                         levels=levels, offsets=offsets,
                         curves=tuple(rep.points.curves) if rep is not None else (),
                         misfit=misfit, damping=damping_used, failure=failure,

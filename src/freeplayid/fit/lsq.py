@@ -161,6 +161,7 @@ def fit_backbone(
     n_bootstrap: int = 0,
     seed: int = 0,
     model: BackboneModel | None = None,
+    weights=None,
 ) -> FitResult:
     """Identify (kn, delta) by fitting the backbone curve of ``system`` to resonance points.
 
@@ -185,6 +186,10 @@ def fit_backbone(
         optimum (harmonic balance is ~100x dearer).
     n_bootstrap : int
         Bootstrap resamples of the points for percentile intervals (0: none).
+    weights : array_like, shape (p,), optional
+        Weight of each point's residual (weighted least squares: 1 / each residual's standard
+        deviation, e.g. from the amplitude noise); default all 1. The intervals come from the
+        weighted residuals; ``FitResult.residuals`` are the unweighted ones.
 
     Returns
     -------
@@ -205,6 +210,10 @@ def fit_backbone(
     points = _as_fitting_points(points)
     ch = np.asarray(points.channel, dtype=str)
     amp, f = points.amplitude_m, points.f_hz
+    w = np.ones(f.size) if weights is None else np.asarray(weights, dtype=float).reshape(-1)
+    if w.size != f.size or not np.all(np.isfinite(w) & (w > 0)):
+        raise ValueError(f"`weights` must be {f.size} finite numbers > 0 (one per point), "
+                         f"got {np.asarray(weights).tolist()!r}")
     if count_resonances(f) < 2:
         warnings.warn(
             f"fit_backbone: the {f.size} points lie at one resonance ({np.median(f):.3f} Hz): "
@@ -234,7 +243,7 @@ def fit_backbone(
         def residual(x):
             evals["n"] += 1
             kn, delta = np.exp(x)
-            return (bm.frequency(amp, cidx, kn, delta) - f) / f
+            return w * (bm.frequency(amp, cidx, kn, delta) - f) / f
 
         return residual
 
@@ -293,7 +302,7 @@ def fit_backbone(
         def r_subset(x, pick):
             evals["n"] += 1
             k, d = np.exp(x)
-            return (active.frequency(amp[pick], cidx[pick], k, d) - f[pick]) / f[pick]
+            return w[pick] * (active.frequency(amp[pick], cidx[pick], k, d) - f[pick]) / f[pick]
 
         boot_kn, boot_delta = bootstrap_intervals(
             r_subset, sol.x, ch.size, n_bootstrap=n_bootstrap, seed=seed
@@ -304,8 +313,8 @@ def fit_backbone(
         delta=float(delta),
         kn_ci95=kn_ci,
         delta_ci95=delta_ci,
-        residuals=res,
-        residual_rms=float(np.sqrt(np.mean(res**2))),
+        residuals=res / w,
+        residual_rms=float(np.sqrt(np.mean((res / w) ** 2))),
         n_points=ch.size,
         backbone=backbone,
         init=label,

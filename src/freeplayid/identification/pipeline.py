@@ -6,6 +6,8 @@ import os
 import time
 from collections.abc import Mapping
 
+import numpy as np
+
 from .result import Identification, IdentificationError
 
 __all__ = ["identify"]
@@ -102,6 +104,8 @@ def identify(
     damping=None,
     replay_bootstrap: int = 0,
     replay_jump_point: str | None = "drop",
+    replay_weighted: bool = True,
+    point_weights: Mapping | None = None,
 ) -> Identification:
     """Identify (kn, delta) from a measured (or simulated) sine-sweep data set.
 
@@ -150,6 +154,12 @@ def identify(
         (:func:`freeplayid.replay.corrected_fit`): "drop" (default; the frequency where the
         curve drops, far less noisy than the maximum's on a flat top), or None for
         ``extraction``'s own rule.
+    replay_weighted : bool
+        With ``replay``: the statistic's fit weights each point by its amplitude noise
+        (:func:`freeplayid.replay.point_weights`; default); False: every point weighs the same.
+    point_weights : mapping of (run, DOF name) -> float, optional
+        Weights of the fit's points (weighted least squares); a point without an entry gets the
+        median weight. The replay sets them; the plain fit leaves them None (all equal).
 
     Returns
     -------
@@ -204,7 +214,8 @@ def identify(
     else:
         starts, label = init, None
     fit = fit_backbone(points, system, init=starts, init_label=label, backbone=backbone,
-                       mode=int(mode), n_bootstrap=int(n_bootstrap), seed=int(seed))
+                       mode=int(mode), n_bootstrap=int(n_bootstrap), seed=int(seed),
+                       weights=weights_of(points, point_weights))
     validation = _zero_clearance_check(dataset, system, fit.kn)
     verdict = make_verdict(base_level_checks(dataset)
                            + fit_checks(points, fit, system, pts, mode=int(mode))
@@ -242,12 +253,24 @@ def identify(
         result = _with_replay(result, dataset, system, backbone=backbone, extraction=extraction,
                               use_sweep_hint=use_sweep_hint, mode=int(mode), t0=t0,
                               damping=damping, n_bootstrap=int(replay_bootstrap), seed=int(seed),
-                              jump_point=replay_jump_point, progress=progress)
+                              jump_point=replay_jump_point, weighted=replay_weighted,
+                              progress=progress)
     return result
 
 
+def weights_of(points, point_weights: Mapping | None):
+    """Each point's weight from a mapping (run, DOF name) -> weight (the median weight for a
+    point without an entry), or None without a mapping."""
+    if point_weights is None:
+        return None
+    default = float(np.median(list(point_weights.values())))
+    runs = points.run if points.run is not None else (None,) * len(points)
+    return np.array([float(point_weights.get((r, c), default))
+                     for r, c in zip(runs, points.channel, strict=True)])
+
+
 def _with_replay(result, dataset, system, *, t0, damping, n_bootstrap, seed, jump_point,
-                 progress, **fit_kwargs):
+                 weighted, progress, **fit_kwargs):
     """``result`` with the bias-corrected (kn, delta) of :func:`freeplayid.replay.corrected_fit`.
 
     Intervals: the Jacobian ones of the statistic's fit (the points the replays match, each
@@ -263,7 +286,7 @@ def _with_replay(result, dataset, system, *, t0, damping, n_bootstrap, seed, jum
 
     rep = corrected_fit(dataset, system, result, fit_kwargs=fit_kwargs, damping=damping,
                         n_bootstrap=n_bootstrap, seed=seed, jump_point=jump_point,
-                        progress=progress)
+                        weighted=weighted, progress=progress)
     checks = result.verdict.checks + tuple(replay_checks(rep))
     if rep.failure:
         return dataclasses.replace(result, verdict=make_verdict(checks), replay=rep,

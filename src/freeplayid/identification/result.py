@@ -152,7 +152,7 @@ class Identification:
             out["replay"] = {
                 "kn_fit": r.kn_fit, "delta_fit": r.delta_fit, "converged": r.converged,
                 "jump_point": r.jump_point, "kn_statistic": r.kn_statistic,
-                "delta_statistic": r.delta_statistic,
+                "delta_statistic": r.delta_statistic, "weights": r.weights,
                 "iterations": r.iterations, "offsets": r.offsets,
                 "levels": {k: {"level_g": v[0], "source": v[1]} for k, v in r.levels.items()},
                 "misfit": r.misfit,
@@ -241,7 +241,12 @@ class Identification:
                       f"({'converged' if r.converged else '**not converged**'} after "
                       f"{len(r.iterations)} replays). The replays match the fit of the points "
                       f"taken with jump point `{r.jump_point}`: kn = {r.kn_statistic:.5g}, "
-                      f"delta = {r.delta_statistic:.5g}.", "",
+                      f"delta = {r.delta_statistic:.5g}"
+                      + ("" if not r.weights else
+                         ", each point weighted by its amplitude noise (weights "
+                         f"{min(w['weight'] for w in r.weights):.2g} to "
+                         f"{max(w['weight'] for w in r.weights):.2g}, median point 1)")
+                      + ".", "",
                       "| replay | kn [N·m/rad] | delta [rad] | fit of the replay: kn | delta |",
                       "|---|---|---|---|---|"]
             lines += [f"| {k + 1} | {it['kn']:.5g} | {it['delta']:.5g} | {it['kn_rep']:.5g} | "

@@ -213,6 +213,7 @@ def _identify() -> dict[str, Rule]:
         **_multistart(), "plot": boolean(), "allow_suspect": boolean(), "replay": boolean(),
         "damping": optional(either(choice("model", "estimate"), number(0.0, 0.99, open_lo=True))),
         "replay_bootstrap": integer(0), "replay_jump_point": optional(_jump_point()),
+        "replay_weighted": boolean(),
     }
 
 

@@ -147,6 +147,7 @@ def _identify(cfg: DictConfig, stage: Path, t0: float) -> dict:
         mode=int(cfg.mode), n_bootstrap=int(cfg.n_bootstrap), seed=int(cfg.seed),
         replay=bool(cfg.replay), damping=cfg.damping,
         replay_bootstrap=int(cfg.replay_bootstrap), replay_jump_point=cfg.replay_jump_point,
+        replay_weighted=bool(cfg.replay_weighted),
     )
     est = result.inverse_estimate
     if est:
