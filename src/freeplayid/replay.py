@@ -31,6 +31,12 @@ was (``kn_fit``, ``delta_fit``). The Jacobian intervals moved with the estimate 
 statistic fit's, with each run's points counted as one observation (the channels of a run share
 its jump).
 
+Weights (``weighted``): the statistic's fit weights each point by the inverse of the frequency
+residual its amplitude noise makes (:func:`point_weights`): the noise level measured against the
+first replay over the point's amplitude, times the backbone's slope d ln f / d ln X there. The
+first replay is made at the unweighted fit; the measured points and that replay are refitted
+with the weights, which stay fixed for every later fit (one fixed statistic).
+
 Damping (``damping=``): the model file's ``C`` when it has one; else (or with
 ``damping="estimate"``) one modal damping ratio zeta for every mode of the closed-hinge stiffness
 at the plain fit's kn, estimated in the same loop from the points' amplitudes: the jump peak of a
