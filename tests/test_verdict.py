@@ -173,3 +173,41 @@ def test_a_binding_that_jumps_is_suspect():
     assert "delta jumped by 5.4 %" in checks["replay_binding"].message
     Rep.iterations = Rep.iterations[:3]  # a smooth approach: 8 % and 4 % moves for 9 % and 4 %
     assert {c.name: c for c in replay_checks(Rep())}["replay_binding"].passed
+
+
+@pytest.mark.parametrize("converged, closest, passed, words", [
+    (True, None, True, "converged in 2 replays"),
+    (False, 0.1, True, "within 0.1 of their standard error"),
+    (False, 0.6, False, "misses the test's statistics by 0.6 of"),
+    (False, None, False, "did not converge in 2 replays"),  # two runs: no noise scale
+])
+def test_an_unconverged_loop_within_the_noise_is_as_good_as_converged(converged, closest,
+                                                                        passed, words):
+    from freeplayid.verdict import replay_checks
+
+    class Rep:
+        failure, misfit, sweeps, damping = "", {}, {}, None
+        iterations = [{"kn": 500.0, "delta": 2e-3, "kn_rep": 510.0, "delta_rep": 2.05e-3},
+                      {"kn": 490.0, "delta": 1.95e-3, "kn_rep": 500.1, "delta_rep": 2.0e-3}]
+
+    Rep.converged, Rep.closest_misfit_se = converged, closest
+    check = {c.name: c for c in replay_checks(Rep())}["replay_converged"]
+    assert check.passed is passed and words in check.message
+
+
+def test_the_misfit_in_standard_errors_follows_the_by_run_intervals():
+    from types import SimpleNamespace
+
+    from freeplayid.replay import _misfit_in_se
+
+    pts = [SimpleNamespace(run=r) for r in ("a", "a", "b", "b", "c", "c", "d", "d", "e", "e")]
+    # 5 runs: 3 degrees of freedom, t = 3.182; log half-widths 0.03 (kn) and 0.05 (delta)
+    ci = ((500 * np.exp(-0.03), 500 * np.exp(0.03)), (2e-3 * np.exp(-0.05), 2e-3 * np.exp(0.05)))
+    se = np.array([0.03, 0.05]) / 3.182446305284263
+    F = np.array([0.001, -0.004])
+    assert _misfit_in_se(F, ci, pts, None) == pytest.approx(np.max(np.abs(F) / se))
+    ratios = np.array([0.01, -0.01, 0.02, 0.0, -0.02])
+    se_r = 1.2533 * np.std(ratios, ddof=1) / np.sqrt(5)
+    assert _misfit_in_se(np.r_[F, 0.02], ci, pts, ratios) == pytest.approx(0.02 / se_r)
+    assert _misfit_in_se(F, ci, pts[:4], None) is None  # two runs: nothing measures the noise
+    assert _misfit_in_se(F, ((0.0, np.inf), ci[1]), pts, None) is None

@@ -190,6 +190,11 @@ class ReplayResult:
         Per measured point of the statistic (run, channel): the relative amplitude noise and the
         relative frequency-residual noise it makes, and the point's weight in the statistic's fit
         (:func:`point_weights`); None when every point weighs the same.
+    closest_misfit_se : float or None
+        Without convergence: how far the answer's replay (the one closest to the test) missed
+        the test's statistics, in standard errors of the statistics (largest over kn, delta and
+        an estimated damping's amplitude ratio); None when converged or when nothing measures
+        the noise (two runs). Each iteration has its own ``misfit_se``.
     """
 
     kn: float
@@ -214,6 +219,7 @@ class ReplayResult:
     delta_statistic: float = float("nan")
     statistic_ci95: tuple | None = None
     weights: list | None = None
+    closest_misfit_se: float | None = None
 
 
 def replay_sweeps(dataset) -> dict:
@@ -572,7 +578,7 @@ def corrected_fit(dataset, system, identification, *, fit_kwargs: dict, damping=
     weight_table = None
     ratios = np.array([])
     prev = None  # (u, F) of the last replay, for Broyden's update
-    best = None  # (u, max |F|) of the replay closest to the test, the answer if none converges
+    best = None  # (u, max |F|, index) of the replay closest to the test (the fallback answer)
     for _ in range(max_iter):
         theta = np.exp(u[:2])
         zeta_k = float(np.exp(u[2])) if estimate else zeta
@@ -618,9 +624,11 @@ def corrected_fit(dataset, system, identification, *, fit_kwargs: dict, damping=
             item.update(zeta=zeta_k, amplitude_log_ratio=r)
         elif source == "given":
             item.update(zeta=float(zeta))
+        item["misfit_se"] = _misfit_in_se(F, stat["statistic_ci95"], measured,
+                                          ratios if estimate else None)
         history.append(item)
         if best is None or np.abs(F).max() < best[1]:
-            best = (u.copy(), float(np.abs(F).max()))
+            best = (u.copy(), float(np.abs(F).max()), len(history) - 1)
         if prev is not None:
             # Broyden's rank-one update of the binding function's Jacobian (kept while it stays
             # well conditioned): near the gap the binding can even fall as delta rises (a larger
@@ -645,8 +653,10 @@ def corrected_fit(dataset, system, identification, *, fit_kwargs: dict, damping=
         if done:
             converged = True
             break
+    closest_se = None
     if not converged and best is not None:
         u = best[0]  # no convergence: the replayed parameters whose fit came closest to the test
+        closest_se = history[best[2]]["misfit_se"]
     theta = np.exp(u[:2])
     if estimate:
         zeta = float(np.exp(u[2]))
@@ -685,7 +695,7 @@ def corrected_fit(dataset, system, identification, *, fit_kwargs: dict, damping=
         theta = np.array([plain.kn, plain.delta])  # nothing to correct with: the plain fit stays
     return ReplayResult(kn=float(theta[0]), delta=float(theta[1]), kn_fit=float(plain.kn),
                         delta_fit=float(plain.delta), iterations=history, converged=converged,
-                        **stat, weights=weight_table or None,
+                        **stat, weights=weight_table or None, closest_misfit_se=closest_se,
                         levels=levels, offsets=offsets,
                         curves=tuple(rep.points.curves) if rep is not None else (),
                         misfit=misfit, damping=damping_used, failure=failure,
@@ -696,6 +706,28 @@ def corrected_fit(dataset, system, identification, *, fit_kwargs: dict, damping=
                         sweeps={run: {"source": src, "law": sw.law, **sw.to_dict(),
                                       **({} if res is None else {"residual_hz": float(res)})}
                                 for run, (sw, src, res) in sweeps.items()})
+
+
+def _misfit_in_se(F, statistic_ci95, measured, ratios) -> float | None:
+    """The largest |F_i| over its statistic's standard error: log(kn_rep / kn_hat) and
+    log(delta_rep / delta_hat) over the standard errors of the statistic's log kn and log delta
+    (its by-run 95 % intervals over 2 t_0.975(runs - 2)), and with an estimated damping the
+    median log amplitude ratio over its own (1.2533 s / sqrt(n) of the per-point ratios).
+    None when nothing measures the noise (two runs or fewer, an infinite interval)."""
+    import scipy.stats
+
+    runs = len({p.run for p in measured})
+    if statistic_ci95 is None or runs <= 2:
+        return None
+    t = float(scipy.stats.t.ppf(0.975, runs - 2))
+    se = [np.log(hi / lo) / (2 * t) if lo > 0 else np.inf for lo, hi in statistic_ci95]
+    if ratios is not None:
+        se.append(1.2533 * float(np.std(ratios, ddof=1)) / np.sqrt(ratios.size)
+                  if ratios.size >= 2 else np.inf)
+    se = np.asarray(se, dtype=float)
+    if not np.all(np.isfinite(se) & (se > 0)):
+        return None
+    return float(np.max(np.abs(np.asarray(F, dtype=float)[: se.size]) / se))
 
 
 def _with_sweep_hints(dataset, sweeps: dict):

@@ -19,7 +19,9 @@ compares the result or the data with a physical limit, never with a value tuned 
   another mode or a channel problem.
 - ``replay_misfit`` / ``replay_converged`` (with the replay): every run's measured and replayed
   amplitude-frequency curves within 5 % of the peak (median difference), and the corrected fit
-  converged.
+  converged: its steps fell below 0.05 %, or its closest replay matches the test's statistics
+  within a quarter of their standard error (the replayed fit then jitters by more than the steps
+  but by far less than the noise; seen at 5 % damping and on noisy tests).
 - ``replay_binding`` (with the replay): the replayed fit moves with (kn, delta) without jumps. When
   two replays whose delta (or kn) differ by less than a fifth of the move of their fits' delta
   (kn) and that move exceeds 1 %, a replayed point changed branch between them (a run whose
@@ -57,6 +59,10 @@ LIMITS = {
     "zeta_ci_ratio": 2.0,  # [-] an estimated damping ratio's 95 % interval, upper / lower
     "binding_jump": 0.01,  # [-] a replayed fit's move (log) that counts as a jump ...
     "binding_slope": 5.0,  # [-] ... when it is this many times its parameters' move
+    # [-] an unconverged replay loop whose closest replay misses the test's statistics by at
+    # most this many of their standard errors is as good as converged: the answer then lies
+    # that far from the solution, which lowers a 95 % interval's coverage to 94.3 % at most
+    "binding_noise": 0.25,
 }
 
 
@@ -284,10 +290,7 @@ def replay_checks(replay) -> list[Check]:
                     + " (model, damping, levels or sweep law?)", worst)]
     checks.append(_sweep_law_check(replay, misfit, limit))
     checks.append(_binding_check(replay.iterations))
-    checks.append(Check("replay_converged", bool(replay.converged),
-                        f"the corrected fit converged in {len(replay.iterations)} replays"
-                        if replay.converged else
-                        f"the corrected fit did not converge in {len(replay.iterations)} replays"))
+    checks.append(_converged_check(replay))
     damping = getattr(replay, "damping", None)
     if damping is not None and damping.source == "estimated":
         ci = damping.zeta_ci95
@@ -300,6 +303,24 @@ def replay_checks(replay) -> list[Check]:
             + ("" if ok else "; the amplitudes do not pin it down (give `damping=` or C in "
                "the model file)"), ratio))
     return checks
+
+
+def _converged_check(replay) -> Check:
+    """``replay_converged``: converged, or the closest replay within the statistics' noise."""
+    n = len(replay.iterations)
+    if replay.converged:
+        return Check("replay_converged", True, f"the corrected fit converged in {n} replays")
+    close = getattr(replay, "closest_misfit_se", None)
+    if close is not None and close <= LIMITS["binding_noise"]:
+        return Check("replay_converged", True,
+                     f"the corrected fit did not converge in {n} replays, but its closest replay "
+                     f"matches the test's statistics within {close:.2g} of their standard error",
+                     close)
+    return Check("replay_converged", False,
+                 f"the corrected fit did not converge in {n} replays"
+                 + ("" if close is None else
+                    f" (its closest replay misses the test's statistics by {close:.2g} of their "
+                    "standard error)"), close)
 
 
 def _binding_check(iterations) -> Check:

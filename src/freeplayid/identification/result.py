@@ -151,6 +151,7 @@ class Identification:
             r = self.replay
             out["replay"] = {
                 "kn_fit": r.kn_fit, "delta_fit": r.delta_fit, "converged": r.converged,
+                "closest_misfit_se": r.closest_misfit_se,
                 "jump_point": r.jump_point, "kn_statistic": r.kn_statistic,
                 "delta_statistic": r.delta_statistic, "weights": r.weights,
                 "iterations": r.iterations, "offsets": r.offsets,
@@ -239,7 +240,11 @@ class Identification:
                       f"Plain fit: kn = {r.kn_fit:.5g} N·m/rad, delta = {r.delta_fit:.5g} rad; "
                       f"corrected: kn = {self.kn:.5g}, delta = {self.delta:.5g} "
                       f"({'converged' if r.converged else '**not converged**'} after "
-                      f"{len(r.iterations)} replays). The replays match the fit of the points "
+                      f"{len(r.iterations)} replays"
+                      + ("" if r.converged or r.closest_misfit_se is None else
+                         f"; the closest replay misses the test's statistics by "
+                         f"{r.closest_misfit_se:.2g} of their standard error")
+                      + "). The replays match the fit of the points "
                       f"taken with jump point `{r.jump_point}`: kn = {r.kn_statistic:.5g}, "
                       f"delta = {r.delta_statistic:.5g}"
                       + ("" if not r.weights else
