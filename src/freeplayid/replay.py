@@ -187,8 +187,9 @@ class ReplayResult:
     statistic_ci95 : ((float, float), (float, float)) or None
         That fit's Jacobian 95 % intervals of kn and delta.
     weights : list of dict or None
-        Per measured point of the statistic (run, channel): the relative amplitude noise and the
-        relative frequency-residual noise it makes, and the point's weight in the statistic's fit
+        Per measured point of the statistic (run, channel): ``noise_ratio`` (the record's noise
+        level over the point's amplitude), ``residual_scale`` (the frequency residual that makes
+        through the backbone's slope) and ``weight`` in the statistic's fit
         (:func:`point_weights`); None when every point weighs the same.
     closest_misfit_se : float or None
         Without convergence: how far the answer's replay (the one closest to the test) missed
