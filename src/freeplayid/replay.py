@@ -665,7 +665,7 @@ def corrected_fit(dataset, system, identification, *, fit_kwargs: dict, damping=
     if estimate and ratios.size >= 2:
         # spread of the per-point log ratios -> standard error of their median, through the
         # amplitude's sensitivity to log zeta (the Jacobian's last diagonal entry)
-        se = 1.2533 * float(np.std(ratios, ddof=1)) / np.sqrt(ratios.size)
+        se = _median_se(ratios)
         half = 1.96 * se / max(abs(float(J[2, 2])), 0.1)
         zeta_ci = (float(zeta * np.exp(-half)), float(zeta * np.exp(half)))
     damping_used = ReplayDamping(source=source, zeta=None if zeta is None else float(zeta),
@@ -709,6 +709,11 @@ def corrected_fit(dataset, system, identification, *, fit_kwargs: dict, damping=
                                 for run, (sw, src, res) in sweeps.items()})
 
 
+def _median_se(values: np.ndarray) -> float:
+    """Standard error of the median of ``values`` (n >= 2): 1.2533 s / sqrt(n)."""
+    return 1.2533 * float(np.std(values, ddof=1)) / np.sqrt(values.size)
+
+
 def _misfit_in_se(F, statistic_ci95, measured, ratios) -> float | None:
     """The largest |F_i| over its statistic's standard error: log(kn_rep / kn_hat) and
     log(delta_rep / delta_hat) over the standard errors of the statistic's log kn and log delta
@@ -723,8 +728,7 @@ def _misfit_in_se(F, statistic_ci95, measured, ratios) -> float | None:
     t = float(scipy.stats.t.ppf(0.975, runs - 2))
     se = [np.log(hi / lo) / (2 * t) if lo > 0 else np.inf for lo, hi in statistic_ci95]
     if ratios is not None:
-        se.append(1.2533 * float(np.std(ratios, ddof=1)) / np.sqrt(ratios.size)
-                  if ratios.size >= 2 else np.inf)
+        se.append(_median_se(ratios) if ratios.size >= 2 else np.inf)
     se = np.asarray(se, dtype=float)
     if not np.all(np.isfinite(se) & (se > 0)):
         return None
