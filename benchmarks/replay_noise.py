@@ -1,7 +1,8 @@
 """The corrected fit on noisy tests like the compare studies': which statistic the replays match.
 
     python benchmarks/replay_noise.py                     # 16 cases (about 40 min on 2 cores)
-    python benchmarks/replay_noise.py --variants smoothed drop weighted   # all three
+    python benchmarks/replay_noise.py --variants weighted weighted_before   # drop point windows
+    python benchmarks/replay_noise.py --variants smoothed drop weighted   # statistics
     python benchmarks/replay_noise.py --cases 3 --jobs 1  # smoke run
     python benchmarks/replay_noise.py --from runs/noise/cases.jsonl   # the table again, no rerun
 
@@ -17,7 +18,9 @@ Each case runs the plain fit and corrected fits (``replay=True``) that differ on
 statistic the replays match: "smoothed" (the plain fit's points: the maximum of the smoothed
 curve, every point the same weight), "drop" (the frequency where the curve drops, the amplitude
 just ahead of it; every point the same weight) and "weighted" (the drop points, each weighted by
-its amplitude noise: the default of ``identify``). A drawn case whose usable points lie at one
+its amplitude noise: the default of ``identify``); "weighted_before" is "weighted" with the drop
+points read off the smoothed curve alone (``jump_point="drop_smoothed"``, the statistic before
+the drop point's windows stopped at the drop). A drawn case whose usable points lie at one
 resonance is left out (counted under the table). A case succeeds when |delta error| < 1 % and
 |kn error| < 2 %; an interval (Jacobian, moved with the estimate) covers when it holds the truth.
 """
@@ -36,8 +39,11 @@ import numpy as np
 SWEEP = (30.0, 56.0, 0.1)  # start [Hz], stop [Hz], rate [Hz/s] (conf/dataset/sim.yaml)
 SAMPLE_RATE = 256.0  # [Hz]
 NOISE_G = (0.1, 0.2, 0.3)  # [g] white noise std (the noise study's nonzero levels)
-# variant -> (replay_jump_point, replay_weighted)
-VARIANTS = {"smoothed": ("smoothed", False), "drop": ("drop", False), "weighted": ("drop", True)}
+# variant -> (replay_jump_point, replay_weighted); "weighted_before": the weighted drop points
+# read off the smoothed curve alone (jump_point="drop_smoothed", the statistic before the drop
+# point's windows stopped at the drop)
+VARIANTS = {"smoothed": ("smoothed", False), "drop": ("drop", False), "weighted": ("drop", True),
+            "weighted_before": ("drop_smoothed", True)}
 RULES = ("drop", "weighted")  # the variants run by default (--variants)
 
 

@@ -138,6 +138,10 @@ def run_case(args) -> dict:
         zeta_est=r.damping.zeta if r.damping else math.nan,
         n_points=len(res.points.used()),
         theta_ratio_min=_min_ratio(res),
+        closest_misfit_se=r.closest_misfit_se,
+        # every replay of the loop (parameters, replayed fit, misfit in standard errors), so
+        # another convergence rule or verdict can be judged on these cases without a rerun
+        iterations=r.iterations,
     )
     return row
 
@@ -275,7 +279,8 @@ def main() -> None:
         with open(out / "cases.csv", "w", newline="") as fh:
             w = csv.DictWriter(fh, fieldnames=keys)
             w.writeheader()
-            w.writerows(rows)
+            w.writerows({k: json.dumps(v) if isinstance(v, list | dict) else v
+                         for k, v in r.items()} for r in rows)
         (out / "table.md").write_text(table + "\n")
     if args.doc:
         write_doc(Path(args.doc), table, n=len(rows), seed=args.seed, bootstrap=args.bootstrap,

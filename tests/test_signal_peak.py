@@ -107,16 +107,17 @@ def test_windowed_amplitude_constant_envelope_and_width():
 
 
 def test_jump_point_unknown_name():
-    with pytest.raises(ValueError,
-                       match=r"`jump_point` must be one of \['drop', 'smoothed', 'windowed'\]"):
+    valid = r"\['drop', 'drop_smoothed', 'smoothed', 'windowed'\]"
+    with pytest.raises(ValueError, match=r"`jump_point` must be one of " + valid):
         extract_backbone_points(np.zeros((1, 1, 4096)) + 1.0, 256.0, quantity="displacement",
                                 jump_point="peak")
 
 
 @pytest.mark.parametrize("up", [True, False])
 def test_drop_point_at_the_analytic_cliff(up):
-    # "drop": the excitation frequency where the smoothed curve falls through half its maximum,
-    # on the jump's steep side (after the top for an up-sweep, before it for a down-sweep)
+    # "drop": where a sharp amplitude falls through half the top's level, on the jump's steep
+    # side (after the top for an up-sweep, before it for a down-sweep), and the amplitude one
+    # filter time (1 / 2 Hz) towards the top, from windows that stop at the drop
     fs = 512.0
     sweep = Sweep(30.0, 40.0, 1.0) if up else Sweep(40.0, 30.0, 1.0)
     t_top = 6.0 if up else 4.0
@@ -125,9 +126,52 @@ def test_drop_point_at_the_analytic_cliff(up):
     p = extract_backbone_points(x[None, None], fs, quantity="displacement", sweep=sweep,
                                 method="lockin", jump_point="drop").points[0]
     assert p.used, p.reason
-    assert abs(p.time_s - t_cliff) < 0.05  # the envelope's half level is 0.015 s past t_cliff
-    assert abs(p.f_hz - sweep.frequency(t_cliff)) < 0.05
-    assert abs(p.amplitude_m / float(np.max(env)) - 1) < 0.03  # on the top, filter overshoot
+    # the envelope falls through half the top 0.0153 s past t_cliff (0.8 / (1 + e^u) = 0.3)
+    half = t_cliff + (0.03 * math.log(5 / 3) if up else -0.03 * math.log(5 / 3))
+    assert abs(p.time_s - half) < 0.005
+    assert abs(p.f_hz - sweep.frequency(half)) < 0.005
+    t_ahead = p.time_s - 0.5 if up else p.time_s + 0.5
+    assert p.amplitude_m == pytest.approx(1.0 - 0.02 * (t_ahead - t_top) ** 2, rel=2e-3)
+    # the smoothed curve's own crossing and value (the rule before): late and on the overshoot
+    old = extract_backbone_points(x[None, None], fs, quantity="displacement", sweep=sweep,
+                                  method="lockin", jump_point="drop_smoothed").points[0]
+    assert abs(old.time_s - half) > 0.01 and old.amplitude_m / float(np.max(env)) - 1 > 0.01
+
+
+def _transient(t, t_drop, seed):
+    """Bursts of oscillation 0.1-0.6 s after ``t_drop`` (time runs the other way for t < 0),
+    10-30 % of the top each: a stand-in for the grazing contacts after a freeplay drop."""
+    rng = np.random.default_rng(seed)
+    out = np.zeros_like(t)
+    for _ in range(6):
+        width = rng.uniform(0.02, 0.05)
+        center = t_drop + 0.1 + 3 * width + rng.uniform(0.0, 0.4)
+        out += (rng.uniform(0.1, 0.3) * np.exp(-0.5 * ((t - center) / width) ** 2)
+                * np.sin(2 * np.pi * rng.uniform(20, 60) * t + rng.uniform(0, 2 * np.pi)))
+    return out
+
+
+@pytest.mark.parametrize("up", [True, False])
+def test_drop_point_ignores_the_transient_after_the_drop(up):
+    # six different transients after the drop: the drop point does not move (its windows stop at
+    # the drop); the smoothed curve's crossing and value, which the transient reaches through
+    # the filter, move by 0.001-0.007 Hz and 0.02-0.1 %
+    fs = 512.0
+    sweep = Sweep(30.0, 40.0, 1.0) if up else Sweep(40.0, 30.0, 1.0)
+    t_top = 6.0 if up else 4.0
+    t_cliff = t_top + (CLIFF_S if up else -CLIFF_S)
+    _, x = _cliff_chirp(sweep, fs, t_top, t_cliff)
+    t = np.arange(x.size) / fs
+    got = {"drop": [], "drop_smoothed": []}
+    for seed in range(6):
+        xb = x + (_transient(t, t_cliff, seed) if up else _transient(-t, -t_cliff, seed))
+        for rule, out in got.items():
+            p = extract_backbone_points(xb[None, None], fs, quantity="displacement",
+                                        sweep=sweep, method="lockin", jump_point=rule).points[0]
+            out.append((p.f_hz, p.amplitude_m))
+    new, old = np.array(got["drop"]), np.array(got["drop_smoothed"])
+    assert np.ptp(new[:, 0]) < 1e-4 and np.ptp(new[:, 1]) / new[0, 1] < 1e-5
+    assert np.ptp(old[:, 0]) > 1e-3 and np.ptp(old[:, 1]) / old[0, 1] > 1e-4
 
 
 def test_drop_point_frequency_is_steady_in_noise(sdof):

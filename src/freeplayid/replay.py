@@ -26,7 +26,9 @@ so its frequency wanders with the noise (0.03-0.17 Hz between noise draws at 0.2
 By default the replays therefore match the points taken with ``jump_point="drop"``
 (:mod:`freeplayid.signal.peak`): the excitation frequency where the curve drops through half its
 maximum (0.0001-0.0008 Hz between the same draws) and the amplitude one filter time ahead of
-the drop. The measured data are extracted once more with that rule; the plain fit stays what it
+the drop, both from windows that stop at the drop: the grazing transient after it changes with
+any 1e-9 change of the parameters, and a statistic that saw it made the binding function
+jitter by 0.1-0.2 % (benchmarks/binding_jitter.py). The measured data are extracted once more with that rule; the plain fit stays what it
 was (``kn_fit``, ``delta_fit``). The Jacobian intervals moved with the estimate are the
 statistic fit's, with each run's points counted as one observation (the channels of a run share
 its jump).
@@ -291,14 +293,15 @@ def replay_levels(dataset, sweeps: dict | None = None) -> dict:
 
 
 def replay_dataset(dataset, system, kn: float, delta: float, *, levels: dict | None = None,
-                   sweeps: dict | None = None, dtype=None):
+                   sweeps: dict | None = None, dtype=None, engine: str | None = None):
     """The data set's usable runs simulated at (kn, delta): a data set of the same layout.
 
     Runs sharing a sweep law are simulated in one batch; absolute frame with the base channel
     when the data set has one, else relative. ``sweeps`` and ``levels`` are
     :func:`replay_sweeps` and :func:`replay_levels` (computed when not given). A replayed run
     carries a sweep hint only where the measured run has one, so both go through the same
-    extraction.
+    extraction. ``engine``: a simulator engine name (:data:`freeplayid.simulate.engines.ENGINES`
+    or "auto"); None: the exponential engine when available, else "auto".
     """
     import dataclasses
 
@@ -311,7 +314,8 @@ def replay_dataset(dataset, system, kn: float, delta: float, *, levels: dict | N
     # the exponential engine (docs/simulate.md): exact between hinge switches, a step set by
     # accuracy, one member per core; as accurate as RK4 at its default step and about 6x faster
     # for one replay's few members. RK4 where numba is missing.
-    engine = "expo" if ENGINES["expo"].available() else "auto"
+    if engine is None:
+        engine = "expo" if ENGINES["expo"].available() else "auto"
     sweeps = replay_sweeps(dataset) if sweeps is None else sweeps
     levels = replay_levels(dataset, sweeps) if levels is None else levels
     frame = "absolute" if dataset.base_channel else "relative"
