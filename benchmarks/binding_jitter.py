@@ -64,6 +64,7 @@ def fitted(dataset, system, theta, rule: str) -> np.ndarray:
 def run_case(index: int, seed: int, engines: list[str], rules: list[str]) -> list[tuple]:
     from freeplayid import replay as rp
     from freeplayid.model import default_fin
+    from freeplayid.replay.runs import _with_sweep_hints
 
     case = replay_study.draw_cases(max(index + 1, 50), seed)[index]
     records = replay_study.simulate_case(case)
@@ -71,7 +72,7 @@ def run_case(index: int, seed: int, engines: list[str], rules: list[str]) -> lis
     system = default_fin().replace(C=None)
     laws = rp.replay_sweeps(measured)
     levels = rp.replay_levels(measured, laws)
-    stat_ds = rp._with_sweep_hints(measured, laws)
+    stat_ds = _with_sweep_hints(measured, laws)
     damped = rp.damped_system(system, case["zeta"], case["kn"])
     theta = np.array([case["kn"], case["delta"]])
     label = f"case {index} (zeta {case['zeta']:.0%})"

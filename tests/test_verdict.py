@@ -198,7 +198,7 @@ def test_an_unconverged_loop_within_the_noise_is_as_good_as_converged(converged,
 def test_the_misfit_in_standard_errors_follows_the_by_run_intervals():
     from types import SimpleNamespace
 
-    from freeplayid.replay import _misfit_in_se
+    from freeplayid.replay.noise import _misfit_in_se
 
     pts = [SimpleNamespace(run=r) for r in ("a", "a", "b", "b", "c", "c", "d", "d", "e", "e")]
     # 5 runs: 3 degrees of freedom, t = 3.182; log half-widths 0.03 (kn) and 0.05 (delta)

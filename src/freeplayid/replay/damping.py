@@ -1,0 +1,107 @@
+"""The replay's damping: the model's C, a given modal ratio, or one estimated in the loop."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..quantity import G
+
+__all__ = ["ReplayDamping", "damped_system", "initial_zeta", "ZETA_START", "ZETA_RTOL"]
+
+ZETA_START = 0.02  # [-] first guess of an estimated damping ratio (the loop moves it)
+
+ZETA_RTOL = 0.01  # [-] an estimated zeta has converged when it moves by less than 1 %
+
+
+@dataclass(frozen=True)
+class ReplayDamping:
+    """The damping the replay used.
+
+    Attributes
+    ----------
+    source : {"model", "given", "estimated"}
+        The model file's C, a ratio given by the user, or one estimated from the amplitudes.
+    zeta : float or None [-]
+        Modal damping ratio of every closed-hinge mode (None with the model's C).
+    zeta_ci95 : (float, float) or None
+        95 % interval of an estimated zeta (from the per-point amplitude ratios).
+    """
+
+    source: str
+    zeta: float | None = None
+    zeta_ci95: tuple | None = None
+
+    def to_dict(self) -> dict:
+        return {"source": self.source, "zeta": self.zeta,
+                "zeta_ci95": None if self.zeta_ci95 is None else list(self.zeta_ci95)}
+
+    def describe(self) -> str:
+        if self.source == "model":
+            return "the model file's C"
+        text = f"zeta = {self.zeta:.4g} in every closed-hinge mode"
+        if self.source == "given":
+            return text + " (given)"
+        ci = "" if self.zeta_ci95 is None else \
+            f", 95 % CI [{self.zeta_ci95[0]:.4g}, {self.zeta_ci95[1]:.4g}]"
+        return text + f" (estimated from the peak amplitudes{ci})"
+
+
+def damped_system(system, zeta: float, kn: float):
+    """``system`` with modal damping ratio ``zeta`` in every mode of its closed-hinge stiffness
+    at ``kn`` (``model.modal_damping``), replacing its C."""
+    from ..model import modal_damping
+
+    return system.replace(C=modal_damping(system.M, system.closed_stiffness(kn), zeta))
+
+
+def _damping_mode(system, damping) -> tuple[str, float | None]:
+    """("model" | "given" | "estimated", zeta) from the ``damping`` argument."""
+    if damping is None:
+        has_c = system.C is not None and bool(np.any(system.C))
+        return ("model", None) if has_c else ("estimated", ZETA_START)
+    if isinstance(damping, str):
+        if damping == "model":
+            if system.C is None or not np.any(system.C):
+                raise ValueError("`damping`='model' but the model file has no damping matrix C; "
+                                 "use damping='estimate' or a ratio such as 0.02")
+            return "model", None
+        if damping == "estimate":
+            return "estimated", ZETA_START
+        raise ValueError(f"`damping` must be None, 'model', 'estimate' or a ratio in (0, 1), "
+                         f"got {damping!r}")
+    z = float(damping)
+    if not (0 < z < 1):
+        raise ValueError(f"`damping` must be None, 'model', 'estimate' or a ratio in (0, 1), "
+                         f"got {damping!r}")
+    return "given", z
+
+
+def initial_zeta(system, points, levels: dict, kn: float, dofs: dict, mode: int = 0) -> float:
+    """First guess of the modal damping ratio from the points: at the top of a resonance the
+    damping force balances the excitation, 2 zeta w_c w q = gamma a_g, so with the closed-hinge
+    mode (w_c, mass-normalised shape phi, modal load gamma per g) and a point of displacement
+    amplitude X at the DOF of its channel, excitation w and level a_g::
+
+        zeta = |phi_dof gamma| a_g / (2 w_c w X)
+
+    (median over the points, kept in [0.002, 0.3]). A swept jump falls before the phase
+    resonance and the absolute frame adds the base motion, so this is only the loop's start.
+    """
+    from ..model import modal_analysis
+
+    modes = modal_analysis(system.M, system.closed_stiffness(kn))
+    phi = modes.shapes[:, mode]
+    wc = 2 * np.pi * float(modes.frequencies_hz[mode])
+    gamma = float(phi @ (system.M @ system.influence)) * G
+    guesses = []
+    for p in points:
+        if p.run not in levels or p.channel not in dofs or not p.amplitude_m > 0:
+            continue
+        pd = float(phi[system.dof_index(dofs[p.channel])])
+        w = 2 * np.pi * p.f_hz
+        guesses.append(abs(pd * gamma) * levels[p.run][0] / (2 * wc * w * p.amplitude_m))
+    if not guesses or wc <= 0:
+        return ZETA_START
+    return float(np.clip(np.median(guesses), 0.002, 0.3))

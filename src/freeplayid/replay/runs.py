@@ -1,0 +1,135 @@
+"""The test replayed: each run's sweep law and level, and the runs simulated at (kn, delta)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..quantity import G, check_quantity
+
+__all__ = ["replay_sweeps", "replay_levels", "replay_dataset"]
+
+
+def replay_sweeps(dataset) -> dict:
+    """Each usable run's sweep law: its ``sweep`` hint, else estimated from the base channel
+    when the data set has one, else from the response channels (the best-tracked one).
+
+    Returns
+    -------
+    dict of run file -> (Sweep, source, residual [Hz] or None)
+        source is "hint", "base channel" or "response"; the residual is the estimate's
+        (:class:`freeplayid.signal.SweepEstimate`).
+
+    Raises
+    ------
+    ValueError
+        No sweep law can be found in a run without a hint.
+    """
+    from ..signal import estimate_sweep
+    from ..sweep import Sweep
+
+    out = {}
+    for run in dataset.runs:
+        if run.reason:
+            continue
+        if run.sweep is not None:
+            out[run.file] = (Sweep(**run.sweep), "hint", None)
+            continue
+        source, x = ("base channel", run.base) if run.base is not None else ("response", run.data)
+        try:
+            est = estimate_sweep(dataset.to_si(x), dataset.sample_rate)
+        except ValueError as exc:
+            raise ValueError(f"run {run.file}: no sweep hint and no sweep law in its {source} "
+                             f"({exc}); give the run's `sweep` hint") from None
+        out[run.file] = (est.sweep, source, est.residual_hz)
+    return out
+
+
+def replay_levels(dataset, sweeps: dict | None = None) -> dict:
+    """Each usable run's base level [g]: from the base channel's first harmonic when the data set
+    has one (least squares at the sweep's phase), else the manifest's ``level_g``.
+
+    ``sweeps`` is :func:`replay_sweeps` of the data set (computed when not given).
+
+    Returns
+    -------
+    dict of run file -> (level [g], source)
+    """
+    from ..signal import window_amplitudes
+
+    sweeps = replay_sweeps(dataset) if sweeps is None else sweeps
+    order = check_quantity(dataset.quantity).order
+    out = {}
+    for run in dataset.runs:
+        if run.reason or run.file not in sweeps:
+            continue
+        sweep = sweeps[run.file][0]
+        if run.base is not None:
+            f, a = window_amplitudes(dataset.to_si(run.base), dataset.sample_rate, sweep)
+            # the base moves as A sin(phase): its amplitude in the data's quantity is A / w^(2-k)
+            level = float(np.median(a * (2 * np.pi * f) ** (2 - order))) / G
+            out[run.file] = (level, "base channel")
+        elif run.level_g:
+            out[run.file] = (float(run.level_g), "level_g")
+        else:
+            raise ValueError(f"run {run.file}: no base channel and no `level_g`: the replay "
+                             "cannot know the run's level")
+    return out
+
+
+def replay_dataset(dataset, system, kn: float, delta: float, *, levels: dict | None = None,
+                   sweeps: dict | None = None, dtype=None, engine: str | None = None):
+    """The data set's usable runs simulated at (kn, delta): a data set of the same layout.
+
+    Runs sharing a sweep law are simulated in one batch; absolute frame with the base channel
+    when the data set has one, else relative. ``sweeps`` and ``levels`` are
+    :func:`replay_sweeps` and :func:`replay_levels` (computed when not given). A replayed run
+    carries a sweep hint only where the measured run has one, so both go through the same
+    extraction. ``engine``: a simulator engine name (:data:`freeplayid.simulate.engines.ENGINES`
+    or "auto"); None: the exponential engine when available, else "auto".
+    """
+    import dataclasses
+
+    import torch
+
+    from ..io import Dataset
+    from ..simulate import simulate_sweeps, sweep_dataset
+    from ..simulate.engines import ENGINES
+
+    # the exponential engine (docs/simulate.md): exact between hinge switches, a step set by
+    # accuracy, one member per core; as accurate as RK4 at its default step and about 6x faster
+    # for one replay's few members. RK4 where numba is missing.
+    if engine is None:
+        engine = "expo" if ENGINES["expo"].available() else "auto"
+    sweeps = replay_sweeps(dataset) if sweeps is None else sweeps
+    levels = replay_levels(dataset, sweeps) if levels is None else levels
+    frame = "absolute" if dataset.base_channel else "relative"
+    hinted = {run.file for run in dataset.runs if run.sweep is not None}
+    groups: dict = {}
+    for run in dataset.runs:
+        if run.file in levels:
+            groups.setdefault(sweeps[run.file][0], []).append(run.file)
+    runs = []
+    for sweep, files in groups.items():
+        res = simulate_sweeps(system, kn=kn, delta=delta, level_g=[levels[f][0] for f in files],
+                              sweep=sweep, channels=list(dataset.channels.values()),
+                              quantity=dataset.quantity, frame=frame,
+                              sample_rate=dataset.sample_rate,
+                              dtype=torch.float64 if dtype is None else dtype, progress=False,
+                              engine=engine)
+        ds = sweep_dataset(res, columns=dataset.channels, units=dataset.units, run_names=files)
+        runs += [r if r.file in hinted else dataclasses.replace(r, sweep=None) for r in ds.runs]
+    order = {r.file: i for i, r in enumerate(dataset.runs)}
+    runs.sort(key=lambda r: order[r.file])
+    return Dataset(name=f"replay of {dataset.name}", model=None, quantity=dataset.quantity,
+                   units=dataset.units, sample_rate=dataset.sample_rate,
+                   channels=dict(dataset.channels), runs=tuple(runs),
+                   base_channel=dataset.base_channel if frame == "absolute" else None)
+
+
+def _with_sweep_hints(dataset, sweeps: dict):
+    """``dataset`` with each run of ``sweeps`` that has no hint given its replayed law as one."""
+    import dataclasses
+
+    runs = tuple(dataclasses.replace(r, sweep=sweeps[r.file][0].to_dict())
+                 if r.sweep is None and r.file in sweeps else r for r in dataset.runs)
+    return dataclasses.replace(dataset, runs=runs)
