@@ -113,15 +113,19 @@ def test_jump_point_unknown_name():
                                 jump_point="peak")
 
 
+def _cliff_sweep(up: bool):
+    """Sample rate, sweep, top time and cliff time of the drop-point tests' analytic cliff."""
+    sweep = Sweep(30.0, 40.0, 1.0) if up else Sweep(40.0, 30.0, 1.0)
+    t_top = 6.0 if up else 4.0
+    return 512.0, sweep, t_top, t_top + (CLIFF_S if up else -CLIFF_S)
+
+
 @pytest.mark.parametrize("up", [True, False])
 def test_drop_point_at_the_analytic_cliff(up):
     # "drop": where a sharp amplitude falls through half the top's level, on the jump's steep
     # side (after the top for an up-sweep, before it for a down-sweep), and the amplitude one
     # filter time (1 / 2 Hz) towards the top, from windows that stop at the drop
-    fs = 512.0
-    sweep = Sweep(30.0, 40.0, 1.0) if up else Sweep(40.0, 30.0, 1.0)
-    t_top = 6.0 if up else 4.0
-    t_cliff = t_top + (CLIFF_S if up else -CLIFF_S)
+    fs, sweep, t_top, t_cliff = _cliff_sweep(up)
     env, x = _cliff_chirp(sweep, fs, t_top, t_cliff)
     p = extract_backbone_points(x[None, None], fs, quantity="displacement", sweep=sweep,
                                 method="lockin", jump_point="drop").points[0]
@@ -156,10 +160,7 @@ def test_drop_point_ignores_the_transient_after_the_drop(up):
     # six different transients after the drop: the drop point does not move (its windows stop at
     # the drop); the smoothed curve's crossing and value, which the transient reaches through
     # the filter, move by 0.001-0.007 Hz and 0.02-0.1 %
-    fs = 512.0
-    sweep = Sweep(30.0, 40.0, 1.0) if up else Sweep(40.0, 30.0, 1.0)
-    t_top = 6.0 if up else 4.0
-    t_cliff = t_top + (CLIFF_S if up else -CLIFF_S)
+    fs, sweep, t_top, t_cliff = _cliff_sweep(up)
     _, x = _cliff_chirp(sweep, fs, t_top, t_cliff)
     t = np.arange(x.size) / fs
     got = {"drop": [], "drop_smoothed": []}
