@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from freeplayid.signal import extract_backbone_points
-from freeplayid.signal.peak import gaussian_sigma, windowed_amplitude
+from freeplayid.signal.peak import gaussian_sigma, one_sided_amplitude, windowed_amplitude
 from freeplayid.sweep import Sweep
 from sdof_reference import jump_reference, simulate_sdof_sweep
 
@@ -104,6 +104,21 @@ def test_windowed_amplitude_constant_envelope_and_width():
     np.testing.assert_allclose(amp, 2.5, rtol=1e-6)
     s = gaussian_sigma(2.0)
     assert math.exp(-0.5 * (2 * math.pi * 2.0 * 2**-0.25 * s) ** 2) == pytest.approx(0.5)
+
+
+@pytest.mark.parametrize("before", [True, False])
+def test_one_sided_amplitude_ignores_what_lies_beyond_its_edge(before):
+    # a constant-amplitude chirp on one side of the edge, anything on the other: the amplitude
+    # is the chirp's exactly, whichever side the window looks at
+    fs, sweep = 256.0, Sweep(30.0, 35.0, 0.5)
+    t = np.arange(int(sweep.duration * fs)) / fs
+    edge = 1000.5
+    x = 2.5 * np.cos(sweep.phase(t) - 0.7)
+    beyond = (np.arange(t.size) > edge) if before else (np.arange(t.size) < edge)
+    x[beyond] = 40.0 * np.random.default_rng(0).standard_normal(int(beyond.sum()))
+    center = edge - 60 if before else edge + 60
+    amp = one_sided_amplitude(x, sweep.phase(t), fs, sigma_s=0.1, center=center, edge=edge)
+    assert amp == pytest.approx(2.5, rel=1e-9)
 
 
 def test_jump_point_unknown_name():
