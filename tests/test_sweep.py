@@ -141,6 +141,67 @@ def test_estimate_sweep_takes_the_best_row_and_refuses_a_tone():
         estimate_sweep(np.sin(2 * np.pi * 40.0 * t), 512.0)
 
 
+def _harmonic_acceleration(fs=512.0, f0=15.0, f1=60.0, rate=2.0, third=0.2, fifth=0.06):
+    """The acceleration of a displacement sin(phi) + third sin(3 phi) + fifth sin(5 phi) along a
+    linear sweep phi (numpy alone): its 3rd harmonic line is third * 9 = 1.8 times the
+    fundamental's, as on a freeplay fin's tip accelerometer."""
+    t = np.arange(int((f1 - f0) / rate * fs) + 1) / fs
+    phi = 2 * np.pi * (f0 * t + 0.5 * rate * t * t)
+    w = 2 * np.pi * (f0 + rate * t)
+    # d^2/dt^2 sin(n phi) = -(n w)^2 sin(n phi) + n rate 2 pi cos(n phi)
+    acc = sum(-a * (n * w) ** 2 * np.sin(n * phi) + a * n * 2 * np.pi * rate * np.cos(n * phi)
+              for n, a in ((1, 1.0), (3, third), (5, fifth)))
+    return t, acc
+
+
+def test_estimate_sweep_follows_the_fundamental_of_an_acceleration():
+    # the acceleration's largest line is the 3rd harmonic; read as an acceleration the record
+    # gives the law of the fundamental, read as a displacement (the behaviour before) the
+    # harmonic's (3 times the rate)
+    _, acc = _harmonic_acceleration()
+    acc = acc + 0.02 * np.abs(acc).max() * np.random.default_rng(3).normal(size=acc.size)
+    est = estimate_sweep(acc, 512.0, quantity="acceleration")
+    assert est.sweep.start_hz == pytest.approx(15.0, abs=0.05)
+    assert est.sweep.stop_hz == pytest.approx(60.0, abs=0.05)
+    assert est.sweep.rate_hz_per_s == pytest.approx(2.0, rel=2e-3)
+    wrong = estimate_sweep(acc, 512.0, quantity="displacement")
+    assert wrong.sweep.rate_hz_per_s == pytest.approx(6.0, rel=0.02)
+    with pytest.raises(ValueError, match="quantity"):
+        estimate_sweep(acc, 512.0, quantity="jerk")
+
+
+def test_a_run_without_hint_gets_one_law_for_all_its_channels():
+    # channel 0 carries a tone of 0.3x the sweep's peak at 150 Hz (a mode ringing on its own): its
+    # own law would be the tone's; the run's law comes from its best-tracked channel, and both
+    # channels' points sit on the true sweep
+    from freeplayid.identification.pipeline import _extract
+    from freeplayid.io import Dataset
+    from freeplayid.replay import run_sweep_law
+
+    fs, law = 512.0, Sweep(15.0, 60.0, 2.0)
+    t, acc = _harmonic_acceleration(fs=fs, third=0.0, fifth=0.0)
+    env = np.where(t < 12.0, 0.2 + 0.8 * t / 12.0, 0.1)  # a cliff at 39 Hz (up-sweep jump)
+    clean = env * acc
+    tone = 0.3 * np.abs(clean).max() * np.sin(2 * np.pi * 150.0 * t)
+    data = np.stack([clean + tone, clean])
+    run = Run(file="r.csv", time=t, data=data, level_g=1.0)
+    ds = Dataset(name="two channels", model=None, quantity="acceleration", units="m/s^2",
+                 sample_rate=fs, channels={"a": "x0", "b": "x1"}, runs=(run,))
+    sweep, source, resid = run_sweep_law(ds, run, use_hint=False)
+    assert source == "response" and sweep.rate_hz_per_s == pytest.approx(2.0, rel=2e-3)
+    try:  # the polluted channel alone: the tone's "law", or none
+        own = estimate_sweep(data[0], fs, quantity="acceleration").sweep.rate_hz_per_s
+    except ValueError:
+        own = None
+    assert own is None or abs(own - 2.0) > 0.2
+    pts, rejected = _extract(ds, extraction={"method": "acmp", "jump_point": "drop"},
+                             use_sweep_hint=False, progress=False)
+    used = pts.used()
+    assert not rejected and len(used) == 2
+    for p in used:
+        assert p.f_hz == pytest.approx(law.frequency(12.0), abs=0.03)  # the cliff at 39 Hz
+
+
 # --- the chain on simulated log sweeps (the package simulator, SDOF freeplay oscillator) ---
 
 KN, DELTA = 2.35e6, 1.2e-4  # [N/m], [m]: f_n = 50 Hz in contact

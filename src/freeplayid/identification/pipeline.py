@@ -28,6 +28,7 @@ def _extract(ds, *, extraction: Mapping, use_sweep_hint: bool, progress: bool):
     """Points of every usable run (one run at a time) and the rejected runs {run: reason}."""
     from tqdm import tqdm
 
+    from ..replay.runs import run_sweep_law
     from ..signal import BackbonePoints, extract_backbone_points
     from ..sweep import Sweep
 
@@ -38,7 +39,16 @@ def _extract(ds, *, extraction: Mapping, use_sweep_hint: bool, progress: bool):
         if run.reason:
             rejected[run.file] = run.reason
             continue
-        sweep = Sweep(**run.sweep) if (run.sweep and use_sweep_hint) else None
+        if run.sweep and use_sweep_hint:
+            sweep = Sweep(**run.sweep)
+        else:
+            # output-only: one law per run, from its base channel or its best-tracked response
+            # channel (each channel's own estimate can lock onto another mode); none found: the
+            # extraction tries each channel and rejects the ones without a sweep, with the reason
+            try:
+                sweep = run_sweep_law(ds, run, use_hint=False)[0]
+            except ValueError:
+                sweep = None
         base = None if run.base is None else [ds.to_si(run.base)]
         res = extract_backbone_points(
             [ds.to_si(run.data)], ds.sample_rate, quantity=ds.quantity,
@@ -125,7 +135,9 @@ def identify(
         Options of :func:`freeplayid.signal.extract_backbone_points` (``method``,
         ``bandwidth_hz``, ``trim_s``, the jump rule, ``min_snr_db``).
     use_sweep_hint : bool
-        Use the runs' ``sweep`` hints (ACMP's start, the band, the rate).
+        Use the runs' ``sweep`` hints (ACMP's start, the band, the rate). A run without one
+        (or with ``False``) gets its law estimated once from its base channel, else from its
+        best-tracked response channel, for all its channels.
     multistart : mapping, optional
         ``n``, ``kn_range`` [N m/rad], ``delta_range`` [rad] of the multi-start grid (default:
         those of :func:`freeplayid.fit.multistart_grid`).

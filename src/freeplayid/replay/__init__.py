@@ -70,8 +70,8 @@ from .corrected import ReplayResult, corrected_fit
 from .damping import ZETA_RTOL, ZETA_START, ReplayDamping, damped_system, initial_zeta
 from .misfit import curve_misfit
 from .noise import WEIGHT_FLOOR, noise_levels, point_weights
-from .runs import replay_dataset, replay_levels, replay_sweeps
+from .runs import replay_dataset, replay_levels, replay_sweeps, run_sweep_law
 
 __all__ = ["ReplayResult", "ReplayDamping", "replay_sweeps", "replay_levels", "replay_dataset",
            "corrected_fit", "curve_misfit", "damped_system", "noise_levels", "initial_zeta",
-           "point_weights", "WEIGHT_FLOOR", "ZETA_START", "ZETA_RTOL"]
+           "point_weights", "run_sweep_law", "WEIGHT_FLOOR", "ZETA_START", "ZETA_RTOL"]

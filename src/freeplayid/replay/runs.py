@@ -6,42 +6,53 @@ import numpy as np
 
 from ..quantity import G, check_quantity
 
-__all__ = ["replay_sweeps", "replay_levels", "replay_dataset"]
+__all__ = ["run_sweep_law", "replay_sweeps", "replay_levels", "replay_dataset"]
 
 
-def replay_sweeps(dataset) -> dict:
-    """Each usable run's sweep law: its ``sweep`` hint, else estimated from the base channel
-    when the data set has one, else from the response channels (the best-tracked one).
+def run_sweep_law(dataset, run, *, use_hint: bool = True):
+    """One run's sweep law: its ``sweep`` hint (``use_hint``), else estimated from the base
+    channel when the data set has one, else from the response channels (the best-tracked one:
+    a channel dominated by another mode's ringing, e.g. the tip acceleration of a beam, can
+    track that mode instead of the sweep; the run has one excitation).
 
     Returns
     -------
-    dict of run file -> (Sweep, source, residual [Hz] or None)
+    (Sweep, source, residual [Hz] or None)
         source is "hint", "base channel" or "response"; the residual is the estimate's
         (:class:`freeplayid.signal.SweepEstimate`).
 
     Raises
     ------
     ValueError
-        No sweep law can be found in a run without a hint.
+        No sweep law can be found in the run (and no hint used).
     """
     from ..signal import estimate_sweep
     from ..sweep import Sweep
 
-    out = {}
-    for run in dataset.runs:
-        if run.reason:
-            continue
-        if run.sweep is not None:
-            out[run.file] = (Sweep(**run.sweep), "hint", None)
-            continue
-        source, x = ("base channel", run.base) if run.base is not None else ("response", run.data)
-        try:
-            est = estimate_sweep(dataset.to_si(x), dataset.sample_rate)
-        except ValueError as exc:
-            raise ValueError(f"run {run.file}: no sweep hint and no sweep law in its {source} "
-                             f"({exc}); give the run's `sweep` hint") from None
-        out[run.file] = (est.sweep, source, est.residual_hz)
-    return out
+    if use_hint and run.sweep is not None:
+        return Sweep(**run.sweep), "hint", None
+    source, x = ("base channel", run.base) if run.base is not None else ("response", run.data)
+    try:
+        est = estimate_sweep(dataset.to_si(x), dataset.sample_rate, quantity=dataset.quantity)
+    except ValueError as exc:
+        raise ValueError(f"run {run.file}: no sweep hint and no sweep law in its {source} "
+                         f"({exc}); give the run's `sweep` hint") from None
+    return est.sweep, source, est.residual_hz
+
+
+def replay_sweeps(dataset) -> dict:
+    """Each usable run's sweep law (:func:`run_sweep_law`).
+
+    Returns
+    -------
+    dict of run file -> (Sweep, source, residual [Hz] or None)
+
+    Raises
+    ------
+    ValueError
+        No sweep law can be found in a run without a hint.
+    """
+    return {run.file: run_sweep_law(dataset, run) for run in dataset.runs if not run.reason}
 
 
 def replay_levels(dataset, sweeps: dict | None = None) -> dict:

@@ -79,6 +79,8 @@ class ChirpMode:
 # on lines): measured amplitude errors vs a decimated solve of 2e-4 at 1/alpha = 7e12, 1e-3 at
 # 2e13, 3e-3 at 1e14, breakdown near 1e16. We keep 1/alpha <= 1e12, i.e. f_c >= fs / (2 pi 1e3).
 MAX_INVERSE_WEIGHT = 1e12
+# ridge_track with `order`: the highest harmonic whose fundamental is looked for below a line
+MAX_HARMONIC = 7
 
 
 def bandwidth_weight(bandwidth_hz: float, sample_rate: float) -> float:
@@ -102,7 +104,7 @@ def check_bandwidth(bandwidth_hz: float, working_rate: float, name: str) -> None
         )
 
 
-def ridge_track(x, fs: float, *, window_s: float = 1.0, fmin: float = 0.0):
+def ridge_track(x, fs: float, *, window_s: float = 1.0, fmin: float = 0.0, order: int = 0):
     """The short-time Fourier ridge: per-frame spectral peak, refined by parabolic interpolation.
 
     Parameters
@@ -113,6 +115,15 @@ def ridge_track(x, fs: float, *, window_s: float = 1.0, fmin: float = 0.0):
         STFT window (half overlap); frequency resolution ~ 1/window_s.
     fmin : float [Hz]
         Ignore spectral lines below this (offsets, drifts).
+    order : int
+        Time derivatives of displacement in ``x`` (0 displacement, 1 velocity, 2 acceleration).
+        A nonlinear response has harmonics, and a derivative raises the n-th one's power by
+        n^(2 order) against the fundamental: in an acceleration record of a freeplay fin the
+        3rd-7th harmonics can outgrow the fundamental for seconds. So the frame's largest line
+        f_k is compared with the lines at f_k / n (n = 2 ... ``MAX_HARMONIC``, the local maximum
+        within one bin) by their displacement power (the power over f^(2 order)), and the
+        largest of those is the ridge: the fundamental of the displacement. Other lines (noise,
+        another mode) are never promoted.
 
     Returns
     -------
@@ -131,8 +142,19 @@ def ridge_track(x, fs: float, *, window_s: float = 1.0, fmin: float = 0.0):
     p = np.abs(z) ** 2
     p[f < fmin, :] = 0.0
     k = np.argmax(p, axis=0)
-    k = np.clip(k, 1, len(f) - 2)
     cols = np.arange(p.shape[1])
+    if order:
+        # the fundamental of the displacement among the subharmonics of the largest line
+        fsafe = np.maximum(f, f[1])
+        best = p[k, cols] / fsafe[k] ** (2 * order)
+        for n in range(2, MAX_HARMONIC + 1):
+            j = np.rint(k / n).astype(int)
+            j = np.clip(j, 1, len(f) - 2)
+            j = j - 1 + np.argmax(np.stack([p[j - 1, cols], p[j, cols], p[j + 1, cols]]), axis=0)
+            pd = p[j, cols] / fsafe[j] ** (2 * order)
+            take = (pd > best) & (f[j] >= fmin) & (j > 0)
+            k, best = np.where(take, j, k), np.where(take, pd, best)
+    k = np.clip(k, 1, len(f) - 2)
     lm, l0, lp = (np.log(p[k + d, cols] + 1e-300) for d in (-1, 0, 1))
     den = lm - 2 * l0 + lp
     off = np.where(np.abs(den) > 0, 0.5 * (lm - lp) / np.where(den == 0, 1, den), 0.0)

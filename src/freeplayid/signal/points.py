@@ -426,7 +426,7 @@ def _channel_point(
         # output-only: the record's own sweep law (linear or log, estimate_sweep) gives the
         # rate, the band and ACMP's start
         try:
-            law = estimate_sweep(x, fs, fmin=2.0).sweep
+            law = estimate_sweep(x, fs, fmin=2.0, quantity=quantity).sweep
         except ValueError as exc:
             raise _ExtractionError(f"no sweep found in the record ({exc})") from None
         run_opts["init_freq"] = law.frequency(np.arange(n) / fs)

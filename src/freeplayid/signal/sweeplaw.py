@@ -31,6 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import signal as sps
 
+from ..quantity import check_quantity
 from ..sweep import Sweep
 from .acmp import ridge_track
 from .validate import as_signal, check_positive
@@ -116,13 +117,13 @@ def _best(fits: dict):
     return law, fits[law][0]
 
 
-def _estimate_one(x: np.ndarray, fs: float, *, window_s, fmin: float, bandwidth_hz):
+def _estimate_one(x: np.ndarray, fs: float, *, window_s, fmin: float, bandwidth_hz, order):
     n = x.shape[0]
     T = (n - 1) / fs
     x = x - np.mean(x)
     # pass 1: the STFT ridge (1 s frames; at least ~16 frames in a short record)
     win = min(1.0, T / 8.0) if window_s is None else float(window_s)
-    t, fr, pw, df = ridge_track(x, fs, window_s=win, fmin=fmin)
+    t, fr, pw, df = ridge_track(x, fs, window_s=win, fmin=fmin, order=order)
     coarse = {law: _fit_law(law, t, fr, pw, df) for law in ("linear", "log")}
     if all(c[0] is None for c in coarse.values()):
         raise ValueError(f"the record is too short for a frequency track ({n} samples)")
@@ -154,7 +155,8 @@ def _estimate_one(x: np.ndarray, fs: float, *, window_s, fmin: float, bandwidth_
 
 
 def estimate_sweep(signal, sample_rate: float, *, window_s: float | None = None,
-                   fmin: float = 2.0, bandwidth_hz: float | None = None) -> SweepEstimate:
+                   fmin: float = 2.0, bandwidth_hz: float | None = None,
+                   quantity: str = "displacement") -> SweepEstimate:
     """Sweep law (start, stop, rate, direction; linear or log) of a record without a hint.
 
     Parameters
@@ -170,6 +172,10 @@ def estimate_sweep(signal, sample_rate: float, *, window_s: float | None = None,
         Spectral lines below this are ignored (offsets, drifts).
     bandwidth_hz : float [Hz], optional
         Low-pass of the fine pass; default max(2 Hz, 2 / window_s).
+    quantity : {"displacement", "velocity", "acceleration"}
+        What the record measures: the coarse ridge follows the fundamental of the displacement,
+        not a harmonic that a velocity or acceleration record raises above it
+        (:func:`freeplayid.signal.acmp.ridge_track`'s ``order``).
 
     Returns
     -------
@@ -182,6 +188,7 @@ def estimate_sweep(signal, sample_rate: float, *, window_s: float | None = None,
         or too short for a frequency track.
     """
     fs = check_positive(sample_rate, "sample_rate")
+    order = check_quantity(quantity).order
     x = np.asarray(signal, dtype=float)
     if x.ndim == 1:
         x = x[None, :]
@@ -191,7 +198,8 @@ def estimate_sweep(signal, sample_rate: float, *, window_s: float | None = None,
     for c in range(x.shape[0]):
         row = as_signal(x[c], "signal")
         try:
-            est = _estimate_one(row, fs, window_s=window_s, fmin=fmin, bandwidth_hz=bandwidth_hz)
+            est = _estimate_one(row, fs, window_s=window_s, fmin=fmin, bandwidth_hz=bandwidth_hz,
+                                order=order)
         except ValueError as exc:
             errors.append(f"row {c}: {exc}")
             continue
