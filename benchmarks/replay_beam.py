@@ -38,6 +38,8 @@ from pathlib import Path
 import numba
 import numpy as np
 
+from freeplayid.quantity import G
+
 M_IN = (0.3, 0.25, 0.2)  # [kg] inboard masses, root first
 K_IN = (6e5, 5e5, 4e5)  # [N/m] base -> in0 -> in1 -> in2
 M_OUT = (0.15, 0.12, 0.1, 0.08, 0.05)  # [kg] outboard masses, hinge first
@@ -90,7 +92,7 @@ def levels_for(M, K, b, kn, delta) -> list[float]:
     Theta = |b^T phi gamma| a / (2 zeta w^2), gamma = phi^T M r)."""
     lam, phi = closed_modes(M, K, b, kn)
     p = phi[:, 0]
-    gain = abs(float(b @ p) * float(p @ M @ np.ones(len(p)))) * 9.80665
+    gain = abs(float(b @ p) * float(p @ M @ np.ones(len(p)))) * G
     return [float(r * delta * 2 * ZETA * lam[0] / gain) for r in RATIOS]
 
 
@@ -169,8 +171,8 @@ def simulate(kn: float, delta: float, level_g: float, *, substeps: int = SUBSTEP
     out_idx = np.array([names.index(d) for d in CHANNELS.values()])
     # fine samples every 2 steps, then a linear-phase anti-alias filter down to SAMPLE_RATE
     fine = 2
-    acc = _rk4(Minv @ K, Minv @ C, Minv @ b, b, kn, delta, level_g * 9.80665, f0, rate,
-                        h, n_steps, fine, out_idx)
+    acc = _rk4(Minv @ K, Minv @ C, Minv @ b, b, kn, delta, level_g * G, f0, rate,
+               h, n_steps, fine, out_idx)
     return scipy.signal.resample_poly(acc, 1, substeps // fine, axis=-1)
 
 
@@ -194,7 +196,6 @@ def make_dataset(case: dict, seed: int):
         data = rec + NOISE * peak * rng.standard_normal(rec.shape)
         t = np.arange(data.shape[-1]) / SAMPLE_RATE
         runs.append(Run(file=f"case{case['case']}_{lv:.3g}g", time=t, data=data, level_g=lv))
-    case["levels"] = levels
     return Dataset(name=f"beam case {case['case']}", model=None, quantity="acceleration",
                    units="m/s^2", sample_rate=SAMPLE_RATE, channels=dict(CHANNELS),
                    runs=tuple(runs), truth={"kn": case["kn"], "delta": case["delta"]})

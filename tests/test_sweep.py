@@ -187,7 +187,7 @@ def test_a_run_without_hint_gets_one_law_for_all_its_channels():
     run = Run(file="r.csv", time=t, data=data, level_g=1.0)
     ds = Dataset(name="two channels", model=None, quantity="acceleration", units="m/s^2",
                  sample_rate=fs, channels={"a": "x0", "b": "x1"}, runs=(run,))
-    sweep, source, resid = run_sweep_law(ds, run, use_hint=False)
+    sweep, source, _ = run_sweep_law(ds, run, use_hint=False)
     assert source == "response" and sweep.rate_hz_per_s == pytest.approx(2.0, rel=2e-3)
     try:  # the polluted channel alone: the tone's "law", or none
         own = estimate_sweep(data[0], fs, quantity="acceleration").sweep.rate_hz_per_s
