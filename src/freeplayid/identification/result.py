@@ -6,25 +6,9 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
-from ..errors import InputError
+from ..errors import IdentificationError, SuspectResultError
 
 __all__ = ["Identification", "IdentificationError", "SuspectResultError"]
-
-
-class IdentificationError(InputError):
-    """The data set is valid but does not support an identification (e.g. too few points).
-
-    ``points`` holds what the extraction found (a ``BackbonePoints``), when it got that far.
-    """
-
-    def __init__(self, message: str, *, points=None) -> None:
-        super().__init__(message)
-        self.points = points
-
-
-class SuspectResultError(InputError):
-    """An identification whose verdict is ``suspect``, refused by a command (its reasons say why;
-    ``allow_suspect=true`` accepts it)."""
 
 
 @dataclass(frozen=True)

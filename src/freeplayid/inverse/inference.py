@@ -15,17 +15,13 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from ..errors import InputError
+from ..errors import InverseModelError
 from ..fit import FittingPoints
 from .lightning import _CKPT_KEY, _CKPT_VERSION, _STRUCTURE_KEY, InverseModule
 from .network import Normalisation, collate_point_sets
 from .points import PointSets, point_sets_from_records
 
 __all__ = ["InverseModelError", "InversePrediction", "InverseModel", "load_inverse_model"]
-
-
-class InverseModelError(InputError):
-    """An inverse-model checkpoint is missing, not ours, or made for another linear model."""
 
 
 @dataclass(frozen=True)

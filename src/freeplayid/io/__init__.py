@@ -9,9 +9,9 @@ Identification results (``identification.json``): :func:`write_identification` a
 :func:`freeplayid.model.load_system` and :func:`freeplayid.model.save_system`.
 """
 
+from ..errors import DatasetError
 from .atomic import atomic_write_text, staged_folder
 from .dataset import Dataset, Run, read_dataset, write_dataset
-from .errors import DatasetError
 from .modal import ModalTestError, read_modal_test
 from .result import ResultFileError, read_identification, write_identification
 from .uff import read_uff, write_uff

@@ -15,7 +15,7 @@ import os
 from collections.abc import Mapping
 from pathlib import Path
 
-from ..errors import InputError
+from ..errors import ResultFileError
 from .atomic import atomic_write_text
 
 __all__ = ["ResultFileError", "read_identification", "write_identification", "RESULT_FILE"]
@@ -24,10 +24,6 @@ RESULT_FILE = "identification.json"
 REQUIRED = ("kn", "delta", "kn_ci95", "delta_ci95", "points", "rejected_runs", "residual_rms",
             "backbone", "init", "runtime_s")
 POINT_KEYS = ("run", "channel", "f_hz", "amplitude_m", "used", "reason")
-
-
-class ResultFileError(InputError):
-    """An ``identification.json`` that does not satisfy the result contract."""
 
 
 def _json_safe(obj):

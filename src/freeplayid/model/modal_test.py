@@ -18,17 +18,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import ModalTestError
 
 __all__ = ["ModalTestError", "MeasuredModes", "ModalTest", "TEST_NAMES", "CONFIG_POINTS"]
 
 TEST_NAMES = ("outboard_free", "inboard_free", "inboard_clamped")
 CONFIG_POINTS = ("top_left", "lower_right", "exciting")  # points named in the fin configuration
-
-
-class ModalTestError(InputError):
-    """A modal test (file or values) that cannot update the model; the message names the file
-    and the field."""
 
 
 @dataclass(frozen=True)

@@ -19,16 +19,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import SystemFileError
 
 __all__ = ["FreeplaySystem", "load_system", "save_system", "SystemFileError"]
 
 _REQUIRED_KEYS = ("M", "K", "dof_names", "hinge_pairs")
 _OPTIONAL_KEYS = ("C", "base_influence")
-
-
-class SystemFileError(InputError):
-    """A linear model file does not satisfy the `.npz` contract (docs/identify.md)."""
 
 
 def _check_square_symmetric(name: str, a: np.ndarray, n: int, *, rtol: float = 1e-8) -> None:

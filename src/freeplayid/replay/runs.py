@@ -102,7 +102,7 @@ def replay_dataset(dataset, system, kn: float, delta: float, *, levels: dict | N
 
     import torch
 
-    from ..io import Dataset
+    from ..dataset import Dataset
     from ..simulate import simulate_sweeps, sweep_dataset
     from ..simulate.engines import ENGINES
 

@@ -12,7 +12,7 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from ..io import Dataset, Run
+from ..dataset import Dataset, Run
 from ..quantity import check_quantity, check_units
 
 __all__ = ["sweep_dataset", "default_columns", "BASE_COLUMN"]

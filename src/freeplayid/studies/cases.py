@@ -356,7 +356,7 @@ def rebuild_case(bank: SweepBank, spec: CaseSpec, ps: PointSets, i: int, *,
         ``cases-<key>`` folder to rebuild them), or case ``i`` is not the plan's entry (``ps``
         comes from another bank or spec).
     """
-    from ..io import Dataset, Run
+    from ..dataset import Dataset, Run
 
     require_plan_index(bank, spec, ps)
     plan = plan_cases(bank, spec) if plan is None else plan

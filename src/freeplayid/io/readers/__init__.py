@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import DatasetError
+from ...errors import DatasetError
 from . import csv, mat, tdms, uff
 
 __all__ = ["READERS", "Reader", "read_run", "reader_for"]
