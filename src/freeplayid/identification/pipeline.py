@@ -6,9 +6,8 @@ import os
 import time
 from collections.abc import Mapping
 
-import numpy as np
-
-from .result import Identification, IdentificationError
+from ..estimate import plain_estimate
+from .result import Identification
 
 __all__ = ["identify"]
 
@@ -22,79 +21,6 @@ def _zero_clearance_check(dataset, system, kn: float):
     from ..model import validate_modes
 
     return validate_modes(system, kn, ref["frequencies_hz"], ref["shapes"], ref["dofs"])
-
-
-def _extract(ds, *, extraction: Mapping, use_sweep_hint: bool, progress: bool):
-    """Points of every usable run (one run at a time) and the rejected runs {run: reason}."""
-    from tqdm import tqdm
-
-    from ..replay.runs import run_sweep_law
-    from ..signal import BackbonePoints, extract_backbone_points
-    from ..sweep import Sweep
-
-    points, curves, rejected = [], [], {}
-    bar = tqdm(ds.runs, desc="extracting points", unit="run",
-               disable=not progress or len(ds.runs) < 2)
-    for run in bar:
-        if run.reason:
-            rejected[run.file] = run.reason
-            continue
-        if run.sweep and use_sweep_hint:
-            sweep = Sweep(**run.sweep)
-        else:
-            # output-only: one law per run, from its base channel or its best-tracked response
-            # channel (each channel's own estimate can lock onto another mode); none found: the
-            # extraction tries each channel and rejects the ones without a sweep, with the reason
-            try:
-                sweep = run_sweep_law(ds, run, use_hint=False)[0]
-            except ValueError:
-                sweep = None
-        base = None if run.base is None else [ds.to_si(run.base)]
-        res = extract_backbone_points(
-            [ds.to_si(run.data)], ds.sample_rate, quantity=ds.quantity,
-            channel_names=list(ds.channels), run_names=[run.file], sweep=sweep, base=base,
-            base_name=ds.base_channel or "base", **extraction,
-        )
-        points += res.points
-        curves += res.curves
-        if res.rejected_runs:
-            rejected[run.file] = "; ".join(dict.fromkeys(p.reason for p in res.points))
-    pts = BackbonePoints(tuple(points), tuple(rejected), tuple(curves), ds.quantity,
-                         extraction.get("method", "acmp"))
-    return pts, rejected
-
-
-def _check_enough(pts, rejected: dict, where) -> None:
-    """IdentificationError unless the used points span two resonances or more."""
-    from ..fit import count_resonances
-
-    used = pts.used()
-    if len(used) < 2:
-        why = "; ".join(f"{r}: {w}" for r, w in rejected.items()) or "none rejected"
-        raise IdentificationError(
-            f"{where}: {len(used)} usable fitting point(s), at least 2 are needed "
-            f"(rejected runs: {why}); add runs at higher levels that resonate in the band",
-            points=pts,
-        )
-    if count_resonances([p.f_hz for p in used]) < 2:
-        raise IdentificationError(
-            f"{where}: the {len(used)} usable points lie at one resonance (within 0.5 %: "
-            f"{used[0].f_hz:.3f} Hz, run {used[0].run}): kn and delta need resonances at two "
-            "or more levels; add runs at other levels that resonate in the band",
-            points=pts,
-        )
-
-
-def _inverse_start(model, points) -> dict:
-    """The inverse model's estimate of (kn, delta) from the fitting points (the fit's start)."""
-    try:
-        kn, delta, s_kn, s_delta = model.predict_points(points)
-    except ValueError as exc:  # e.g. a channel the network was not trained on
-        from ..inverse import InverseModelError
-
-        raise InverseModelError(f"{model.path}: {exc}") from None
-    return {"kn": float(kn), "delta": float(delta), "log_kn_std": float(s_kn),
-            "log_delta_std": float(s_delta), "checkpoint": str(model.path)}
 
 
 def identify(
@@ -189,7 +115,6 @@ def identify(
         The inverse model cannot take these points (e.g. a channel it was not trained on).
     """
     from ..backbone import backbone_method
-    from ..fit import FittingPoints, fit_backbone, multistart_grid
     from ..io import DatasetError, read_dataset
     from ..model import FreeplaySystem, load_system
     from ..verdict import base_level_checks, fit_checks, make_verdict, validation_checks
@@ -211,23 +136,13 @@ def identify(
         system = load_system(dataset.model)
     elif not isinstance(system, FreeplaySystem):
         raise TypeError(f"`system` must be a FreeplaySystem, got {type(system).__name__}")
-    where = dataset.path or dataset.name or "data set"
-    pts, rejected = _extract(dataset, extraction=dict(extraction or {}),
-                             use_sweep_hint=use_sweep_hint, progress=progress)
-    _check_enough(pts, rejected, where)
-    points = FittingPoints.from_extraction(pts, dofs=dataset.channels)
-    inverse = None
-    if hasattr(init, "predict_points"):
-        inverse = _inverse_start(init, points)
-        starts, label = (inverse["kn"], inverse["delta"]), "inverse"
-    elif init is None and multistart:
-        starts, label = multistart_grid(**{k: v if k == "n" else tuple(v)
-                                           for k, v in multistart.items()}), "multistart"
-    else:
-        starts, label = init, None
-    fit = fit_backbone(points, system, init=starts, init_label=label, backbone=backbone,
-                       mode=int(mode), n_bootstrap=int(n_bootstrap), seed=int(seed),
-                       weights=weights_of(points, point_weights))
+    est = plain_estimate(dataset, system, backbone=backbone, init=init, extraction=extraction,
+                         use_sweep_hint=use_sweep_hint, multistart=multistart, mode=mode,
+                         n_bootstrap=n_bootstrap, seed=seed, point_weights=point_weights,
+                         progress=progress)
+    pts, fit, rejected, inverse = est.points, est.fit, dict(est.rejected_runs), \
+        est.inverse_estimate
+    points = est.fitting_points()
     validation = _zero_clearance_check(dataset, system, fit.kn)
     verdict = make_verdict(base_level_checks(dataset)
                            + fit_checks(points, fit, system, pts, mode=int(mode))
@@ -262,7 +177,8 @@ def identify(
         validation=validation,
     )
     if replay:
-        result = _with_replay(result, dataset, system, backbone=backbone, extraction=extraction,
+        result = _with_replay(result, est, dataset, system, backbone=backbone,
+                              extraction=extraction,
                               use_sweep_hint=use_sweep_hint, mode=int(mode), t0=t0,
                               damping=damping, n_bootstrap=int(replay_bootstrap), seed=int(seed),
                               jump_point=replay_jump_point, weighted=replay_weighted,
@@ -270,18 +186,7 @@ def identify(
     return result
 
 
-def weights_of(points, point_weights: Mapping | None):
-    """Each point's weight from a mapping (run, DOF name) -> weight (the median weight for a
-    point without an entry), or None without a mapping."""
-    if point_weights is None:
-        return None
-    default = float(np.median(list(point_weights.values())))
-    runs = points.run if points.run is not None else (None,) * len(points)
-    return np.array([float(point_weights.get((r, c), default))
-                     for r, c in zip(runs, points.channel, strict=True)])
-
-
-def _with_replay(result, dataset, system, *, t0, damping, n_bootstrap, seed, jump_point,
+def _with_replay(result, plain, dataset, system, *, t0, damping, n_bootstrap, seed, jump_point,
                  weighted, progress, **fit_kwargs):
     """``result`` with the bias-corrected (kn, delta) of :func:`freeplayid.replay.corrected_fit`.
 
@@ -296,7 +201,7 @@ def _with_replay(result, dataset, system, *, t0, damping, n_bootstrap, seed, jum
     from ..replay import corrected_fit
     from ..verdict import interval_check, make_verdict, replay_checks
 
-    rep = corrected_fit(dataset, system, result, fit_kwargs=fit_kwargs, damping=damping,
+    rep = corrected_fit(dataset, system, plain, fit_kwargs=fit_kwargs, damping=damping,
                         n_bootstrap=n_bootstrap, seed=seed, jump_point=jump_point,
                         weighted=weighted, progress=progress)
     checks = result.verdict.checks + tuple(replay_checks(rep))

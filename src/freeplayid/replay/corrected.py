@@ -2,10 +2,14 @@
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import IdentificationError
+from ..estimate import plain_estimate, weights_of
+from ..fit import fit_backbone
 from .damping import ZETA_RTOL, ReplayDamping, _damping_mode, damped_system, initial_zeta
 from .misfit import curve_misfit
 from .noise import _bootstrap_by_replay, _median_se, _misfit_in_se, noise_levels, point_weights
@@ -133,9 +137,6 @@ def corrected_fit(dataset, system, identification, *, fit_kwargs: dict, damping=
     A replay that cannot be fitted (the replayed fin stays in the gap, no jump: a model far
     from the test) ends the loop with ``failure`` set; the verdict then says ``suspect``.
     """
-    from ..fit import FittingPoints
-    from ..identification.pipeline import identify
-    from ..identification.result import IdentificationError
 
     source, zeta = _damping_mode(system, damping)
     plain = identification
@@ -168,8 +169,8 @@ def corrected_fit(dataset, system, identification, *, fit_kwargs: dict, damping=
         fit_kwargs = {**fit_kwargs, "use_sweep_hint": True,
                       "extraction": {**extraction, "jump_point": jump_point}}
         try:
-            identification = identify(stat_ds, system=system, init=(plain.kn, plain.delta),
-                                      progress=False, replay=False, **fit_kwargs)
+            identification = plain_estimate(stat_ds, system, init=(plain.kn, plain.delta),
+                                            **fit_kwargs)
         except IdentificationError as err:
             return plain_only(f"the measured points taken with jump_point {jump_point!r} "
                               f"cannot be fitted: {err}")
@@ -205,8 +206,7 @@ def corrected_fit(dataset, system, identification, *, fit_kwargs: dict, damping=
         sys_k = system if source == "model" else damped_system(system, zeta_k, kn_damping)
         rep_ds = replay_dataset(stat_ds, sys_k, *theta, levels=levels, sweeps=sweeps)
         try:
-            rep_k = identify(rep_ds, system=system, init=tuple(theta), progress=False,
-                             replay=False, **fit_kwargs)
+            rep_k = plain_estimate(rep_ds, system, init=tuple(theta), **fit_kwargs)
         except IdentificationError as err:
             failure = (f"the replay at kn = {theta[0]:.5g} N·m/rad, delta = {theta[1]:.5g} rad "
                        f"could not be identified ({err}): the model does not behave like the "
@@ -216,8 +216,7 @@ def corrected_fit(dataset, system, identification, *, fit_kwargs: dict, damping=
             # the first replay is the clean reference of the measured noise: weight the points
             # by it, refit the test's statistic and this replay with the weights, and keep them
             # for every later fit (the binding needs one fixed statistic)
-            fitted = FittingPoints.from_extraction(identification.points,
-                                                   dofs=identification.dofs)
+            fitted = identification.fitting_points()
             weights, weight_table = point_weights(
                 fitted, noise_levels(stat_ds, rep_ds), stat_ds, system, *hat,
                 mode=int(fit_kwargs.get("mode", 0)))
@@ -328,20 +327,13 @@ def corrected_fit(dataset, system, identification, *, fit_kwargs: dict, damping=
                                 for run, (sw, src, res) in sweeps.items()})
 
 
-def _refit(ident, system, weights: dict, fit_kwargs: dict):
-    """``ident`` (an Identification) fitted again to its own points with ``weights``."""
-    import dataclasses
-
-    from ..fit import FittingPoints, fit_backbone
-    from ..identification.pipeline import weights_of
-
-    pts = FittingPoints.from_extraction(ident.points, dofs=ident.dofs)
-    fit = fit_backbone(pts, system, init=(ident.kn, ident.delta), init_label=ident.fit.init,
+def _refit(est, system, weights: dict, fit_kwargs: dict):
+    """``est`` (a PlainEstimate) fitted again to its own points with ``weights``."""
+    pts = est.fitting_points()
+    fit = fit_backbone(pts, system, init=(est.kn, est.delta), init_label=est.fit.init,
                        backbone=fit_kwargs.get("backbone", "dfa"),
                        mode=int(fit_kwargs.get("mode", 0)), weights=weights_of(pts, weights))
-    return dataclasses.replace(ident, kn=fit.kn, delta=fit.delta, kn_ci95=tuple(fit.kn_ci95),
-                               delta_ci95=tuple(fit.delta_ci95),
-                               residual_rms=fit.residual_rms, fit=fit)
+    return dataclasses.replace(est, fit=fit)
 
 
 def _amplitude_ratios(measured_points, replayed_points) -> np.ndarray:
@@ -352,10 +344,10 @@ def _amplitude_ratios(measured_points, replayed_points) -> np.ndarray:
     return np.asarray(out, float)
 
 
-def _by_run_intervals(identification) -> tuple:
+def _by_run_intervals(estimate) -> tuple:
     """The statistic fit's Jacobian intervals with each run's points as one observation (the
     channels of a run share its jump); the per-point ones when the fit has no runs."""
-    fit = identification.fit
+    fit = estimate.fit
     if fit.kn_ci95_by_run is None:
-        return tuple(identification.kn_ci95), tuple(identification.delta_ci95)
+        return tuple(fit.kn_ci95), tuple(fit.delta_ci95)
     return tuple(fit.kn_ci95_by_run), tuple(fit.delta_ci95_by_run)

@@ -132,8 +132,8 @@ def _bootstrap_by_replay(rep_ds, system, noise, *, theta, theta_rep, n, seed, fi
 
     from tqdm.auto import tqdm
 
-    from ..identification.pipeline import identify
-    from ..identification.result import IdentificationError
+    from ..errors import IdentificationError
+    from ..estimate import plain_estimate
 
     rng = np.random.default_rng(seed)
     samples = []
@@ -148,8 +148,7 @@ def _bootstrap_by_replay(rep_ds, system, noise, *, theta, theta_rep, n, seed, fi
             runs.append(dataclasses.replace(run, data=noisy))
         copy = dataclasses.replace(rep_ds, runs=tuple(runs))
         try:
-            fit = identify(copy, system=system, init=tuple(theta_rep), progress=False,
-                           replay=False, **fit_kwargs)
+            fit = plain_estimate(copy, system, init=tuple(theta_rep), **fit_kwargs)
         except IdentificationError:
             continue  # a copy whose noise hides a jump: it adds no sample
         samples.append(theta * np.array([fit.kn, fit.delta]) / theta_rep)

@@ -4,40 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..estimate import run_sweep_law
 from ..quantity import G, check_quantity
 
-__all__ = ["run_sweep_law", "replay_sweeps", "replay_levels", "replay_dataset"]
-
-
-def run_sweep_law(dataset, run, *, use_hint: bool = True):
-    """One run's sweep law: its ``sweep`` hint (``use_hint``), else estimated from the base
-    channel when the data set has one, else from the response channels (the best-tracked one:
-    a channel dominated by another mode's ringing, e.g. the tip acceleration of a beam, can
-    track that mode instead of the sweep; the run has one excitation).
-
-    Returns
-    -------
-    (Sweep, source, residual [Hz] or None)
-        source is "hint", "base channel" or "response"; the residual is the estimate's
-        (:class:`freeplayid.signal.SweepEstimate`).
-
-    Raises
-    ------
-    ValueError
-        No sweep law can be found in the run (and no hint used).
-    """
-    from ..signal import estimate_sweep
-    from ..sweep import Sweep
-
-    if use_hint and run.sweep is not None:
-        return Sweep(**run.sweep), "hint", None
-    source, x = ("base channel", run.base) if run.base is not None else ("response", run.data)
-    try:
-        est = estimate_sweep(dataset.to_si(x), dataset.sample_rate, quantity=dataset.quantity)
-    except ValueError as exc:
-        raise ValueError(f"run {run.file}: no sweep hint and no sweep law in its {source} "
-                         f"({exc}); give the run's `sweep` hint") from None
-    return est.sweep, source, est.residual_hz
+__all__ = ["replay_sweeps", "replay_levels", "replay_dataset"]
 
 
 def replay_sweeps(dataset) -> dict:

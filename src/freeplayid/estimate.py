@@ -1,0 +1,209 @@
+"""The plain estimate of a data set: its fitting points extracted and the backbone fitted to them.
+
+This is what :func:`freeplayid.identify` runs on the measured test and what the replay
+(:mod:`freeplayid.replay`) runs on every simulated copy of it, so both go through the same
+steps: each usable run's sweep law (its hint, else estimated from the record), the resonance
+(jump) point of every channel (:func:`freeplayid.signal.extract_backbone_points`, the base
+channel subtracted), at least two resonances, the fit's start (an inverse model's estimate,
+given starts or the multi-start grid) and the backbone least squares
+(:func:`freeplayid.fit.fit_backbone`). No verdict and no replay here: those judge and correct
+this estimate one layer up.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+from tqdm.auto import tqdm
+
+from .errors import IdentificationError, InverseModelError
+from .fit import FitResult, FittingPoints, count_resonances, fit_backbone, multistart_grid
+from .signal import BackbonePoints, estimate_sweep, extract_backbone_points
+from .sweep import Sweep
+
+__all__ = ["PlainEstimate", "plain_estimate", "extract_points", "run_sweep_law", "weights_of"]
+
+
+@dataclass(frozen=True)
+class PlainEstimate:
+    """The extract-and-fit of one data set.
+
+    Attributes
+    ----------
+    points : freeplayid.signal.BackbonePoints
+        Every run's and channel's candidate point, used or not, with its amplitude curve.
+    rejected_runs : tuple of (str, str)
+        (run, reason) of every run without a usable point.
+    fit : freeplayid.fit.FitResult
+        The backbone fit of the used points.
+    dofs : dict of str -> str
+        Channel (data-set column) -> model DOF name.
+    inverse_estimate : dict or None
+        The inverse model's estimate that started the fit (kn, delta, log_kn_std,
+        log_delta_std, checkpoint), when one did.
+    """
+
+    points: BackbonePoints
+    rejected_runs: tuple
+    fit: FitResult
+    dofs: dict
+    inverse_estimate: dict | None = None
+
+    @property
+    def kn(self) -> float:
+        return self.fit.kn
+
+    @property
+    def delta(self) -> float:
+        return self.fit.delta
+
+    def fitting_points(self) -> FittingPoints:
+        """The used points with their model DOF names (the points of :attr:`fit`)."""
+        return FittingPoints.from_extraction(self.points, dofs=self.dofs)
+
+
+def run_sweep_law(dataset, run, *, use_hint: bool = True):
+    """One run's sweep law: its ``sweep`` hint (``use_hint``), else estimated from the base
+    channel when the data set has one, else from the response channels (the best-tracked one:
+    a channel dominated by another mode's ringing, e.g. the tip acceleration of a beam, can
+    track that mode instead of the sweep; the run has one excitation).
+
+    Returns
+    -------
+    (Sweep, source, residual [Hz] or None)
+        source is "hint", "base channel" or "response"; the residual is the estimate's
+        (:class:`freeplayid.signal.SweepEstimate`).
+
+    Raises
+    ------
+    ValueError
+        No sweep law can be found in the run (and no hint used).
+    """
+    if use_hint and run.sweep is not None:
+        return Sweep(**run.sweep), "hint", None
+    source, x = ("base channel", run.base) if run.base is not None else ("response", run.data)
+    try:
+        est = estimate_sweep(dataset.to_si(x), dataset.sample_rate, quantity=dataset.quantity)
+    except ValueError as exc:
+        raise ValueError(f"run {run.file}: no sweep hint and no sweep law in its {source} "
+                         f"({exc}); give the run's `sweep` hint") from None
+    return est.sweep, source, est.residual_hz
+
+
+def extract_points(dataset, *, extraction: Mapping, use_sweep_hint: bool = True,
+                   progress: bool = False) -> tuple[BackbonePoints, dict]:
+    """Points of every usable run (one run at a time) and the rejected runs {run: reason}.
+
+    A run without a hint (or with ``use_sweep_hint`` False) gets one law for all its channels,
+    from its base channel, else from its best-tracked response channel (each channel's own
+    estimate can lock onto another mode); none found: the extraction tries each channel and
+    rejects the ones without a sweep, with the reason.
+    """
+    points, curves, rejected = [], [], {}
+    bar = tqdm(dataset.runs, desc="extracting points", unit="run",
+               disable=not progress or len(dataset.runs) < 2)
+    for run in bar:
+        if run.reason:
+            rejected[run.file] = run.reason
+            continue
+        if run.sweep and use_sweep_hint:
+            sweep = Sweep(**run.sweep)
+        else:
+            try:
+                sweep = run_sweep_law(dataset, run, use_hint=False)[0]
+            except ValueError:
+                sweep = None
+        base = None if run.base is None else [dataset.to_si(run.base)]
+        res = extract_backbone_points(
+            [dataset.to_si(run.data)], dataset.sample_rate, quantity=dataset.quantity,
+            channel_names=list(dataset.channels), run_names=[run.file], sweep=sweep, base=base,
+            base_name=dataset.base_channel or "base", **extraction,
+        )
+        points += res.points
+        curves += res.curves
+        if res.rejected_runs:
+            rejected[run.file] = "; ".join(dict.fromkeys(p.reason for p in res.points))
+    pts = BackbonePoints(tuple(points), tuple(rejected), tuple(curves), dataset.quantity,
+                         extraction.get("method", "acmp"))
+    return pts, rejected
+
+
+def check_enough(points: BackbonePoints, rejected: dict, where) -> None:
+    """IdentificationError unless the used points span two resonances or more."""
+    used = points.used()
+    if len(used) < 2:
+        why = "; ".join(f"{r}: {w}" for r, w in rejected.items()) or "none rejected"
+        raise IdentificationError(
+            f"{where}: {len(used)} usable fitting point(s), at least 2 are needed "
+            f"(rejected runs: {why}); add runs at higher levels that resonate in the band",
+            points=points,
+        )
+    if count_resonances([p.f_hz for p in used]) < 2:
+        raise IdentificationError(
+            f"{where}: the {len(used)} usable points lie at one resonance (within 0.5 %: "
+            f"{used[0].f_hz:.3f} Hz, run {used[0].run}): kn and delta need resonances at two "
+            "or more levels; add runs at other levels that resonate in the band",
+            points=points,
+        )
+
+
+def _inverse_start(model, points) -> dict:
+    """The inverse model's estimate of (kn, delta) from the fitting points (the fit's start)."""
+    try:
+        kn, delta, s_kn, s_delta = model.predict_points(points)
+    except ValueError as exc:  # e.g. a channel the network was not trained on
+        raise InverseModelError(f"{model.path}: {exc}") from None
+    return {"kn": float(kn), "delta": float(delta), "log_kn_std": float(s_kn),
+            "log_delta_std": float(s_delta), "checkpoint": str(model.path)}
+
+
+def weights_of(points: FittingPoints, point_weights: Mapping | None):
+    """Each point's weight from a mapping (run, DOF name) -> weight (the median weight for a
+    point without an entry), or None without a mapping."""
+    if point_weights is None:
+        return None
+    default = float(np.median(list(point_weights.values())))
+    runs = points.run if points.run is not None else (None,) * len(points)
+    return np.array([float(point_weights.get((r, c), default))
+                     for r, c in zip(runs, points.channel, strict=True)])
+
+
+def plain_estimate(dataset, system, *, backbone: str = "dfa", init=None,
+                   extraction: Mapping | None = None, use_sweep_hint: bool = True,
+                   multistart: Mapping | None = None, mode: int = 0, n_bootstrap: int = 0,
+                   seed: int = 0, point_weights: Mapping | None = None,
+                   progress: bool = False) -> PlainEstimate:
+    """The plain estimate of ``dataset`` (module docstring).
+
+    Parameters are those of :func:`freeplayid.identify` of the same names; ``point_weights``
+    maps (run, DOF name) to the weight of that point in the fit (the replay's weighted
+    statistic; None: every point weighs the same).
+
+    Raises
+    ------
+    IdentificationError
+        Fewer than two usable points, or all of them at one resonance.
+    InverseModelError
+        The inverse model cannot take these points.
+    """
+    where = dataset.path or dataset.name or "data set"
+    pts, rejected = extract_points(dataset, extraction=dict(extraction or {}),
+                                   use_sweep_hint=use_sweep_hint, progress=progress)
+    check_enough(pts, rejected, where)
+    points = FittingPoints.from_extraction(pts, dofs=dataset.channels)
+    inverse = None
+    if hasattr(init, "predict_points"):
+        inverse = _inverse_start(init, points)
+        starts, label = (inverse["kn"], inverse["delta"]), "inverse"
+    elif init is None and multistart:
+        starts, label = multistart_grid(**{k: v if k == "n" else tuple(v)
+                                           for k, v in multistart.items()}), "multistart"
+    else:
+        starts, label = init, None
+    fit = fit_backbone(points, system, init=starts, init_label=label, backbone=backbone,
+                       mode=int(mode), n_bootstrap=int(n_bootstrap), seed=int(seed),
+                       weights=weights_of(points, point_weights))
+    return PlainEstimate(points=pts, rejected_runs=tuple(rejected.items()), fit=fit,
+                         dofs=dict(dataset.channels), inverse_estimate=inverse)
