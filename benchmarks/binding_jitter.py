@@ -54,8 +54,8 @@ def fitted(dataset, system, theta, rule: str) -> np.ndarray:
     """log(kn, delta, point frequencies, point amplitudes) of the statistic's fit."""
     from freeplayid import identify
 
-    res = identify(dataset, system=system, init=tuple(theta), progress=False, replay=False,
-                   use_sweep_hint=True, extraction={"jump_point": rule})
+    res = identify(dataset, system=system, init=tuple(theta), progress=False,
+                   extraction={"jump_point": rule, "use_sweep_hint": True}, replay=None)
     pts = res.points.used()
     return np.log(np.array([res.kn, res.delta] + [p.f_hz for p in pts]
                            + [p.amplitude_m for p in pts]))
@@ -64,7 +64,7 @@ def fitted(dataset, system, theta, rule: str) -> np.ndarray:
 def run_case(index: int, seed: int, engines: list[str], rules: list[str]) -> list[tuple]:
     from freeplayid import replay as rp
     from freeplayid.model import default_fin
-    from freeplayid.replay.runs import _with_sweep_hints
+    from freeplayid.replay.runs import with_sweep_hints
 
     case = replay_study.draw_cases(max(index + 1, 50), seed)[index]
     records = replay_study.simulate_case(case)
@@ -72,7 +72,7 @@ def run_case(index: int, seed: int, engines: list[str], rules: list[str]) -> lis
     system = default_fin().replace(C=None)
     laws = rp.replay_sweeps(measured)
     levels = rp.replay_levels(measured, laws)
-    stat_ds = _with_sweep_hints(measured, laws)
+    stat_ds = with_sweep_hints(measured, laws)
     damped = rp.damped_system(system, case["zeta"], case["kn"])
     theta = np.array([case["kn"], case["delta"]])
     label = f"case {index} (zeta {case['zeta']:.0%})"

@@ -225,8 +225,9 @@ def run_case(args) -> dict:
     ms = {"n": 25, "kn_range": (1e4, 1e6), "delta_range": (1e-4, 1e-2)}
     t0 = time.perf_counter()
     try:
-        res = identify(ds, system=system, use_sweep_hint=False, multistart=ms, replay=True,
-                       replay_bootstrap=n_boot, seed=seed, progress=False)
+        res = identify(ds, system=system, progress=False, extraction={"use_sweep_hint": False},
+                       fit={"multistart": ms, "seed": seed},
+                       replay={"n_bootstrap": n_boot, "seed": seed})
     except IdentificationError as err:
         row.update(failure=str(err)[:300])
         return row
@@ -238,13 +239,14 @@ def run_case(args) -> dict:
     row.update(
         wall_s=time.perf_counter() - t0, verdict=res.verdict.status,
         reasons="; ".join(res.verdict.reasons)[:300],
-        kn_err_plain=r.kn_fit / case["kn"] - 1, delta_err_plain=r.delta_fit / case["delta"] - 1,
+        kn_err_plain=res.plain_fit.kn / case["kn"] - 1,
+        delta_err_plain=res.plain_fit.delta / case["delta"] - 1,
         kn_err=res.kn / case["kn"] - 1, delta_err=res.delta / case["delta"] - 1,
         kn_cover=covers(case["kn"], res.kn_ci95), delta_cover=covers(case["delta"], res.delta_ci95),
         replays=len(r.iterations), converged=r.converged, failure=r.failure,
         zeta_est=r.damping.zeta if r.damping else math.nan,
         n_points=len(res.points.used()), rejected=list(res.rejected_runs),
-        closest_misfit_se=r.closest_misfit_se, iterations=r.iterations,
+        closest_misfit_se=r.closest_misfit_se, iterations=[it.to_dict() for it in r.iterations],
     )
     return row
 

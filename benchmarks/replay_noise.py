@@ -99,16 +99,16 @@ def run_case(case: dict, rules=RULES) -> dict:
     for rule in rules:
         jump_point, weighted = VARIANTS[rule]
         try:
-            res = identify(ds, system=fin, init=init, extraction={"method": "lockin"},
-                           use_sweep_hint=True, replay=True, replay_jump_point=jump_point,
-                           replay_weighted=weighted, progress=False)
+            res = identify(ds, system=fin, init=init, progress=False,
+                           extraction={"method": "lockin", "use_sweep_hint": True},
+                           replay={"jump_point": jump_point, "weighted": weighted})
         except ValueError as err:  # no usable points: a failed case for both rules
             row[f"{rule}_failure"] = str(err)[:200]
             continue
         r = res.replay
         covers = lambda v, ci: bool(ci[0] <= v <= ci[1])  # noqa: E731
-        row.update({"kn_err_plain": r.kn_fit / case["kn"] - 1,
-                    "delta_err_plain": r.delta_fit / case["delta"] - 1,
+        row.update({"kn_err_plain": res.plain_fit.kn / case["kn"] - 1,
+                    "delta_err_plain": res.plain_fit.delta / case["delta"] - 1,
                     f"{rule}_kn_err": res.kn / case["kn"] - 1,
                     f"{rule}_delta_err": res.delta / case["delta"] - 1,
                     f"{rule}_kn_cover": covers(case["kn"], res.kn_ci95),

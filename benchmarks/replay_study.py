@@ -120,8 +120,8 @@ def run_case(args) -> dict:
     row["sim_s"] = t_sim
     t0 = time.perf_counter()
     try:
-        res = identify(ds, system=system, use_sweep_hint=False, replay=True,
-                       replay_bootstrap=n_boot, seed=seed, progress=False)
+        res = identify(ds, system=system, progress=False, extraction={"use_sweep_hint": False},
+                       fit={"seed": seed}, replay={"n_bootstrap": n_boot, "seed": seed})
     except IdentificationError as err:
         row.update(failure=str(err)[:200])
         return row
@@ -130,8 +130,10 @@ def run_case(args) -> dict:
     row.update(
         wall_s=time.perf_counter() - t0, verdict=res.verdict.status,
         reasons="; ".join(res.verdict.reasons)[:300],
-        kn_plain=r.kn_fit, delta_plain=r.delta_fit, kn_corr=res.kn, delta_corr=res.delta,
-        kn_err_plain=r.kn_fit / case["kn"] - 1, delta_err_plain=r.delta_fit / case["delta"] - 1,
+        kn_plain=res.plain_fit.kn, delta_plain=res.plain_fit.delta, kn_corr=res.kn,
+        delta_corr=res.delta,
+        kn_err_plain=res.plain_fit.kn / case["kn"] - 1,
+        delta_err_plain=res.plain_fit.delta / case["delta"] - 1,
         kn_err=res.kn / case["kn"] - 1, delta_err=res.delta / case["delta"] - 1,
         kn_cover=ok(case["kn"], res.kn_ci95), delta_cover=ok(case["delta"], res.delta_ci95),
         replays=len(r.iterations), converged=r.converged, failure=r.failure,
@@ -141,7 +143,7 @@ def run_case(args) -> dict:
         closest_misfit_se=r.closest_misfit_se,
         # every replay of the loop (parameters, replayed fit, misfit in standard errors), so
         # another convergence rule or verdict can be judged on these cases without a rerun
-        iterations=r.iterations,
+        iterations=[it.to_dict() for it in r.iterations],
     )
     return row
 

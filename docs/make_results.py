@@ -79,7 +79,7 @@ def identify_sweeps(fin, result, run_names, *, members=None, noise=None, **kw):
     ds = sweep_dataset(result, columns={c: c for c in CHANNELS}, members=members,
                        run_names=run_names, noise=noise)
     res = identify(ds, system=fin, progress=False, **{"replay": False, **kw})
-    return res.points, res.fit
+    return res.points, res.plain_fit
 
 
 def err(est, true):

@@ -12,6 +12,10 @@ from omegaconf import OmegaConf
 
 import freeplayid.tasks  # noqa: F401  (stores model=fin, the package's fin, in the ConfigStore)
 from freeplayid.backbone import BACKBONE_METHODS
+from freeplayid.fit import FitOptions
+from freeplayid.replay import Replay
+from freeplayid.signal import Extraction
+from freeplayid.tasks.options import identify_options
 
 ROOT = Path(__file__).resolve().parents[1]
 CONF = ROOT / "conf"
@@ -107,16 +111,16 @@ def test_compose_identify(debug):
     with initialize_config_dir(config_dir=str(CONF), version_base="1.3"):
         cfg = compose(config_name="identify", overrides=debug + ["data=some/manifest.yaml"])
     assert cfg.data == "some/manifest.yaml" and cfg.inverse.checkpoint is None
-    assert cfg.backbone in BACKBONE_METHODS
-    import inspect
-
-    from freeplayid.signal import extract_backbone_points
-
-    assert set(cfg.extraction) <= set(inspect.signature(extract_backbone_points).parameters)
-    if debug:  # fast: a 3 x 3 start grid and no bootstrap
-        assert cfg.multistart.n == 3 and cfg.n_bootstrap == 0
+    assert cfg.fit.backbone in BACKBONE_METHODS
+    # the groups are the library's option records, field for field
+    options = identify_options(cfg)
+    assert isinstance(options["extraction"], Extraction) and isinstance(options["fit"], FitOptions)
+    if debug:  # fast: a 3 x 3 start grid, no bootstrap, no replay
+        assert cfg.fit.multistart.n == 3 and cfg.fit.n_bootstrap == 0
+        assert options["replay"] is None
     else:
-        assert cfg.multistart.n == 5
+        assert cfg.fit.multistart.n == 5 and options["replay"] == Replay()
+        assert options["extraction"] == Extraction() and options["fit"] == FitOptions()
 
 
 def test_identify_defaults_to_the_bundled_example():

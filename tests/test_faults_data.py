@@ -273,7 +273,7 @@ def _identify_reasons(folder) -> dict:
     """{run: reason} of the rejected runs of ``identify`` on a data set whose only usable data
     are the faulty run's (so it stops with IdentificationError, quickly: no fit)."""
     with pytest.raises(IdentificationError) as info:
-        identify(read_dataset(folder), progress=False, replay=False)
+        identify(read_dataset(folder), progress=False, replay=None)
     pts = info.value.points
     out = {r: "; ".join(dict.fromkeys(p.reason for p in pts.points if p.run == r))
            for r in pts.rejected_runs}

@@ -58,7 +58,7 @@ def _identify(tmp_path, *overrides):
 
 def test_identify_script_contract_and_accuracy(sdof_set, tmp_path):
     proc, run = _identify(tmp_path, f"data={sdof_set}", "debug=fast",
-                          "multistart.delta_range=[1e-5,1e-3]")
+                          "fit.multistart.delta_range=[1e-5,1e-3]")
     assert proc.returncode == 0, proc.stderr[-3000:]
     assert "kn" in proc.stdout and "delta" in proc.stdout
     res = json.loads((run / "identification.json").read_text())

@@ -54,7 +54,8 @@ def test_notebook_identify_equals_the_script(two_runs, tmp_path):
     script = read_identification(run)
 
     # the notebook: read, identify with the debug=fast grid of starts, no Hydra anywhere
-    res = identify(read_dataset(two_runs), multistart={"n": 3}, progress=False, replay=False)
+    res = identify(read_dataset(two_runs), progress=False, fit={"multistart": {"n": 3}},
+                   replay=None)
     assert res.kn == pytest.approx(script["kn"], rel=1e-9)
     assert res.delta == pytest.approx(script["delta"], rel=1e-9)
     assert res.init == "multistart" and len(res.used_points) == 4

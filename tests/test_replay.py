@@ -52,10 +52,10 @@ def test_levels_come_from_the_base_channel(measured):
 
 
 def test_replay_at_the_truth_reproduces_the_measured_points(measured, system):
-    plain = identify(measured, system=system, multistart=MULTISTART, progress=False,
-                     replay=False)
+    plain = identify(measured, system=system, progress=False, fit={"multistart": MULTISTART},
+                     replay=None)
     rep = identify(replay_dataset(measured, system, WN * WN, ref.DELTA), system=system,
-                   multistart=MULTISTART, progress=False, replay=False)
+                   progress=False, fit={"multistart": MULTISTART}, replay=None)
     got = {(p.run, p.channel): p for p in rep.points.used()}
     used = plain.points.used()
     assert len(used) == 3  # 0.6, 0.8, 1.0 g: the 0.4 g run stays in the gap
@@ -66,25 +66,25 @@ def test_replay_at_the_truth_reproduces_the_measured_points(measured, system):
 
 
 def test_corrected_fit_reports_its_iterations(measured, system):
-    res = identify(measured, system=system, multistart=MULTISTART, progress=False, replay=True)
+    res = identify(measured, system=system, progress=False, fit={"multistart": MULTISTART})
     r = res.replay
     # the replays start at the fit of the points taken with the statistic's jump point; their
     # target is that fit with each point weighted by its amplitude noise (measured against the
     # first replay), close to it on this clean reference
-    assert r.jump_point == "drop" and r.kn_statistic != r.kn_fit
-    assert r.iterations and r.iterations[0]["kn"] == pytest.approx(r.kn_statistic, rel=0.01)
-    assert len(r.weights) == 3 and {w["run"] for w in r.weights} == {"s0.6.csv", "s0.8.csv",
+    assert r.jump_point == "drop" and r.kn_statistic != res.plain_fit.kn
+    assert r.iterations and r.iterations[0].kn == pytest.approx(r.kn_statistic, rel=0.01)
+    assert len(r.weights) == 3 and {w.run for w in r.weights} == {"s0.6.csv", "s0.8.csv",
                                                                     "s1.0.csv"}
-    assert np.median([w["weight"] for w in r.weights]) == pytest.approx(1.0)
-    assert r.kn_fit == pytest.approx(res.fit.kn)  # the plain fit, as reported
+    assert np.median([w.weight for w in r.weights]) == pytest.approx(1.0)
+    assert res.to_dict()["replay"]["kn_fit"] == pytest.approx(res.plain_fit.kn)  # as reported
     # each replay's refit counts its objective evaluations (one start: a few tens, not a grid)
-    assert all(isinstance(it["n_evaluations"], int) and 3 <= it["n_evaluations"] < 200
+    assert all(isinstance(it.n_evaluations, int) and 3 <= it.n_evaluations < 200
                for it in r.iterations)
     assert set(r.levels) == {"s0.6.csv", "s0.8.csv", "s1.0.csv"}  # only the fitted runs
     assert len(r.offsets) == 3 and all(abs(o["f_offset"]) < 5e-3 for o in r.offsets)
     assert abs(res.truth_error["delta"]) < 0.02 and abs(res.truth_error["kn"]) < 0.01
     rec = res.to_dict()["replay"]
-    assert rec["kn_fit"] == r.kn_fit and len(rec["iterations"]) == len(r.iterations)
+    assert rec["kn_fit"] == res.plain_fit.kn and len(rec["iterations"]) == len(r.iterations)
     assert "## Replay" in res.report()
     # the self-check: measured and replayed curves agree, the verdict says so
     assert max(r.misfit.values()) < 0.02
@@ -100,7 +100,7 @@ def test_the_replay_engine_can_be_chosen(measured, system):
     def points(engine):
         ds = replay_dataset(measured, system, WN * WN, ref.DELTA, engine=engine)
         res = identify(ds, system=system, init=(WN * WN, ref.DELTA), progress=False,
-                       replay=False, extraction={"jump_point": "drop"})
+                       extraction={"jump_point": "drop"}, replay=None)
         return {(p.run, p.channel): p for p in res.points.used()}
 
     expo, rk4 = points(None), points("numba")
@@ -130,8 +130,8 @@ def test_curve_misfit_is_the_relative_median_difference():
 def test_damping_is_estimated_when_the_model_has_none(measured):
     # the model file has no C: one modal ratio is estimated from the peak amplitudes in the same
     # loop; the reference's zeta is 0.04 at the contact frequency (the SDOF's only mode)
-    res = identify(measured, system=sdof_system(mass=1.0), multistart=MULTISTART,
-                   progress=False, replay=True)
+    res = identify(measured, system=sdof_system(mass=1.0), progress=False,
+                   fit={"multistart": MULTISTART})
     d = res.replay.damping
     assert d.source == "estimated"
     assert d.zeta == pytest.approx(ref.ZETA, rel=0.05)
@@ -143,23 +143,23 @@ def test_damping_is_estimated_when_the_model_has_none(measured):
 
 
 def test_a_given_damping_ratio_overrides_the_model(measured, system):
-    res = identify(measured, system=system, multistart=MULTISTART, progress=False,
-                   replay=True, damping=0.04)
+    res = identify(measured, system=system, progress=False, fit={"multistart": MULTISTART},
+                   replay={"damping": 0.04})
     assert res.replay.damping.source == "given" and res.replay.damping.zeta == 0.04
-    assert all(it["zeta"] == 0.04 for it in res.replay.iterations)
+    assert all(it.zeta == 0.04 for it in res.replay.iterations)
     with pytest.raises(ValueError, match="damping"):
-        identify(measured, system=system, multistart=MULTISTART, progress=False, replay=True,
-                 damping=1.5)
+        identify(measured, system=system, progress=False, fit={"multistart": MULTISTART},
+                 replay={"damping": 1.5})
 
 
 def test_a_replay_that_cannot_be_fitted_makes_the_verdict_suspect(measured, system):
     # ten times the damping: the replayed oscillator never reaches the contact (no jump), so
     # its replay has no point to fit; the answer must say so, not return a confident number
-    res = identify(measured, system=system, multistart=MULTISTART, progress=False,
-                   replay=True, damping=0.4)
+    res = identify(measured, system=system, progress=False, fit={"multistart": MULTISTART},
+                   replay={"damping": 0.4})
     assert res.replay.failure and not res.verdict.ok
     assert any("replay" in r for r in res.verdict.reasons)
-    assert res.kn == res.replay.kn_fit  # the plain estimate is kept
+    assert res.kn == res.plain_fit.kn  # the plain estimate is kept
 
 
 def test_noise_levels_recover_a_known_noise(measured, system):
@@ -184,24 +184,24 @@ def test_noise_levels_recover_a_known_noise(measured, system):
 def test_the_replay_statistic_can_be_the_plain_points(measured, system):
     # replay_jump_point=None without weights: the replays match the plain fit itself, so the
     # loop starts at the plain fit; both statistics land on the truth of this clean reference
-    res = identify(measured, system=system, multistart=MULTISTART, progress=False, replay=True,
-                   replay_jump_point=None, replay_weighted=False)
+    res = identify(measured, system=system, progress=False, fit={"multistart": MULTISTART},
+                   replay={"jump_point": None, "weighted": False})
     r = res.replay
-    assert r.jump_point == "smoothed" and r.kn_statistic == r.kn_fit and r.weights is None
-    assert r.iterations[0]["kn"] == pytest.approx(r.kn_fit)
+    assert r.jump_point == "smoothed" and r.kn_statistic == res.plain_fit.kn and r.weights is None
+    assert r.iterations[0].kn == pytest.approx(res.plain_fit.kn)
     assert abs(res.truth_error["delta"]) < 0.02 and abs(res.truth_error["kn"]) < 0.01
 
 
 def test_an_unknown_replay_jump_point_fails_before_any_work(measured, system):
-    with pytest.raises(ValueError, match=r"`replay_jump_point` must be one of \['drop', "):
-        identify(measured, system=system, replay=True, replay_jump_point="peak")
+    with pytest.raises(ValueError, match=r"`jump_point` must be one of \[.drop., "):
+        identify(measured, system=system, replay={"jump_point": "peak"})
 
 
 def test_bootstrap_by_replay_gives_intervals_around_the_estimate(measured, system):
-    res = identify(measured, system=system, multistart=MULTISTART, progress=False,
-                   replay=True, replay_bootstrap=8)
+    res = identify(measured, system=system, progress=False, fit={"multistart": MULTISTART},
+                   replay={"n_bootstrap": 8})
     r = res.replay
-    assert r.n_bootstrap == 8 and r.kn_ci95_replay is not None
+    assert r.bootstrap.n == 8 and r.bootstrap.kn_ci95 is not None
     for name in ("kn", "delta"):
         lo, hi = getattr(res, f"{name}_ci95")
         assert lo <= getattr(res, name) <= hi
@@ -226,7 +226,7 @@ def example():
 
 def test_the_example_replays_within_its_noise(example):
     ds, system = example
-    res = identify(ds, system=system, replay=True, progress=False)
+    res = identify(ds, system=system, progress=False)
     # the data were made by the RK4 engine with 0.05 g noise; the replay runs the exponential
     # engine: the replayed curves agree to well under 1 % of the peak
     assert res.verdict.ok, res.verdict.reasons
@@ -239,7 +239,7 @@ def test_a_model_with_twice_the_stiffness_is_suspect(example):
     # of that estimate still looks like the test (its curves differ by < 1 % of the peak); the
     # sealed fin's modes (the manifest's reference_modes) expose it: 355 Hz against 252 Hz
     ds, system = example
-    res = identify(ds, system=system.replace(K=2 * system.K), replay=True, progress=False)
+    res = identify(ds, system=system.replace(K=2 * system.K), progress=False)
     assert not res.verdict.ok
     assert any("does not match the sealed fin's modes" in r for r in res.verdict.reasons)
     assert {c.name: c for c in res.verdict.checks}["zero_clearance"].passed is False
@@ -250,9 +250,9 @@ def test_a_test_without_levels_cannot_be_replayed_and_says_so(measured, system):
 
     bare = dataclasses.replace(measured, base_channel=None, runs=tuple(
         dataclasses.replace(r, base=None, level_g=None) for r in measured.runs))
-    res = identify(bare, system=system, multistart=MULTISTART, progress=False, replay=True)
+    res = identify(bare, system=system, progress=False, fit={"multistart": MULTISTART})
     assert "cannot be replayed" in res.replay.failure and "level" in res.replay.failure
-    assert not res.verdict.ok and res.kn == res.replay.kn_fit
+    assert not res.verdict.ok and res.kn == res.plain_fit.kn
     assert "Replay failed" in res.report() and res.to_dict()["replay"]["failure"]
 
 

@@ -29,9 +29,9 @@ def identify(levels, sweep):
     # identified by the library pipeline a measured data set goes through; starts around the
     # fin's range
     res = freeplayid.identify(sweep_dataset(r, run_names=[f"{v} g" for v in levels]), system=fin,
-                              multistart={"n": 3, "kn_range": (1e2, 1e4),
-                                          "delta_range": (1e-3, 1e-2)}, replay=False)
-    return res.points, res.fit, truth
+                              fit={"multistart": {"n": 3, "kn_range": (1e2, 1e4),
+                                          "delta_range": (1e-3, 1e-2)}}, replay=None)
+    return res.points, res.plain_fit, truth
 
 
 def assert_within_bounds(fit, truth):

@@ -174,9 +174,9 @@ def test_a_run_without_hint_gets_one_law_for_all_its_channels():
     # channel 0 carries a tone of 0.3x the sweep's peak at 150 Hz (a mode ringing on its own): its
     # own law would be the tone's; the run's law comes from its best-tracked channel, and both
     # channels' points sit on the true sweep
-    from freeplayid.identification.pipeline import _extract
+    from freeplayid.estimate import extract_points, run_sweep_law
     from freeplayid.io import Dataset
-    from freeplayid.replay import run_sweep_law
+    from freeplayid.signal import Extraction
 
     fs, law = 512.0, Sweep(15.0, 60.0, 2.0)
     t, acc = _harmonic_acceleration(fs=fs, third=0.0, fifth=0.0)
@@ -194,8 +194,8 @@ def test_a_run_without_hint_gets_one_law_for_all_its_channels():
     except ValueError:
         own = None
     assert own is None or abs(own - 2.0) > 0.2
-    pts, rejected = _extract(ds, extraction={"method": "acmp", "jump_point": "drop"},
-                             use_sweep_hint=False, progress=False)
+    pts, rejected = extract_points(ds, extraction=Extraction(jump_point="drop",
+                                                             use_sweep_hint=False))
     used = pts.used()
     assert not rejected and len(used) == 2
     for p in used:
@@ -240,8 +240,8 @@ def test_identify_on_a_log_sweep(sdof):
     # the plain backbone fit of a fast swept test is biased (damping, rate): a 14.7 s sweep with
     # 4 % damping puts kn ~3 % and delta ~13 % high, with the hint or without it, by ACMP or
     # lock-in; the reference is the simulated truth
-    for kw in ({}, {"use_sweep_hint": False}, {"extraction": {"method": "lockin"}}):
-        res = identify(ds, system=sdof, multistart=MS, progress=False, replay=False, **kw)
+    for kw in ({}, {"extraction": {"use_sweep_hint": False}}, {"extraction": {"method": "lockin"}}):
+        res = identify(ds, system=sdof, progress=False, **kw, fit={"multistart": MS}, replay=None)
         assert abs(res.kn / KN - 1) < 0.05 and abs(res.delta / DELTA - 1) < 0.2, kw
         assert len(res.points.used()) == 3 and res.verdict.ok, (kw, res.verdict.reasons)
 
@@ -260,7 +260,7 @@ def test_replay_without_hints_estimates_and_reports_the_law(sdof):
             assert sw.octaves_per_min == pytest.approx(3.0, rel=0.02)
         rep = replay_dataset(ds, sdof, KN, DELTA, sweeps=laws)
         assert all(r.sweep is None for r in rep.runs)  # extracted as the hint-less test was
-        res = identify(ds, system=sdof, multistart=MS, progress=False, replay=True)
+        res = identify(ds, system=sdof, progress=False, fit={"multistart": MS})
         rec = res.to_dict()["replay"]["sweeps"]
         assert set(rec) == set(res.replay.levels)
         assert all(v["source"] == source and v["law"] == "log" for v in rec.values())

@@ -20,6 +20,7 @@ from freeplayid.backbone import dfa_backbone
 from freeplayid.fit import FittingPoints, fit_backbone
 from freeplayid.io import read_dataset
 from freeplayid.model import load_system
+from freeplayid.replay import ReplayIteration
 from freeplayid.signal import BackbonePoint, BackbonePoints
 from freeplayid.verdict import LIMITS, base_level_checks, fit_checks, make_verdict
 
@@ -159,7 +160,7 @@ def test_a_binding_that_jumps_is_suspect():
     from freeplayid.verdict import replay_checks
 
     def it(kn, delta, kn_rep, delta_rep):
-        return {"kn": kn, "delta": delta, "kn_rep": kn_rep, "delta_rep": delta_rep}
+        return ReplayIteration(kn, delta, kn_rep, delta_rep, n_evaluations=10)
 
     class Rep:  # the ReplayResult fields replay_checks reads
         failure, misfit, sweeps, damping, converged = "", {}, {}, None, True
@@ -198,16 +199,16 @@ def test_an_unconverged_loop_within_the_noise_is_as_good_as_converged(converged,
 def test_the_misfit_in_standard_errors_follows_the_by_run_intervals():
     from types import SimpleNamespace
 
-    from freeplayid.replay.noise import _misfit_in_se
+    from freeplayid.replay.statistic import misfit_in_se
 
     pts = [SimpleNamespace(run=r) for r in ("a", "a", "b", "b", "c", "c", "d", "d", "e", "e")]
     # 5 runs: 3 degrees of freedom, t = 3.182; log half-widths 0.03 (kn) and 0.05 (delta)
     ci = ((500 * np.exp(-0.03), 500 * np.exp(0.03)), (2e-3 * np.exp(-0.05), 2e-3 * np.exp(0.05)))
     se = np.array([0.03, 0.05]) / 3.182446305284263
     F = np.array([0.001, -0.004])
-    assert _misfit_in_se(F, ci, pts, None) == pytest.approx(np.max(np.abs(F) / se))
+    assert misfit_in_se(F, ci, pts, None) == pytest.approx(np.max(np.abs(F) / se))
     ratios = np.array([0.01, -0.01, 0.02, 0.0, -0.02])
     se_r = 1.2533 * np.std(ratios, ddof=1) / np.sqrt(5)
-    assert _misfit_in_se(np.r_[F, 0.02], ci, pts, ratios) == pytest.approx(0.02 / se_r)
-    assert _misfit_in_se(F, ci, pts[:4], None) is None  # two runs: nothing measures the noise
-    assert _misfit_in_se(F, ((0.0, np.inf), ci[1]), pts, None) is None
+    assert misfit_in_se(np.r_[F, 0.02], ci, pts, ratios) == pytest.approx(0.02 / se_r)
+    assert misfit_in_se(F, ci, pts[:4], None) is None  # two runs: nothing measures the noise
+    assert misfit_in_se(F, ((0.0, np.inf), ci[1]), pts, None) is None

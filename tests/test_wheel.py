@@ -148,7 +148,7 @@ def test_identify_from_the_wheel(site, sdof_data):
         print(json.dumps({{"kn": result.kn, "delta": result.delta}}))
     """)
     found = json.loads(stdout.strip().splitlines()[-1])
-    ref = identify(sdof_data, multistart=MULTISTART, progress=False, replay=False)
+    ref = identify(sdof_data, progress=False, fit={"multistart": MULTISTART}, replay=None)
     assert found["kn"] == pytest.approx(ref.kn, rel=1e-9)
     assert found["delta"] == pytest.approx(ref.delta, rel=1e-9)
     assert found["kn"] == pytest.approx(2.35e6, rel=0.02)

@@ -19,8 +19,8 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from .errors import IdentificationError, InverseModelError
-from .fit import FitResult, FittingPoints, count_resonances, fit_backbone, multistart_grid
-from .signal import BackbonePoints, estimate_sweep, extract_backbone_points
+from .fit import FitOptions, FitResult, FittingPoints, count_resonances, fit_backbone
+from .signal import BackbonePoints, Extraction, estimate_sweep, extract_backbone_points
 from .sweep import Sweep
 
 __all__ = ["PlainEstimate", "plain_estimate", "extract_points", "run_sweep_law", "weights_of"]
@@ -92,11 +92,12 @@ def run_sweep_law(dataset, run, *, use_hint: bool = True):
     return est.sweep, source, est.residual_hz
 
 
-def extract_points(dataset, *, extraction: Mapping, use_sweep_hint: bool = True,
+def extract_points(dataset, *, extraction: Extraction,
                    progress: bool = False) -> tuple[BackbonePoints, dict]:
     """Points of every usable run (one run at a time) and the rejected runs {run: reason}.
 
-    A run without a hint (or with ``use_sweep_hint`` False) gets one law for all its channels,
+    A run without a hint (or with ``extraction.use_sweep_hint`` False) gets one law for all its
+    channels,
     from its base channel, else from its best-tracked response channel (each channel's own
     estimate can lock onto another mode); none found: the extraction tries each channel and
     rejects the ones without a sweep, with the reason.
@@ -108,7 +109,7 @@ def extract_points(dataset, *, extraction: Mapping, use_sweep_hint: bool = True,
         if run.reason:
             rejected[run.file] = run.reason
             continue
-        if run.sweep and use_sweep_hint:
+        if run.sweep and extraction.use_sweep_hint:
             sweep = Sweep(**run.sweep)
         else:
             try:
@@ -119,14 +120,14 @@ def extract_points(dataset, *, extraction: Mapping, use_sweep_hint: bool = True,
         res = extract_backbone_points(
             [dataset.to_si(run.data)], dataset.sample_rate, quantity=dataset.quantity,
             channel_names=list(dataset.channels), run_names=[run.file], sweep=sweep, base=base,
-            base_name=dataset.base_channel or "base", **extraction,
+            base_name=dataset.base_channel or "base", extraction=extraction,
         )
         points += res.points
         curves += res.curves
         if res.rejected_runs:
             rejected[run.file] = "; ".join(dict.fromkeys(p.reason for p in res.points))
     pts = BackbonePoints(tuple(points), tuple(rejected), tuple(curves), dataset.quantity,
-                         extraction.get("method", "acmp"))
+                         extraction.method)
     return pts, rejected
 
 
@@ -170,16 +171,23 @@ def weights_of(points: FittingPoints, point_weights: Mapping | None):
                      for r, c in zip(runs, points.channel, strict=True)])
 
 
-def plain_estimate(dataset, system, *, backbone: str = "dfa", init=None,
-                   extraction: Mapping | None = None, use_sweep_hint: bool = True,
-                   multistart: Mapping | None = None, mode: int = 0, n_bootstrap: int = 0,
-                   seed: int = 0, point_weights: Mapping | None = None,
-                   progress: bool = False) -> PlainEstimate:
+def plain_estimate(dataset, system, *, extraction: Extraction, fit: FitOptions, init=None,
+                   point_weights: Mapping | None = None, progress: bool = False) -> PlainEstimate:
     """The plain estimate of ``dataset`` (module docstring).
 
-    Parameters are those of :func:`freeplayid.identify` of the same names; ``point_weights``
-    maps (run, DOF name) to the weight of that point in the fit (the replay's weighted
-    statistic; None: every point weighs the same).
+    Parameters
+    ----------
+    dataset : Dataset
+    system : FreeplaySystem
+    extraction, fit : Extraction, FitOptions
+        How the points are taken and fitted.
+    init : InverseModel, (kn, delta), sequence of them, or None
+        The fit's start: a trained inverse model (its estimate from the points), given
+        start(s), or None for ``fit.multistart``'s grid.
+    point_weights : mapping of (run, DOF name) -> float, optional
+        Weights of the fit's points (the replay's weighted statistic; None: all equal).
+    progress : bool
+        A progress bar over the runs.
 
     Raises
     ------
@@ -189,21 +197,19 @@ def plain_estimate(dataset, system, *, backbone: str = "dfa", init=None,
         The inverse model cannot take these points.
     """
     where = dataset.path or dataset.name or "data set"
-    pts, rejected = extract_points(dataset, extraction=dict(extraction or {}),
-                                   use_sweep_hint=use_sweep_hint, progress=progress)
+    pts, rejected = extract_points(dataset, extraction=extraction, progress=progress)
     check_enough(pts, rejected, where)
     points = FittingPoints.from_extraction(pts, dofs=dataset.channels)
     inverse = None
     if hasattr(init, "predict_points"):
         inverse = _inverse_start(init, points)
         starts, label = (inverse["kn"], inverse["delta"]), "inverse"
-    elif init is None and multistart:
-        starts, label = multistart_grid(**{k: v if k == "n" else tuple(v)
-                                           for k, v in multistart.items()}), "multistart"
+    elif init is None:
+        starts, label = fit.multistart.starts(), "multistart"
     else:
         starts, label = init, None
-    fit = fit_backbone(points, system, init=starts, init_label=label, backbone=backbone,
-                       mode=int(mode), n_bootstrap=int(n_bootstrap), seed=int(seed),
-                       weights=weights_of(points, point_weights))
-    return PlainEstimate(points=pts, rejected_runs=tuple(rejected.items()), fit=fit,
+    result = fit_backbone(points, system, init=starts, init_label=label, backbone=fit.backbone,
+                          mode=fit.mode, n_bootstrap=fit.n_bootstrap, seed=fit.seed,
+                          weights=weights_of(points, point_weights))
+    return PlainEstimate(points=pts, rejected_runs=tuple(rejected.items()), fit=result,
                          dofs=dict(dataset.channels), inverse_estimate=inverse)

@@ -328,8 +328,8 @@ def _binding_check(iterations) -> Check:
     worst = None  # (move of the fit, move of the parameter, name)
     for a, b in zip(iterations, iterations[1:]):
         for name in ("kn", "delta"):
-            move = abs(math.log(b[f"{name}_rep"] / a[f"{name}_rep"]))
-            cause = abs(math.log(b[name] / a[name]))
+            move = abs(math.log(getattr(b, f"{name}_rep") / getattr(a, f"{name}_rep")))
+            cause = abs(math.log(getattr(b, name) / getattr(a, name)))
             if (move > LIMITS["binding_jump"] and move > LIMITS["binding_slope"] * cause
                     and (worst is None or move > worst[0])):
                 worst = (move, cause, name)

@@ -7,13 +7,16 @@
 ``uncertainty``: :func:`jacobian_intervals`, :func:`bootstrap_intervals`.
 """
 
-from .lsq import FitResult, count_resonances, fit_backbone, multistart_grid
+from .lsq import FitResult, count_resonances, fit_backbone
 from .objective import BackboneModel
+from .options import FitOptions, MultiStart, multistart_grid
 from .points import FittingPoints
 from .uncertainty import bootstrap_intervals, jacobian_intervals
 
 __all__ = [
     "FittingPoints",
+    "FitOptions",
+    "MultiStart",
     "BackboneModel",
     "FitResult",
     "fit_backbone",

@@ -23,6 +23,7 @@ import scipy.optimize
 from ..backbone import amplitude_grid, backbone_method
 from ..model import FreeplaySystem
 from .objective import BackboneModel
+from .options import multistart_grid
 from .points import FittingPoints
 from .uncertainty import bootstrap_intervals, jacobian_intervals
 
@@ -108,18 +109,6 @@ def _plausible_first(runs, points, model):
         if np.all(np.isfinite(ratios)) and ratios.min() >= LIMITS["min_gap_ratio"]:
             return r
     return runs[0]
-
-
-def multistart_grid(
-    n: int = 5,
-    *,
-    kn_range: tuple[float, float] = (1e3, 1e8),
-    delta_range: tuple[float, float] = (1e-4, 1e-2),
-) -> list[tuple[float, float]]:
-    """n x n log-uniform grid of (kn [N m/rad], delta [rad]) starts."""
-    kns = np.geomspace(*kn_range, n)
-    deltas = np.geomspace(*delta_range, n)
-    return [(float(k), float(d)) for k in kns for d in deltas]
 
 
 def count_resonances(f_hz, *, rel_tol: float = 5e-3) -> int:

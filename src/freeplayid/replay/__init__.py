@@ -13,7 +13,7 @@ in log parameters (every bias a factor) by Broyden's quasi-Newton method: it sta
 fixed point theta_{k+1} = theta_k * theta_hat / theta_rep(theta_k) (an identity Jacobian) and
 learns the binding function's Jacobian from the replays, so a binding that couples kn and delta,
 or moves less than one to one, still converges; each step is at most a factor 1.5, and the loop
-stops when both parameters move by less than ``rtol`` (0.05 %). Without convergence in
+stops when both parameters move by less than ``Replay.rtol`` (0.05 %). Without convergence in
 ``max_iter`` replays the answer is the replayed parameters whose fit came closest to the test's,
 and the verdict says that it did not converge. Whatever the bias comes
 from (damping, sweep rate, the describing function, the extraction), the replay has it too, so it
@@ -60,18 +60,22 @@ Each run's sweep law (linear or logarithmic) is its ``sweep`` hint; a run withou
 law estimated from the base channel when the data set has one, else from its response channels
 (:func:`freeplayid.signal.estimate_sweep`), and the result says which (``sweeps``).
 
-Parts: ``runs`` (the test replayed: sweep laws, levels, the simulated runs), ``damping`` (the
-replay's damping and its first guess), ``noise`` (noise levels, point weights, standard errors,
-the bootstrap by replay), ``corrected`` (the Broyden loop, :class:`ReplayResult`), ``misfit``
-(the self-check's curve misfit).
+Parts: ``options`` (:class:`Replay`), ``runs`` (the test replayed: sweep laws, levels, the
+simulated runs), ``damping`` (the replay's damping and its first guess), ``weights`` (noise
+levels, point weights), ``statistic`` (the statistic's standard errors), ``broyden`` (the
+solve), ``bootstrap`` (the bootstrap by replay), ``misfit`` (the self-check's curve misfit),
+``corrected`` (:func:`corrected_fit`, :class:`ReplayResult`).
 """
 
-from .corrected import ReplayResult, corrected_fit
+from .bootstrap import ReplayBootstrap
+from .corrected import PointOffset, ReplayIteration, ReplayResult, corrected_fit
 from .damping import ZETA_RTOL, ZETA_START, ReplayDamping, damped_system, initial_zeta
 from .misfit import curve_misfit
-from .noise import WEIGHT_FLOOR, noise_levels, point_weights
-from .runs import replay_dataset, replay_levels, replay_sweeps, run_sweep_law
+from .options import Replay
+from .runs import replay_dataset, replay_levels, replay_sweeps
+from .weights import WEIGHT_FLOOR, PointWeight, noise_levels, point_weights
 
-__all__ = ["ReplayResult", "ReplayDamping", "replay_sweeps", "replay_levels", "replay_dataset",
-           "corrected_fit", "curve_misfit", "damped_system", "noise_levels", "initial_zeta",
-           "point_weights", "run_sweep_law", "WEIGHT_FLOOR", "ZETA_START", "ZETA_RTOL"]
+__all__ = ["Replay", "ReplayResult", "ReplayIteration", "PointOffset", "PointWeight",
+           "ReplayBootstrap", "ReplayDamping", "replay_sweeps", "replay_levels",
+           "replay_dataset", "corrected_fit", "curve_misfit", "damped_system", "noise_levels",
+           "initial_zeta", "point_weights", "WEIGHT_FLOOR", "ZETA_START", "ZETA_RTOL"]

@@ -8,14 +8,70 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import IdentificationError
-from ..estimate import plain_estimate, weights_of
-from ..fit import fit_backbone
-from .damping import ZETA_RTOL, ReplayDamping, _damping_mode, damped_system, initial_zeta
-from .misfit import curve_misfit
-from .noise import _bootstrap_by_replay, _median_se, _misfit_in_se, noise_levels, point_weights
-from .runs import _with_sweep_hints, replay_dataset, replay_levels, replay_sweeps
+from ..estimate import PlainEstimate, plain_estimate, weights_of
+from ..fit import FitOptions, fit_backbone
+from ..signal import Extraction
+from .bootstrap import ReplayBootstrap, bootstrap_by_replay
+from .broyden import solve_binding
+from .damping import ZETA_RTOL, ReplayDamping, damped_system, damping_mode, initial_zeta
+from .misfit import run_misfits
+from .options import Replay
+from .runs import replay_dataset, replay_levels, replay_sweeps, with_sweep_hints
+from .statistic import amplitude_ratios, by_run_intervals, median_se, misfit_in_se
+from .weights import noise_levels, point_weights
 
-__all__ = ["ReplayResult", "corrected_fit"]
+__all__ = ["ReplayResult", "ReplayIteration", "PointOffset", "corrected_fit"]
+
+
+@dataclass(frozen=True)
+class ReplayIteration:
+    """One replay of the loop.
+
+    Attributes
+    ----------
+    kn, delta : float [N m/rad], [rad]
+        The replayed parameters.
+    kn_rep, delta_rep : float
+        The fit of their replay (the statistic of the replayed test).
+    n_evaluations : int
+        That fit's objective evaluations.
+    zeta : float or None [-]
+        The replay's modal damping ratio (given or estimated; None with the model's C).
+    amplitude_log_ratio : float or None [-]
+        With an estimated damping: median log(X_replayed / X_measured) of the points.
+    misfit_se : float or None
+        How far this replay missed the test's statistics, in their standard errors.
+    """
+
+    kn: float
+    delta: float
+    kn_rep: float
+    delta_rep: float
+    n_evaluations: int
+    zeta: float | None = None
+    amplitude_log_ratio: float | None = None
+    misfit_se: float | None = None
+
+    def to_dict(self) -> dict:
+        out = {"kn": self.kn, "delta": self.delta, "kn_rep": self.kn_rep,
+               "delta_rep": self.delta_rep, "n_evaluations": self.n_evaluations}
+        if self.zeta is not None:
+            out["zeta"] = self.zeta
+        if self.amplitude_log_ratio is not None:
+            out["amplitude_log_ratio"] = self.amplitude_log_ratio
+        out["misfit_se"] = self.misfit_se
+        return out
+
+
+@dataclass(frozen=True)
+class PointOffset:
+    """A measured point (run, channel) against its replay at the final estimate: the replayed
+    point's frequency and amplitude relative to the measured one (f_rep/f - 1, X_rep/X - 1)."""
+
+    run: str
+    channel: str
+    f_offset: float
+    amplitude_offset: float
 
 
 @dataclass(frozen=True)
@@ -25,329 +81,283 @@ class ReplayResult:
     Attributes
     ----------
     kn, delta : float [N m/rad], [rad]
-        Corrected estimate.
-    kn_fit, delta_fit : float
-        The plain fit of the measured points (theta_hat).
-    iterations : list of dict
-        Per iteration: the replayed parameters (kn, delta), the fit of their replay
-        (kn_rep, delta_rep) and that fit's objective evaluations (n_evaluations).
+        Corrected estimate (the plain fit's when the replay failed).
+    jump_point : str
+        The jump-point rule of the statistic the replays match (package docstring).
+    kn_statistic, delta_statistic : float
+        The fit of the measured points taken with ``jump_point`` (the binding's target; the
+        plain fit itself when it used that rule), weighted when ``weights`` are.
+    statistic_ci95 : ((float, float), (float, float)) or None
+        That fit's Jacobian 95 % intervals of kn and delta, each run one observation.
+    iterations : tuple of ReplayIteration
     converged : bool
+    closest_misfit_se : float or None
+        Without convergence: how far the answer's replay (the one closest to the test) missed
+        the test's statistics, in their standard errors (None when converged or when nothing
+        measures the noise: two runs).
     levels : dict of str -> (float, str)
         Each replayed run's level [g] and where it came from ("base channel" or "level_g").
     sweeps : dict of str -> dict
         Each replayed run's sweep law (``Sweep.to_dict()`` keys and ``law``) and where it came
         from (``source``: "hint", "base channel" or "response"; an estimated law also has its
         fit ``residual_hz``).
-    offsets : list of dict
-        Per measured point (run, channel): the replayed point's frequency and amplitude
-        relative to the measured one at the final estimate (f_rep/f - 1, X_rep/X - 1).
+    offsets : tuple of PointOffset
+        Per measured point: the replayed point relative to it at the final estimate.
     curves : tuple of AmplitudeCurve
         The last replay's first-harmonic displacement curves (the self-check figure).
     misfit : dict of str -> float
         Per run: :func:`curve_misfit` of its measured and replayed curves (largest channel).
-    damping : ReplayDamping
+    damping : ReplayDamping or None
         The damping of the replays (the model's C, given, or estimated with its interval).
     failure : str
-        Why a replay could not be fitted (e.g. the replayed fin never left the gap), or "".
-    kn_ci95_replay, delta_ci95_replay : (float, float) or None
-        Percentile intervals of the bootstrap by replay (``n_bootstrap`` copies), or None.
-    noise : dict of str -> list of float or None
-        Per run: each channel's measured noise level used by the bootstrap [data units].
-    jump_point : str
-        The jump-point rule of the statistic the replays match (module docstring).
-    kn_statistic, delta_statistic : float
-        The fit of the measured points taken with ``jump_point`` (the binding's target; the
-        plain fit itself when it used that rule).
-    statistic_ci95 : ((float, float), (float, float)) or None
-        That fit's Jacobian 95 % intervals of kn and delta.
-    weights : list of dict or None
-        Per measured point of the statistic (run, channel): ``noise_ratio`` (the record's noise
-        level over the point's amplitude), ``residual_scale`` (the frequency residual that makes
-        through the backbone's slope) and ``weight`` in the statistic's fit
-        (:func:`point_weights`); None when every point weighs the same.
-    closest_misfit_se : float or None
-        Without convergence: how far the answer's replay (the one closest to the test) missed
-        the test's statistics, in standard errors of the statistics (largest over kn, delta and
-        an estimated damping's amplitude ratio); None when converged or when nothing measures
-        the noise (two runs). Each iteration has its own ``misfit_se``.
+        Why the test could not be replayed or a replay could not be fitted, or "".
+    bootstrap : ReplayBootstrap or None
+        The bootstrap by replay (``Replay.n_bootstrap`` copies), when asked for.
+    weights : tuple of PointWeight or None
+        Each point's weight in the statistic's fit; None when every point weighs the same.
     """
 
     kn: float
     delta: float
-    kn_fit: float
-    delta_fit: float
-    iterations: list
-    converged: bool
-    levels: dict
-    offsets: list
+    jump_point: str
+    kn_statistic: float = float("nan")
+    delta_statistic: float = float("nan")
+    statistic_ci95: tuple | None = None
+    iterations: tuple = ()
+    converged: bool = False
+    closest_misfit_se: float | None = None
+    levels: dict = dataclasses.field(default_factory=dict)
+    sweeps: dict | None = None
+    offsets: tuple = ()
     curves: tuple = ()
     misfit: dict | None = None
     damping: ReplayDamping | None = None
     failure: str = ""
-    kn_ci95_replay: tuple | None = None
-    delta_ci95_replay: tuple | None = None
-    n_bootstrap: int = 0
-    noise: dict | None = None
-    sweeps: dict | None = None
-    jump_point: str = ""
-    kn_statistic: float = float("nan")
-    delta_statistic: float = float("nan")
-    statistic_ci95: tuple | None = None
-    weights: list | None = None
-    closest_misfit_se: float | None = None
+    bootstrap: ReplayBootstrap | None = None
+    weights: tuple | None = None
 
 
-def corrected_fit(dataset, system, identification, *, fit_kwargs: dict, damping=None,
-                  n_bootstrap: int = 0, seed: int = 0, rtol: float = 5e-4, max_iter: int = 8,
-                  jump_point: str | None = "drop", weighted: bool = True,
-                  progress: bool = False) -> ReplayResult:
-    """Bias-corrected (kn, delta) by replaying the test (module docstring).
+@dataclass(frozen=True)
+class _Test:
+    """The test as the replays see it: the runs to replay, their laws and levels, the statistic
+    (the measured points taken with the statistic's rule) and the options of its estimate."""
 
-    Parameters
-    ----------
-    dataset : Dataset
-        The measured data set.
-    system : FreeplaySystem
-    identification : Identification
-        The plain identification of ``dataset`` (theta_hat, its points).
-    fit_kwargs : dict
-        The options of that identification (backbone, extraction, use_sweep_hint, mode), so the
-        replays go through the same extraction and fit.
-    damping : None, "model", "estimate" or float
-        The replay's damping: None uses the model's C when it has one and estimates a modal
-        ratio otherwise; a float in (0, 1) is the modal damping ratio of every closed-hinge mode.
-    n_bootstrap : int
-        Copies of the final replay with measured-level noise for the bootstrap intervals (0: none).
-    seed : int
-        Seed of the bootstrap's noise.
-    rtol : float
-        Convergence: (kn, delta) move by less than this between replays.
-    max_iter : int
-        Most replays.
-    jump_point : str or None
-        Jump-point rule of the statistic (:data:`freeplayid.signal.JUMP_POINTS`): the measured
-        data are extracted again with it when the plain identification used another rule, and
-        every replay is extracted with it. "drop" (default): the frequency where the curve
-        drops, the amplitude just ahead of it (module docstring). None: the plain
-        identification's own rule.
-    weighted : bool
-        Weight the statistic's points by their amplitude noise (:func:`point_weights`, from the
-        measured noise against the first replay; the same weights in every later fit).
+    dataset: object  # the statistic's data set, the replays' template
+    sweeps: dict
+    levels: dict
+    statistic: PlainEstimate
+    extraction: Extraction
+    fit: FitOptions
 
-    A replay that cannot be fitted (the replayed fin stays in the gap, no jump: a model far
-    from the test) ends the loop with ``failure`` set; the verdict then says ``suspect``.
+
+def _replayed_test(dataset, system, plain: PlainEstimate, rule: str, extraction: Extraction,
+                   fit: FitOptions) -> _Test | str:
+    """The test to replay (:class:`_Test`), or why it cannot be replayed.
+
+    Only the runs whose points were fitted are replayed: a run rejected in the test (e.g. it
+    stayed in the gap) must not enter the replayed fit as a point the measured fit did not have.
+    With a statistic's rule other than the extraction's, the measured data are extracted again
+    with it and with the sweep law the replays are simulated with as every run's hint (its
+    frequency is read off that law, and a law estimated again from each replayed record would
+    move by up to 0.1 Hz between replays); the replays carry the same hints.
     """
-
-    source, zeta = _damping_mode(system, damping)
-    plain = identification
-    extraction = dict(fit_kwargs.get("extraction") or {})
-    own_rule = extraction.get("jump_point", "smoothed")
-    jump_point = own_rule if jump_point is None else jump_point
-
-    def plain_only(why: str) -> ReplayResult:  # nothing to correct with: the plain fit stays
-        return ReplayResult(kn=float(plain.kn), delta=float(plain.delta), kn_fit=float(plain.kn),
-                            delta_fit=float(plain.delta), iterations=[], converged=False,
-                            levels={}, offsets=[], damping=None, jump_point=jump_point,
-                            failure=why)
-
-    # replay only the runs whose points were fitted: a run rejected in the test (e.g. it stayed
-    # in the gap) must not enter the replayed fit as a point the measured fit did not have
+    fit = FitOptions(backbone=fit.backbone, mode=fit.mode)  # the replays' fits: no bootstrap
     used = {p.run for p in plain.points.used()}
     try:
         laws = replay_sweeps(dataset)
         sweeps = {k: v for k, v in laws.items() if k in used}
         levels = replay_levels(dataset, sweeps)
     except ValueError as err:  # no level or no sweep law for a run: the test cannot be replayed
-        return plain_only(f"the test cannot be replayed: {err}")
-    stat_ds = dataset  # what the statistic is extracted from, and the replays' template
-    if jump_point != own_rule:
-        # the statistic: the measured data extracted with the statistic's jump point and with
-        # the sweep law the replays are simulated with as every run's hint (its frequency is
-        # read off that law, and a law estimated again from each replayed record would move by
-        # up to 0.1 Hz between replays); the replays carry the same hints
-        stat_ds = _with_sweep_hints(dataset, sweeps)
-        fit_kwargs = {**fit_kwargs, "use_sweep_hint": True,
-                      "extraction": {**extraction, "jump_point": jump_point}}
+        return f"the test cannot be replayed: {err}"
+    stat_ds, stat = dataset, plain
+    if rule != extraction.jump_point:
+        stat_ds = with_sweep_hints(dataset, sweeps)
+        extraction = dataclasses.replace(extraction, jump_point=rule, use_sweep_hint=True)
         try:
-            identification = plain_estimate(stat_ds, system, init=(plain.kn, plain.delta),
-                                            **fit_kwargs)
+            stat = plain_estimate(stat_ds, system, init=(plain.kn, plain.delta),
+                                  extraction=extraction, fit=fit)
         except IdentificationError as err:
-            return plain_only(f"the measured points taken with jump_point {jump_point!r} "
-                              f"cannot be fitted: {err}")
-    stat = {"jump_point": jump_point, "kn_statistic": float(identification.kn),
-            "delta_statistic": float(identification.delta),
-            "statistic_ci95": _by_run_intervals(identification)}
-    measured = identification.points.used()
-    if {p.run for p in measured} != used:  # the statistic fitted other runs: replay those
-        used = {p.run for p in measured}
-        sweeps = {k: v for k, v in laws.items() if k in used}
+            return f"the measured points taken with jump_point {rule!r} cannot be fitted: {err}"
+    if {p.run for p in stat.points.used()} != used:  # the statistic fitted other runs
+        sweeps = {k: v for k, v in laws.items() if k in {p.run for p in stat.points.used()}}
         try:
             levels = replay_levels(dataset, sweeps)
         except ValueError as err:
-            return plain_only(f"the test cannot be replayed: {err}")
-    hat = np.array([identification.kn, identification.delta])
-    kn_damping = float(plain.kn)  # closed-hinge stiffness of an estimated/given modal damping
+            return f"the test cannot be replayed: {err}"
+    return _Test(stat_ds, sweeps, levels, stat, extraction, fit)
+
+
+class _Binding:
+    """The binding function's residual F(u), u = log(kn, delta[, zeta]): the statistics of the
+    replay at u minus those of the test, log(kn_rep / kn_hat), log(delta_rep / delta_hat)[,
+    median log(X_rep / X)]. It keeps every replay (``history``), the last one, the point weights
+    it fixed after the first, and why a replay failed."""
+
+    def __init__(self, test: _Test, system, damping: tuple, kn_damping: float, opts: Replay,
+                 progress: bool):
+        self.test, self.system, self.opts, self.progress = test, system, opts, progress
+        self.source, self.zeta = damping
+        self.kn_damping = kn_damping  # closed-hinge stiffness of a modal damping: the plain kn
+        self.history, self.rep, self.rep_ds, self.failure = [], None, None, ""
+        self.weights, self.weight_table = None, None if opts.weighted else ()
+        self.ratios = np.array([])
+        self.stat = test.statistic
+        self.stat_ci95 = by_run_intervals(self.stat)
+
+    @property
+    def hat(self) -> np.ndarray:
+        return np.array([self.stat.kn, self.stat.delta])
+
+    def replay(self, theta, zeta):
+        """The plain estimate of the test replayed at theta = (kn, delta) with ``zeta``."""
+        t = self.test
+        sys_k = self.system if self.source == "model" else \
+            damped_system(self.system, zeta, self.kn_damping)
+        self.rep_ds = replay_dataset(t.dataset, sys_k, *theta, levels=t.levels, sweeps=t.sweeps,
+                                     engine=self.opts.engine)
+        return plain_estimate(self.rep_ds, self.system, init=tuple(theta),
+                              extraction=t.extraction, fit=t.fit, point_weights=self.weights)
+
+    def fix_weights(self, rep: PlainEstimate) -> PlainEstimate:
+        """After the first replay (the clean reference of the measured noise): weight the
+        points by it, refit the test's statistic and this replay with the weights, and keep
+        them for every later fit (the binding needs one fixed statistic)."""
+        t = self.test
+        weights, self.weight_table = point_weights(
+            self.stat.fitting_points(), noise_levels(t.dataset, self.rep_ds), t.dataset,
+            self.system, *self.hat, mode=t.fit.mode)
+        if not weights:
+            return rep
+        self.weights = weights
+        self.stat = _refit(self.stat, self.system, weights, t.fit)
+        self.stat_ci95 = by_run_intervals(self.stat)
+        return _refit(rep, self.system, weights, t.fit)
+
+    def __call__(self, u: np.ndarray) -> np.ndarray | None:
+        theta = np.exp(u[:2])
+        estimate = self.source == "estimated"
+        zeta = float(np.exp(u[2])) if estimate else self.zeta
+        try:
+            rep = self.replay(theta, zeta)
+        except IdentificationError as err:
+            self.failure = (f"the replay at kn = {theta[0]:.5g} N·m/rad, delta = {theta[1]:.5g} "
+                            f"rad could not be identified ({err}): the model does not behave "
+                            "like the test")
+            return None
+        if self.weight_table is None:
+            rep = self.fix_weights(rep)
+        self.rep = rep
+        F = np.log(np.array([rep.kn, rep.delta]) / self.hat)
+        ratio = None
+        if estimate:
+            self.ratios = amplitude_ratios(self.stat.points.used(), rep.points.used())
+            ratio = float(np.median(self.ratios)) if self.ratios.size else 0.0
+            F = np.append(F, ratio)
+        se = misfit_in_se(F, self.stat_ci95, self.stat.points.used(),
+                          self.ratios if estimate else None)
+        self.history.append(ReplayIteration(
+            float(theta[0]), float(theta[1]), float(rep.kn), float(rep.delta),
+            int(rep.fit.n_evaluations), zeta=None if self.source == "model" else float(zeta),
+            amplitude_log_ratio=ratio, misfit_se=se))
+        if self.progress:
+            print(f"replay {len(self.history)}: kn {theta[0]:.5g}, delta {theta[1]:.5g}"
+                  + (f", zeta {zeta:.4g}" if estimate else "")
+                  + f"; misfit of the statistics {np.abs(F).max():.2e}")
+        return F
+
+
+def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extraction,
+                  fit: FitOptions, replay: Replay | None = None,
+                  progress: bool = False) -> ReplayResult:
+    """Bias-corrected (kn, delta) by replaying the test (package docstring).
+
+    Parameters
+    ----------
+    dataset : Dataset
+        The measured data set.
+    system : FreeplaySystem
+    plain : PlainEstimate
+        The plain estimate of ``dataset`` (theta_hat, its points).
+    extraction, fit : Extraction, FitOptions
+        The options of that estimate, so the replays go through the same extraction and fit.
+    replay : Replay
+        The replay's options (damping, statistic, weights, bootstrap, convergence, engine).
+
+    A test that cannot be replayed (no level or sweep law for a run) or a replay that cannot be
+    fitted (the replayed fin stays in the gap: a model far from the test) ends with ``failure``
+    set and the plain estimate; the verdict then says ``suspect``.
+    """
+    opts = Replay() if replay is None else replay
+    source, zeta = damping_mode(system, opts.damping)
+    rule = extraction.jump_point if opts.jump_point is None else opts.jump_point
+    test = _replayed_test(dataset, system, plain, rule, extraction, fit)
+    if isinstance(test, str):
+        return ReplayResult(kn=float(plain.kn), delta=float(plain.delta), jump_point=rule,
+                            failure=test)
     estimate = source == "estimated"
     if estimate:
-        zeta = initial_zeta(system, measured, levels, kn_damping, identification.dofs,
-                            int(fit_kwargs.get("mode", 0)))
-    # unknowns u = log(kn, delta[, zeta]); residual F(u) = statistics of the replay minus those
-    # of the test: log(kn_rep / kn_hat), log(delta_rep / delta_hat)[, median log(X_rep / X)]
-    u = np.log(np.append(hat, zeta) if estimate else hat.copy())
-    J = np.diag([1.0, 1.0, -1.0][: u.size])  # identity binding; amplitude ~ 1 / zeta
-    history, converged, rep, rep_ds, failure = [], False, None, None, ""
-    weight_table = None
-    ratios = np.array([])
-    prev = None  # (u, F) of the last replay, for Broyden's update
-    best = None  # (u, max |F|, index) of the replay closest to the test (the fallback answer)
-    for _ in range(max_iter):
-        theta = np.exp(u[:2])
-        zeta_k = float(np.exp(u[2])) if estimate else zeta
-        sys_k = system if source == "model" else damped_system(system, zeta_k, kn_damping)
-        rep_ds = replay_dataset(stat_ds, sys_k, *theta, levels=levels, sweeps=sweeps)
-        try:
-            rep_k = plain_estimate(rep_ds, system, init=tuple(theta), **fit_kwargs)
-        except IdentificationError as err:
-            failure = (f"the replay at kn = {theta[0]:.5g} N·m/rad, delta = {theta[1]:.5g} rad "
-                       f"could not be identified ({err}): the model does not behave like the "
-                       "test")
-            break
-        if weighted and weight_table is None:
-            # the first replay is the clean reference of the measured noise: weight the points
-            # by it, refit the test's statistic and this replay with the weights, and keep them
-            # for every later fit (the binding needs one fixed statistic)
-            fitted = identification.fitting_points()
-            weights, weight_table = point_weights(
-                fitted, noise_levels(stat_ds, rep_ds), stat_ds, system, *hat,
-                mode=int(fit_kwargs.get("mode", 0)))
-            if weights:
-                identification = _refit(identification, system, weights, fit_kwargs)
-                rep_k = _refit(rep_k, system, weights, fit_kwargs)
-                fit_kwargs = {**fit_kwargs, "point_weights": weights}
-                hat = np.array([identification.kn, identification.delta])
-                stat.update(kn_statistic=float(identification.kn),
-                            delta_statistic=float(identification.delta),
-                            statistic_ci95=_by_run_intervals(identification))
-            else:
-                weight_table = []
-        rep = rep_k
-        theta_rep = np.array([rep.kn, rep.delta])
-        F = np.log(theta_rep / hat)
-        item = {"kn": float(theta[0]), "delta": float(theta[1]),
-                "kn_rep": float(theta_rep[0]), "delta_rep": float(theta_rep[1]),
-                "n_evaluations": int(rep.fit.n_evaluations)}
-        if estimate:
-            ratios = _amplitude_ratios(measured, rep.points.used())
-            r = float(np.median(ratios)) if ratios.size else 0.0
-            F = np.append(F, r)
-            item.update(zeta=zeta_k, amplitude_log_ratio=r)
-        elif source == "given":
-            item.update(zeta=float(zeta))
-        item["misfit_se"] = _misfit_in_se(F, stat["statistic_ci95"], measured,
-                                          ratios if estimate else None)
-        history.append(item)
-        if best is None or np.abs(F).max() < best[1]:
-            best = (u.copy(), float(np.abs(F).max()), len(history) - 1)
-        if prev is not None:
-            # Broyden's rank-one update of the binding function's Jacobian (kept while it stays
-            # well conditioned): near the gap the binding can even fall as delta rises (a larger
-            # gap at the same levels moves the lowest points towards it), which the identity
-            # start does not know
-            du, dF = u - prev[0], F - prev[1]
-            if float(du @ du) > 1e-12:
-                J_new = J + np.outer(dF - J @ du, du) / float(du @ du)
-                if np.all(np.isfinite(J_new)) and np.linalg.cond(J_new) < 1e4:
-                    J = J_new
-        step = -np.linalg.solve(J, F)
-        step = np.clip(step, -np.log(1.5), np.log(1.5))  # at most a factor 1.5 per replay
-        prev = (u.copy(), F.copy())
-        if progress:
-            print(f"replay {len(history)}: kn {theta[0]:.5g}, delta {theta[1]:.5g}"
-                  + (f", zeta {zeta_k:.4g}" if estimate else "")
-                  + f"; misfit of the statistics {np.abs(F).max():.2e}")
-        u = u + step
-        done = bool(np.all(np.abs(step[:2]) < np.log1p(rtol)))
-        if estimate:
-            done = done and abs(step[2]) < np.log1p(ZETA_RTOL)
-        if done:
-            converged = True
-            break
-    closest_se = None
-    if not converged and best is not None:
-        u = best[0]  # no convergence: the replayed parameters whose fit came closest to the test
-        closest_se = history[best[2]]["misfit_se"]
-    theta = np.exp(u[:2])
+        zeta = initial_zeta(system, test.statistic.points.used(), test.levels, float(plain.kn),
+                            test.statistic.dofs, fit.mode)
+    binding = _Binding(test, system, (source, zeta), float(plain.kn), opts, progress)
+    u0 = np.log(np.append(binding.hat, zeta) if estimate else binding.hat)
+    tol = [np.log1p(opts.rtol)] * 2 + ([np.log1p(ZETA_RTOL)] if estimate else [])
+    sol = solve_binding(binding, u0, np.diag([1.0, 1.0, -1.0][: u0.size]),
+                        max_iter=opts.max_iter, tolerances=tol)
+    closest = None if sol.closest is None else binding.history[sol.closest].misfit_se
+    theta = np.exp(sol.u[:2]) if not binding.failure else np.array([plain.kn, plain.delta])
     if estimate:
-        zeta = float(np.exp(u[2]))
+        zeta = float(np.exp(sol.u[2]))
+    return _result(binding, theta, rule, sol, closest,
+                   _damping_used(source, zeta, binding.ratios, sol.jacobian, estimate),
+                   plain, system, opts, progress)
+
+
+def _damping_used(source, zeta, ratios, J, estimate) -> ReplayDamping:
+    """The replays' damping; an estimated zeta's interval from the spread of the per-point log
+    ratios (standard error of their median) through the amplitude's sensitivity to log zeta
+    (the Jacobian's last diagonal entry)."""
     zeta_ci = None
     if estimate and ratios.size >= 2:
-        # spread of the per-point log ratios -> standard error of their median, through the
-        # amplitude's sensitivity to log zeta (the Jacobian's last diagonal entry)
-        se = _median_se(ratios)
-        half = 1.96 * se / max(abs(float(J[2, 2])), 0.1)
+        half = 1.96 * median_se(ratios) / max(abs(float(J[2, 2])), 0.1)
         zeta_ci = (float(zeta * np.exp(-half)), float(zeta * np.exp(half)))
-    damping_used = ReplayDamping(source=source, zeta=None if zeta is None else float(zeta),
-                                 zeta_ci95=zeta_ci)
-    offsets = []
+    return ReplayDamping(source=source, zeta=None if zeta is None else float(zeta),
+                         zeta_ci95=zeta_ci)
+
+
+def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts,
+            progress) -> ReplayResult:
+    """The :class:`ReplayResult` of a finished loop: offsets, curve misfits and the bootstrap
+    at the last replay."""
+    rep, stat = b.rep, b.stat
+    offsets, misfit, boot = (), {}, None
     if rep is not None:
         replayed = {(p.run, p.channel): p for p in rep.points.used()}
-        for p in measured:
-            q = replayed.get((p.run, p.channel))
-            if q is not None:
-                offsets.append({"run": p.run, "channel": p.channel,
-                                "f_offset": q.f_hz / p.f_hz - 1,
-                                "amplitude_offset": q.amplitude_m / p.amplitude_m - 1})
-    misfit: dict[str, float] = {}
-    if rep is not None:
-        replayed_curves = {(c.run, c.channel): c for c in rep.points.curves}
-        for c in plain.points.curves:
-            r = replayed_curves.get((c.run, c.channel))
-            if r is not None and c.run in levels:
-                misfit[c.run] = max(misfit.get(c.run, 0.0), curve_misfit(c, r))
-    ci_kn = ci_delta = noise = None
-    if n_bootstrap > 0 and rep is not None and not failure:
-        noise = noise_levels(dataset, rep_ds)
-        ci_kn, ci_delta = _bootstrap_by_replay(
-            rep_ds, system, noise, theta=theta, theta_rep=np.array([rep.kn, rep.delta]),
-            n=int(n_bootstrap), seed=int(seed), fit_kwargs=fit_kwargs, progress=progress)
-    if failure:
-        theta = np.array([plain.kn, plain.delta])  # nothing to correct with: the plain fit stays
-    return ReplayResult(kn=float(theta[0]), delta=float(theta[1]), kn_fit=float(plain.kn),
-                        delta_fit=float(plain.delta), iterations=history, converged=converged,
-                        **stat, weights=weight_table or None, closest_misfit_se=closest_se,
-                        levels=levels, offsets=offsets,
-                        curves=tuple(rep.points.curves) if rep is not None else (),
-                        misfit=misfit, damping=damping_used, failure=failure,
-                        kn_ci95_replay=ci_kn, delta_ci95_replay=ci_delta,
-                        n_bootstrap=int(n_bootstrap) if ci_kn is not None else 0,
-                        noise=None if noise is None else
-                        {k: [float(x) for x in v] for k, v in noise.items()},
-                        sweeps={run: {"source": src, "law": sw.law, **sw.to_dict(),
-                                      **({} if res is None else {"residual_hz": float(res)})}
-                                for run, (sw, src, res) in sweeps.items()})
+        offsets = tuple(PointOffset(p.run, p.channel, q.f_hz / p.f_hz - 1,
+                                    q.amplitude_m / p.amplitude_m - 1)
+                        for p in stat.points.used()
+                        if (q := replayed.get((p.run, p.channel))) is not None)
+        misfit = run_misfits(plain.points.curves, rep.points.curves, b.test.levels)
+        if opts.n_bootstrap > 0 and not b.failure:
+            boot = bootstrap_by_replay(
+                b.rep_ds, system, noise_levels(b.test.dataset, b.rep_ds), theta=theta,
+                theta_rep=np.array([rep.kn, rep.delta]), n=opts.n_bootstrap, seed=opts.seed,
+                extraction=b.test.extraction, fit=b.test.fit, point_weights=b.weights,
+                progress=progress)
+    return ReplayResult(
+        kn=float(theta[0]), delta=float(theta[1]), jump_point=rule,
+        kn_statistic=float(stat.kn), delta_statistic=float(stat.delta),
+        statistic_ci95=b.stat_ci95, iterations=tuple(b.history), converged=sol.converged,
+        closest_misfit_se=closest, levels=b.test.levels, offsets=offsets,
+        curves=tuple(rep.points.curves) if rep is not None else (), misfit=misfit,
+        damping=damping, failure=b.failure, bootstrap=boot, weights=b.weight_table or None,
+        sweeps={run: {"source": src, "law": sw.law, **sw.to_dict(),
+                      **({} if res is None else {"residual_hz": float(res)})}
+                for run, (sw, src, res) in b.test.sweeps.items()})
 
 
-def _refit(est, system, weights: dict, fit_kwargs: dict):
-    """``est`` (a PlainEstimate) fitted again to its own points with ``weights``."""
+def _refit(est: PlainEstimate, system, weights: dict, fit: FitOptions) -> PlainEstimate:
+    """``est`` fitted again to its own points with ``weights``."""
     pts = est.fitting_points()
-    fit = fit_backbone(pts, system, init=(est.kn, est.delta), init_label=est.fit.init,
-                       backbone=fit_kwargs.get("backbone", "dfa"),
-                       mode=int(fit_kwargs.get("mode", 0)), weights=weights_of(pts, weights))
-    return dataclasses.replace(est, fit=fit)
-
-
-def _amplitude_ratios(measured_points, replayed_points) -> np.ndarray:
-    """log(X_replayed / X_measured) of the points found in both, matched by (run, channel)."""
-    rep = {(p.run, p.channel): p for p in replayed_points}
-    out = [np.log(rep[(p.run, p.channel)].amplitude_m / p.amplitude_m)
-           for p in measured_points if (p.run, p.channel) in rep]
-    return np.asarray(out, float)
-
-
-def _by_run_intervals(estimate) -> tuple:
-    """The statistic fit's Jacobian intervals with each run's points as one observation (the
-    channels of a run share its jump); the per-point ones when the fit has no runs."""
-    fit = estimate.fit
-    if fit.kn_ci95_by_run is None:
-        return tuple(fit.kn_ci95), tuple(fit.delta_ci95)
-    return tuple(fit.kn_ci95_by_run), tuple(fit.delta_ci95_by_run)
+    new = fit_backbone(pts, system, init=(est.kn, est.delta), init_label=est.fit.init,
+                       backbone=fit.backbone, mode=fit.mode, weights=weights_of(pts, weights))
+    return dataclasses.replace(est, fit=new)

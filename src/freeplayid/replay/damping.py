@@ -6,9 +6,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..model import modal_analysis, modal_damping
 from ..quantity import G
 
-__all__ = ["ReplayDamping", "damped_system", "initial_zeta", "ZETA_START", "ZETA_RTOL"]
+__all__ = ["ReplayDamping", "damped_system", "damping_mode", "initial_zeta", "ZETA_START",
+           "ZETA_RTOL"]
 
 ZETA_START = 0.02  # [-] first guess of an estimated damping ratio (the loop moves it)
 
@@ -51,12 +53,10 @@ class ReplayDamping:
 def damped_system(system, zeta: float, kn: float):
     """``system`` with modal damping ratio ``zeta`` in every mode of its closed-hinge stiffness
     at ``kn`` (``model.modal_damping``), replacing its C."""
-    from ..model import modal_damping
-
     return system.replace(C=modal_damping(system.M, system.closed_stiffness(kn), zeta))
 
 
-def _damping_mode(system, damping) -> tuple[str, float | None]:
+def damping_mode(system, damping) -> tuple[str, float | None]:
     """("model" | "given" | "estimated", zeta) from the ``damping`` argument."""
     if damping is None:
         has_c = system.C is not None and bool(np.any(system.C))
@@ -89,8 +89,6 @@ def initial_zeta(system, points, levels: dict, kn: float, dofs: dict, mode: int 
     (median over the points, kept in [0.002, 0.3]). A swept jump falls before the phase
     resonance and the absolute frame adds the base motion, so this is only the loop's start.
     """
-    from ..model import modal_analysis
-
     modes = modal_analysis(system.M, system.closed_stiffness(kn))
     phi = modes.shapes[:, mode]
     wc = 2 * np.pi * float(modes.frequencies_hz[mode])

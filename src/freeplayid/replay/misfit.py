@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["curve_misfit"]
+__all__ = ["curve_misfit", "run_misfits"]
 
 
 def curve_misfit(measured, replayed) -> float:
@@ -30,3 +30,15 @@ def curve_misfit(measured, replayed) -> float:
         return float("nan")
     xi = np.interp(f[inside], fr[okr][order], xr[okr][order])
     return float(np.median(np.abs(xi - x[inside])) / np.max(x[ok]))
+
+
+def run_misfits(measured_curves, replayed_curves, runs) -> dict:
+    """Per run of ``runs``: the largest :func:`curve_misfit` over its channels' measured and
+    replayed curves (matched by run and channel)."""
+    replayed = {(c.run, c.channel): c for c in replayed_curves}
+    out: dict[str, float] = {}
+    for c in measured_curves:
+        r = replayed.get((c.run, c.channel))
+        if r is not None and c.run in runs:
+            out[c.run] = max(out.get(c.run, 0.0), curve_misfit(c, r))
+    return out

@@ -2,12 +2,19 @@
 
 from __future__ import annotations
 
-import numpy as np
+import dataclasses
 
+import numpy as np
+import torch
+
+from ..dataset import Dataset
 from ..estimate import run_sweep_law
 from ..quantity import G, check_quantity
+from ..signal import window_amplitudes
+from ..simulate import simulate_sweeps, sweep_dataset
+from ..simulate.engines import ENGINES
 
-__all__ = ["replay_sweeps", "replay_levels", "replay_dataset"]
+__all__ = ["replay_sweeps", "replay_levels", "replay_dataset", "with_sweep_hints"]
 
 
 def replay_sweeps(dataset) -> dict:
@@ -35,8 +42,6 @@ def replay_levels(dataset, sweeps: dict | None = None) -> dict:
     -------
     dict of run file -> (level [g], source)
     """
-    from ..signal import window_amplitudes
-
     sweeps = replay_sweeps(dataset) if sweeps is None else sweeps
     order = check_quantity(dataset.quantity).order
     out = {}
@@ -68,14 +73,6 @@ def replay_dataset(dataset, system, kn: float, delta: float, *, levels: dict | N
     extraction. ``engine``: a simulator engine name (:data:`freeplayid.simulate.engines.ENGINES`
     or "auto"); None: the exponential engine when available, else "auto".
     """
-    import dataclasses
-
-    import torch
-
-    from ..dataset import Dataset
-    from ..simulate import simulate_sweeps, sweep_dataset
-    from ..simulate.engines import ENGINES
-
     # the exponential engine (docs/simulate.md): exact between hinge switches, a step set by
     # accuracy, one member per core; as accurate as RK4 at its default step and about 6x faster
     # for one replay's few members. RK4 where numba is missing.
@@ -107,10 +104,8 @@ def replay_dataset(dataset, system, kn: float, delta: float, *, levels: dict | N
                    base_channel=dataset.base_channel if frame == "absolute" else None)
 
 
-def _with_sweep_hints(dataset, sweeps: dict):
+def with_sweep_hints(dataset, sweeps: dict):
     """``dataset`` with each run of ``sweeps`` that has no hint given its replayed law as one."""
-    import dataclasses
-
     runs = tuple(dataclasses.replace(r, sweep=sweeps[r.file][0].to_dict())
                  if r.sweep is None and r.file in sweeps else r for r in dataset.runs)
     return dataclasses.replace(dataset, runs=runs)

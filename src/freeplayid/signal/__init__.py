@@ -19,6 +19,8 @@ from .jump import (
 from .level import window_amplitudes
 from .lockin import lockin
 from .noise import add_noise_for_snr, white_noise
+from .options import EXTRACTION_METHODS, Extraction
+from .peak import JUMP_POINTS
 from .points import (
     AmplitudeCurve,
     BackbonePoint,
@@ -41,6 +43,9 @@ __all__ = [
     "white_noise",
     "add_noise_for_snr",
     "extract_backbone_points",
+    "Extraction",
+    "EXTRACTION_METHODS",
+    "JUMP_POINTS",
     "find_jump_peak",
     "to_displacement",
     "BackbonePoint",

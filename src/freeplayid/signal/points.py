@@ -10,15 +10,15 @@ The jump rule and the rejection reasons are in :mod:`.jump`.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..quantity import check_quantity
-from .acmp import ChirpMode, acmp
+from .acmp import ChirpMode
 from .jump import REASON_FAILED, REASON_NOISY, find_jump_peak, reason_dead
-from .lockin import lockin
+from .options import EXTRACTION_METHODS, Extraction, with_options
 from .peak import JUMP_POINTS
 from .sweeplaw import estimate_sweep
 from .validate import check_positive, dead_channel
@@ -32,10 +32,6 @@ __all__ = [
     "EXTRACTION_METHODS",
     "JUMP_POINTS",
 ]
-
-# name -> first-harmonic extractor (x, fs, *, sweep, bandwidth_hz, ...) -> ChirpMode; a new method
-# is one module and one line here
-EXTRACTION_METHODS = {"acmp": acmp, "lockin": lockin}
 
 # samples a run must keep after trimming `trim_s` at each end (the extractor's and the jump rule's
 # minimum; a shorter run is rejected with its reason)
@@ -191,18 +187,8 @@ def extract_backbone_points(
     sweep=None,
     base=None,
     base_name: str = "base",
-    method: str = "acmp",
-    bandwidth_hz: float | None = None,
-    options: Mapping | None = None,
-    trim_s: float = 1.0,
-    jump_ratio: float = 0.5,
-    jump_width_hz: float = 2.0,
-    jump_asymmetry: float = 3.0,
-    edge_hz: float = 0.5,
-    min_snr_db: float = 0.0,
-    require_jump: bool = True,
-    jump_point: str = "smoothed",
-    curve_points: int = 2000,
+    extraction: Extraction | None = None,
+    **options,
 ) -> BackbonePoints:
     """Backbone fitting points (resonance peak / jump) of every channel of every sweep run.
 
@@ -222,32 +208,21 @@ def extract_backbone_points(
         absolute motion becomes motion relative to the base.
     base_name : str
         The base channel's name in rejection reasons (a data set's ``base_channel``).
-    method : {"acmp", "lockin"}
-    bandwidth_hz : float [Hz], optional
-        Demodulation bandwidth of either method. Default ``max(1 Hz, 2 s x |sweep rate|)``
-        (the hint's rate, else the record's own law from :func:`estimate_sweep`; the median
-        rate of a log sweep): narrow enough to keep the noise bias of
-        the maximum small, wide enough to follow the drop after the peak without overshoot.
-    options : mapping, optional
-        Further keyword options of the method (e.g. ``{"if_bandwidth_hz": 0.5}``).
-    trim_s : float [s]
-        Ignore this much at each end of the record (filter end effects).
-    jump_ratio, jump_width_hz, jump_asymmetry, edge_hz, require_jump
-        Jump rule, see the module docstring and :func:`find_jump_peak`.
-    min_snr_db : float [dB]
-        Reject as too noisy below this mode-to-residual SNR.
-    jump_point : {"smoothed", "windowed"}
-        Where the point is taken (:mod:`.peak`). "smoothed" (default): the maximum of the
-        extractor's smoothed curve at its instantaneous frequency; the filter overshoots ahead
-        of the drop (up to 0.2 Hz late, 0.4-2.7 % high on benchmarks/jump_point.py).
-        "windowed": the maximum of a Gaussian-weighted least-squares first harmonic of the raw
-        record (a non-negative kernel of the extractor's bandwidth, which cannot overshoot)
-        within the smoothed curve's lobe, at the excitation frequency there: within 0.09 Hz and
-        0.21 % noise-free, but with 5 % noise its frequency wanders along the flat top (up to
-        -0.5 Hz on the fin at 1 Hz/s), so it is not the default yet (docs/signal.md, section 6).
-        The jump rule and the rejections are the same for both.
-    curve_points : int
-        Number of samples kept per curve for figures.
+    extraction : Extraction, optional
+        The options (:class:`Extraction`: method, bandwidth, trim, jump rule, jump point, SNR
+        floor, curve points); default ``Extraction()``.
+    **options
+        Fields of :class:`Extraction` to replace (``method="lockin"``, ``jump_point="drop"``).
+
+    The bandwidth (``bandwidth_hz`` None) is ``max(1 Hz, 2 s x |sweep rate|)``: the hint's
+    rate, else the record's own law from :func:`estimate_sweep` (the median rate of a log
+    sweep), narrow enough to keep the noise bias of the maximum small, wide enough to follow the
+    drop after the peak without overshoot. The jump point (:mod:`.peak`): "smoothed" (default)
+    the maximum of the extractor's smoothed curve at its instantaneous frequency (the filter
+    overshoots ahead of the drop: up to 0.2 Hz late, 0.4-2.7 % high on
+    benchmarks/jump_point.py); "windowed" the maximum of a Gaussian-weighted least-squares
+    first harmonic of the raw record, which cannot overshoot, at the excitation frequency
+    there; "drop" where the curve drops (docs/signal.md, section 6).
 
     Returns
     -------
@@ -258,24 +233,27 @@ def extract_backbone_points(
         (the whole run), a dead channel (that channel's point; :func:`.validate.dead_channel`).
     """
     check_quantity(quantity)
-    if method not in EXTRACTION_METHODS:
-        raise ValueError(f"`method` must be one of {sorted(EXTRACTION_METHODS)}, got {method!r}")
-    if jump_point not in JUMP_POINTS:
-        raise ValueError(f"`jump_point` must be one of {sorted(JUMP_POINTS)}, got {jump_point!r}")
+    opts = with_options(extraction, options)
     fs = check_positive(sample_rate, "sample_rate")
-    for name, v in (("jump_width_hz", jump_width_hz), ("edge_hz", edge_hz)):
-        check_positive(v, name)
-    if not jump_asymmetry >= 1:
-        raise ValueError(f"`jump_asymmetry` must be >= 1, got {jump_asymmetry!r}")
-    if not 0 < jump_ratio < 1:
-        raise ValueError(f"`jump_ratio` must be in (0, 1), got {jump_ratio!r}")
-    if not (np.isfinite(trim_s) and trim_s >= 0):
-        raise ValueError(f"`trim_s` must be a finite number >= 0, got {trim_s!r}")
-    if not np.isfinite(min_snr_db):
-        raise ValueError(f"`min_snr_db` must be finite, got {min_snr_db!r}")
-    if not isinstance(curve_points, (int, np.integer)) or curve_points < 2:
-        raise ValueError(f"`curve_points` must be an integer >= 2, got {curve_points!r}")
     runs = _as_runs(signals, "signals")
+    channel_names, run_names = _names(runs, channel_names, run_names)
+    sweeps = _sweeps(sweep, len(runs))
+    if opts.method == "lockin" and any(s is None for s in sweeps):
+        raise ValueError("`method='lockin'` needs the sweep law: pass `sweep`")
+    bases = _bases(base, runs)
+    points, curves = [], []
+    for i, run in enumerate(runs):
+        got = _run_points(run, fs, run_names[i], channel_names, sweep=sweeps[i],
+                          base=None if bases is None else bases[i], base_name=base_name,
+                          opts=opts, quantity=quantity)
+        points += [p for p, _ in got]
+        curves += [c for _, c in got]
+    rejected = tuple(r for r in run_names if not any(p.used for p in points if p.run == r))
+    return BackbonePoints(tuple(points), rejected, tuple(curves), quantity, opts.method)
+
+
+def _names(runs, channel_names, run_names) -> tuple[list[str], list[str]]:
+    """The channel and run names, checked against the signals' shapes."""
     n_runs = len(runs)
     if n_runs == 0:
         raise ValueError("`signals` holds no run")
@@ -293,89 +271,80 @@ def extract_backbone_points(
         raise ValueError(f"`channel_names` must have {n_ch} names, got {len(channel_names)}")
     if len(run_names) != n_runs:
         raise ValueError(f"`run_names` must have {n_runs} names, got {len(run_names)}")
-    if sweep is None or hasattr(sweep, "phase"):
-        sweeps = [sweep] * n_runs
-    else:
-        sweeps = list(sweep)
-        if len(sweeps) != n_runs:
-            raise ValueError(f"`sweep` must be one Sweep or {n_runs} of them, got {len(sweeps)}")
-    if method == "lockin" and any(s is None for s in sweeps):
-        raise ValueError("`method='lockin'` needs the sweep law: pass `sweep`")
-    bases = None
-    if base is not None:
-        bases = [np.asarray(b, dtype=float) for b in base]
-        if len(bases) != n_runs:
-            raise ValueError(f"`base` must hold {n_runs} runs, got {len(bases)}")
-        for i, (b, r) in enumerate(zip(bases, runs, strict=True)):
-            if b.shape != r.shape[1:]:
-                raise ValueError(f"`base[{i}]` must have shape {r.shape[1:]}, got {b.shape}")
-    extract = EXTRACTION_METHODS[method]
-    opts = dict(options or {})
-    if "bandwidth_hz" in opts or "sweep" in opts:
-        raise ValueError("pass `bandwidth_hz` and `sweep` as arguments, not in `options`")
-    if bandwidth_hz is not None:
-        check_positive(bandwidth_hz, "bandwidth_hz")
+    return channel_names, run_names
 
-    peak_rule = dict(
-        jump_ratio=jump_ratio,
-        jump_width_hz=jump_width_hz,
-        jump_asymmetry=jump_asymmetry,
-        edge_hz=edge_hz,
-        require_jump=require_jump,
-    )
-    points, curves = [], []
+
+def _sweeps(sweep, n_runs: int) -> list:
+    """One sweep law (or None) per run."""
+    if sweep is None or hasattr(sweep, "phase"):
+        return [sweep] * n_runs
+    sweeps = list(sweep)
+    if len(sweeps) != n_runs:
+        raise ValueError(f"`sweep` must be one Sweep or {n_runs} of them, got {len(sweeps)}")
+    return sweeps
+
+
+def _bases(base, runs) -> list | None:
+    """The base channel of each run (None without one), checked against the runs' lengths."""
+    if base is None:
+        return None
+    bases = [np.asarray(b, dtype=float) for b in base]
+    if len(bases) != len(runs):
+        raise ValueError(f"`base` must hold {len(runs)} runs, got {len(bases)}")
+    for i, (b, r) in enumerate(zip(bases, runs, strict=True)):
+        if b.shape != r.shape[1:]:
+            raise ValueError(f"`base[{i}]` must have shape {r.shape[1:]}, got {b.shape}")
+    return bases
+
+
+def _run_reason(run, fs, *, trim, opts, sweep, base, base_name, quantity) -> str:
+    """Why a whole run cannot give points ("" when it can): too short, a hint that does not
+    fit it, a dead base channel."""
+    n = run.shape[1]
+    if n - 2 * trim < MIN_SAMPLES:
+        return (
+            f"run too short for the extraction: {n} samples ({n / fs:.4g} s at {fs:g} Hz) "
+            f"leave {max(n - 2 * trim, 0)} after trimming `trim_s`={opts.trim_s:g} s at each "
+            f"end; at least {MIN_SAMPLES} are needed"
+        )
+    if sweep is not None:
+        why = sweep.record_mismatch(n, fs)
+        if why:
+            return why
+    if base is not None:
+        why = dead_channel(base, list(run), quantity=quantity)
+        if why:
+            return f"base channel {base_name} is dead ({why}): it cannot be subtracted"
+    return ""
+
+
+def _run_points(run, fs, run_name, channel_names, *, sweep, base, base_name, opts, quantity):
+    """(point, curve) of every channel of one run; a run's or a channel's own problem rejects
+    its points with the reason, never the batch."""
     nan = float("nan")
-    for i, run in enumerate(runs):
-        n = run.shape[1]
-        m = int(round(trim_s * fs))
-        # a run's own problems reject that run (every channel's point), never the batch
-        run_reason = ""
-        if n - 2 * m < MIN_SAMPLES:
-            run_reason = (
-                f"run too short for the extraction: {n} samples ({n / fs:.4g} s at {fs:g} Hz) "
-                f"leave {max(n - 2 * m, 0)} after trimming `trim_s`={trim_s:g} s at each end; "
-                f"at least {MIN_SAMPLES} are needed"
-            )
-        elif sweeps[i] is not None:
-            run_reason = sweeps[i].record_mismatch(n, fs)
-        if not run_reason and bases is not None:
-            why = dead_channel(bases[i], list(run), quantity=quantity)
-            if why:
-                run_reason = f"base channel {base_name} is dead ({why}): it cannot be subtracted"
-        for j in range(n_ch):
-            names = (run_names[i], channel_names[j])
-            reason = run_reason or reason_dead(channel_names[j], dead_channel(
-                run[j], [run[k] for k in range(n_ch) if k != j]
-                + ([bases[i]] if bases is not None else []), quantity=quantity))
-            if reason:
-                points.append(BackbonePoint(*names, nan, nan, False, reason, nan, nan))
-                curves.append(AmplitudeCurve(*names, np.empty(0), np.empty(0)))
-                continue
-            x = run[j] - bases[i] if bases is not None else run[j]
-            try:
-                point, curve = _channel_point(
-                    x,
-                    fs,
-                    names,
-                    extract=extract,
-                    sweep=sweeps[i],
-                    trim=m,
-                    opts=opts,
-                    bandwidth_hz=bandwidth_hz,
-                    quantity=quantity,
-                    min_snr_db=min_snr_db,
-                    curve_points=curve_points,
-                    peak_rule=peak_rule,
-                    jump_point=jump_point,
-                )
-            except (np.linalg.LinAlgError, _ExtractionError) as e:
-                # one bad channel (no sweep in it, a failed solve) does not stop the batch
-                point = BackbonePoint(*names, nan, nan, False, f"{REASON_FAILED}: {e}", nan, nan)
-                curve = AmplitudeCurve(*names, np.empty(0), np.empty(0))
-            points.append(point)
-            curves.append(curve)
-    rejected = tuple(r for r in run_names if not any(p.used for p in points if p.run == r))
-    return BackbonePoints(tuple(points), rejected, tuple(curves), quantity, method)
+    trim = int(round(opts.trim_s * fs))
+    run_reason = _run_reason(run, fs, trim=trim, opts=opts, sweep=sweep, base=base,
+                             base_name=base_name, quantity=quantity)
+    out = []
+    n_ch = run.shape[0]
+    for j in range(n_ch):
+        names = (run_name, channel_names[j])
+        reason = run_reason or reason_dead(channel_names[j], dead_channel(
+            run[j], [run[k] for k in range(n_ch) if k != j]
+            + ([base] if base is not None else []), quantity=quantity))
+        if reason:
+            out.append((BackbonePoint(*names, nan, nan, False, reason, nan, nan),
+                        AmplitudeCurve(*names, np.empty(0), np.empty(0))))
+            continue
+        x = run[j] - base if base is not None else run[j]
+        try:
+            out.append(_channel_point(x, fs, names, sweep=sweep, trim=trim, opts=opts,
+                                      quantity=quantity))
+        except (np.linalg.LinAlgError, _ExtractionError) as e:
+            # one bad channel (no sweep in it, a failed solve) does not stop the batch
+            out.append((BackbonePoint(*names, nan, nan, False, f"{REASON_FAILED}: {e}", nan, nan),
+                        AmplitudeCurve(*names, np.empty(0), np.empty(0))))
+    return out
 
 
 def _linear_law(t, f, weight):
@@ -398,33 +367,15 @@ class _ExtractionError(Exception):
     """A channel that cannot be processed (reported as a rejected point, not raised)."""
 
 
-def _channel_point(
-    x,
-    fs,
-    names,
-    *,
-    extract,
-    sweep,
-    trim,
-    opts,
-    bandwidth_hz,
-    quantity,
-    min_snr_db,
-    curve_points,
-    peak_rule,
-    jump_point,
-) -> tuple[BackbonePoint, AmplitudeCurve]:
-    """Fitting point and thinned curve of one channel of one run (see extract_backbone_points)."""
-    n = x.shape[0]
-    if np.ptp(x) == 0:
-        raise _ExtractionError("constant signal")
-    sl = slice(trim, n - trim)
-    ti = np.arange(n)[sl] / fs
-    run_opts = dict(opts)
+def _sweep_band(x, fs, n, sl, ti, *, sweep, run_opts, quantity):
+    """The sweep law (or None), each analysed sample's rate [Hz/s] and the swept band [Hz].
+
+    Output-only: without a hint (and without a given ``init_freq``) the record's own law (linear
+    or log, :func:`estimate_sweep`) gives the rate, the band and ACMP's start, written into
+    ``run_opts``.
+    """
     law = sweep
     if law is None and "init_freq" not in run_opts:
-        # output-only: the record's own sweep law (linear or log, estimate_sweep) gives the
-        # rate, the band and ACMP's start
         try:
             law = estimate_sweep(x, fs, fmin=2.0, quantity=quantity).sweep
         except ValueError as exc:
@@ -432,15 +383,29 @@ def _channel_point(
         run_opts["init_freq"] = law.frequency(np.arange(n) / fs)
     if law is not None:
         rate = law.rate(ti)  # df/dt [Hz/s] per sample: a log sweep's varies
-        band = (float(law.frequency(ti[0])), float(law.frequency(ti[-1])))
-    else:
-        f_init = np.broadcast_to(np.asarray(run_opts["init_freq"], dtype=float), (n,))
-        rate = np.full(ti.shape, (f_init[sl][-1] - f_init[sl][0]) / (ti[-1] - ti[0]))
-        band = (float(f_init[sl][0]), float(f_init[sl][-1]))
-        if not np.isfinite(rate[0]) or rate[0] == 0:
-            raise _ExtractionError("the initial frequency is not a sweep (pass `sweep`)")
-    bw = max(1.0, 2.0 * float(np.median(np.abs(rate)))) if bandwidth_hz is None else bandwidth_hz
-    mode: ChirpMode = extract(x, fs, sweep=sweep, bandwidth_hz=bw, **run_opts)
+        return law, rate, (float(law.frequency(ti[0])), float(law.frequency(ti[-1])))
+    f_init = np.broadcast_to(np.asarray(run_opts["init_freq"], dtype=float), (n,))
+    rate = np.full(ti.shape, (f_init[sl][-1] - f_init[sl][0]) / (ti[-1] - ti[0]))
+    if not np.isfinite(rate[0]) or rate[0] == 0:
+        raise _ExtractionError("the initial frequency is not a sweep (pass `sweep`)")
+    return None, rate, (float(f_init[sl][0]), float(f_init[sl][-1]))
+
+
+def _channel_point(x, fs, names, *, sweep, trim, opts: Extraction,
+                   quantity) -> tuple[BackbonePoint, AmplitudeCurve]:
+    """Fitting point and thinned curve of one channel of one run (see extract_backbone_points)."""
+    n = x.shape[0]
+    if np.ptp(x) == 0:
+        raise _ExtractionError("constant signal")
+    sl = slice(trim, n - trim)
+    ti = np.arange(n)[sl] / fs
+    run_opts = dict(opts.options)
+    law, rate, band = _sweep_band(x, fs, n, sl, ti, sweep=sweep, run_opts=run_opts,
+                                  quantity=quantity)
+    bw = max(1.0, 2.0 * float(np.median(np.abs(rate)))) if opts.bandwidth_hz is None \
+        else opts.bandwidth_hz
+    mode: ChirpMode = EXTRACTION_METHODS[opts.method](x, fs, sweep=sweep, bandwidth_hz=bw,
+                                                      **run_opts)
     fi = mode.frequency[sl]
     # the first harmonic lives in the swept band; keep a wild IF (noise, after a jump) from
     # blowing up X = A / w^2
@@ -452,11 +417,14 @@ def _channel_point(
     # the jump rule's widths [Hz] at the sweep's rate where the curve peaks (a log sweep's rate
     # varies along the record)
     peak_rate = float(rate[int(np.argmax(np.where(np.isfinite(xi), xi, -np.inf)))])
-    k, reason = find_jump_peak(ti, fi, xi, sweep_rate=peak_rate, band=band, **peak_rule)
-    if mode.snr_db < min_snr_db:
+    k, reason = find_jump_peak(ti, fi, xi, sweep_rate=peak_rate, band=band,
+                               jump_ratio=opts.jump_ratio, jump_width_hz=opts.jump_width_hz,
+                               jump_asymmetry=opts.jump_asymmetry, edge_hz=opts.edge_hz,
+                               require_jump=opts.require_jump)
+    if mode.snr_db < opts.min_snr_db:
         reason = REASON_NOISY
-    kp, xp = JUMP_POINTS[jump_point](
-        k, x=x, fs=fs, mode=mode, trim=trim, xi=xi, ratio=peak_rule["jump_ratio"],
+    kp, xp = JUMP_POINTS[opts.jump_point](
+        k, x=x, fs=fs, mode=mode, trim=trim, xi=xi, ratio=opts.jump_ratio,
         bandwidth_hz=bw, to_disp=lambda a, f: to_displacement(a, f, quantity), clip=clip,
         steep_after=peak_rate > 0,
     )
@@ -477,5 +445,5 @@ def _channel_point(
         time_s=t_point,
         snr_db=mode.snr_db,
     )
-    step = max(1, xi.shape[0] // curve_points)
+    step = max(1, xi.shape[0] // opts.curve_points)
     return point, AmplitudeCurve(*names, fi[::step].copy(), xi[::step].copy())

@@ -31,8 +31,12 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..fit import FitOptions, MultiStart
+from ..identification import identify
 from ..inverse.points import PointSets
 from ..model.system import FreeplaySystem
+from ..replay import Replay
+from ..signal import Extraction
 
 if TYPE_CHECKING:
     from .bank import SweepBank
@@ -117,21 +121,18 @@ def fit_cases(
     return [_row(ps, i, m, *res) for (i, m, *_), res in zip(jobs, out, strict=True)]
 
 
-def _corrected_one(dataset, system, init, multistart, backbone, extraction):
+def _corrected_one(dataset, system, init, fit: FitOptions, extraction: Extraction):
     """(kn, delta, evaluations, wall [s], replay converged, replays, verdict, failure) of one
     case's corrected fit; a case that cannot be identified gives NaN estimates, verdict
     "failed" and the reason."""
-    from ..identification.pipeline import identify
-
     t0 = time.perf_counter()
     try:
-        res = identify(dataset, system=system, init=init,
-                       multistart=None if init is not None else multistart, backbone=backbone,
-                       extraction=extraction, use_sweep_hint=True, replay=True, progress=False)
+        res = identify(dataset, system=system, init=init, extraction=extraction, fit=fit,
+                       replay=Replay(), progress=False)
     except ValueError as err:  # IdentificationError, or every start diverged: a failed case
         return np.nan, np.nan, 0, time.perf_counter() - t0, False, 0, "failed", str(err)
     rep = res.replay
-    n_eval = res.fit.n_evaluations + sum(int(it["n_evaluations"]) for it in rep.iterations)
+    n_eval = res.plain_fit.n_evaluations + sum(it.n_evaluations for it in rep.iterations)
     return (res.kn, res.delta, n_eval, time.perf_counter() - t0, bool(rep.converged),
             len(rep.iterations), res.verdict.status, rep.failure)
 
@@ -152,8 +153,8 @@ def corrected_cases(
     """The bias-corrected fits (``CORRECTED``) on the cases ``cases`` of ``ps``.
 
     Each case's records are rebuilt (:func:`freeplayid.studies.rebuild_case`) and identified
-    by :func:`freeplayid.identify` with ``replay=True``, ``use_sweep_hint=True`` and the
-    spec's extraction: ``network+corrected`` starts its plain fit from the network's estimate,
+    by :func:`freeplayid.identify` with the default replay, the sweep hints and the spec's
+    extraction: ``network+corrected`` starts its plain fit from the network's estimate,
     ``multi-start+corrected`` from the multi-start grid.
 
     Parameters
@@ -198,8 +199,10 @@ def corrected_cases(
 
     require_plan_index(bank, spec, ps)
     plan = plan_cases(bank, spec)
-    ms = {"n": int(multistart["n"]), "kn_range": tuple(multistart["kn_range"]),
-          "delta_range": tuple(multistart["delta_range"])}
+    fit = FitOptions(backbone=backbone, multistart=MultiStart(
+        n=int(multistart["n"]), kn_range=tuple(multistart["kn_range"]),
+        delta_range=tuple(multistart["delta_range"])))
+    extraction = Extraction(**{**spec.extraction, "use_sweep_hint": True})
     jobs = []
     for i in (int(c) for c in cases):
         if network_estimate is not None:
@@ -207,8 +210,8 @@ def corrected_cases(
             jobs.append((i, "network+corrected", init))
         jobs.append((i, "multi-start+corrected", None))
     out = Parallel(n_jobs=n_jobs, batch_size=1)(
-        delayed(_corrected_one)(rebuild_case(bank, spec, ps, i, plan=plan), system, init, ms,
-                                backbone, dict(spec.extraction))
+        delayed(_corrected_one)(rebuild_case(bank, spec, ps, i, plan=plan), system, init, fit,
+                                extraction)
         for i, _, init in tqdm(jobs, desc="corrected fits", unit="fit", disable=not progress)
     )
     rows = []

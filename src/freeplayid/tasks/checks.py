@@ -181,12 +181,6 @@ def _extraction_method() -> Rule:
     return choice(*sorted(EXTRACTION_METHODS))
 
 
-def _jump_point() -> Rule:
-    from ..signal.peak import JUMP_POINTS
-
-    return choice(*sorted(JUMP_POINTS))
-
-
 def _backbone() -> Rule:
     from ..backbone import BACKBONE_METHODS
 
@@ -200,21 +194,10 @@ def _multistart() -> dict[str, Rule]:
 
 
 def _identify() -> dict[str, Rule]:
-    return {
-        "data": optional(text()), "backbone": _backbone(),
-        "inverse.checkpoint": optional(text()), "n_bootstrap": integer(0),
-        "seed": integer(0), "mode": integer(0), "use_sweep_hint": boolean(),
-        "extraction.method": _extraction_method(),
-        "extraction.bandwidth_hz": optional(positive()), "extraction.trim_s": number(0.0),
-        "extraction.jump_ratio": number(0.0, 1.0, open_lo=True),
-        "extraction.jump_width_hz": positive(), "extraction.jump_asymmetry": positive(),
-        "extraction.edge_hz": number(0.0), "extraction.min_snr_db": number(),
-        "extraction.jump_point": _jump_point(),
-        **_multistart(), "plot": boolean(), "allow_suspect": boolean(), "replay": boolean(),
-        "damping": optional(either(choice("model", "estimate"), number(0.0, 0.99, open_lo=True))),
-        "replay_bootstrap": integer(0), "replay_jump_point": optional(_jump_point()),
-        "replay_weighted": boolean(),
-    }
+    # extraction, fit and replay are the library's option records, checked by them
+    # (freeplayid.tasks.options); these are the command's own keys
+    return {"data": optional(text()), "inverse.checkpoint": optional(text()),
+            "plot": boolean(), "allow_suspect": boolean()}
 
 
 def _model() -> dict[str, Rule]:

@@ -18,6 +18,7 @@ from omegaconf import DictConfig, OmegaConf
 from ..errors import OutputError
 from ..io.atomic import atomic_write_text
 from ..model.system import FreeplaySystem
+from .options import register_option_groups
 
 if TYPE_CHECKING:
     from ..studies import StudyData
@@ -29,7 +30,8 @@ MODEL_KINDS = ("fin", "npz", "sdof")
 
 
 def register_configs() -> None:
-    """Store the package's default fin in Hydra's ConfigStore as the option ``model=fin``.
+    """Store the package's default fin in Hydra's ConfigStore as the option ``model=fin``, and
+    the option records' groups (:func:`freeplayid.tasks.options.register_option_groups`).
 
     The fin's numbers live once, in the package data ``freeplayid/model/fin.yaml``
     (:func:`freeplayid.model.fin_config_path`, read by ``default_fin()`` in any install); the
@@ -46,6 +48,7 @@ def register_configs() -> None:
 
     node = OmegaConf.create(fin_config_path().read_text(encoding="utf-8"))
     ConfigStore.instance().store(group="model", name="fin", node=node, provider="freeplayid")
+    register_option_groups()
 
 
 def build_system(model_cfg: DictConfig | dict) -> FreeplaySystem:

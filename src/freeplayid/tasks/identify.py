@@ -11,7 +11,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from omegaconf import DictConfig, OmegaConf
+from omegaconf import DictConfig
 
 from ..errors import ConfigError
 from ..identification import Identification, SuspectResultError
@@ -21,6 +21,7 @@ from ..io.atomic import atomic_write_text, staged_folder
 from ..io.result import write_identification
 from .checks import IDENTIFY, check_config
 from .common import run_dir, write_metrics, writing_to
+from .options import identify_options
 
 __all__ = ["identify", "bundled_example"]
 
@@ -80,7 +81,7 @@ def _figures(out: Path, result: Identification) -> list[str]:
     plt.close(fig)
     fig, ax = plt.subplots(figsize=(6, 3.5))
     used = result.used_points
-    plot_fit_residuals(ax, [p.f_hz for p in used], result.fit.residuals,
+    plot_fit_residuals(ax, [p.f_hz for p in used], result.plain_fit.residuals,
                        labels=[p.channel for p in used])
     fig.tight_layout()
     fig.savefig(out / "residuals.png", dpi=110)
@@ -118,8 +119,9 @@ def identify(cfg: DictConfig) -> dict:
     """
     t0 = time.perf_counter()
     check_config(cfg, IDENTIFY)  # every field, before any work
+    options = identify_options(cfg)
     with staged_folder(run_dir()) as stage:
-        metrics = _identify(cfg, stage, t0)
+        metrics = _identify(cfg, options, stage, t0)
     # a suspect result is written whole (its report says why), then refused
     reasons = metrics.pop("suspect_reasons", None)
     if reasons:
@@ -128,27 +130,18 @@ def identify(cfg: DictConfig) -> dict:
     return metrics
 
 
-def _identify(cfg: DictConfig, stage: Path, t0: float) -> dict:
+def _identify(cfg: DictConfig, options: dict, stage: Path, t0: float) -> dict:
     from ..model import load_system
 
     ds = read_dataset(_data_path(cfg))
     if ds.model is None:
         raise DatasetError(f"{ds.path}: missing field `model` (the linear model file, .npz)")
     system = load_system(ds.model)
-    if cfg.mode >= system.n_dof:
-        raise ConfigError(f"`mode` must be an integer in [0, {system.n_dof - 1}] (the model "
-                          f"{ds.model.name} has {system.n_dof} modes), got {cfg.mode!r}")
+    if options["fit"].mode >= system.n_dof:
+        raise ConfigError(f"`fit.mode` must be an integer in [0, {system.n_dof - 1}] (the model "
+                          f"{ds.model.name} has {system.n_dof} modes), got {cfg.fit.mode!r}")
     inverse_model = _load_inverse(cfg, system)  # a wrong checkpoint fails before the extraction
-    result = identify_dataset(
-        ds, system=system, backbone=cfg.backbone, init=inverse_model,
-        extraction=OmegaConf.to_container(cfg.extraction, resolve=True),
-        use_sweep_hint=bool(cfg.use_sweep_hint),
-        multistart=OmegaConf.to_container(cfg.multistart, resolve=True),
-        mode=int(cfg.mode), n_bootstrap=int(cfg.n_bootstrap), seed=int(cfg.seed),
-        replay=bool(cfg.replay), damping=cfg.damping,
-        replay_bootstrap=int(cfg.replay_bootstrap), replay_jump_point=cfg.replay_jump_point,
-        replay_weighted=bool(cfg.replay_weighted),
-    )
+    result = identify_dataset(ds, system=system, init=inverse_model, **options)
     est = result.inverse_estimate
     if est:
         print(f"inverse model: kn = {est['kn']:.4g} N·m/rad (x/÷ {np.exp(est['log_kn_std']):.3f})"
@@ -160,7 +153,7 @@ def _identify(cfg: DictConfig, stage: Path, t0: float) -> dict:
         write_identification(stage, result)
         atomic_write_text(stage / "report.md", result.report(figures))
     used = result.used_points
-    fit = result.fit
+    fit = result.plain_fit
     metrics = {
         "kn": result.kn, "delta": result.delta, "kn_ci95": list(result.kn_ci95),
         "delta_ci95": list(result.delta_ci95), "residual_rms": result.residual_rms,

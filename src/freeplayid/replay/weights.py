@@ -1,16 +1,43 @@
-"""The test's noise as the replay measures it: noise levels, point weights, standard errors and
-the bootstrap by replay."""
+"""The test's noise as the replay measures it, and the weights of the statistic's points."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
-__all__ = ["noise_levels", "point_weights", "WEIGHT_FLOOR"]
+from ..fit import BackboneModel
+from ..quantity import check_quantity
+
+__all__ = ["PointWeight", "noise_levels", "point_weights", "WEIGHT_FLOOR"]
 
 # [-] each point's residual noise is taken as at least this fraction of the median point's, so
 # no point weighs more than 1 / WEIGHT_FLOOR times the median one (its noise is estimated, not
 # known, and the model's own error is not noise)
 WEIGHT_FLOOR = 0.25
+
+
+@dataclass(frozen=True)
+class PointWeight:
+    """One point's weight in the statistic's fit.
+
+    Attributes
+    ----------
+    run, channel : str
+        The point (channel: the model DOF name).
+    noise_ratio : float [-]
+        The record's noise level over the point's amplitude (data units).
+    residual_scale : float [-]
+        The frequency residual that noise makes through the backbone's slope (floored).
+    weight : float [-]
+        Its weight, the median point's being 1.
+    """
+
+    run: str
+    channel: str
+    noise_ratio: float
+    residual_scale: float
+    weight: float
 
 
 def noise_levels(measured, replayed, *, window: int = 256) -> dict:
@@ -38,7 +65,7 @@ def noise_levels(measured, replayed, *, window: int = 256) -> dict:
 
 
 def point_weights(points, noise: dict, dataset, system, kn: float, delta: float, *,
-                  mode: int = 0) -> tuple[dict, list]:
+                  mode: int = 0) -> tuple[dict, tuple]:
     """Each point's weight in the statistic's fit: 1 / the noise of its relative frequency
     residual that its amplitude noise makes, relative to the median point's.
 
@@ -65,13 +92,9 @@ def point_weights(points, noise: dict, dataset, system, kn: float, delta: float,
     Returns
     -------
     weights : dict of (run, DOF name) -> float
-    table : list of dict
-        Per point: run, channel, noise_ratio (record noise / the point's amplitude, data
-        units), residual_scale (|slope| times that) and weight.
+    table : tuple of PointWeight
+        Per point: its noise ratio, residual scale and weight.
     """
-    from ..fit import BackboneModel
-    from ..quantity import check_quantity
-
     order = check_quantity(dataset.quantity).order
     column = {dof: i for i, dof in enumerate(dataset.channels.values())}
     model = BackboneModel(system, points.channel, mode=mode)
@@ -88,72 +111,12 @@ def point_weights(points, noise: dict, dataset, system, kn: float, delta: float,
     res = np.abs(slope) * rel
     known = np.isfinite(res) & (res > 0)
     if not np.any(known):
-        return {}, []
+        return {}, ()
     med = float(np.median(res[known]))
     res = np.where(known, np.maximum(res, WEIGHT_FLOOR * med), med)
     w = med / res
-    table = [{"run": r, "channel": c, "noise_ratio": float(a), "residual_scale": float(e),
-              "weight": float(x)}
-             for r, c, a, e, x in zip(runs, points.channel, rel, res, w, strict=True)]
+    table = tuple(PointWeight(r, c, float(a), float(e), float(x))
+                  for r, c, a, e, x in zip(runs, points.channel, rel, res, w, strict=True))
     return {(r, c): float(x) for r, c, x in zip(runs, points.channel, w, strict=True)}, table
 
 
-def _median_se(values: np.ndarray) -> float:
-    """Standard error of the median of ``values`` (n >= 2): 1.2533 s / sqrt(n)."""
-    return 1.2533 * float(np.std(values, ddof=1)) / np.sqrt(values.size)
-
-
-def _misfit_in_se(F, statistic_ci95, measured, ratios) -> float | None:
-    """The largest |F_i| over its statistic's standard error: log(kn_rep / kn_hat) and
-    log(delta_rep / delta_hat) over the standard errors of the statistic's log kn and log delta
-    (its by-run 95 % intervals over 2 t_0.975(runs - 2)), and with an estimated damping the
-    median log amplitude ratio over its own (1.2533 s / sqrt(n) of the per-point ratios).
-    None when nothing measures the noise (two runs or fewer, an infinite interval)."""
-    import scipy.stats
-
-    runs = len({p.run for p in measured})
-    if statistic_ci95 is None or runs <= 2:
-        return None
-    t = float(scipy.stats.t.ppf(0.975, runs - 2))
-    se = [np.log(hi / lo) / (2 * t) if lo > 0 else np.inf for lo, hi in statistic_ci95]
-    if ratios is not None:
-        se.append(_median_se(ratios) if ratios.size >= 2 else np.inf)
-    se = np.asarray(se, dtype=float)
-    if not np.all(np.isfinite(se) & (se > 0)):
-        return None
-    return float(np.max(np.abs(np.asarray(F, dtype=float)[: se.size]) / se))
-
-
-def _bootstrap_by_replay(rep_ds, system, noise, *, theta, theta_rep, n, seed, fit_kwargs,
-                         progress):
-    """Percentile 95 % intervals of theta * theta_b / theta_rep over ``n`` noisy copies of the
-    replay ``rep_ds`` (module docstring)."""
-    import dataclasses
-
-    from tqdm.auto import tqdm
-
-    from ..errors import IdentificationError
-    from ..estimate import plain_estimate
-
-    rng = np.random.default_rng(seed)
-    samples = []
-    for _ in tqdm(range(n), desc="bootstrap by replay", disable=not progress, leave=False):
-        runs = []
-        for run in rep_ds.runs:
-            sd = noise.get(run.file)
-            if sd is None:
-                runs.append(run)
-                continue
-            noisy = run.data + sd[:, None] * rng.standard_normal(run.data.shape)
-            runs.append(dataclasses.replace(run, data=noisy))
-        copy = dataclasses.replace(rep_ds, runs=tuple(runs))
-        try:
-            fit = plain_estimate(copy, system, init=tuple(theta_rep), **fit_kwargs)
-        except IdentificationError:
-            continue  # a copy whose noise hides a jump: it adds no sample
-        samples.append(theta * np.array([fit.kn, fit.delta]) / theta_rep)
-    if len(samples) < max(5, n // 2):
-        return None, None
-    arr = np.asarray(samples)
-    lo, hi = np.percentile(arr, [2.5, 97.5], axis=0)
-    return (float(lo[0]), float(hi[0])), (float(lo[1]), float(hi[1]))

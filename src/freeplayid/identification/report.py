@@ -1,0 +1,179 @@
+"""``report.md`` of an :class:`~freeplayid.identification.Identification`, section by section."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+__all__ = ["render_report", "validation_record", "format_ci"]
+
+
+def render_report(result, figures: Sequence[str] = ()) -> str:
+    """The whole report: the data set, the result, the verdict, the inverse model's start, the
+    truth, the replay, the fitting points, the rejected runs, the zero-clearance check and the
+    figures."""
+    lines = (_header(result) + _verdict(result.verdict) + _inverse(result) + _truth(result)
+             + _replay(result) + _points(result) + _rejected(result.rejected_runs)
+             + _validation_lines(result.validation)
+             + ["", "## Figures", ""] + [f"![{f}]({f})" for f in figures])
+    return "\n".join(lines) + "\n"
+
+
+def format_ci(v) -> str:
+    """An interval as text: [lo, hi] with 5 significant digits."""
+    return f"[{v[0]:.5g}, {v[1]:.5g}]"
+
+
+def _header(r) -> list[str]:
+    ds = r.dataset
+    boot = r.kn_ci95_bootstrap is not None
+    lines = [
+        "# Freeplay identification", "",
+        f"- data set: {ds.get('name') or '(unnamed)'} (`{ds.get('path')}`)",
+        f"- model: `{ds.get('model')}`",
+        f"- quantity: {ds.get('quantity')} [{ds.get('units')}], "
+        f"{ds.get('sample_rate', float('nan')):g} Hz, {ds.get('n_runs')} runs, "
+        f"channels {r.dofs}"
+        + (f", base channel `{ds['base_channel']}` subtracted" if ds.get("base_channel") else ""),
+        f"- backbone: {r.backbone}, start: {r.init}, runtime {r.runtime_s:.2f} s", "",
+        "## Result", "",
+        "| parameter | identified | 95 % CI (Jacobian) |" + (" 95 % CI (bootstrap) |" if boot
+                                                           else ""),
+        "|---|---|---|" + ("---|" if boot else ""),
+    ]
+    for name, unit, b in (("kn", "N·m/rad", r.kn_ci95_bootstrap),
+                          ("delta", "rad", r.delta_ci95_bootstrap)):
+        ci = format_ci(getattr(r, name + "_ci95"))
+        row = f"| {name} [{unit}] | {getattr(r, name):.5g} | {ci} |"
+        lines.append(row + (f" {format_ci(b)} |" if b else ""))
+    return lines + ["", f"Residual RMS (relative frequency): {r.residual_rms:.3e}"]
+
+
+def _verdict(verdict) -> list[str]:
+    if verdict is None:
+        return []
+    return (["", f"## Verdict: {verdict.status}", "", "| check | passed | finding |",
+             "|---|---|---|"]
+            + [f"| {c.name} | {'yes' if c.passed else '**no**'} | {c.message} |"
+               for c in verdict.checks])
+
+
+def _inverse(r) -> list[str]:
+    est = r.inverse_estimate
+    if not est:
+        return []
+    return ["", f"Start from the inverse model (`{est['checkpoint']}`): kn = "
+            f"{est['kn']:.5g} N·m/rad (×/÷ {math.exp(est['log_kn_std']):.3f}), delta = "
+            f"{est['delta']:.5g} rad (×/÷ {math.exp(est['log_delta_std']):.3f}); the fit "
+            f"took {r.plain_fit.n_evaluations} objective evaluations."]
+
+
+def _truth(r) -> list[str]:
+    err = r.truth_error
+    if not err:
+        return []
+    return (["", "## Against the data set's truth", "",
+             "| parameter | truth | identified | error |", "|---|---|---|---|"]
+            + [f"| {k} | {r.truth[k]:.5g} | {getattr(r, k):.5g} | {100 * e:+.2f} % |"
+               for k, e in err.items()])
+
+
+def _replay_lead(r) -> str:
+    """The replay section's first paragraph: plain and corrected estimates, convergence, the
+    statistic and its weights."""
+    rep = r.replay
+    return (f"Plain fit: kn = {r.plain_fit.kn:.5g} N·m/rad, delta = {r.plain_fit.delta:.5g} rad; "
+            f"corrected: kn = {r.kn:.5g}, delta = {r.delta:.5g} "
+            f"({'converged' if rep.converged else '**not converged**'} after "
+            f"{len(rep.iterations)} replays"
+            + ("" if rep.converged or rep.closest_misfit_se is None else
+               f"; the closest replay misses the test's statistics by "
+               f"{rep.closest_misfit_se:.2g} of their standard error")
+            + "). The replays match the fit of the points "
+            f"taken with jump point `{rep.jump_point}`: kn = {rep.kn_statistic:.5g}, "
+            f"delta = {rep.delta_statistic:.5g}"
+            + ("" if not rep.weights else
+               ", each point weighted by its amplitude noise (weights "
+               f"{min(w.weight for w in rep.weights):.2g} to "
+               f"{max(w.weight for w in rep.weights):.2g}, median point 1)")
+            + ".")
+
+
+def _replay(r) -> list[str]:
+    rep = r.replay
+    if rep is None:
+        return []
+    lines = ["", "## Replay (bias correction by indirect inference)", "", _replay_lead(r), "",
+             "| replay | kn [N·m/rad] | delta [rad] | fit of the replay: kn | delta |",
+             "|---|---|---|---|---|"]
+    lines += [f"| {k + 1} | {it.kn:.5g} | {it.delta:.5g} | {it.kn_rep:.5g} | "
+              f"{it.delta_rep:.5g} |" for k, it in enumerate(rep.iterations)]
+    lines += ["", "Levels: " + ", ".join(f"{run} {lv:.4g} g ({src})"
+                                          for run, (lv, src) in rep.levels.items())]
+    if rep.sweeps:
+        lines += ["", "Sweep laws: " + ", ".join(
+            f"{run} {_sweep_text(sw)} ({sw['source']}"
+            + (f", fit residual {sw['residual_hz']:.2g} Hz" if "residual_hz" in sw else "")
+            + ")" for run, sw in rep.sweeps.items())]
+    if rep.damping is not None:
+        lines += ["", f"Damping of the replay: {rep.damping.describe()}."]
+    if rep.failure:
+        lines += ["", f"**Replay failed:** {rep.failure}; the estimate above is the plain fit's."]
+    lines += ["", f"95 % intervals: {r.interval_source}."]
+    boot = rep.bootstrap
+    if boot is not None and boot.kn_ci95 is not None:
+        lines += [f"Bootstrap by replay alone: kn {format_ci(boot.kn_ci95)}, delta "
+                  f"{format_ci(boot.delta_ci95)}."]
+    if rep.misfit:
+        lines += ["", "Measured vs replayed curves (median difference / measured peak): "
+                  + ", ".join(f"{run} {100 * m:.2g} %" for run, m in rep.misfit.items())]
+    return lines
+
+
+def _points(r) -> list[str]:
+    lines = ["", "## Fitting points", "",
+             "| run | channel | f [Hz] | amplitude [mm] | used | residual [%] | reason |",
+             "|---|---|---|---|---|---|---|"]
+    res = iter(r.plain_fit.residuals)
+    for p in r.point_records():
+        e = f"{100 * next(res):+.3f}" if p["used"] else ""
+        f = "–" if p["f_hz"] is None else f"{p['f_hz']:.3f}"
+        a = "–" if p["amplitude_m"] is None else f"{1e3 * p['amplitude_m']:.4f}"
+        lines.append(f"| {p['run']} | {p['channel']} | {f} | {a} | "
+                     f"{'yes' if p['used'] else 'no'} | {e} | {p['reason']} |")
+    return lines
+
+
+def _rejected(rejected_runs) -> list[str]:
+    return ["", "## Rejected runs", ""] + ([f"- `{r}`: {w}" for r, w in rejected_runs]
+                                            or ["none"])
+
+
+def validation_record(v) -> dict:
+    """The zero-clearance check as the JSON record's ``validation`` entry."""
+    return {"reference_hz": v.reference_hz.tolist(), "model_hz": v.model_hz.tolist(),
+            "error_hz": v.error_hz.tolist(), "mac": v.mac.tolist(), "passed": v.passed,
+            "max_error_hz": 1.0, "min_mac": 0.98}
+
+
+def _validation_lines(v) -> list[str]:
+    if v is None:
+        return []
+    rows = ["", "## Zero-clearance check (Table 11 analogue)", "",
+            "The model with the hinges closed at the identified kn against the reference modes "
+            "of the fin with its clearance sealed; pass: |error| < 1 Hz and MAC > 0.98.", "",
+            "| mode | reference [Hz] | model [Hz] | error [Hz] | MAC | pass |",
+            "|---|---|---|---|---|---|"]
+    for i in range(v.reference_hz.size):
+        ok = abs(v.error_hz[i]) < 1.0 and v.mac[i] > 0.98
+        rows.append(f"| {i + 1} | {v.reference_hz[i]:.2f} | {v.model_hz[i]:.2f} | "
+                    f"{v.error_hz[i]:+.2f} | {v.mac[i]:.4f} | {'yes' if ok else 'NO'} |")
+    rows += ["", f"Zero-clearance check: {'passed' if v.passed else 'FAILED'}."]
+    return rows
+
+
+def _sweep_text(sw: dict) -> str:
+    """A replay's sweep-law record in words: "30 -> 50 Hz at 0.1 Hz/s"."""
+    rate = (f"{sw['rate_hz_per_s']:.4g} Hz/s" if sw.get("rate_hz_per_s") is not None else
+            f"{sw['octaves_per_min']:.4g} octaves/min")
+    return f"{sw['start_hz']:.5g} -> {sw['stop_hz']:.5g} Hz at {rate}"

@@ -1,0 +1,82 @@
+"""Broyden's quasi-Newton solve of the binding function F(u) = 0 (package docstring)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["BindingSolve", "solve_binding", "MAX_STEP_FACTOR"]
+
+MAX_STEP_FACTOR = 1.5  # [-] the unknowns move by at most this factor per replay
+MAX_CONDITION = 1e4  # [-] a Broyden update that makes J worse conditioned than this is dropped
+
+
+@dataclass(frozen=True)
+class BindingSolve:
+    """The outcome of :func:`solve_binding`.
+
+    Attributes
+    ----------
+    u : ndarray
+        The answer: the last replayed unknowns' next iterate when converged, else the replayed
+        unknowns whose residual came closest to zero.
+    converged : bool
+    jacobian : ndarray
+        The binding function's Jacobian as learnt by the last update.
+    closest : int or None
+        Without convergence, the index of the closest replay in the residual's history.
+    n : int
+        Residual evaluations (replays) made.
+    """
+
+    u: np.ndarray
+    converged: bool
+    jacobian: np.ndarray
+    closest: int | None
+    n: int
+
+
+def broyden_update(J: np.ndarray, du: np.ndarray, dF: np.ndarray) -> np.ndarray:
+    """Broyden's rank-one update of the Jacobian ``J`` after a step ``du`` that moved the
+    residual by ``dF``, kept while it stays finite and well conditioned."""
+    if float(du @ du) <= 1e-12:
+        return J
+    J_new = J + np.outer(dF - J @ du, du) / float(du @ du)
+    if np.all(np.isfinite(J_new)) and np.linalg.cond(J_new) < MAX_CONDITION:
+        return J_new
+    return J
+
+
+def solve_binding(residual: Callable[[np.ndarray], np.ndarray | None], u0, J0, *, max_iter: int,
+                  tolerances) -> BindingSolve:
+    """Solve ``residual(u) = 0`` by Broyden's method from ``u0`` with the Jacobian ``J0``.
+
+    Each step is ``-J^-1 F`` clipped to a factor :data:`MAX_STEP_FACTOR` per unknown (the
+    unknowns are logarithms); the loop stops when every step is below its tolerance
+    (``tolerances``, one per unknown, in log units), after ``max_iter`` evaluations, or when
+    ``residual`` returns None (the evaluation failed). Without convergence the answer is the
+    evaluated ``u`` whose residual came closest to zero.
+    Near the gap the binding can even fall as delta rises (a larger gap at the same levels moves
+    the lowest points towards it), which the identity start does not know: the updates learn it.
+    """
+    u, J = np.asarray(u0, dtype=float).copy(), np.asarray(J0, dtype=float).copy()
+    prev, best, n = None, None, 0
+    for _ in range(max_iter):
+        F = residual(u)
+        if F is None:
+            break
+        n += 1
+        if best is None or np.abs(F).max() < best[1]:
+            best = (u.copy(), float(np.abs(F).max()), n - 1)
+        if prev is not None:
+            J = broyden_update(J, u - prev[0], F - prev[1])
+        step = np.clip(-np.linalg.solve(J, F), -np.log(MAX_STEP_FACTOR), np.log(MAX_STEP_FACTOR))
+        prev = (u.copy(), F.copy())
+        u = u + step
+        if bool(np.all(np.abs(step) < np.asarray(tolerances))):
+            return BindingSolve(u, True, J, None, n)
+    if best is None:
+        return BindingSolve(u, False, J, None, n)
+    return BindingSolve(best[0], False, J, best[2], n)
