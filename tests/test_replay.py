@@ -81,7 +81,7 @@ def test_corrected_fit_reports_its_iterations(measured, system):
     assert all(isinstance(it.n_evaluations, int) and 3 <= it.n_evaluations < 200
                for it in r.iterations)
     assert set(r.levels) == {"s0.6.csv", "s0.8.csv", "s1.0.csv"}  # only the fitted runs
-    assert len(r.offsets) == 3 and all(abs(o["f_offset"]) < 5e-3 for o in r.offsets)
+    assert len(r.offsets) == 3 and all(abs(o.f_offset) < 5e-3 for o in r.offsets)
     assert abs(res.truth_error["delta"]) < 0.02 and abs(res.truth_error["kn"]) < 0.01
     rec = res.to_dict()["replay"]
     assert rec["kn_fit"] == res.plain_fit.kn and len(rec["iterations"]) == len(r.iterations)

@@ -18,8 +18,15 @@ from dataclasses import dataclass
 import numpy as np
 from tqdm.auto import tqdm
 
-from .errors import IdentificationError, InverseModelError
-from .fit import FitOptions, FitResult, FittingPoints, count_resonances, fit_backbone
+from .errors import IdentificationError
+from .fit import (
+    FitOptions,
+    FitResult,
+    FittingPoints,
+    count_resonances,
+    fit_backbone,
+    resolve_start,
+)
 from .signal import BackbonePoints, Extraction, estimate_sweep, extract_backbone_points
 from .sweep import Sweep
 
@@ -150,16 +157,6 @@ def check_enough(points: BackbonePoints, rejected: dict, where) -> None:
         )
 
 
-def _inverse_start(model, points) -> dict:
-    """The inverse model's estimate of (kn, delta) from the fitting points (the fit's start)."""
-    try:
-        kn, delta, s_kn, s_delta = model.predict_points(points)
-    except ValueError as exc:  # e.g. a channel the network was not trained on
-        raise InverseModelError(f"{model.path}: {exc}") from None
-    return {"kn": float(kn), "delta": float(delta), "log_kn_std": float(s_kn),
-            "log_delta_std": float(s_delta), "checkpoint": str(model.path)}
-
-
 def weights_of(points: FittingPoints, point_weights: Mapping | None):
     """Each point's weight from a mapping (run, DOF name) -> weight (the median weight for a
     point without an entry), or None without a mapping."""
@@ -200,16 +197,9 @@ def plain_estimate(dataset, system, *, extraction: Extraction, fit: FitOptions, 
     pts, rejected = extract_points(dataset, extraction=extraction, progress=progress)
     check_enough(pts, rejected, where)
     points = FittingPoints.from_extraction(pts, dofs=dataset.channels)
-    inverse = None
-    if hasattr(init, "predict_points"):
-        inverse = _inverse_start(init, points)
-        starts, label = (inverse["kn"], inverse["delta"]), "inverse"
-    elif init is None:
-        starts, label = fit.multistart.starts(), "multistart"
-    else:
-        starts, label = init, None
-    result = fit_backbone(points, system, init=starts, init_label=label, backbone=fit.backbone,
-                          mode=fit.mode, n_bootstrap=fit.n_bootstrap, seed=fit.seed,
-                          weights=weights_of(points, point_weights))
+    start = resolve_start(init, points, multistart=fit.multistart)
+    result = fit_backbone(points, system, init=start.points, init_label=start.label,
+                          backbone=fit.backbone, mode=fit.mode, n_bootstrap=fit.n_bootstrap,
+                          seed=fit.seed, weights=weights_of(points, point_weights))
     return PlainEstimate(points=pts, rejected_runs=tuple(rejected.items()), fit=result,
-                         dofs=dict(dataset.channels), inverse_estimate=inverse)
+                         dofs=dict(dataset.channels), inverse_estimate=start.inverse)

@@ -78,113 +78,22 @@ def hb_backbone(
         raise ValueError(f"`n_time` must be >= {4 * orders[-1]} for {n_harmonics} harmonics")
     s = amplitude_grid() if s is None else np.asarray(s, dtype=float).reshape(-1)
     start = dfa_backbone(system, kn=kn, delta=delta, mode=mode, s=s)
-    delta = float(delta)
-    kn = float(kn)
-
-    M, K, B = system.M, system.K, system.hinge_matrix()
-    n, nh = system.n_dof, n_harmonics
-    tau = 2 * np.pi * np.arange(n_time) / n_time
-    cos = np.cos(np.outer(orders, tau))  # (H, N)
-    # reference hinge: the largest one on the DFA curve at its large-amplitude end
+    kn, delta = float(kn), float(delta)
+    # reference hinge: the largest one on the DFA curve at its large-amplitude end, where the
+    # continuation starts from the DFA solution (signed mode shape)
     ref = int(np.argmax(start.hinge_amplitude[0, -1]))
-    b_ref = B[:, ref]
-    scale_r = (np.max(np.abs(np.diag(K))) + 2 * kn) * delta  # residual scale [N]
-
-    def residual_and_jacobian(z, s_val):
-        Y = z[:-1].reshape(nh, n) * delta  # (H, n)
-        w = z[-1] * w_ref
-        y_t = cos.T @ Y  # (N, n)
-        theta = y_t @ B  # (N, h)
-        f_t = freeplay_force(theta, kn, delta)  # (N, h)
-        F = (2.0 / n_time) * cos @ (f_t @ B.T)  # (H, n)
-        R = np.einsum("hab,hb->ha", K[None] - (orders[:, None, None] * w) ** 2 * M[None], Y) + F
-        # Jacobian w.r.t. Y/delta and w/w_ref
-        stiff = kn * (np.abs(theta) > delta)  # (N, h): f'(theta)
-        # dF_k/dY_l = (2/N) sum_t cos_k(t) cos_l(t) B diag(stiff(t)) B^T
-        wkl = (2.0 / n_time) * np.einsum("kt,lt,tj->klj", cos, cos, stiff)  # (H, H, h)
-        J = np.einsum("klj,aj,bj->kalb", wkl, B, B)  # (H, n, H, n)
-        for i, k in enumerate(orders):
-            J[i, :, i, :] += K - (k * w) ** 2 * M
-        J = J.reshape(nh * n, nh * n) * delta
-        dw = (-2 * orders[:, None] ** 2 * w * (Y @ M.T)).reshape(-1) * w_ref
-        res = np.concatenate([R.reshape(-1) / scale_r, [(b_ref @ Y[0]) / delta - s_val]])
-        jac = np.zeros((nh * n + 1, nh * n + 1))
-        jac[:-1, :-1] = J / scale_r
-        jac[:-1, -1] = dw / scale_r
-        jac[-1, :n] = b_ref
-        return res, jac
-
-    m = s.size
-    freq = np.full(m, np.nan)
-    amp1 = np.full((m, n), np.nan)
-    peak = np.full((m, n), np.nan)
-    conv = np.zeros(m, dtype=bool)
-    y1 = np.full((m, n), np.nan)
-
-    # start at the large-amplitude end from the DFA solution (signed mode shape)
-    i0 = m - 1
-    w_ref = 2 * np.pi * max(start.frequency_hz[0, i0], 1e-6)
-    phi = _signed_mode(system, kn, start.kappa[0, i0], mode)
-    phi = phi * s[i0] / (b_ref @ phi)
-    z = np.zeros(nh * n + 1)
-    z[:n] = phi
-    z[-1] = 1.0
-    for i in range(m - 1, -1, -1):
-        if i < m - 1:  # continuation: scale the previous solution to the new amplitude
-            z[:-1] *= s[i] / s[i + 1]
-        ok = False
-        for _ in range(max_iter):
-            res, jac = residual_and_jacobian(z, s[i])
-            if np.max(np.abs(res)) < tol:
-                ok = True
-                break
-            try:
-                step = np.linalg.solve(jac, -res)
-            except np.linalg.LinAlgError:
-                break
-            # damped Newton: halve the step until the residual decreases
-            lam = 1.0
-            r0 = np.linalg.norm(res)
-            for _ in range(20):
-                r1, _j = residual_and_jacobian(z + lam * step, s[i])
-                if np.linalg.norm(r1) < r0:
-                    break
-                lam *= 0.5
-            z = z + lam * step
-        conv[i] = ok
-        Y = z[:-1].reshape(nh, n) * delta
-        freq[i] = abs(z[-1]) * w_ref / (2 * np.pi)
-        amp1[i] = np.abs(Y[0])
-        y1[i] = Y[0]
-        peak[i] = np.max(np.abs(cos.T @ Y), axis=0)
+    hb = _Balance(system, kn, delta, orders, n_time, ref,
+                  w_ref=2 * np.pi * max(start.frequency_hz[0, -1], 1e-6))
+    phi = _signed_mode(system, kn, start.kappa[0, -1], mode)
+    curve = _continue(hb, phi * s[-1] / (hb.b_ref @ phi), s, tol, max_iter)
+    freq, amp1, peak, conv, hinge_amp = curve
     if not conv.all():
         warnings.warn(
-            f"hb_backbone: Newton did not converge at {np.count_nonzero(~conv)} of {m} points "
-            f"(s = {s[~conv][:5]}...)",
+            f"hb_backbone: Newton did not converge at {np.count_nonzero(~conv)} of {s.size} "
+            f"points (s = {s[~conv][:5]}...)",
             stacklevel=2,
         )
-    hinge_amp = np.abs(y1 @ B)  # first-harmonic hinge amplitudes, (m, h)
-    lin = _linear_frequencies(system, kn, mode)
-    locked = _internal_resonance(lin, s, freq, start.frequency_hz[0], orders)
-    if locked.any():
-        # Caught on a k:1 internal resonance: the continuation follows the branch where the k-th
-        # harmonic drives another mode, not the fundamental backbone. Those points are replaced
-        # by the consistent DFA ones and flagged unconverged.
-        k_hit = sorted({int(k) for k in orders[1:]
-                        if np.any(_near_mode(lin, k * freq[locked]))})
-        warnings.warn(
-            f"hb_backbone: at kn = {kn:g} the continuation locked onto an internal resonance "
-            f"(harmonic {k_hit} x {np.nanmedian(freq[locked]):.2f} Hz = a linear mode) for "
-            f"s in [{s[locked].min():.4g}, {s[locked].max():.4g}] ({locked.sum()} of {m} "
-            "points); the DFA backbone is used there. Fewer harmonics (n_harmonics) move the "
-            "resonance out of a band.",
-            stacklevel=2,
-        )
-        freq[locked] = start.frequency_hz[0, locked]
-        amp1[locked] = start.amplitude[0, locked]
-        peak[locked] = start.amplitude[0, locked]
-        hinge_amp[locked] = start.hinge_amplitude[0, locked]
-        conv[locked] = False
+    _replace_locked(system, kn, mode, s, orders, start, curve)
     return BackboneCurve(
         frequency_hz=freq[None],
         amplitude=amp1[None],
@@ -197,6 +106,117 @@ def hb_backbone(
         converged=conv[None],
         peak_amplitude=peak[None],
     )
+
+
+class _Balance:
+    """The harmonic-balance residual and its analytic Jacobian for one (kn, delta) (module
+    docstring); unknowns z = (Y / delta flattened, w / w_ref)."""
+
+    def __init__(self, system, kn, delta, orders, n_time, ref, *, w_ref):
+        self.M, self.K, self.B = system.M, system.K, system.hinge_matrix()
+        self.n, self.nh, self.orders = system.n_dof, orders.size, orders
+        self.kn, self.delta, self.n_time, self.w_ref = kn, delta, n_time, w_ref
+        self.cos = np.cos(np.outer(orders, 2 * np.pi * np.arange(n_time) / n_time))  # (H, N)
+        self.b_ref = self.B[:, ref]
+        self.scale_r = (np.max(np.abs(np.diag(self.K))) + 2 * kn) * delta  # residual scale [N]
+
+    def shapes(self, z) -> np.ndarray:
+        """The harmonics Y, shape (H, n) [m]."""
+        return z[:-1].reshape(self.nh, self.n) * self.delta
+
+    def __call__(self, z, s_val):
+        M, K, B, cos, orders, delta = self.M, self.K, self.B, self.cos, self.orders, self.delta
+        n, nh, n_time = self.n, self.nh, self.n_time
+        Y = self.shapes(z)  # (H, n)
+        w = z[-1] * self.w_ref
+        theta = (cos.T @ Y) @ B  # (N, h)
+        F = (2.0 / n_time) * cos @ (freeplay_force(theta, self.kn, delta) @ B.T)  # (H, n)
+        R = np.einsum("hab,hb->ha", K[None] - (orders[:, None, None] * w) ** 2 * M[None], Y) + F
+        # Jacobian w.r.t. Y/delta and w/w_ref
+        stiff = self.kn * (np.abs(theta) > delta)  # (N, h): f'(theta)
+        # dF_k/dY_l = (2/N) sum_t cos_k(t) cos_l(t) B diag(stiff(t)) B^T
+        wkl = (2.0 / n_time) * np.einsum("kt,lt,tj->klj", cos, cos, stiff)  # (H, H, h)
+        J = np.einsum("klj,aj,bj->kalb", wkl, B, B)  # (H, n, H, n)
+        for i, k in enumerate(orders):
+            J[i, :, i, :] += K - (k * w) ** 2 * M
+        J = J.reshape(nh * n, nh * n) * delta
+        dw = (-2 * orders[:, None] ** 2 * w * (Y @ M.T)).reshape(-1) * self.w_ref
+        res = np.concatenate([R.reshape(-1) / self.scale_r,
+                              [(self.b_ref @ Y[0]) / delta - s_val]])
+        jac = np.zeros((nh * n + 1, nh * n + 1))
+        jac[:-1, :-1] = J / self.scale_r
+        jac[:-1, -1] = dw / self.scale_r
+        jac[-1, :n] = self.b_ref
+        return res, jac
+
+
+def _newton(hb: _Balance, z, s_val, tol, max_iter):
+    """Damped Newton from ``z`` at amplitude ``s_val``: (solution, converged)."""
+    for _ in range(max_iter):
+        res, jac = hb(z, s_val)
+        if np.max(np.abs(res)) < tol:
+            return z, True
+        try:
+            step = np.linalg.solve(jac, -res)
+        except np.linalg.LinAlgError:
+            return z, False
+        # damped Newton: halve the step until the residual decreases
+        lam = 1.0
+        r0 = np.linalg.norm(res)
+        for _ in range(20):
+            r1, _j = hb(z + lam * step, s_val)
+            if np.linalg.norm(r1) < r0:
+                break
+            lam *= 0.5
+        z = z + lam * step
+    return z, False
+
+
+def _continue(hb: _Balance, y_start, s, tol, max_iter):
+    """The backbone continued in ``s`` from the large-amplitude end (first harmonic
+    ``y_start`` there) towards contact: frequency [Hz], first-harmonic and peak amplitudes,
+    convergence and first-harmonic hinge amplitudes per point."""
+    m, n = s.size, hb.n
+    freq, conv = np.full(m, np.nan), np.zeros(m, dtype=bool)
+    amp1, peak, y1 = np.full((m, n), np.nan), np.full((m, n), np.nan), np.full((m, n), np.nan)
+    z = np.zeros(hb.nh * n + 1)
+    z[:n] = y_start
+    z[-1] = 1.0
+    for i in range(m - 1, -1, -1):
+        if i < m - 1:  # continuation: scale the previous solution to the new amplitude
+            z[:-1] *= s[i] / s[i + 1]
+        z, conv[i] = _newton(hb, z, s[i], tol, max_iter)
+        Y = hb.shapes(z)
+        freq[i] = abs(z[-1]) * hb.w_ref / (2 * np.pi)
+        amp1[i] = np.abs(Y[0])
+        y1[i] = Y[0]
+        peak[i] = np.max(np.abs(hb.cos.T @ Y), axis=0)
+    return freq, amp1, peak, conv, np.abs(y1 @ hb.B)
+
+
+def _replace_locked(system, kn, mode, s, orders, start, curve) -> None:
+    """Caught on a k:1 internal resonance, the continuation follows the branch where the k-th
+    harmonic drives another mode, not the fundamental backbone: those points of ``curve`` are
+    replaced (in place) by the consistent DFA ones of ``start`` and flagged unconverged."""
+    freq, amp1, peak, conv, hinge_amp = curve
+    lin = _linear_frequencies(system, kn, mode)
+    locked = _internal_resonance(lin, s, freq, start.frequency_hz[0], orders)
+    if not locked.any():
+        return
+    k_hit = sorted({int(k) for k in orders[1:] if np.any(_near_mode(lin, k * freq[locked]))})
+    warnings.warn(
+        f"hb_backbone: at kn = {kn:g} the continuation locked onto an internal resonance "
+        f"(harmonic {k_hit} x {np.nanmedian(freq[locked]):.2f} Hz = a linear mode) for "
+        f"s in [{s[locked].min():.4g}, {s[locked].max():.4g}] ({locked.sum()} of {s.size} "
+        "points); the DFA backbone is used there. Fewer harmonics (n_harmonics) move the "
+        "resonance out of a band.",
+        stacklevel=3,
+    )
+    freq[locked] = start.frequency_hz[0, locked]
+    amp1[locked] = start.amplitude[0, locked]
+    peak[locked] = start.amplitude[0, locked]
+    hinge_amp[locked] = start.hinge_amplitude[0, locked]
+    conv[locked] = False
 
 
 def _linear_frequencies(system: FreeplaySystem, kn: float, mode: int) -> np.ndarray:

@@ -16,7 +16,12 @@ import numpy as np
 from ..backbone import amplitude_grid, backbone_curve, backbone_method
 from ..model import FreeplaySystem
 
-__all__ = ["BackboneModel"]
+__all__ = ["BackboneModel", "gap_ratios", "MIN_GAP_RATIO"]
+
+# [-] the lowest point's largest hinge amplitude over delta that the backbone can be trusted at:
+# nearer contact the describing function is off by more than 7 % (the exact SDOF backbone,
+# docs/backbone.md); the multi-start's plausibility and the verdict's contact margin use it
+MIN_GAP_RATIO = 1.5
 
 
 class BackboneModel:
@@ -114,3 +119,22 @@ class BackboneModel:
                 order = np.argsort(la[ok])
                 out[sel] = np.interp(x[sel], la[ok][order], freq[ok][order])
         return out
+
+
+def gap_ratios(points, system, kn: float, delta: float, mode: int, model=None):
+    """Theta_max / delta of each point on the fitted backbone, and the grid's largest ratio.
+
+    ``model``: a :class:`BackboneModel` of ``system`` holding the points' channels to reuse (its
+    per-kn curve cache); default a new DFA one."""
+    bm = model or BackboneModel(system, sorted(set(points.channel)), mode=mode)
+    _, log_amp = bm.curve(kn)
+    out = np.empty(len(points.channel))
+    for i, (c, a) in enumerate(zip(points.channel, points.amplitude_m, strict=True)):
+        la = log_amp[:, bm.channels.index(c)]
+        ok = np.isfinite(la)
+        if np.count_nonzero(ok) < 2:
+            out[i] = np.nan
+            continue
+        order = np.argsort(la[ok])
+        out[i] = np.interp(np.log(a / delta), la[ok][order], bm.s[ok][order])
+    return out, float(bm.s[-1])

@@ -270,22 +270,7 @@ def acmp(
         )
     n_full = x_full.shape[0]
     t_full = np.arange(n_full) / fs
-
-    if init_freq is not None:
-        f0 = np.broadcast_to(np.asarray(init_freq, dtype=float), (n_full,)).copy()
-        if not np.all(np.isfinite(f0)) or np.any(f0 <= 0):
-            raise ValueError("`init_freq` must be finite and > 0 everywhere")
-    elif sweep is not None:
-        if not hasattr(sweep, "frequency"):
-            raise TypeError(
-                f"`sweep` must be a freeplayid.simulate.Sweep, got {type(sweep).__name__}"
-            )
-        f0 = np.asarray(sweep.frequency(t_full), dtype=float)
-    else:
-        f0 = ridge_frequency(x_full, fs, fmin=2.0 * bw)
-    if np.any(f0 >= fs / 2):
-        raise ValueError(f"initial frequency reaches the Nyquist frequency {fs / 2} Hz")
-
+    f0 = _initial_frequency(x_full, fs, t_full, init_freq, sweep, bw)
     f_pass = float(np.max(f0)) + 2 * bw
     q = decimation_factor(f_pass, fs, decimate_to)
     if q > 1:
@@ -297,15 +282,68 @@ def acmp(
     n = x.shape[0]
     check_bandwidth(bw, fsd, "bandwidth_hz")
     check_bandwidth(ifbw, fsd, "if_bandwidth_hz")
-    alpha = bandwidth_weight(bw, fsd)
-    alpha_min = bandwidth_weight(max(bw_min, narrowest_bandwidth(fsd)), fsd)
-    beta = bandwidth_weight(ifbw, fsd)
+    f, alpha, it, converged = _pursue(
+        x, f, fsd, alpha=bandwidth_weight(bw, fsd),
+        alpha_min=bandwidth_weight(max(bw_min, narrowest_bandwidth(fsd)), fsd),
+        beta=bandwidth_weight(ifbw, fsd), adapt=adapt, tol=tol, max_iter=max_iter)
+    # final demodulation with the final frequency, so amplitude, phase and IF are consistent
+    u, v = demodulate(x, _phase(f, fsd), alpha)
+    if q > 1:
+        td = np.arange(n) / fsd
+        u = np.interp(t_full, td, u)
+        v = np.interp(t_full, td, v)
+        f = np.interp(t_full, td, f)
+    phi = _phase(f, fs)
+    xm = u * np.cos(phi) + v * np.sin(phi)
+    res = float(np.sum((x_full - xm) ** 2))
+    snr = 10 * np.log10(max(float(xm @ xm), 1e-300) / max(res, 1e-300))
+    return ChirpMode(
+        amplitude=np.hypot(u, v),
+        frequency=f,
+        phase=phi - np.unwrap(np.arctan2(v, u)),
+        mode=xm,
+        snr_db=float(snr),
+        iterations=it,
+        converged=converged,
+        bandwidth_hz=float(fsd * alpha**0.25 / (2 * np.pi)),
+        sample_rate=fs,
+    )
 
+
+def _phase(f, fs: float) -> np.ndarray:
+    """The phase [rad] of the instantaneous frequency ``f`` [Hz] (trapezoidal rule, 0 first)."""
+    return 2 * np.pi * np.concatenate(([0.0], np.cumsum(0.5 * (f[1:] + f[:-1])) / fs))
+
+
+def _initial_frequency(x, fs, t, init_freq, sweep, bandwidth_hz) -> np.ndarray:
+    """The pursuit's initial frequency [Hz] per sample: ``init_freq``, else the sweep law, else
+    the short-time Fourier ridge; below Nyquist everywhere."""
+    if init_freq is not None:
+        f0 = np.broadcast_to(np.asarray(init_freq, dtype=float), (x.shape[0],)).copy()
+        if not np.all(np.isfinite(f0)) or np.any(f0 <= 0):
+            raise ValueError("`init_freq` must be finite and > 0 everywhere")
+    elif sweep is not None:
+        if not hasattr(sweep, "frequency"):
+            raise TypeError(
+                f"`sweep` must be a freeplayid.simulate.Sweep, got {type(sweep).__name__}"
+            )
+        f0 = np.asarray(sweep.frequency(t), dtype=float)
+    else:
+        f0 = ridge_frequency(x, fs, fmin=2.0 * bandwidth_hz)
+    if np.any(f0 >= fs / 2):
+        raise ValueError(f"initial frequency reaches the Nyquist frequency {fs / 2} Hz")
+    return f0
+
+
+def _pursue(x, f, fsd, *, alpha, alpha_min, beta, adapt, tol, max_iter):
+    """The pursuit's iterations at the working rate ``fsd``: (frequency, final alpha,
+    iterations, converged). Each demodulates at the current frequency, moves the frequency by
+    the smoothed phase drift of the demodulated pair and, with ``adapt``, narrows alpha."""
     xm_prev = None
     converged = False
     it = 0
     for it in range(1, max_iter + 1):  # noqa: B007 (the count is reported)
-        phi = 2 * np.pi * np.concatenate(([0.0], np.cumsum(0.5 * (f[1:] + f[:-1])) / fsd))
+        phi = _phase(f, fsd)
         u, v = demodulate(x, phi, alpha)
         xm = u * np.cos(phi) + v * np.sin(phi)
         du = np.gradient(u) * fsd
@@ -324,27 +362,4 @@ def acmp(
                 converged = True
                 break
         xm_prev = xm
-
-    # final demodulation with the final frequency, so amplitude, phase and IF are consistent
-    phi = 2 * np.pi * np.concatenate(([0.0], np.cumsum(0.5 * (f[1:] + f[:-1])) / fsd))
-    u, v = demodulate(x, phi, alpha)
-    if q > 1:
-        td = np.arange(n) / fsd
-        u = np.interp(t_full, td, u)
-        v = np.interp(t_full, td, v)
-        f = np.interp(t_full, td, f)
-    phi = 2 * np.pi * np.concatenate(([0.0], np.cumsum(0.5 * (f[1:] + f[:-1])) / fs))
-    xm = u * np.cos(phi) + v * np.sin(phi)
-    res = float(np.sum((x_full - xm) ** 2))
-    snr = 10 * np.log10(max(float(xm @ xm), 1e-300) / max(res, 1e-300))
-    return ChirpMode(
-        amplitude=np.hypot(u, v),
-        frequency=f,
-        phase=phi - np.unwrap(np.arctan2(v, u)),
-        mode=xm,
-        snr_db=float(snr),
-        iterations=it,
-        converged=converged,
-        bandwidth_hz=float(fsd * alpha**0.25 / (2 * np.pi)),
-        sample_rate=fs,
-    )
+    return f, alpha, it, converged

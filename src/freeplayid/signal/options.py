@@ -43,9 +43,11 @@ class Extraction:
     min_snr_db : float [dB]
         Below this mode-to-residual SNR a channel is rejected.
     jump_point : str
-        Where the point is taken (:data:`freeplayid.signal.JUMP_POINTS`: "smoothed" the
-        smoothed curve's maximum, "windowed" a windowed maximum without overshoot, "drop" where
-        the curve drops; docs/signal.md).
+        Where the point is taken (:data:`freeplayid.signal.JUMP_POINTS`, docs/signal.md
+        section 6): "smoothed" the smoothed curve's maximum; "windowed" a windowed maximum
+        without overshoot; "drop" where the curve drops (the replay's statistic, from windows
+        that stop at the drop); "drop_smoothed" the drop read off the smoothed curve alone (the
+        first drop rule, kept to compare with).
     use_sweep_hint : bool
         Use the runs' ``sweep`` hints (ACMP's start, the band, the rate); False, or a run without
         one: each run's law is estimated from its base channel, else its best-tracked response.
