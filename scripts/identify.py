@@ -22,5 +22,5 @@ def main(cfg: DictConfig) -> dict:
 
 
 if __name__ == "__main__":
-    tasks.check_run_dir("identify", sys.argv)  # before Hydra makes the folder
+    tasks.check_command_line("identify", sys.argv)  # before Hydra makes the folder
     main()

@@ -177,7 +177,7 @@ def test_every_primary_composes_with_every_experiment(primary, experiment, debug
         assert bank_spec.n_kn * bank_spec.n_ratios <= 24 and bank_spec.sweep.duration <= 30
         assert cfg.training.max_epochs <= 5
     if primary == "compare":
-        assert cfg.multistart.n >= 1 and cfg.inverse.checkpoint is None
+        assert cfg.fit.multistart.n >= 1 and cfg.inverse.checkpoint is None
 
 
 def test_multiruns_can_use_the_joblib_launcher():

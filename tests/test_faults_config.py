@@ -54,7 +54,7 @@ FAULTS = [
     ("train", ["debug=fast", "dataset.split=[0.5,0.5,0.5]"], "`dataset.split`"),
     ("train", ["debug=fast", "dataset.cases.axis=level"], "`dataset.cases.axis`"),
     ("compare", ["debug=fast", "compare.cases_per_value=0"], "`compare.cases_per_value`"),
-    ("compare", ["debug=fast", "compare.backbone=nonsense"], "`compare.backbone`"),
+    ("compare", ["debug=fast", "fit.backbone=nonsense"], "`fit.backbone`"),
     ("compare", ["debug=fast", "compare.corrected_cases_per_value=-1"],
      "`compare.corrected_cases_per_value`"),
 ]
@@ -119,7 +119,7 @@ def test_a_run_into_an_earlier_run_is_refused(tmp_path):
 
 def test_hydra_override_errors_exit_non_zero_without_traceback(tmp_path):
     """Errors Hydra raises itself (an unknown key, an unknown group option) print its message."""
-    for args in (["no_such_key=1"], ["multistart=nonsense"]):
+    for args in (["no_such_key=1"], ["fit=nonsense"], ["replay=false"]):
         proc = _run("identify", args, tmp_path / "run", tmp_path)
         assert proc.returncode != 0 and "Traceback" not in proc.stderr, proc.stderr
 

@@ -18,11 +18,11 @@ import yaml
 
 from freeplayid.backbone import dfa_backbone
 from freeplayid.fit import FittingPoints, fit_backbone
+from freeplayid.identification.verdict import LIMITS, base_level_checks, fit_checks, make_verdict
 from freeplayid.io import read_dataset
 from freeplayid.model import load_system
 from freeplayid.replay import ReplayIteration
 from freeplayid.signal import BackbonePoint, BackbonePoints
-from freeplayid.verdict import LIMITS, base_level_checks, fit_checks, make_verdict
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "examples" / "fin_sweeps"
@@ -157,7 +157,7 @@ def test_identify_script_refuses_a_suspect_result(tmp_path):
 def test_a_binding_that_jumps_is_suspect():
     # replays 3 and 4 of a noisy compare-like case (kn 327 N m/rad, delta 1.32 mrad, 0.2 g):
     # delta moved by 0.55 % and the replayed fit's delta by 5.4 % (a run's point changed branch)
-    from freeplayid.verdict import replay_checks
+    from freeplayid.identification.verdict import replay_checks
 
     def it(kn, delta, kn_rep, delta_rep):
         return ReplayIteration(kn, delta, kn_rep, delta_rep, n_evaluations=10)
@@ -184,7 +184,7 @@ def test_a_binding_that_jumps_is_suspect():
 ])
 def test_an_unconverged_loop_within_the_noise_is_as_good_as_converged(converged, closest,
                                                                         passed, words):
-    from freeplayid.verdict import replay_checks
+    from freeplayid.identification.verdict import replay_checks
 
     class Rep:
         failure, misfit, sweeps, damping = "", {}, {}, None

@@ -14,7 +14,8 @@ from ..io import read_dataset
 from ..model import FreeplaySystem, load_system, validate_modes
 from ..replay import Replay, corrected_fit
 from ..signal import Extraction
-from ..verdict import (
+from .result import Identification
+from .verdict import (
     base_level_checks,
     fit_checks,
     interval_check,
@@ -22,7 +23,6 @@ from ..verdict import (
     replay_checks,
     validation_checks,
 )
-from .result import Identification
 
 __all__ = ["identify"]
 

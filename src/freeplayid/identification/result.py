@@ -45,9 +45,9 @@ class Identification:
     dataset : dict
         What the report says of the data set: name, path, model, quantity, units, sample_rate,
         n_runs, channels, base_channel.
-    verdict : freeplayid.verdict.Verdict
+    verdict : freeplayid.identification.verdict.Verdict
         ``ok`` or ``suspect`` with the reasons: the plausibility checks of the result and the
-        data (:mod:`freeplayid.verdict`).
+        data (:mod:`freeplayid.identification.verdict`).
     replay : freeplayid.replay.ReplayResult or None
         The corrected fit (None for the plain fit alone).
     interval_source : str

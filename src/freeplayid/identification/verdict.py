@@ -43,14 +43,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .quantity import G, check_quantity
+from ..fit import MIN_GAP_RATIO, gap_ratios
+from ..quantity import G, check_quantity
+from ..signal import window_amplitudes
+from ..sweep import Sweep
 
-__all__ = ["Check", "Verdict", "LIMITS", "base_level_checks", "fit_checks", "gap_ratios",
-           "interval_check", "make_verdict", "replay_checks"]
+__all__ = ["Check", "Verdict", "LIMITS", "base_level_checks", "fit_checks", "interval_check",
+           "make_verdict", "replay_checks"]
 
 LIMITS = {
     "delta_max_rad": 0.05,  # [rad] largest plausible half-gap
-    "min_gap_ratio": 1.5,  # [-] lowest point's Theta / delta (DFA error -7 % at 1.5)
+    "min_gap_ratio": MIN_GAP_RATIO,  # [-] lowest point's Theta / delta (DFA error -7 % at 1.5)
     "residual_floor": 5e-3,  # [-] relative frequency residual RMS that is always acceptable...
     "residual_vs_scatter": 5.0,  # [-] ... or this many times the channels' frequency scatter
     "channel_spread": 0.01,  # [-] relative spread of one run's channel frequencies
@@ -135,9 +138,6 @@ def _level_reason(ratio: float, slope: float, quantity: str) -> str | None:
 
 def base_level_checks(dataset) -> list[Check]:
     """The base channel against each run's ``level_g`` (runs with both; none: no check)."""
-    from .signal import window_amplitudes
-    from .sweep import Sweep
-
     if dataset.base_channel is None:
         return []
     order = check_quantity(dataset.quantity).order
@@ -167,27 +167,6 @@ def base_level_checks(dataset) -> list[Check]:
         return [Check("base_level", False, text, float(np.median(ratios)))]
     return [Check("base_level", True, f"base channel matches `level_g` in every run "
                   f"(median ratio {np.median(ratios):.3f})", float(np.median(ratios)))]
-
-
-def gap_ratios(points, system, kn: float, delta: float, mode: int, model=None):
-    """Theta_max / delta of each point on the fitted backbone, and the grid's largest ratio.
-
-    ``model``: a ``BackboneModel`` of ``system`` holding the points' channels to reuse (its
-    per-kn curve cache); default a new DFA one."""
-    from .fit import BackboneModel
-
-    bm = model or BackboneModel(system, sorted(set(points.channel)), mode=mode)
-    _, log_amp = bm.curve(kn)
-    out = np.empty(len(points.channel))
-    for i, (c, a) in enumerate(zip(points.channel, points.amplitude_m, strict=True)):
-        la = log_amp[:, bm.channels.index(c)]
-        ok = np.isfinite(la)
-        if np.count_nonzero(ok) < 2:
-            out[i] = np.nan
-            continue
-        order = np.argsort(la[ok])
-        out[i] = np.interp(np.log(a / delta), la[ok][order], bm.s[ok][order])
-    return out, float(bm.s[-1])
 
 
 def fit_checks(points, fit, system, extraction, *, mode: int = 0) -> list[Check]:

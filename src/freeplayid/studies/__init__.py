@@ -9,7 +9,8 @@
 (:func:`train_study_network`).
 ``compare``: the network alone and the fitting methods on the same held-out cases
 (:func:`network_rows`, :func:`fit_cases`, :func:`corrected_cases`, :func:`summarise`,
-:func:`network_metrics`).
+:func:`network_metrics`); ``comparison``: the whole study (:func:`compare_methods` ->
+:class:`Comparison`).
 """
 
 from .bank import DELTA_REF, BankSpec, SweepBank, simulate_bank
@@ -32,6 +33,7 @@ from .compare import (
     network_rows,
     summarise,
 )
+from .comparison import Comparison, compare_methods, pick_cases
 from .study import StudyData, prepare_study, train_study_network
 
 __all__ = [
@@ -40,5 +42,5 @@ __all__ = [
     "require_plan_index", "split_by_kn",
     "StudyData", "prepare_study", "train_study_network",
     "METHODS", "CORRECTED", "network_rows", "fit_cases", "corrected_cases", "summarise",
-    "network_metrics",
+    "network_metrics", "Comparison", "compare_methods", "pick_cases",
 ]

@@ -26,12 +26,12 @@ share within bounds, calibration of its uncertainty).
 from __future__ import annotations
 
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..fit import FitOptions, MultiStart
+from ..fit import FitOptions
 from ..identification import identify
 from ..inverse.points import PointSets
 from ..model.system import FreeplaySystem
@@ -145,8 +145,7 @@ def corrected_cases(
     bank: SweepBank,
     spec: CaseSpec,
     network_estimate: tuple[np.ndarray, np.ndarray] | None,
-    multistart: Mapping,
-    backbone: str = "dfa",
+    fit: FitOptions,
     n_jobs: int = 1,
     progress: bool = True,
 ) -> list[dict]:
@@ -169,10 +168,8 @@ def corrected_cases(
     spec : CaseSpec
     network_estimate : (kn (N,) [N m/rad], delta (N,) [rad]) or None
         The network's estimate of every case of ``ps``; None skips ``network+corrected``.
-    multistart : mapping
-        ``n``, ``kn_range`` [N m/rad], ``delta_range`` [rad] of the grid
-        (:func:`freeplayid.fit.multistart_grid`).
-    backbone : str
+    fit : FitOptions
+        The backbone and the multi-start grid of the plain fits.
     n_jobs : int
         Worker processes (joblib; -1: all cores); the records are rebuilt here, one case ahead
         of the workers, and the wall time is measured in the worker.
@@ -199,9 +196,6 @@ def corrected_cases(
 
     require_plan_index(bank, spec, ps)
     plan = plan_cases(bank, spec)
-    fit = FitOptions(backbone=backbone, multistart=MultiStart(
-        n=int(multistart["n"]), kn_range=tuple(multistart["kn_range"]),
-        delta_range=tuple(multistart["delta_range"])))
     extraction = Extraction(**{**spec.extraction, "use_sweep_hint": True})
     jobs = []
     for i in (int(c) for c in cases):

@@ -6,7 +6,14 @@ This is the only package that imports Hydra/OmegaConf.
 """
 
 from .build_model import build_model
-from .common import build_system, check_run_dir, register_configs, run_dir, write_metrics
+from .common import (
+    build_system,
+    check_command_line,
+    check_run_dir,
+    register_configs,
+    run_dir,
+    write_metrics,
+)
 from .compare import compare
 from .identify import bundled_example, identify
 from .simulate import simulate
@@ -15,6 +22,7 @@ from .train import train
 register_configs()  # model=fin: the package's default fin (one copy of its numbers)
 
 __all__ = [
-    "build_system", "check_run_dir", "register_configs", "run_dir", "write_metrics", "simulate",
+    "build_system", "check_command_line", "check_run_dir", "register_configs", "run_dir",
+    "write_metrics", "simulate",
     "identify", "bundled_example", "train", "compare", "build_model",
 ]

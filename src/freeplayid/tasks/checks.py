@@ -181,18 +181,6 @@ def _extraction_method() -> Rule:
     return choice(*sorted(EXTRACTION_METHODS))
 
 
-def _backbone() -> Rule:
-    from ..backbone import BACKBONE_METHODS
-
-    return choice(*sorted(BACKBONE_METHODS))
-
-
-def _multistart() -> dict[str, Rule]:
-    return {"multistart.n": integer(1),
-            "multistart.kn_range": numbers(positive(), length=2, increasing=True),
-            "multistart.delta_range": numbers(positive(), length=2, increasing=True)}
-
-
 def _identify() -> dict[str, Rule]:
     # extraction, fit and replay are the library's option records, checked by them
     # (freeplayid.tasks.options); these are the command's own keys
@@ -261,7 +249,7 @@ def _compare() -> dict[str, Rule]:
         "compare.cases_per_value": integer(1),
         "compare.corrected_cases_per_value": integer(0),
         "compare.single_start": optional(numbers(positive(), length=2)),
-        "compare.backbone": _backbone(), "compare.n_jobs": integer(), **_multistart(),
+        "compare.n_jobs": integer(),
     }
 
 

@@ -17,14 +17,15 @@ from omegaconf import DictConfig, OmegaConf
 
 from ..errors import OutputError
 from ..io.atomic import atomic_write_text
-from ..model.system import FreeplaySystem
+from ..model import FreeplaySystem, fin_from_config, load_system, sdof_system
 from .options import register_option_groups
 
 if TYPE_CHECKING:
     from ..studies import StudyData
 
 __all__ = ["build_system", "register_configs", "study_specs", "study_data", "train_network",
-           "run_dir", "write_metrics", "writing_to", "check_run_dir", "MODEL_KINDS"]
+           "run_dir", "write_metrics", "writing_to", "check_run_dir", "check_command_line",
+           "MODEL_KINDS"]
 
 MODEL_KINDS = ("fin", "npz", "sdof")
 
@@ -62,26 +63,15 @@ def build_system(model_cfg: DictConfig | dict) -> FreeplaySystem:
         else dict(model_cfg)
     kind = cfg.get("kind")
     if kind == "fin":
-        try:
-            from ..model import fin_from_config
-        except ImportError as exc:  # the fin model lands in a separate change
-            raise ValueError(
-                "model `kind`='fin' needs freeplayid.model.fin_from_config, which this checkout "
-                f"does not have ({exc}); use model=npz or model=sdof"
-            ) from None
         return fin_from_config({k: v for k, v in cfg.items() if k != "channels"})
     if kind == "npz":
         from hydra.utils import to_absolute_path
-
-        from ..model import load_system
 
         path = cfg.get("path")
         if not path:
             raise ValueError("model `kind`='npz' needs `path` (model.path=FILE.npz)")
         return load_system(to_absolute_path(str(path)))
     if kind == "sdof":
-        from ..model import sdof_system
-
         return sdof_system(
             mass=float(cfg["mass"]), stiffness=float(cfg.get("stiffness", 0.0)),
             damping=float(cfg.get("damping", 0.0)),
@@ -172,6 +162,22 @@ def writing_to(folder: Path) -> Iterator[None]:
     except OSError as e:
         raise OutputError(f"writing the results to {str(folder)!r} failed: "
                           f"{e.strerror or e}; nothing was saved") from None
+
+
+# group overrides Hydra cannot take as values (a bool where a group option is due), with what to
+# write instead
+_GROUP_VALUES = {("replay", "false"): "replay=off", ("replay", "true"): "replay=default"}
+
+
+def check_command_line(command: str, argv: list[str]) -> None:
+    """Exit with one line for an override Hydra would end in a traceback (``replay=false``:
+    the plain fit is ``replay=off``), then check the run folder (:func:`check_run_dir`)."""
+    for arg in argv[1:]:
+        key, _, value = arg.partition("=")
+        fix = _GROUP_VALUES.get((key.lstrip("+~"), value.strip().lower()))
+        if fix:
+            sys.exit(f"{command}: `{arg}` is not a choice of the `{key}` group; use {fix}")
+    check_run_dir(command, argv)
 
 
 def check_run_dir(command: str, argv: list[str]) -> None:
