@@ -12,11 +12,13 @@
   :func:`write_identification` and :func:`read_identification`.
 
 Linear model files (`.npz`) are read and written by :func:`freeplayid.model.load_system` and
-:func:`freeplayid.model.save_system`.
+:func:`freeplayid.model.save_system`. Every file is written all or nothing through
+:func:`freeplayid.atomic.atomic_path` (re-exported here with :func:`atomic_write_text` and
+:func:`staged_folder`).
 """
 
+from ..atomic import atomic_path, atomic_write_text, staged_folder
 from ..errors import DatasetError
-from .atomic import atomic_write_text, staged_folder
 from .dataset import Dataset, Run, read_dataset, write_dataset
 from .modal import ModalTestError, read_modal_test
 from .readers.uff import read_uff, write_uff
@@ -24,7 +26,6 @@ from .result import ResultFileError, read_identification, write_identification
 
 __all__ = [
     "Dataset", "DatasetError", "Run", "read_dataset", "write_dataset", "read_uff", "write_uff",
-    "read_identification", "write_identification", "ResultFileError", "atomic_write_text",
-    "staged_folder", "read_modal_test",
-    "ModalTestError",
+    "read_identification", "write_identification", "ResultFileError", "atomic_path",
+    "atomic_write_text", "staged_folder", "read_modal_test", "ModalTestError",
 ]

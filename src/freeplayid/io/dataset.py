@@ -7,7 +7,8 @@ check that does not depend on the file type (the time column, non-finite samples
 after the reader, the same for all of them. :func:`write_dataset` writes CSV (``.csv`` or
 ``.csv.gz``).
 
-Every file is written under a temporary name and renamed, and the manifest is written last, so a
+Every file is written under a temporary name and renamed (:func:`freeplayid.atomic.atomic_path`),
+and the manifest is written last, so a
 reader never sees a manifest that points at a missing or half-written file.
 """
 
@@ -20,11 +21,11 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from ..atomic import atomic_path, atomic_write_text
 from ..dataset import Dataset, Run
 from ..errors import DatasetError
 from ..model.system import save_system
 from ..sweep import Sweep
-from .atomic import atomic_write_text
 from .manifest import (
     Manifest,
     RunEntry,
@@ -311,11 +312,9 @@ def _write_run(folder: Path, k: int, run: Run, cols: list[str], base_channel: st
             raise DatasetError(f"`runs[{k}].base` is missing but `base_channel` is set")
         header.append(base_channel)
         table.append(np.asarray(run.base, dtype=float))
-    path = folder / run.file
-    tmp = path.with_name(".tmp-" + path.name)  # same suffix: a .csv.gz is written gzipped
-    np.savetxt(tmp, np.column_stack(table), delimiter=",", header=",".join(header),
-               comments="", fmt=[fmt[0]] + [fmt[1]] * (len(table) - 1))
-    os.replace(tmp, path)
+    with atomic_path(folder / run.file) as tmp:  # same suffix: a .csv.gz is written gzipped
+        np.savetxt(tmp, np.column_stack(table), delimiter=",", header=",".join(header),
+                   comments="", fmt=[fmt[0]] + [fmt[1]] * (len(table) - 1))
     entry = {"file": run.file}
     if run.level_g is not None:
         entry["level_g"] = float(run.level_g)

@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..atomic import atomic_path
 from ..errors import SystemFileError
 
 __all__ = ["FreeplaySystem", "load_system", "save_system", "SystemFileError"]
@@ -259,8 +260,8 @@ class FreeplaySystem:
 def save_system(path: str | os.PathLike, system: FreeplaySystem) -> Path:
     """Write ``system`` in the `.npz` contract of docs/identify.md and return the path.
 
-    The file is written to a temporary name first and renamed, so a failure never leaves a
-    half-written model file.
+    The file is written to a temporary name first and renamed
+    (:func:`freeplayid.atomic.atomic_path`), so a failure never leaves a half-written model file.
     """
     if not isinstance(system, FreeplaySystem):
         raise TypeError(f"`system` must be a FreeplaySystem, got {type(system).__name__}")
@@ -278,9 +279,8 @@ def save_system(path: str | os.PathLike, system: FreeplaySystem) -> Path:
         arrays["C"] = system.C
     if system.base_influence is not None:
         arrays["base_influence"] = system.base_influence
-    tmp = path.with_name(path.name + ".tmp.npz")
-    np.savez(tmp, **arrays)
-    os.replace(tmp, path)
+    with atomic_path(path) as tmp:
+        np.savez(tmp, **arrays)
     return path
 
 

@@ -7,7 +7,7 @@ from pathlib import Path
 
 from omegaconf import DictConfig, OmegaConf
 
-from ..io.atomic import atomic_write_text
+from ..atomic import atomic_write_text
 from .common import run_dir, write_metrics
 
 __all__ = ["build_model"]

@@ -15,8 +15,8 @@ from typing import TYPE_CHECKING
 
 from omegaconf import DictConfig, OmegaConf
 
+from ..atomic import atomic_write_text
 from ..errors import OutputError
-from ..io.atomic import atomic_write_text
 from ..model.system import FreeplaySystem
 
 if TYPE_CHECKING:

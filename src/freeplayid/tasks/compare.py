@@ -19,8 +19,8 @@ from pathlib import Path
 import numpy as np
 from omegaconf import DictConfig, OmegaConf
 
+from ..atomic import staged_folder
 from ..errors import InputError
-from ..io.atomic import staged_folder
 from .checks import COMPARE, check_config
 from .common import run_dir, study_data, study_specs, train_network, write_metrics, writing_to
 

@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ...atomic import atomic_path
 from ...errors import DatasetError
 
 __all__ = ["read", "read_uff", "write_uff"]
@@ -123,25 +124,24 @@ def write_uff(
     if t.ndim != 1 or t.size < 2:
         raise ValueError(f"`time` must be a 1-D array of >= 2 samples, got shape {t.shape}")
     path = Path(path)
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.unlink(missing_ok=True)
-    uff = pyuff.UFF(str(tmp))
-    for k, (name, values) in enumerate(channels.items()):
-        v = np.asarray(values, dtype=float)
-        if v.shape != t.shape:
-            raise ValueError(f"`channels[{name!r}]` must have shape {t.shape}, got {v.shape}")
-        uff.write_sets(
-            pyuff.prepare_58(
-                binary=int(binary), id1=name, id2="freeplayid", id3="", id4="", id5="",
-                func_type=_TIME_RESPONSE, rsp_node=int((nodes or {}).get(name, k + 1)),
-                rsp_dir=3, ref_node=0, ref_dir=0, data=v, x=t,
-                abscissa_spacing=1, abscissa_min=float(t[0]), abscissa_inc=float(t[1] - t[0]),
-                abscissa_spec_data_type=17,  # time
-                ordinate_spec_data_type=12,  # acceleration (informational only)
-                orddenom_spec_data_type=0, z_axis_spec_data_type=0,
-                ver_num=0, load_case_id=0, rsp_ent_name="fin", ref_ent_name="none",
-            ),
-            mode="add",
-        )
-    os.replace(tmp, path)
+    with atomic_path(path) as tmp:
+        uff = pyuff.UFF(str(tmp))
+        for k, (name, values) in enumerate(channels.items()):
+            v = np.asarray(values, dtype=float)
+            if v.shape != t.shape:
+                raise ValueError(f"`channels[{name!r}]` must have shape {t.shape}, got {v.shape}")
+            uff.write_sets(
+                pyuff.prepare_58(
+                    binary=int(binary), id1=name, id2="freeplayid", id3="", id4="", id5="",
+                    func_type=_TIME_RESPONSE, rsp_node=int((nodes or {}).get(name, k + 1)),
+                    rsp_dir=3, ref_node=0, ref_dir=0, data=v, x=t,
+                    abscissa_spacing=1, abscissa_min=float(t[0]),
+                    abscissa_inc=float(t[1] - t[0]),
+                    abscissa_spec_data_type=17,  # time
+                    ordinate_spec_data_type=12,  # acceleration (informational only)
+                    orddenom_spec_data_type=0, z_axis_spec_data_type=0,
+                    ver_num=0, load_case_id=0, rsp_ent_name="fin", ref_ent_name="none",
+                ),
+                mode="add",
+            )
     return path
