@@ -3,7 +3,7 @@
     PYTHONPATH=src python examples/make_fin_modal.py [--out examples/fin_modal/modal.yaml]
 
 The "measured" modes are those of a perturbed default fin: the outboard plate's E is 5 % higher
-and the inboard plate 3 % thinner than in freeplayid/model/fin.yaml. Three tests (the paper's
+and the inboard plate 3 % thinner than in freeplayid/model/fin/fin.yaml. Three tests (the paper's
 Tables 7 and 8): the outboard fin free-free and the inboard fin free-free and clamped; their
 first modes, a damping ratio each, and mode-shape values at a few named points on the free-free
 outboard fin. ``python scripts/model.py modal_test=examples/fin_modal/modal.yaml

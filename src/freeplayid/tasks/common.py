@@ -31,7 +31,7 @@ MODEL_KINDS = ("fin", "npz", "sdof")
 def register_configs() -> None:
     """Store the package's default fin in Hydra's ConfigStore as the option ``model=fin``.
 
-    The fin's numbers live once, in the package data ``freeplayid/model/fin.yaml``
+    The fin's numbers live once, in the package data ``freeplayid/model/fin/fin.yaml``
     (:func:`freeplayid.model.fin_config_path`, read by ``default_fin()`` in any install); the
     ``model`` group of ``conf/`` holds the other options (``sdof``, ``npz``). The ConfigStore is on
     every Hydra search path, so ``model=fin`` composes from every primary config, also from one
@@ -42,7 +42,7 @@ def register_configs() -> None:
     """
     from hydra.core.config_store import ConfigStore
 
-    from ..model.fin_config import fin_config_path
+    from ..model.fin.config import fin_config_path
 
     node = OmegaConf.create(fin_config_path().read_text(encoding="utf-8"))
     ConfigStore.instance().store(group="model", name="fin", node=node, provider="freeplayid")

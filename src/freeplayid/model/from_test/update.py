@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.optimize
 
-from .modal import modal_analysis, pair_modes
+from ..modal import modal_analysis, pair_modes
 
 __all__ = ["UpdateResult", "update_model", "mode_table"]
 

@@ -33,12 +33,12 @@ import numpy as np
 import scipy.optimize
 import scipy.sparse as sp
 
-from .fin import _meshes, build_fin_fe, reduce_fin
-from .fin_config import PARTS, FinConfig
-from .modal import modal_analysis, pair_modes
-from .modal_test import CONFIG_POINTS, ModalTest, ModalTestError
-from .plate import DOFS_PER_NODE, assemble_plate, flexural_rigidity
-from .system import FreeplaySystem
+from ..fin.config import PARTS, FinConfig
+from ..fin.fe import build_fin_fe, part_meshes, reduce_fin
+from ..fin.plate import DOFS_PER_NODE, assemble_plate, flexural_rigidity
+from ..modal import modal_analysis, pair_modes
+from ..system import FreeplaySystem
+from .measured import CONFIG_POINTS, MeasuredModes, ModalTest, ModalTestError
 
 __all__ = ["ModelBuild", "TestComparison", "model_from_modal_test", "part_modes",
            "UPDATE_PARAMETERS", "CONDITION_LIMIT"]
@@ -230,7 +230,7 @@ class _PartTest:
 def _part_test(cfg: FinConfig, name: str, modes, points: dict, source: str, *,
                spring: bool) -> _PartTest:
     part, clamped = TEST_PART[name]
-    mesh = _meshes(cfg)[part]
+    mesh = part_meshes(cfg)[part]
     nu = cfg.parts[part].nu
     K1, M1 = assemble_plate(mesh, E=12.0 * (1.0 - nu * nu), nu=nu, rho=1.0, thickness=1.0)
     keep = np.arange(mesh.n_dof)
@@ -330,7 +330,7 @@ def model_from_modal_test(
     Parameters
     ----------
     config : FinConfig or mapping
-        The fin (layout of ``freeplayid/model/fin.yaml``).
+        The fin (layout of ``freeplayid/model/fin/fin.yaml``).
     modal_test : ModalTest, optional
         Measured modes (:func:`freeplayid.io.read_modal_test`); None: no updating, the model is
         the configuration's (``reduce_fin(build_fin_fe(config))``).
@@ -474,8 +474,6 @@ def part_modes(config, test: str, *, n_modes: int, points=(), coordinates=None,
     shapes : ndarray, shape (len(points), n_modes) or None
         Mass-normalised w at ``points`` (None without points).
     """
-    from .modal_test import MeasuredModes
-
     if test not in TEST_PART:
         raise ValueError(f"`test` must be one of {list(TEST_PART)}, got {test!r}")
     cfg = config if isinstance(config, FinConfig) else FinConfig.from_mapping(config)
