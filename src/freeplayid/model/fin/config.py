@@ -209,6 +209,10 @@ class FinConfig:
         if not (0 <= ex[0] <= self.root_chord and ex[1] == 0.0):
             raise ValueError(f"`points.exciting` = {ex} must lie on the root edge y = 0")
         object.__setattr__(self, "exciting", ex)
+        self._check_damping_and_reduction()
+
+    def _check_damping_and_reduction(self) -> None:
+        """The ``damping`` and ``reduction`` fields, checked and normalised in place."""
         if self.damping_model not in ("modal", "rayleigh"):
             raise ValueError(
                 f"`damping.model` must be 'modal' or 'rayleigh', got {self.damping_model!r}"
