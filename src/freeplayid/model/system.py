@@ -12,6 +12,7 @@ absolute acceleration is ``y'' + r a_g``.
 
 from __future__ import annotations
 
+import hashlib
 import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -226,8 +227,6 @@ class FreeplaySystem:
 
     def fingerprint(self) -> str:
         """Stable hash of the structure (M, K, C, r, names, hinges) for caches and checkpoints."""
-        import hashlib
-
         h = hashlib.sha256()
         for arr in (self.M, self.K, self.damping, self.influence):
             h.update(np.ascontiguousarray(np.round(arr, 12), dtype="<f8").tobytes())

@@ -10,10 +10,11 @@ from pathlib import Path
 from hydra.utils import to_absolute_path
 from omegaconf import DictConfig, OmegaConf
 
-from ..atomic import atomic_write_text
+from ..atomic import atomic_path, atomic_write_text
 from ..errors import ModalTestError
 from ..io import read_modal_test
 from ..model import FinConfig, model_from_modal_test, save_system
+from ..plots import plot_mode_pairs
 from .common import run_dir, write_metrics
 
 __all__ = ["model"]
@@ -27,14 +28,13 @@ def _figure(out: Path, build) -> list[str]:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from ..plots import plot_mode_pairs
-
     n = len(build.comparisons)
     fig, axes = plt.subplots(1, n, figsize=(4.6 * n, 3.8), squeeze=False)
     for ax, c in zip(axes[0], build.comparisons.values(), strict=True):
         plot_mode_pairs(ax, c)
     fig.tight_layout()
-    fig.savefig(out / "modes.png", dpi=110)
+    with atomic_path(out / "modes.png") as tmp:  # the name ends in .png: savefig's format
+        fig.savefig(tmp, dpi=110)
     plt.close(fig)
     return ["modes.png"]
 
