@@ -2,7 +2,7 @@
 
     PYTHONPATH=src python examples/make_example.py [--out examples/fin_sweeps]
 
-Five up-sweeps of the default fin (freeplayid/model/fin.yaml) at its own hinge values, absolute
+Five up-sweeps of the default fin (freeplayid/model/fin/fin.yaml) at its own hinge values, absolute
 accelerations of the two measure points and of the base (control accelerometer) in g, with white
 measurement noise on every channel, a fixed seed, and the truth written into the manifest.
 The 0.4 g run stays in the gap (no resonance): the identification rejects it with its reason.

@@ -3,7 +3,7 @@
     PYTHONPATH=src python examples/make_fin_modal.py [--out examples/fin_modal/modal.yaml]
 
 The "measured" modes are those of a perturbed default fin: the outboard plate's E is 5 % higher
-and the inboard plate 3 % thinner than in freeplayid/model/fin.yaml. Three tests (the paper's
+and the inboard plate 3 % thinner than in freeplayid/model/fin/fin.yaml. Three tests (the paper's
 Tables 7 and 8): the outboard fin free-free and the inboard fin free-free and clamped; their
 first modes, a damping ratio each, and mode-shape values at a few named points on the free-free
 outboard fin. ``python scripts/model.py modal_test=examples/fin_modal/modal.yaml
@@ -17,6 +17,7 @@ from pathlib import Path
 
 import yaml
 
+from freeplayid.atomic import atomic_write_text
 from freeplayid.model import load_fin_config, part_modes
 
 E_OUT_SCALE = 1.05  # outboard E, perturbed / nominal [-]
@@ -52,7 +53,7 @@ def main() -> None:
     out.parent.mkdir(parents=True, exist_ok=True)
     head = ("# Example modal test (examples/make_fin_modal.py): frequency_hz [Hz], damping [-],\n"
             "# shape: w at named points (any scale); points: fin coordinates [x, y] in m.\n")
-    out.write_text(head + yaml.safe_dump(doc, sort_keys=False), encoding="utf-8")
+    atomic_write_text(out, head + yaml.safe_dump(doc, sort_keys=False))
     print(f"wrote {out}")
 
 

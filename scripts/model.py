@@ -13,10 +13,10 @@ from omegaconf import DictConfig
 from freeplayid import InputError, tasks
 
 
-@hydra.main(version_base="1.3", config_path="../conf", config_name="build_model")
+@hydra.main(version_base="1.3", config_path="../conf", config_name="model")
 def main(cfg: DictConfig) -> dict:
     try:
-        return tasks.build_model(cfg)
+        return tasks.model(cfg)
     except InputError as exc:
         sys.exit(f"model: {exc}")  # a modal-test or configuration problem: the message says where
 

@@ -1,7 +1,7 @@
 """Configuration and output faults: one line naming the field, a non-zero exit, no result left.
 
 Every command checks its whole configuration before any work (freeplayid.tasks.checks) and
-writes its results all or none (freeplayid.io.atomic.staged_folder).
+writes its results all or none (freeplayid.atomic.staged_folder).
 """
 
 import os
@@ -12,8 +12,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from freeplayid.atomic import STAGE_PREFIX, staged_folder
 from freeplayid.errors import ConfigError, InputError, OutputError
-from freeplayid.io.atomic import STAGE_PREFIX, staged_folder
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ("identification.json", "dataset/manifest.yaml", "checkpoint.ckpt", "metrics.json")

@@ -140,7 +140,7 @@ def test_with_parts_rescales_like_a_rebuild(cfg):
 def test_part_matrices_free_free_plate_matches_leissa(cfg):
     """Free-free square outboard plate, nu = 0.3: lambda = omega a^2 sqrt(rho h / D) of the first
     elastic modes, Leissa, J. Sound Vib. 31(3) (1973) (also Code_Aster SDLS01, free plate)."""
-    from freeplayid.model.plate import flexural_rigidity
+    from freeplayid.model.fin.plate import flexural_rigidity
 
     sq = cfg.replace(outboard_span=0.2, top_left=(0.0, 0.28)).with_part("outboard", nu=0.3)
     M, K = part_matrices(sq, "outboard")

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from freeplayid.model import modal_analysis
-from freeplayid.model.plate import (
+from freeplayid.model.fin.plate import (
     acm_element,
     assemble_plate,
     flexural_rigidity,

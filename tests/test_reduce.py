@@ -5,7 +5,7 @@ import pytest
 import scipy.sparse.linalg as spla
 
 from freeplayid.model import modal_analysis
-from freeplayid.model.plate import assemble_plate, rectangular_mesh
+from freeplayid.model.fin.plate import assemble_plate, rectangular_mesh
 from freeplayid.model.reduce import craig_bampton, guyan
 
 

@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from freeplayid.model import modal_analysis
-from freeplayid.model.update import mode_table, update_model
+from freeplayid.model.from_test.update import mode_table, update_model
 
 
 def _chain(params):

@@ -80,7 +80,7 @@ def run_installed(site: Path, code: str) -> str:
 
 def test_wheel_ships_the_default_fin(wheel):
     names = zipfile.ZipFile(wheel).namelist()
-    assert "freeplayid/model/fin.yaml" in names
+    assert "freeplayid/model/fin/fin.yaml" in names
     assert not any(n.startswith(("conf/", "tests/", "scripts/")) for n in names)
 
 

@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..atomic import atomic_path
 from ..fit import FittingPoints
 
 __all__ = ["PointSets", "point_sets_from_records"]
@@ -133,17 +134,14 @@ class PointSets:
         )
 
     def save(self, path) -> None:
-        """Write an ``.npz`` (atomically: a temporary file renamed)."""
-        import os
-        from pathlib import Path
-
-        path = Path(path)
-        tmp = path.with_name(f"{path.name}.{os.getpid()}.tmp.npz")
-        np.savez(tmp, channels=np.array(self.channels, dtype=str), case=self.case,
-                 channel=self.channel, amplitude=self.amplitude, frequency=self.frequency,
-                 kn=self.kn, delta=self.delta, meta_keys=np.array(sorted(self.meta), dtype=str),
-                 **{f"meta_{k}": np.asarray(v) for k, v in self.meta.items()})
-        tmp.replace(path)
+        """Write an ``.npz`` at ``path`` as named, atomically (:func:`~..atomic.atomic_path`)."""
+        # through an open file: np.savez adds no ``.npz`` to a name that lacks it
+        with atomic_path(path) as tmp, open(tmp, "wb") as fh:
+            np.savez(fh, channels=np.array(self.channels, dtype=str), case=self.case,
+                     channel=self.channel, amplitude=self.amplitude, frequency=self.frequency,
+                     kn=self.kn, delta=self.delta,
+                     meta_keys=np.array(sorted(self.meta), dtype=str),
+                     **{f"meta_{k}": np.asarray(v) for k, v in self.meta.items()})
 
     @staticmethod
     def load(path) -> PointSets:

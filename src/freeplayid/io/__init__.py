@@ -1,24 +1,31 @@
 """Reading and writing the project's files: measured/simulated data sets (docs/identify.md).
 
-A data set's run files are read by the reader of their suffix, :data:`freeplayid.io.readers.READERS`
-(CSV, gzipped CSV, UFF 58, MATLAB ``.mat``, NI ``.tdms``); adding a file type is one module there
-and one registry line.
+- :mod:`~freeplayid.io.manifest`: a data set's ``manifest.yaml`` parsed and checked into a
+  :class:`~freeplayid.io.manifest.Manifest`;
+- :mod:`~freeplayid.io.dataset`: :func:`read_dataset` (the manifest, then every run file) and
+  :func:`write_dataset`;
+- :mod:`~freeplayid.io.readers`: the run-file reader of each suffix,
+  :data:`freeplayid.io.readers.READERS` (CSV, gzipped CSV, UFF 58, MATLAB ``.mat``, NI
+  ``.tdms``); adding a file type is one module there and one registry line;
+- :mod:`~freeplayid.io.modal`: modal-test files (:func:`read_modal_test`);
+- :mod:`~freeplayid.io.result`: identification results (``identification.json``),
+  :func:`write_identification` and :func:`read_identification`.
 
-Identification results (``identification.json``): :func:`write_identification` and
-:func:`read_identification`. Linear model files (`.npz`) are read and written by
-:func:`freeplayid.model.load_system` and :func:`freeplayid.model.save_system`.
+Linear model files (`.npz`) are read and written by :func:`freeplayid.model.load_system` and
+:func:`freeplayid.model.save_system`. Every file is written all or nothing through
+:func:`freeplayid.atomic.atomic_path` (re-exported here with :func:`atomic_write_text` and
+:func:`staged_folder`).
 """
 
+from ..atomic import atomic_path, atomic_write_text, staged_folder
 from ..errors import DatasetError
-from .atomic import atomic_write_text, staged_folder
 from .dataset import Dataset, Run, read_dataset, write_dataset
 from .modal import ModalTestError, read_modal_test
+from .readers.uff import read_uff, write_uff
 from .result import ResultFileError, read_identification, write_identification
-from .uff import read_uff, write_uff
 
 __all__ = [
     "Dataset", "DatasetError", "Run", "read_dataset", "write_dataset", "read_uff", "write_uff",
-    "read_identification", "write_identification", "ResultFileError", "atomic_write_text",
-    "staged_folder", "read_modal_test",
-    "ModalTestError",
+    "read_identification", "write_identification", "ResultFileError", "atomic_path",
+    "atomic_write_text", "staged_folder", "read_modal_test", "ModalTestError",
 ]

@@ -29,7 +29,8 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from ..model.modal_test import CONFIG_POINTS, TEST_NAMES, MeasuredModes, ModalTest, ModalTestError
+from ..errors import ModalTestError
+from ..model.from_test.measured import CONFIG_POINTS, TEST_NAMES, MeasuredModes, ModalTest
 
 __all__ = ["read_modal_test", "parse_modes", "read_uff_modes", "ModalTestError"]
 

@@ -15,8 +15,8 @@ import os
 from collections.abc import Mapping
 from pathlib import Path
 
+from ..atomic import atomic_write_text
 from ..errors import ResultFileError
-from .atomic import atomic_write_text
 
 __all__ = ["ResultFileError", "read_identification", "write_identification", "RESULT_FILE"]
 

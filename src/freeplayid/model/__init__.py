@@ -1,41 +1,57 @@
 """Linear structure and freeplay: system files, restoring force, describing function, modal tools,
-small test models and the default folding fin (plate FE + Craig-Bampton reduction)."""
+small test models, the default folding fin (plate FE + Craig-Bampton reduction) and the model from
+modal tests.
 
-from .build import (
-    UPDATE_PARAMETERS,
-    ModelBuild,
-    TestComparison,
-    model_from_modal_test,
-    part_modes,
-)
+- ``system.py`` (:class:`FreeplaySystem`, ``.npz`` files), ``freeplay.py``, ``damping.py``,
+  ``modal.py``, ``reduce.py``, ``small.py``: any linear structure with freeplay springs;
+- ``fin/``: the default folding fin (configuration and its package data ``fin.yaml``, plate
+  element, knuckle hinges, assembled FE and its reduction);
+- ``from_test/``: step 1 from the part modal tests (measured modes, updating, the updated and
+  reduced fin) and the zero-clearance check of an identified model.
+"""
+
 from .damping import modal_damping, rayleigh_coefficients, rayleigh_damping
 from .fin import (
     FIN_HINGE_PAIRS,
     REDUCED_DOF_NAMES,
+    FinConfig,
     FinFE,
+    PartProperties,
+    PlateMesh,
+    acm_element,
+    assemble_plate,
     build_fin_fe,
     default_fin,
-    fin_from_config,
-    fin_reduction,
-    part_matrices,
-    reduce_fin,
-)
-from .fin_config import (
-    FinConfig,
-    PartProperties,
     default_fin_parameters,
     fin_config_path,
+    fin_from_config,
+    fin_reduction,
     load_fin_config,
+    part_matrices,
+    rectangular_mesh,
+    reduce_fin,
 )
 from .freeplay import describing_function, freeplay_force, gap_ratio, kappa_of_ratio
+from .from_test import (
+    TEST_NAMES,
+    UPDATE_PARAMETERS,
+    MeasuredModes,
+    ModalTest,
+    ModalTestError,
+    ModelBuild,
+    ModeValidation,
+    TestComparison,
+    UpdateResult,
+    mode_table,
+    model_from_modal_test,
+    part_modes,
+    update_model,
+    validate_modes,
+)
 from .modal import Modes, mac, modal_analysis, pair_modes
-from .modal_test import TEST_NAMES, MeasuredModes, ModalTest, ModalTestError
-from .plate import PlateMesh, acm_element, assemble_plate, rectangular_mesh
 from .reduce import Reduction, craig_bampton, guyan
 from .small import sdof_system, two_dof_system
 from .system import FreeplaySystem, SystemFileError, load_system, save_system
-from .update import UpdateResult, mode_table, update_model
-from .validate import ModeValidation, validate_modes
 
 __all__ = [
     "FreeplaySystem",

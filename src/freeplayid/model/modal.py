@@ -6,6 +6,8 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
 
 __all__ = ["Modes", "modal_analysis", "mac", "pair_modes"]
 
@@ -42,16 +44,12 @@ def modal_analysis(M, K, *, n_modes: int | None = None, sparse: bool | None = No
     sparse : bool, optional
         Use the shift-invert Lanczos solver (default: when M, K are sparse and n_modes is small).
     """
-    import scipy.sparse as sp
-
     n = M.shape[0]
     if n_modes is not None and not (1 <= n_modes <= n):
         raise ValueError(f"`n_modes` must be in [1, {n}], got {n_modes!r}")
     if sparse is None:
         sparse = sp.issparse(K) and n_modes is not None and n_modes < n // 4
     if sparse:
-        import scipy.sparse.linalg as spla
-
         # shift slightly below zero so a mechanism (singular K) does not break the factorisation
         Ks, Ms = sp.csc_matrix(K), sp.csc_matrix(M)
         scale = abs(Ks.diagonal()).max() / abs(Ms.diagonal()).max()

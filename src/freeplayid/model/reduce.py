@@ -19,6 +19,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.linalg
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
@@ -133,55 +134,16 @@ def craig_bampton(M, K, boundary, *, n_modes: int, interior_vectors=None) -> Red
         raise ValueError(f"`n_modes` = {n_modes} exceeds the {ni} interior DOFs")
 
     Kii = Ks[interior][:, interior].tocsc()
-    Kib = Ks[interior][:, b].toarray()
-    try:
-        lu = spla.splu(Kii)
-    except RuntimeError as exc:
-        raise ValueError(
-            "K_ii (interior with the boundary fixed) is singular: the structure must be supported "
-            f"once the boundary DOFs are fixed ({exc})"
-        ) from None
-    piv = np.abs(lu.U.diagonal())
-    if piv.min() <= 1e-11 * piv.max():
-        raise ValueError(
-            "K_ii (interior with the boundary fixed) is singular to working precision: the "
-            "structure must be supported once the boundary DOFs are fixed"
-        )
-    Psi = -lu.solve(Kib)
-
+    lu, Psi = _constraint_modes(Kii, Ks[interior][:, b].toarray())
+    Mii = Ms[interior][:, interior].tocsc()
     if interior_vectors is not None:
         X = np.asarray(interior_vectors, dtype=float)
         if X.ndim != 2 or X.shape[0] != n:
             raise ValueError(f"`interior_vectors` must have shape ({n}, m), got {X.shape}")
-        import scipy.linalg
-
-        Mii = Ms[interior][:, interior].tocsc()
-        R = X[interior] - Psi @ X[b]  # zero boundary values: pure interior motion
-        lam, V = scipy.linalg.eigh(R.T @ (Kii @ R), R.T @ (Mii @ R))
-        Phi = R @ V  # M_ii-orthonormal, K_ii-diagonal
+        Phi, f_fi = _interior_of_vectors(X[interior] - Psi @ X[b], Kii, Mii)
         n_modes = Phi.shape[1]
-        big = np.argmax(np.abs(Phi), axis=0)
-        Phi = Phi * np.sign(Phi[big, np.arange(n_modes)])
-        f_fi = np.sqrt(np.clip(lam, 0.0, None)) / (2 * np.pi)
     elif n_modes > 0:
-        Mii = Ms[interior][:, interior].tocsc()
-        if ni <= 400 or n_modes >= ni - 1:
-            import scipy.linalg
-
-            lam, Phi = scipy.linalg.eigh(
-                Kii.toarray(), Mii.toarray(), subset_by_index=(0, n_modes - 1)
-            )
-        else:
-            op = spla.LinearOperator((ni, ni), matvec=lu.solve, dtype=float)
-            v0 = np.ones(ni)  # deterministic start: same basis on every call
-            lam, Phi = spla.eigsh(Kii, k=n_modes, M=Mii, sigma=0.0, which="LM", OPinv=op, v0=v0)
-            order = np.argsort(lam)
-            lam, Phi = lam[order], Phi[:, order]
-        Phi = Phi / np.sqrt(np.einsum("im,im->m", Phi, Mii @ Phi))
-        # sign convention: largest-magnitude component positive (reproducible reduced matrices)
-        big = np.argmax(np.abs(Phi), axis=0)
-        Phi = Phi * np.sign(Phi[big, np.arange(n_modes)])
-        f_fi = np.sqrt(np.clip(lam, 0.0, None)) / (2 * np.pi)
+        Phi, f_fi = _fixed_interface_modes(Kii, Mii, lu, n_modes)
     else:
         Phi = np.zeros((ni, 0))
         f_fi = np.zeros(0)
@@ -198,6 +160,56 @@ def craig_bampton(M, K, boundary, *, n_modes: int, interior_vectors=None) -> Red
     for arr in (T, M_r, K_r, b, f_fi):
         arr.setflags(write=False)
     return Reduction(T=T, M_r=M_r, K_r=K_r, boundary=b, fixed_interface_hz=f_fi)
+
+
+def _constraint_modes(Kii: sp.csc_matrix, Kib: np.ndarray):
+    """The LU factors of K_ii and the static constraint modes Psi = -K_ii^-1 K_ib, shape
+    (ni, nb); a ValueError if K_ii is singular (the structure not supported by the boundary)."""
+    try:
+        lu = spla.splu(Kii)
+    except RuntimeError as exc:
+        raise ValueError(
+            "K_ii (interior with the boundary fixed) is singular: the structure must be supported "
+            f"once the boundary DOFs are fixed ({exc})"
+        ) from None
+    piv = np.abs(lu.U.diagonal())
+    if piv.min() <= 1e-11 * piv.max():
+        raise ValueError(
+            "K_ii (interior with the boundary fixed) is singular to working precision: the "
+            "structure must be supported once the boundary DOFs are fixed"
+        )
+    return lu, -lu.solve(Kib)
+
+
+def _interior_of_vectors(R: np.ndarray, Kii: sp.csc_matrix, Mii: sp.csc_matrix):
+    """Interior vectors ``R`` (ni, m) with zero boundary values, diagonalised on (K_ii, M_ii)
+    inside their span: (Phi M_ii-orthonormal and K_ii-diagonal, its frequencies [Hz])."""
+    lam, V = scipy.linalg.eigh(R.T @ (Kii @ R), R.T @ (Mii @ R))
+    Phi = R @ V  # M_ii-orthonormal, K_ii-diagonal
+    big = np.argmax(np.abs(Phi), axis=0)
+    Phi = Phi * np.sign(Phi[big, np.arange(Phi.shape[1])])
+    return Phi, np.sqrt(np.clip(lam, 0.0, None)) / (2 * np.pi)
+
+
+def _fixed_interface_modes(Kii: sp.csc_matrix, Mii: sp.csc_matrix, lu, n_modes: int):
+    """The ``n_modes`` lowest fixed-interface modes, M_ii-normalised with their largest component
+    positive, and their frequencies [Hz]: dense for small interiors, else shift-invert Lanczos."""
+    ni = Kii.shape[0]
+    if ni <= 400 or n_modes >= ni - 1:
+        lam, Phi = scipy.linalg.eigh(
+            Kii.toarray(), Mii.toarray(), subset_by_index=(0, n_modes - 1)
+        )
+    else:
+        op = spla.LinearOperator((ni, ni), matvec=lu.solve, dtype=float)
+        v0 = np.ones(ni)  # deterministic start: same basis on every call
+        lam, Phi = spla.eigsh(Kii, k=n_modes, M=Mii, sigma=0.0, which="LM", OPinv=op, v0=v0)
+        order = np.argsort(lam)
+        lam, Phi = lam[order], Phi[:, order]
+    Phi = Phi / np.sqrt(np.einsum("im,im->m", Phi, Mii @ Phi))
+    # sign convention: largest-magnitude component positive (reproducible reduced matrices)
+    big = np.argmax(np.abs(Phi), axis=0)
+    Phi = Phi * np.sign(Phi[big, np.arange(n_modes)])
+    return Phi, np.sqrt(np.clip(lam, 0.0, None)) / (2 * np.pi)
 
 
 def guyan(M, K, boundary) -> Reduction:

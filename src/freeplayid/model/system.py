@@ -12,6 +12,7 @@ absolute acceleration is ``y'' + r a_g``.
 
 from __future__ import annotations
 
+import hashlib
 import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -19,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..atomic import atomic_path
 from ..errors import SystemFileError
 
 __all__ = ["FreeplaySystem", "load_system", "save_system", "SystemFileError"]
@@ -39,6 +41,71 @@ def _check_square_symmetric(name: str, a: np.ndarray, n: int, *, rtol: float = 1
             f"`{name}` must be symmetric, max |{name} - {name}^T| = {asym:.3g} "
             f"(relative {asym / scale:.3g} > {rtol:g})"
         )
+
+
+def _dof_names(dof_names) -> tuple[str, ...]:
+    """The DOF names as a tuple of unique non-empty strings (at least one)."""
+    names = tuple(str(s) for s in np.asarray(dof_names, dtype=object).ravel())
+    if len(set(names)) != len(names):
+        dup = sorted({s for s in names if names.count(s) > 1})
+        raise ValueError(f"`dof_names` must be unique, duplicated: {dup}")
+    if any(not s for s in names):
+        raise ValueError("`dof_names` must be non-empty strings")
+    if len(names) == 0:
+        raise ValueError("`dof_names` is empty: a system needs at least one DOF")
+    return names
+
+
+def _mass_and_stiffness(M, K, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """M (symmetric positive definite) and K (symmetric positive semidefinite), (n, n),
+    symmetrised."""
+    M = np.array(M, dtype=float)
+    K = np.array(K, dtype=float)
+    _check_square_symmetric("M", M, n)
+    _check_square_symmetric("K", K, n)
+    M = 0.5 * (M + M.T)
+    K = 0.5 * (K + K.T)
+    try:
+        np.linalg.cholesky(M)
+    except np.linalg.LinAlgError:
+        w = np.linalg.eigvalsh(M)
+        raise ValueError(
+            f"`M` must be positive definite, smallest eigenvalue is {w[0]:.3g}"
+        ) from None
+    kmin = float(np.linalg.eigvalsh(K)[0])
+    if kmin < -1e-8 * max(float(np.max(np.abs(np.diag(K)))), 1.0):
+        raise ValueError(
+            f"`K` must be positive semidefinite, smallest eigenvalue is {kmin:.3g}"
+        )
+    return M, K
+
+
+def _hinge_pairs(hinge_pairs, index: dict) -> tuple[tuple[str, str], ...]:
+    """(outboard, inboard) DOF names of each spring, both known ("" inboard: to ground)."""
+    pairs_in = np.asarray(hinge_pairs, dtype=object)
+    if pairs_in.size == 0:
+        pairs_in = pairs_in.reshape(0, 2)
+    if pairs_in.ndim != 2 or pairs_in.shape[1] != 2:
+        raise ValueError(
+            f"`hinge_pairs` must have shape (h, 2) of (outboard, inboard) DOF names, "
+            f"got shape {pairs_in.shape}"
+        )
+    pairs = []
+    for j, (out, inn) in enumerate(pairs_in):
+        out = str(out)
+        inn = "" if inn is None else str(inn)
+        for role, name in (("outboard", out), ("inboard", inn)):
+            if role == "inboard" and name == "":
+                continue
+            if name not in index:
+                raise ValueError(
+                    f"`hinge_pairs[{j}]` {role} DOF {name!r} is not in `dof_names` "
+                    f"(known: {list(index)})"
+                )
+        if out == inn:
+            raise ValueError(f"`hinge_pairs[{j}]` connects DOF {out!r} to itself")
+        pairs.append((out, inn))
+    return tuple(pairs)
 
 
 @dataclass(frozen=True, eq=False)
@@ -72,59 +139,11 @@ class FreeplaySystem:
     _index: dict = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
-        names = tuple(str(s) for s in np.asarray(self.dof_names, dtype=object).ravel())
-        if len(set(names)) != len(names):
-            dup = sorted({s for s in names if names.count(s) > 1})
-            raise ValueError(f"`dof_names` must be unique, duplicated: {dup}")
-        if any(not s for s in names):
-            raise ValueError("`dof_names` must be non-empty strings")
+        names = _dof_names(self.dof_names)
         n = len(names)
-        if n == 0:
-            raise ValueError("`dof_names` is empty: a system needs at least one DOF")
-        M = np.array(self.M, dtype=float)
-        K = np.array(self.K, dtype=float)
-        _check_square_symmetric("M", M, n)
-        _check_square_symmetric("K", K, n)
-        M = 0.5 * (M + M.T)
-        K = 0.5 * (K + K.T)
-        try:
-            np.linalg.cholesky(M)
-        except np.linalg.LinAlgError:
-            w = np.linalg.eigvalsh(M)
-            raise ValueError(
-                f"`M` must be positive definite, smallest eigenvalue is {w[0]:.3g}"
-            ) from None
-        kmin = float(np.linalg.eigvalsh(K)[0])
-        if kmin < -1e-8 * max(float(np.max(np.abs(np.diag(K)))), 1.0):
-            raise ValueError(
-                f"`K` must be positive semidefinite, smallest eigenvalue is {kmin:.3g}"
-            )
-
+        M, K = _mass_and_stiffness(self.M, self.K, n)
         index = {s: i for i, s in enumerate(names)}
-        pairs_in = np.asarray(self.hinge_pairs, dtype=object)
-        if pairs_in.size == 0:
-            pairs_in = pairs_in.reshape(0, 2)
-        if pairs_in.ndim != 2 or pairs_in.shape[1] != 2:
-            raise ValueError(
-                f"`hinge_pairs` must have shape (h, 2) of (outboard, inboard) DOF names, "
-                f"got shape {pairs_in.shape}"
-            )
-        pairs = []
-        for j, (out, inn) in enumerate(pairs_in):
-            out = str(out)
-            inn = "" if inn is None else str(inn)
-            for role, name in (("outboard", out), ("inboard", inn)):
-                if role == "inboard" and name == "":
-                    continue
-                if name not in index:
-                    raise ValueError(
-                        f"`hinge_pairs[{j}]` {role} DOF {name!r} is not in `dof_names` "
-                        f"(known: {list(names)})"
-                    )
-            if out == inn:
-                raise ValueError(f"`hinge_pairs[{j}]` connects DOF {out!r} to itself")
-            pairs.append((out, inn))
-
+        pairs = _hinge_pairs(self.hinge_pairs, index)
         C = None
         if self.C is not None:
             C = np.array(self.C, dtype=float)
@@ -145,7 +164,7 @@ class FreeplaySystem:
         object.__setattr__(self, "C", C)
         object.__setattr__(self, "base_influence", r)
         object.__setattr__(self, "dof_names", names)
-        object.__setattr__(self, "hinge_pairs", tuple(pairs))
+        object.__setattr__(self, "hinge_pairs", pairs)
         object.__setattr__(self, "_index", index)
 
     # ------------------------------------------------------------------ structure
@@ -208,8 +227,6 @@ class FreeplaySystem:
 
     def fingerprint(self) -> str:
         """Stable hash of the structure (M, K, C, r, names, hinges) for caches and checkpoints."""
-        import hashlib
-
         h = hashlib.sha256()
         for arr in (self.M, self.K, self.damping, self.influence):
             h.update(np.ascontiguousarray(np.round(arr, 12), dtype="<f8").tobytes())
@@ -259,8 +276,8 @@ class FreeplaySystem:
 def save_system(path: str | os.PathLike, system: FreeplaySystem) -> Path:
     """Write ``system`` in the `.npz` contract of docs/identify.md and return the path.
 
-    The file is written to a temporary name first and renamed, so a failure never leaves a
-    half-written model file.
+    The file is written to a temporary name first and renamed
+    (:func:`freeplayid.atomic.atomic_path`), so a failure never leaves a half-written model file.
     """
     if not isinstance(system, FreeplaySystem):
         raise TypeError(f"`system` must be a FreeplaySystem, got {type(system).__name__}")
@@ -278,9 +295,8 @@ def save_system(path: str | os.PathLike, system: FreeplaySystem) -> Path:
         arrays["C"] = system.C
     if system.base_influence is not None:
         arrays["base_influence"] = system.base_influence
-    tmp = path.with_name(path.name + ".tmp.npz")
-    np.savez(tmp, **arrays)
-    os.replace(tmp, path)
+    with atomic_path(path) as tmp:
+        np.savez(tmp, **arrays)
     return path
 
 

@@ -16,12 +16,12 @@ from __future__ import annotations
 import hashlib
 import json
 import math
-import os
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
 
+from ..atomic import atomic_path
 from ..model.system import FreeplaySystem
 from ..sweep import Sweep
 
@@ -152,13 +152,6 @@ class SweepBank:
     diverged: np.ndarray
 
 
-def _atomic_savez(path: Path, **arrays) -> None:
-    # a per-process temporary name: parallel jobs (a joblib multirun) may build the same chunk
-    tmp = path.with_name(f"{path.name}.{os.getpid()}.tmp.npz")
-    np.savez(tmp, **arrays)
-    tmp.replace(path)
-
-
 def simulate_bank(
     system: FreeplaySystem,
     spec: BankSpec,
@@ -204,8 +197,10 @@ def simulate_bank(
             frame="relative", sample_rate=spec.sample_rate, dtype=dtype, device=device,
             progress=progress, quasi_static_hz=spec.quasi_static_hz,
         )
-        _atomic_savez(folder / f"chunk-{i:04d}.npz", time=res.time,
-                      signals=res.signals.astype(np.float32), diverged=res.diverged)
+        # a per-process temporary name: parallel jobs (a joblib multirun) may build one chunk
+        with atomic_path(folder / f"chunk-{i:04d}.npz") as tmp:
+            np.savez(tmp, time=res.time, signals=res.signals.astype(np.float32),
+                     diverged=res.diverged)
     parts = [np.load(folder / f"chunk-{i:04d}.npz") for i in range(len(cuts))]
     signals = np.concatenate([p["signals"] for p in parts])
     diverged = np.concatenate([p["diverged"] for p in parts])

@@ -28,9 +28,10 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ..atomic import atomic_path
 from ..inverse.points import PointSets
 from ..quantity import G
-from .bank import _FORMAT, DELTA_REF, SweepBank, _atomic_savez, _digest, _pair
+from .bank import _FORMAT, DELTA_REF, SweepBank, _digest, _pair
 
 __all__ = ["CaseSpec", "AXES", "PlannedCase", "plan_cases", "build_cases", "rebuild_case",
            "require_plan_index", "split_by_kn"]
@@ -251,8 +252,9 @@ def build_cases(
                              disable=not progress or not need)
         )
         clean = {kr: np.array(p, float).reshape(-1, 3) for kr, p in zip(need, out, strict=True)}
-        _atomic_savez(clean_path, keys=np.array(need, int).reshape(-1, 2),
-                      **{f"p{a}_{b}": v for (a, b), v in clean.items()})
+        with atomic_path(clean_path) as tmp:
+            np.savez(tmp, keys=np.array(need, int).reshape(-1, 2),
+                     **{f"p{a}_{b}": v for (a, b), v in clean.items()})
 
     chunk = 256
     parts = []
@@ -278,8 +280,9 @@ def build_cases(
                     p = np.concatenate([clean[(k, int(r))] for r in runs]).reshape(-1, 3)
                     p = p * [1.0, delta / DELTA_REF, 1.0]
                 rows.append(p)
-            _atomic_savez(path, n=np.array([len(r) for r in rows]),
-                          pts=np.concatenate(rows) if rows else np.zeros((0, 3)))
+            with atomic_path(path) as tmp:
+                np.savez(tmp, n=np.array([len(r) for r in rows]),
+                         pts=np.concatenate(rows) if rows else np.zeros((0, 3)))
         with np.load(path) as z:
             parts.append((z["n"], z["pts"]))
         bar.update(len(block))

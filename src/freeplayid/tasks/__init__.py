@@ -5,7 +5,6 @@ draws (via ``plots``), writes ``metrics.json`` in the run folder and returns the
 This is the only package that imports Hydra/OmegaConf.
 """
 
-from .build_model import build_model
 from .common import (
     build_system,
     check_command_line,
@@ -16,6 +15,7 @@ from .common import (
 )
 from .compare import compare
 from .identify import bundled_example, identify
+from .model import model
 from .simulate import simulate
 from .train import train
 
@@ -24,5 +24,5 @@ register_configs()  # model=fin: the package's default fin (one copy of its numb
 __all__ = [
     "build_system", "check_command_line", "check_run_dir", "register_configs", "run_dir",
     "write_metrics", "simulate",
-    "identify", "bundled_example", "train", "compare", "build_model",
+    "identify", "bundled_example", "train", "compare", "model",
 ]

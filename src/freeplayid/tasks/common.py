@@ -15,8 +15,8 @@ from typing import TYPE_CHECKING
 
 from omegaconf import DictConfig, OmegaConf
 
+from ..atomic import atomic_write_text
 from ..errors import OutputError
-from ..io.atomic import atomic_write_text
 from ..model import FreeplaySystem, fin_from_config, load_system, sdof_system
 from .options import register_option_groups
 
@@ -34,7 +34,7 @@ def register_configs() -> None:
     """Store the package's default fin in Hydra's ConfigStore as the option ``model=fin``, and
     the option records' groups (:func:`freeplayid.tasks.options.register_option_groups`).
 
-    The fin's numbers live once, in the package data ``freeplayid/model/fin.yaml``
+    The fin's numbers live once, in the package data ``freeplayid/model/fin/fin.yaml``
     (:func:`freeplayid.model.fin_config_path`, read by ``default_fin()`` in any install); the
     ``model`` group of ``conf/`` holds the other options (``sdof``, ``npz``). The ConfigStore is on
     every Hydra search path, so ``model=fin`` composes from every primary config, also from one
@@ -45,7 +45,7 @@ def register_configs() -> None:
     """
     from hydra.core.config_store import ConfigStore
 
-    from ..model.fin_config import fin_config_path
+    from ..model.fin.config import fin_config_path
 
     node = OmegaConf.create(fin_config_path().read_text(encoding="utf-8"))
     ConfigStore.instance().store(group="model", name="fin", node=node, provider="freeplayid")

@@ -19,9 +19,9 @@ from pathlib import Path
 import numpy as np
 from omegaconf import DictConfig, OmegaConf
 
+from ..atomic import staged_folder
 from ..errors import InputError
 from ..inverse import load_inverse_model
-from ..io.atomic import staged_folder
 from ..studies import compare_methods, pick_cases, simulate_bank
 from .checks import COMPARE, check_config
 from .common import run_dir, study_data, study_specs, train_network, write_metrics, writing_to

@@ -13,11 +13,11 @@ from pathlib import Path
 import numpy as np
 from omegaconf import DictConfig
 
+from ..atomic import atomic_write_text, staged_folder
 from ..errors import ConfigError
 from ..identification import Identification, SuspectResultError
 from ..identification import identify as identify_dataset
 from ..io import DatasetError, read_dataset
-from ..io.atomic import atomic_write_text, staged_folder
 from ..io.result import write_identification
 from .checks import IDENTIFY, check_config
 from .common import run_dir, write_metrics, writing_to

@@ -12,9 +12,9 @@ import time
 import numpy as np
 from omegaconf import DictConfig, OmegaConf
 
+from ..atomic import staged_folder
 from ..errors import ConfigError
 from ..io import write_dataset
-from ..io.atomic import staged_folder
 from ..quantity import G
 from ..sweep import Sweep
 from .checks import SIMULATE, check_config

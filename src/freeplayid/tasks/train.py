@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 from omegaconf import DictConfig, OmegaConf
 
-from ..io.atomic import staged_folder
+from ..atomic import staged_folder
 from .checks import TRAIN, check_config
 from .common import run_dir, study_data, train_network, write_metrics, writing_to
 

@@ -12,8 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .modal import modal_analysis, pair_modes
-from .system import FreeplaySystem
+from ..modal import modal_analysis, pair_modes
+from ..system import FreeplaySystem
 
 __all__ = ["ModeValidation", "validate_modes"]
 

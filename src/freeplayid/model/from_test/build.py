@@ -33,12 +33,13 @@ import numpy as np
 import scipy.optimize
 import scipy.sparse as sp
 
-from .fin import _meshes, build_fin_fe, reduce_fin
-from .fin_config import PARTS, FinConfig
-from .modal import modal_analysis, pair_modes
-from .modal_test import CONFIG_POINTS, ModalTest, ModalTestError
-from .plate import DOFS_PER_NODE, assemble_plate, flexural_rigidity
-from .system import FreeplaySystem
+from ..fin.config import PARTS, FinConfig
+from ..fin.fe import build_fin_fe, part_meshes, reduce_fin
+from ..fin.plate import DOFS_PER_NODE, assemble_plate, flexural_rigidity
+from ..modal import modal_analysis, pair_modes
+from ..system import FreeplaySystem
+from .measured import CONFIG_POINTS, MeasuredModes, ModalTest, ModalTestError
+from .update import condition_number
 
 __all__ = ["ModelBuild", "TestComparison", "model_from_modal_test", "part_modes",
            "UPDATE_PARAMETERS", "CONDITION_LIMIT"]
@@ -230,7 +231,7 @@ class _PartTest:
 def _part_test(cfg: FinConfig, name: str, modes, points: dict, source: str, *,
                spring: bool) -> _PartTest:
     part, clamped = TEST_PART[name]
-    mesh = _meshes(cfg)[part]
+    mesh = part_meshes(cfg)[part]
     nu = cfg.parts[part].nu
     K1, M1 = assemble_plate(mesh, E=12.0 * (1.0 - nu * nu), nu=nu, rho=1.0, thickness=1.0)
     keep = np.arange(mesh.n_dof)
@@ -330,7 +331,7 @@ def model_from_modal_test(
     Parameters
     ----------
     config : FinConfig or mapping
-        The fin (layout of ``freeplayid/model/fin.yaml``).
+        The fin (layout of ``freeplayid/model/fin/fin.yaml``).
     modal_test : ModalTest, optional
         Measured modes (:func:`freeplayid.io.read_modal_test`); None: no updating, the model is
         the configuration's (``reduce_fin(build_fin_fe(config))``).
@@ -359,7 +360,42 @@ def model_from_modal_test(
     """
     cfg0 = config if isinstance(config, FinConfig) else FinConfig.from_mapping(config)
     names = list(parameters)
-    source = modal_test.source if modal_test is not None else "configuration"
+    _check_parameters(names, clamp_stiffness)
+    if modal_test is None:
+        if names:
+            raise ModalTestError(f"parameters {names} to update need a modal test")
+        zeta = cfg0.zeta
+        return ModelBuild(system=reduce_fin(build_fin_fe(cfg0)), config=cfg0, initial_config=cfg0,
+                          zeta=zeta, clamp_stiffness=clamp_stiffness)
+    _check_informed(modal_test, names)
+    residual = _TestResidual(cfg0, modal_test, names, clamp_stiffness, min_mac)
+    before: dict = {}
+    residual(np.zeros(len(names)), before)
+    x = np.zeros(0)
+    condition, success, message = float("nan"), True, "no parameters to update"
+    if names:
+        x, success, message, condition = _update(residual, len(names), bounds, max_evaluations)
+    after: dict = {}
+    residual(x, after)
+    cfg, k_theta = _apply(cfg0, names, residual.p0 * np.exp(x), clamp_stiffness)
+    zeta_meas = modal_test.mean_damping()
+    if zeta_meas is not None:
+        cfg = cfg.replace(zeta=zeta_meas, damping_model="modal")
+    system = reduce_fin(build_fin_fe(cfg))
+    p0 = residual.p0
+    updated = {n: (float(a), float(b), float(b / a))
+               for n, a, b in zip(names, p0, p0 * np.exp(x), strict=True)}
+    return ModelBuild(
+        system=system, config=cfg, initial_config=cfg0, parameters=updated,
+        comparisons=_comparisons(modal_test, before, after), condition=condition,
+        separable=bool(not names or condition < CONDITION_LIMIT),
+        zeta=cfg.zeta, zeta_source="modal test" if zeta_meas is not None else "configuration",
+        clamp_stiffness=k_theta, n_evaluations=residual.n_evaluations, success=success,
+        message=message)
+
+
+def _check_parameters(names: list[str], clamp_stiffness: float | None) -> None:
+    """Known parameters, each once; a positive clamp spring, needed to update ``clamp.k_theta``."""
     unknown = [n for n in names if n not in UPDATE_PARAMETERS]
     if unknown or len(set(names)) != len(names):
         raise ModalTestError(f"parameters: {unknown or names} not valid (each once); allowed: "
@@ -370,12 +406,11 @@ def model_from_modal_test(
     if "clamp.k_theta" in names and clamp_stiffness is None:
         raise ModalTestError("parameters: `clamp.k_theta` needs a starting `clamp_stiffness` "
                              "[N m/rad per m of root edge]")
-    if modal_test is None:
-        if names:
-            raise ModalTestError(f"parameters {names} to update need a modal test")
-        zeta = cfg0.zeta
-        return ModelBuild(system=reduce_fin(build_fin_fe(cfg0)), config=cfg0, initial_config=cfg0,
-                          zeta=zeta, clamp_stiffness=clamp_stiffness)
+
+
+def _check_informed(modal_test: ModalTest, names: list[str]) -> None:
+    """At least as many measured modes as parameters, and a test informing each parameter."""
+    source = modal_test.source
     if modal_test.n_modes < len(names):
         raise ModalTestError(f"{source}: {modal_test.n_modes} measured mode(s) for {len(names)} "
                              f"parameters to update {names}: need at least as many modes")
@@ -386,47 +421,60 @@ def model_from_modal_test(
         if not informed:
             raise ModalTestError(f"{source}: no test informs parameter `{n}` (tests: "
                                  f"{list(modal_test.tests)})")
-    spring = clamp_stiffness is not None
-    tests = {k: _part_test(cfg0, k, v, modal_test.points, source, spring=spring)
-             for k, v in modal_test.tests.items()}
-    p0 = np.array([clamp_stiffness if n == "clamp.k_theta" else
-                   getattr(cfg0.parts[n.split(".")[0]], n.split(".")[1]) for n in names])
-    count = {"n": 0}
 
-    def evaluate(x, keep=None):
-        cfg, kt = _apply(cfg0, names, p0 * np.exp(x), clamp_stiffness)
-        count["n"] += 1
+
+class _TestResidual:
+    """The relative frequency errors of every measured mode of every test, stacked, at log
+    scale factors ``x`` of the parameters; counts its evaluations."""
+
+    def __init__(self, cfg0: FinConfig, modal_test: ModalTest, names: list[str],
+                 clamp_stiffness: float | None, min_mac: float):
+        self.cfg0, self.modal_test, self.names = cfg0, modal_test, names
+        self.clamp_stiffness, self.min_mac = clamp_stiffness, min_mac
+        spring = clamp_stiffness is not None
+        self.tests = {k: _part_test(cfg0, k, v, modal_test.points, modal_test.source,
+                                    spring=spring)
+                      for k, v in modal_test.tests.items()}
+        self.p0 = np.array([clamp_stiffness if n == "clamp.k_theta" else
+                            getattr(cfg0.parts[n.split(".")[0]], n.split(".")[1]) for n in names])
+        self.n_evaluations = 0
+
+    def __call__(self, x, keep: dict | None = None) -> np.ndarray:
+        """The residual at ``x``; with ``keep``, each test's paired model frequencies, MACs and
+        shapes at the measured points go there."""
+        cfg, kt = _apply(self.cfg0, self.names, self.p0 * np.exp(x), self.clamp_stiffness)
+        self.n_evaluations += 1
         res = []
-        for k, t in tests.items():
-            meas = modal_test.tests[k]
+        for k, t in self.tests.items():
+            meas = self.modal_test.tests[k]
             f, phi = _solve(t, cfg, kt)
-            idx, macs = _pair(t, meas, f, phi, source, min_mac)
+            idx, macs = _pair(t, meas, f, phi, self.modal_test.source, self.min_mac)
             res.append((f[idx] - meas.frequencies_hz) / meas.frequencies_hz)
             if keep is not None:
                 keep[k] = (f[idx], macs, None if t.rows is None else phi[t.rows][:, idx])
         return np.concatenate(res)
 
-    before: dict = {}
-    evaluate(np.zeros(len(names)), before)
-    x = np.zeros(0)
-    condition, success, message = float("nan"), True, "no parameters to update"
-    if names:
-        lo, hi = np.log(bounds[0]), np.log(bounds[1])
-        sol = scipy.optimize.least_squares(
-            evaluate, np.zeros(len(names)), bounds=(np.full(len(names), lo),
-                                                    np.full(len(names), hi)),
-            xtol=1e-12, ftol=1e-14, gtol=1e-14, max_nfev=max_evaluations, diff_step=1e-6)
-        x, success, message = sol.x, bool(sol.success), str(sol.message)
-        # central differences with a step well above the eigensolver's noise (least_squares'
-        # own 1e-6 forward step leaves ~1e-3 noise in a Jacobian column: cond ~1e3 at most)
-        h = 1e-3
-        jac = np.column_stack([(evaluate(x + h * e) - evaluate(x - h * e)) / (2 * h)
-                               for e in np.eye(len(names))])
-        sv = np.linalg.svd(jac, compute_uv=False)
-        condition = float(sv[0] / sv[-1]) if sv[-1] > 0 else float("inf")
-    after: dict = {}
-    evaluate(x, after)
-    cfg, k_theta = _apply(cfg0, names, p0 * np.exp(x), clamp_stiffness)
+
+def _update(residual: _TestResidual, n: int, bounds: tuple[float, float],
+            max_evaluations: int) -> tuple[np.ndarray, bool, str, float]:
+    """The least squares over the ``n`` log scale factors: the optimum, success, message and the
+    condition number of the scaled Jacobian there."""
+    lo, hi = np.log(bounds[0]), np.log(bounds[1])
+    sol = scipy.optimize.least_squares(
+        residual, np.zeros(n), bounds=(np.full(n, lo), np.full(n, hi)),
+        xtol=1e-12, ftol=1e-14, gtol=1e-14, max_nfev=max_evaluations, diff_step=1e-6)
+    x = sol.x
+    # central differences with a step well above the eigensolver's noise (least_squares'
+    # own 1e-6 forward step leaves ~1e-3 noise in a Jacobian column: cond ~1e3 at most)
+    h = 1e-3
+    jac = np.column_stack([(residual(x + h * e) - residual(x - h * e)) / (2 * h)
+                           for e in np.eye(n)])
+    return x, bool(sol.success), str(sol.message), condition_number(jac)
+
+
+def _comparisons(modal_test: ModalTest, before: dict, after: dict) -> dict:
+    """One :class:`TestComparison` per test from the kept evaluations at the start and the
+    optimum (model shapes scaled onto the measured ones by least squares)."""
     comparisons = {}
     for k, meas in modal_test.tests.items():
         fb, mb, _ = before[k]
@@ -435,18 +483,7 @@ def model_from_modal_test(
             phi = phi * (np.sum(phi * meas.shapes, 0) / np.sum(phi * phi, 0))
         comparisons[k] = TestComparison(k, meas.points, meas.frequencies_hz, fb, fa, mb, ma,
                                         meas.shapes, phi)
-    zeta_meas = modal_test.mean_damping()
-    if zeta_meas is not None:
-        cfg = cfg.replace(zeta=zeta_meas, damping_model="modal")
-    system = reduce_fin(build_fin_fe(cfg))
-    updated = {n: (float(a), float(b), float(b / a))
-               for n, a, b in zip(names, p0, p0 * np.exp(x), strict=True)}
-    return ModelBuild(
-        system=system, config=cfg, initial_config=cfg0, parameters=updated,
-        comparisons=comparisons, condition=condition,
-        separable=bool(not names or condition < CONDITION_LIMIT),
-        zeta=cfg.zeta, zeta_source="modal test" if zeta_meas is not None else "configuration",
-        clamp_stiffness=k_theta, n_evaluations=count["n"], success=success, message=message)
+    return comparisons
 
 
 def part_modes(config, test: str, *, n_modes: int, points=(), coordinates=None,
@@ -474,8 +511,6 @@ def part_modes(config, test: str, *, n_modes: int, points=(), coordinates=None,
     shapes : ndarray, shape (len(points), n_modes) or None
         Mass-normalised w at ``points`` (None without points).
     """
-    from .modal_test import MeasuredModes
-
     if test not in TEST_PART:
         raise ValueError(f"`test` must be one of {list(TEST_PART)}, got {test!r}")
     cfg = config if isinstance(config, FinConfig) else FinConfig.from_mapping(config)

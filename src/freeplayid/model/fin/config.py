@@ -2,7 +2,7 @@
 
 Built from a plain mapping (a YAML file or a Hydra cfg converted to a dict); every level rejects
 unknown keys with a ``ValueError`` that lists the allowed ones. Units are SI (m, Pa, kg/m^3, rad,
-N m/rad). The layout of the mapping is the one of the default fin ``freeplayid/model/fin.yaml``
+N m/rad). The layout of the mapping is the one of the default fin ``freeplayid/model/fin/fin.yaml``
 (package data, :func:`fin_config_path`; also the scripts' Hydra option ``model=fin``)::
 
     kind: fin
@@ -17,6 +17,7 @@ N m/rad). The layout of the mapping is the one of the default fin ``freeplayid/m
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass
 from importlib.resources import files
@@ -24,6 +25,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
+import yaml
 
 if TYPE_CHECKING:
     from importlib.resources.abc import Traversable
@@ -41,14 +43,14 @@ HINGES = ("left", "mid", "right")
 
 
 def fin_config_path() -> Traversable:
-    """The default fin configuration, shipped as package data: ``freeplayid/model/fin.yaml``.
+    """The default fin configuration, shipped as package data: ``freeplayid/model/fin/fin.yaml``.
 
     Found through :mod:`importlib.resources`, so in a source checkout and in an installed wheel
     alike. The same file is the scripts' Hydra option ``model=fin``
     (:func:`freeplayid.tasks.register_configs`). A ``Path`` for a package on disk; in general a
     ``Traversable`` (``.read_text()``, ``.is_file()``).
     """
-    return files("freeplayid.model") / "fin.yaml"
+    return files("freeplayid.model.fin") / "fin.yaml"
 
 
 def _keys(mapping, allowed: tuple[str, ...], where: str, *, required: tuple[str, ...] = ()):
@@ -207,6 +209,10 @@ class FinConfig:
         if not (0 <= ex[0] <= self.root_chord and ex[1] == 0.0):
             raise ValueError(f"`points.exciting` = {ex} must lie on the root edge y = 0")
         object.__setattr__(self, "exciting", ex)
+        self._check_damping_and_reduction()
+
+    def _check_damping_and_reduction(self) -> None:
+        """The ``damping`` and ``reduction`` fields, checked and normalised in place."""
         if self.damping_model not in ("modal", "rayleigh"):
             raise ValueError(
                 f"`damping.model` must be 'modal' or 'rayleigh', got {self.damping_model!r}"
@@ -274,16 +280,12 @@ class FinConfig:
 
     def replace(self, **changes) -> FinConfig:
         """A copy with some fields replaced (validated again)."""
-        import dataclasses
-
         return dataclasses.replace(self, **changes)
 
     def with_part(self, part: str, **props) -> FinConfig:
         """A copy with some properties (E, rho, nu, thickness) of one part changed."""
         if part not in PARTS:
             raise ValueError(f"`part` must be one of {list(PARTS)}, got {part!r}")
-        import dataclasses
-
         parts = dict(self.parts)
         parts[part] = dataclasses.replace(parts[part], **props)
         return self.replace(parts=parts)
@@ -297,14 +299,13 @@ def load_fin_config(path=None) -> FinConfig:
     path : str or path-like, optional
         A YAML file laid out like the default one; ``None`` reads the default fin.
     """
-    import yaml
-
     if path is None:
         path = fin_config_path()
         if not path.is_file():  # a broken install: the wheel was built without its package data
             raise FileNotFoundError(
                 f"the default fin configuration {path} is missing from the installed package "
-                "(package data freeplayid/model/fin.yaml, pyproject [tool.setuptools.package-data])"
+                "(package data freeplayid/model/fin/fin.yaml, pyproject "
+                "[tool.setuptools.package-data])"
             )
     else:
         path = Path(path)

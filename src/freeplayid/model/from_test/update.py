@@ -25,9 +25,9 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.optimize
 
-from .modal import modal_analysis, pair_modes
+from ..modal import modal_analysis, pair_modes
 
-__all__ = ["UpdateResult", "update_model", "mode_table"]
+__all__ = ["UpdateResult", "update_model", "mode_table", "condition_number"]
 
 
 @dataclass(frozen=True)
@@ -109,12 +109,7 @@ def update_model(
     -------
     UpdateResult
     """
-    names = list(initial)
-    if not names:
-        raise ValueError("`initial` must name at least one parameter to update")
-    p0 = np.array([float(initial[k]) for k in names])
-    if np.any(~np.isfinite(p0)) or np.any(p0 <= 0):
-        raise ValueError(f"`initial` values must be finite and > 0, got {dict(initial)!r}")
+    names, p0 = _initial_values(initial)
     f_meas = np.asarray(measured_hz, dtype=float).reshape(-1)
     if f_meas.size == 0 or np.any(~np.isfinite(f_meas)) or np.any(f_meas <= 0):
         raise ValueError(f"`measured_hz` must be finite frequencies > 0, got {measured_hz!r}")
@@ -124,17 +119,7 @@ def update_model(
             f"{m} measured frequencies for {len(names)} parameters: the update is underdetermined",
             stacklevel=2,
         )
-    if measured_shapes is not None:
-        measured_shapes = np.asarray(measured_shapes)
-        if measured_shapes.ndim != 2 or measured_shapes.shape[1] != m:
-            raise ValueError(
-                f"`measured_shapes` must have shape (n_meas_dofs, {m}), got {measured_shapes.shape}"
-            )
-        if shape_dofs is None or len(shape_dofs) != measured_shapes.shape[0]:
-            raise ValueError(
-                "`shape_dofs` must list one model DOF index per row of `measured_shapes`"
-            )
-        shape_dofs = np.asarray(shape_dofs, dtype=int)
+    measured_shapes, shape_dofs = _shape_rows(measured_shapes, shape_dofs, m)
     w = np.ones(m) if weights is None else np.asarray(weights, dtype=float).reshape(-1)
     if w.shape != (m,):
         raise ValueError(f"`weights` must have shape ({m},), got {w.shape}")
@@ -143,42 +128,14 @@ def update_model(
     if n_modes is None:
         n_modes = 2 * m + 4 if measured_shapes is not None else m
 
-    count = {"n": 0}
-    state: dict = {}
-
-    def evaluate(x):
-        params = dict(zip(names, p0 * np.exp(x)))
-        M, K = build(params)
-        count["n"] += 1
-        k = min(n_modes, M.shape[0])
-        modes = modal_analysis(M, K, n_modes=k)
-        if measured_shapes is not None:
-            idx, macs = pair_modes(measured_shapes, modes.shapes[shape_dofs, :])
-            if np.any(idx < 0):
-                raise RuntimeError("a measured mode found no model partner by MAC")
-        else:
-            if k < m:
-                raise ValueError(f"the model has {k} modes, fewer than the {m} measured")
-            idx, macs = np.arange(m), None
-        f = modes.frequencies_hz[idx]
-        state.update(f=f, idx=idx, macs=macs)
-        return w * (f - f_meas) / f_meas
-
+    residual = _FrequencyResidual(build, names, p0, f_meas, w, n_modes, measured_shapes,
+                                  shape_dofs)
     lo, hi = np.log(bounds[0]), np.log(bounds[1])
     sol = scipy.optimize.least_squares(
-        evaluate,
-        np.zeros(len(names)),
-        bounds=(np.full(len(names), lo), np.full(len(names), hi)),
-        x_scale=1.0,
-        xtol=xtol,
-        ftol=1e-14,
-        gtol=1e-14,
-        max_nfev=max_evaluations,
-        diff_step=1e-6,
-    )
-    evaluate(sol.x)  # make `state` describe the optimum
-    sv = np.linalg.svd(sol.jac, compute_uv=False)
-    condition = float(sv[0] / sv[-1]) if sv[-1] > 0 else float("inf")
+        residual, np.zeros(len(names)), bounds=(np.full(len(names), lo), np.full(len(names), hi)),
+        x_scale=1.0, xtol=xtol, ftol=1e-14, gtol=1e-14, max_nfev=max_evaluations, diff_step=1e-6)
+    residual(sol.x)  # make the residual's pairing describe the optimum
+    condition = condition_number(sol.jac)
     if condition > 1e6:
         warnings.warn(
             f"model updating: Jacobian condition number {condition:.2e}; the parameters "
@@ -189,16 +146,79 @@ def update_model(
     return UpdateResult(
         parameters=dict(zip(names, p.tolist())),
         scale=dict(zip(names, np.exp(sol.x).tolist())),
-        frequencies_hz=state["f"],
+        frequencies_hz=residual.f,
         measured_hz=f_meas,
-        relative_error=(state["f"] - f_meas) / f_meas,
-        pairing=state["idx"],
-        mac=state["macs"],
+        relative_error=(residual.f - f_meas) / f_meas,
+        pairing=residual.idx,
+        mac=residual.macs,
         condition=condition,
-        n_evaluations=count["n"],
+        n_evaluations=residual.n_evaluations,
         success=bool(sol.success),
         message=str(sol.message),
     )
+
+
+def condition_number(jac) -> float:
+    """Ratio of the largest to the smallest singular value of a Jacobian (inf if singular)."""
+    sv = np.linalg.svd(jac, compute_uv=False)
+    return float(sv[0] / sv[-1]) if sv[-1] > 0 else float("inf")
+
+
+def _initial_values(initial: Mapping[str, float]) -> tuple[list[str], np.ndarray]:
+    """The names of the parameters to update and their starting values (finite, > 0)."""
+    names = list(initial)
+    if not names:
+        raise ValueError("`initial` must name at least one parameter to update")
+    p0 = np.array([float(initial[k]) for k in names])
+    if np.any(~np.isfinite(p0)) or np.any(p0 <= 0):
+        raise ValueError(f"`initial` values must be finite and > 0, got {dict(initial)!r}")
+    return names, p0
+
+
+def _shape_rows(measured_shapes, shape_dofs, m: int):
+    """``measured_shapes`` (n_meas_dofs, m) and its model DOF indices, checked (or None, as
+    given)."""
+    if measured_shapes is None:
+        return None, shape_dofs
+    measured_shapes = np.asarray(measured_shapes)
+    if measured_shapes.ndim != 2 or measured_shapes.shape[1] != m:
+        raise ValueError(
+            f"`measured_shapes` must have shape (n_meas_dofs, {m}), got {measured_shapes.shape}"
+        )
+    if shape_dofs is None or len(shape_dofs) != measured_shapes.shape[0]:
+        raise ValueError(
+            "`shape_dofs` must list one model DOF index per row of `measured_shapes`"
+        )
+    return measured_shapes, np.asarray(shape_dofs, dtype=int)
+
+
+class _FrequencyResidual:
+    """The weighted relative frequency errors of log scale factors ``x`` (the least-squares
+    residual); remembers the pairing of its last evaluation and counts the evaluations."""
+
+    def __init__(self, build, names, p0, f_meas, w, n_modes, measured_shapes, shape_dofs):
+        self.build, self.names, self.p0, self.f_meas, self.w = build, names, p0, f_meas, w
+        self.n_modes, self.shapes, self.shape_dofs = n_modes, measured_shapes, shape_dofs
+        self.n_evaluations = 0
+        self.f = self.idx = self.macs = None
+
+    def __call__(self, x) -> np.ndarray:
+        params = dict(zip(self.names, self.p0 * np.exp(x)))
+        M, K = self.build(params)
+        self.n_evaluations += 1
+        m = self.f_meas.size
+        k = min(self.n_modes, M.shape[0])
+        modes = modal_analysis(M, K, n_modes=k)
+        if self.shapes is not None:
+            idx, macs = pair_modes(self.shapes, modes.shapes[self.shape_dofs, :])
+            if np.any(idx < 0):
+                raise RuntimeError("a measured mode found no model partner by MAC")
+        else:
+            if k < m:
+                raise ValueError(f"the model has {k} modes, fewer than the {m} measured")
+            idx, macs = np.arange(m), None
+        self.f, self.idx, self.macs = modes.frequencies_hz[idx], idx, macs
+        return self.w * (self.f - self.f_meas) / self.f_meas
 
 
 def mode_table(result: UpdateResult) -> str:

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import ModalTestError
+from ...errors import ModalTestError
 
 __all__ = ["ModalTestError", "MeasuredModes", "ModalTest", "TEST_NAMES", "CONFIG_POINTS"]
 

@@ -1,16 +1,23 @@
-"""`build_model` task (scripts/model.py): config -> :func:`freeplayid.model.model_from_modal_test`
-arguments, then write ``model.npz``, ``report.md``, ``modes.png`` and ``metrics.json``."""
+"""The `model` task (scripts/model.py, conf/model.yaml): config ->
+:func:`freeplayid.model.model_from_modal_test` arguments, then write ``model.npz``, ``report.md``,
+``modes.png`` and ``metrics.json``."""
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
+from hydra.utils import to_absolute_path
 from omegaconf import DictConfig, OmegaConf
 
-from ..io.atomic import atomic_write_text
+from ..atomic import atomic_path, atomic_write_text
+from ..errors import ModalTestError
+from ..io import read_modal_test
+from ..model import FinConfig, model_from_modal_test, save_system
+from ..plots import plot_mode_pairs
 from .common import run_dir, write_metrics
 
-__all__ = ["build_model"]
+__all__ = ["model"]
 
 
 def _figure(out: Path, build) -> list[str]:
@@ -21,19 +28,18 @@ def _figure(out: Path, build) -> list[str]:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from ..plots import plot_mode_pairs
-
     n = len(build.comparisons)
     fig, axes = plt.subplots(1, n, figsize=(4.6 * n, 3.8), squeeze=False)
     for ax, c in zip(axes[0], build.comparisons.values(), strict=True):
         plot_mode_pairs(ax, c)
     fig.tight_layout()
-    fig.savefig(out / "modes.png", dpi=110)
+    with atomic_path(out / "modes.png") as tmp:  # the name ends in .png: savefig's format
+        fig.savefig(tmp, dpi=110)
     plt.close(fig)
     return ["modes.png"]
 
 
-def build_model(cfg: DictConfig) -> dict:
+def model(cfg: DictConfig) -> dict:
     """The linear fin of ``cfg.model``, updated against ``cfg.modal_test`` when given.
 
     Returns
@@ -46,22 +52,13 @@ def build_model(cfg: DictConfig) -> dict:
     freeplayid.InputError
         A modal-test file or configuration problem; the message names the file and the field.
     """
-    import warnings
-
-    from hydra.utils import to_absolute_path
-
-    from ..io import read_modal_test
-    from ..model import FinConfig, model_from_modal_test, save_system
-
-    model = OmegaConf.to_container(cfg.model, resolve=True)
-    if model.get("kind") != "fin":
+    mapping = OmegaConf.to_container(cfg.model, resolve=True)
+    if mapping.get("kind") != "fin":
         raise ValueError(f"model.py builds a plate fin (model=fin), got model `kind`="
-                         f"{model.get('kind')!r}")
+                         f"{mapping.get('kind')!r}")
     try:
-        fin = FinConfig.from_mapping({k: v for k, v in model.items() if k != "channels"})
+        fin = FinConfig.from_mapping({k: v for k, v in mapping.items() if k != "channels"})
     except ValueError as exc:
-        from ..model import ModalTestError
-
         raise ModalTestError(f"model: {exc}") from None
     test = None if cfg.get("modal_test") in (None, "") else \
         read_modal_test(to_absolute_path(str(cfg.modal_test)))

@@ -33,13 +33,13 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
-from .damping import modal_damping, rayleigh_damping
-from .fin_config import HINGES, PARTS, FinConfig, PartProperties, load_fin_config
-from .hinge import knuckle_map
-from .modal import modal_analysis
+from ..damping import modal_damping, rayleigh_damping
+from ..modal import modal_analysis
+from ..reduce import Reduction, craig_bampton, guyan
+from ..system import FreeplaySystem
+from .config import HINGES, PARTS, FinConfig, PartProperties, load_fin_config
+from .knuckle import knuckle_map
 from .plate import DOFS_PER_NODE, assemble_plate, flexural_rigidity, rectangular_mesh
-from .reduce import Reduction, craig_bampton, guyan
-from .system import FreeplaySystem
 
 __all__ = [
     "FinFE",
@@ -49,6 +49,7 @@ __all__ = [
     "fin_from_config",
     "default_fin",
     "part_matrices",
+    "part_meshes",
     "REDUCED_DOF_NAMES",
     "FIN_HINGE_PAIRS",
 ]
@@ -162,7 +163,10 @@ def _combine(unit: dict, cfg: FinConfig):
     return M.tocsr(), K.tocsr(), np.asarray(load)
 
 
-def _meshes(cfg: FinConfig) -> dict:
+def part_meshes(cfg: FinConfig) -> dict:
+    """The plate mesh of each part, ``{"inboard": PlateMesh, "outboard": PlateMesh}`` (fin
+    coordinates [m]; the outboard mesh starts on the hinge line), ceil(side / element_size)
+    elements per side."""
     h = cfg.element_size
 
     def n(length):
@@ -198,7 +202,7 @@ def build_fin_fe(config) -> FinFE:
     FinFE
     """
     cfg = config if isinstance(config, FinConfig) else FinConfig.from_mapping(config)
-    meshes = _meshes(cfg)
+    meshes = part_meshes(cfg)
     offset = {"inboard": 0, "outboard": meshes["inboard"].n_dof}
 
     # ---- constraint map: plate DOFs = Tc @ independent DOFs (knuckles, ties)
@@ -416,7 +420,7 @@ def fin_from_config(mapping) -> FreeplaySystem:
 def default_fin() -> FreeplaySystem:
     """The reduced default fin (12 DOFs, base fixed, damped).
 
-    Its configuration is package data, ``freeplayid/model/fin.yaml``
+    Its configuration is package data, ``freeplayid/model/fin/fin.yaml``
     (:func:`freeplayid.model.fin_config_path`), so it works in any install, not only in a source
     checkout; the scripts' Hydra option ``model=fin`` is the same file.
     """
@@ -439,14 +443,15 @@ def part_matrices(config, part: str, *, clamped: bool = False):
     Returns
     -------
     M, K : scipy.sparse.csr_matrix, shape (n, n)
-        Nodal DOFs (w, theta_x, theta_y) of ``_meshes(cfg)[part]``, root DOFs removed if clamped.
+        Nodal DOFs (w, theta_x, theta_y) of ``part_meshes(cfg)[part]``, root DOFs removed if
+        clamped.
     """
     cfg = config if isinstance(config, FinConfig) else FinConfig.from_mapping(config)
     if part not in PARTS:
         raise ValueError(f"`part` must be one of {list(PARTS)}, got {part!r}")
     if clamped and part != "inboard":
         raise ValueError("`clamped=True` is only defined for the inboard part (its root edge)")
-    mesh = _meshes(cfg)[part]
+    mesh = part_meshes(cfg)[part]
     p = cfg.parts[part]
     K, M = assemble_plate(mesh, E=p.E, nu=p.nu, rho=p.rho, thickness=p.thickness)
     if clamped:
