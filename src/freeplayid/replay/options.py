@@ -6,7 +6,6 @@ from dataclasses import dataclass
 
 from ..arguments import check_bool, check_int, check_number, is_number
 from ..signal import JUMP_POINTS
-from ..simulate.engines import ENGINES
 
 __all__ = ["Replay", "DAMPING_FORMS"]
 
@@ -70,6 +69,10 @@ class Replay:
         check_bool("weighted", self.weighted)
         check_number("rtol", self.rtol, 0.0, 1.0, open_lo=True, open_hi=True)
         check_int("max_iter", self.max_iter, 1)
-        if self.engine is not None and self.engine not in ("auto", *ENGINES):
-            raise ValueError(f"`engine` must be None or one of {['auto', *ENGINES]}, "
-                             f"got {self.engine!r}")
+        if self.engine is not None:
+            # the engines' registry imports torch: only when an engine is named
+            from ..simulate.engines import ENGINES
+
+            if self.engine not in ("auto", *ENGINES):
+                raise ValueError(f"`engine` must be None or one of {['auto', *ENGINES]}, "
+                                 f"got {self.engine!r}")

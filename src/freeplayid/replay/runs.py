@@ -5,14 +5,11 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
-import torch
 
 from ..dataset import Dataset
 from ..estimate import run_sweep_law
 from ..quantity import G, check_quantity
 from ..signal import window_amplitudes
-from ..simulate import simulate_sweeps, sweep_dataset
-from ..simulate.engines import ENGINES
 
 __all__ = ["replay_sweeps", "replay_levels", "replay_dataset", "with_sweep_hints"]
 
@@ -73,6 +70,13 @@ def replay_dataset(dataset, system, kn: float, delta: float, *, levels: dict | N
     extraction. ``engine``: a simulator engine name (:data:`freeplayid.simulate.engines.ENGINES`
     or "auto"); None: the exponential engine when available, else "auto".
     """
+    # the simulator (torch) only when a replay runs: `import freeplayid.identification` stays
+    # light for a notebook that reads results
+    import torch
+
+    from ..simulate import simulate_sweeps, sweep_dataset
+    from ..simulate.engines import ENGINES
+
     # the exponential engine (docs/simulate.md): exact between hinge switches, a step set by
     # accuracy, one member per core; as accurate as RK4 at its default step and about 6x faster
     # for one replay's few members. RK4 where numba is missing.
