@@ -41,7 +41,7 @@ import numpy as np
 import scipy.linalg
 
 from ..model.system import FreeplaySystem
-from ..quantity import G, check_quantity
+from ..quantity import QUANTITY, G, check_quantity
 
 __all__ = [
     "ModalForm",
@@ -49,9 +49,15 @@ __all__ = [
     "build_modal_form",
     "rk4_step_limit",
     "RK4_STABILITY_LIMIT",
+    "MODES",
+    "BLOWUP",
 ]
 
 RK4_STABILITY_LIMIT = 2.785  # |mu dt| on the negative real axis; 2.828 on the imaginary axis
+# what every engine records of the state of (ETA) for each quantity: eta, eta' or eta'' (the
+# quantity's derivative order), and the size above which a member's state counts as diverged
+MODES = {name: q.order for name, q in QUANTITY.items()}
+BLOWUP = 1e12  # |modal state| above this (or non-finite) marks a member as diverged
 
 FRAMES = ("absolute", "relative")
 METHODS = ("relative", "large_mass")

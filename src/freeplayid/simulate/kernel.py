@@ -23,8 +23,7 @@ from numba.core import event, types
 from numba.core.extending import intrinsic
 
 from .cache import CACHE
-from .engines import BLOWUP, MODES
-from .formulation import ModalForm
+from .formulation import BLOWUP, MODES, ModalForm
 
 __all__ = ["NumbaRK4", "FASTMATH", "compile_kernel"]
 

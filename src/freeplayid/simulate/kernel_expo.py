@@ -31,9 +31,8 @@ import numpy as np
 from numba.core import event
 
 from .cache import CACHE
-from .engines.protocol import BLOWUP, MODES
 from .exponential import discretize, discretize_states, switch_levels
-from .formulation import ModalForm
+from .formulation import BLOWUP, MODES, ModalForm
 from .kernel import FASTMATH, _Announce, _fma
 from .kernel_qs import kernel_source_digest
 
@@ -42,7 +41,7 @@ __all__ = ["NumbaExpo", "KERNEL_SOURCE_SHA256", "MAX_ACTIVE_SET", "MAX_STATE_SET
 # numba keys the cache of expo_chunk on this file, but it inlines `_fma` and FASTMATH from
 # kernel.py: the digest of the kernel.py this file goes with (as kernel_qs.py does; checked by
 # tests/test_simulate_expo.py), so that an edit there comes with an edit here
-KERNEL_SOURCE_SHA256 = "7eeed77b974bd3156085b926569590ecfb0b3d84d8fc9953949a1b101b7670e5"
+KERNEL_SOURCE_SHA256 = "7adde8ec7b1dbe134b75d2df816004ecf81266d786276ee3bf8eb57bfcb22ad5"
 _CACHE = CACHE and kernel_source_digest() == KERNEL_SOURCE_SHA256
 MAX_ACTIVE_SET = 8  # active-set iterations before the exhaustive search
 # per-state propagation for batches with at most this many distinct kn (one matrix set per kn,

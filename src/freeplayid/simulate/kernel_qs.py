@@ -31,7 +31,7 @@ __all__ = ["NumbaQSRK4", "KERNEL_SOURCE_SHA256", "kernel_source_digest"]
 # this file goes with (tests/test_simulate_determinism.py checks it), so that a change of kernel.py
 # comes with a change of this file, which invalidates the cache; on a mismatch the kernel is
 # compiled without the cache.
-KERNEL_SOURCE_SHA256 = "7eeed77b974bd3156085b926569590ecfb0b3d84d8fc9953949a1b101b7670e5"
+KERNEL_SOURCE_SHA256 = "7adde8ec7b1dbe134b75d2df816004ecf81266d786276ee3bf8eb57bfcb22ad5"
 
 
 def kernel_source_digest() -> str:

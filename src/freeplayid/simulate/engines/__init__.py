@@ -31,9 +31,10 @@ from __future__ import annotations
 
 import torch
 
+from ..formulation import BLOWUP, MODES
 from .expo import ExpoEngine
 from .numba import NumbaEngine, numba_available
-from .protocol import BLOWUP, MODES, Engine, EngineSetup
+from .protocol import Engine, EngineSetup
 from .torch import TorchEngine, TorchRK4
 
 __all__ = [

@@ -1,5 +1,5 @@
-"""What an engine is: the :class:`Engine` protocol, the :class:`EngineSetup` it is built from,
-and the constants that every engine shares."""
+"""What an engine is: the :class:`Engine` protocol and the :class:`EngineSetup` it is built
+from (the constants every engine shares, ``MODES`` and ``BLOWUP``, are the formulation's)."""
 
 from __future__ import annotations
 
@@ -9,15 +9,10 @@ from typing import ClassVar, Protocol
 import numpy as np
 import torch
 
-from ...quantity import QUANTITY
 from ..formulation import ModalForm
 from ..quasistatic import QuasiStaticForm
 
-__all__ = ["Engine", "EngineSetup", "MODES", "BLOWUP"]
-
-# the recorded state of each quantity: eta, v or the acceleration (its derivative order)
-MODES = {name: q.order for name, q in QUANTITY.items()}
-BLOWUP = 1e12  # |modal state| above this (or non-finite) marks a member as diverged
+__all__ = ["Engine", "EngineSetup"]
 
 
 @dataclass(frozen=True)

@@ -11,8 +11,8 @@ import warnings
 import numpy as np
 import torch
 
-from ..formulation import ModalForm
-from .protocol import BLOWUP, MODES, EngineSetup
+from ..formulation import BLOWUP, MODES, ModalForm
+from .protocol import EngineSetup
 
 __all__ = ["TorchEngine", "TorchRK4"]
 
