@@ -13,7 +13,7 @@ from ..model.system import FreeplaySystem
 from ..quantity import G, derivative_order, si_unit
 from ..sweep import Sweep
 from .engines import Engine, EngineSetup, resolve_engine
-from .exponential import expo_step_limit
+from .engines.expo.steps import expo_step_limit
 from .formulation import METHODS, ModalTruncation, build_modal_form, rk4_step_limit
 from .quasistatic import QuasiStatic, condense_modal_form
 from .resample import StreamingDecimator, derivative_taps, design_decimator
@@ -394,7 +394,7 @@ def _step_plan(system, *, kn_max, sweep, sample_rate, channels, quantity, frame,
     without ``filters`` no decimator is designed (its length grows with m) and the count leaves
     out the filter look-ahead (a few samples). ``step_rule`` is the engine's
     (``Engine.step_rule``): "stability" (RK4, ``omega_dt``) or "accuracy"
-    (``exponential.expo_step_limit``)."""
+    (``engines.expo.steps.expo_step_limit``)."""
     qs = None
     if quasi_static_hz is not None:
         if cutoff_hz is not None:

@@ -85,7 +85,7 @@ class Engine(Protocol):
         a class does not declare it; the RK4 engines): ``omega_max * dt <= omega_dt`` of the
         fastest closed-hinge mode (``formulation.rk4_step_limit``). "accuracy": an engine with
         no stability bound (the exponential one) runs at the step of
-        ``exponential.expo_step_limit`` (steps per period of the sweep's top frequency and of the
+        ``expo.steps.expo_step_limit`` (steps per period of the sweep's top frequency and of the
         closed-hinge modes that a contact excites); ``omega_dt`` is then not used. Either way
         the step is a whole fraction of the output sample interval, and ``steps_per_sample``
         overrides it.

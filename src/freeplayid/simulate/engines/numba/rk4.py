@@ -1,73 +1,38 @@
-"""Compiled CPU RK4 kernel (numba): the same arithmetic as :class:`.engines.TorchRK4`.
+"""Compiled CPU RK4 kernel (numba): the same arithmetic as :class:`..torch.TorchRK4`.
 
 Layout: every per-member array is (N, batch) with the batch innermost, so each line of a step is
 a loop over contiguous members that LLVM vectorises (SIMD lanes = members). Blocks of ``BLOCK``
 members run the whole chunk in one thread (their state stays in L1 cache); blocks are spread
 over threads with ``prange``. The step is fused: no temporaries leave the block. The four RK4
 stages are one loop around one copy of the stage code (a quarter of the code to compile; docs/
-simulate.md, "Compile time").
+simulate.md, "Compile time"). The anti-aliasing FIR is fused into the step loop (``fir.py``).
 
 numba is optional: this module imports it, so import it only after
-:func:`.engines.numba_available` says yes (the simulator falls back to the torch engine).
+:func:`.engine.numba_available` says yes (the simulator falls back to the torch engine).
 """
 
 from __future__ import annotations
 
-import sys
-import time
-
 import numba
 import numpy as np
-from llvmlite import ir
-from numba.core import event, types
-from numba.core.extending import intrinsic
 
-from .cache import CACHE
-from .formulation import BLOWUP, MODES, ModalForm
+from ...cache import cache_unless_stale
+from ...formulation import BLOWUP, MODES, ModalForm
+from . import arith, fir
+from .arith import FASTMATH, fma
+from .fir import BLOCK, emitted_outputs, fir_add, fir_emit, ring_load, ring_store, start_weights
+from .jit import compile_kernel, float_dtype
 
-__all__ = ["NumbaRK4", "FASTMATH", "compile_kernel"]
+__all__ = ["NumbaRK4", "rk4_chunk", "INLINED_SHA256"]
 
-BLOCK = 64  # members per block: 4 AVX-512 float32 vectors; block state ~ 8 x 12 x 64 words
-
-# Fast-math flags of the kernels: only those that leave every finite result as written (operands
-# and results are neither NaN nor inf; a diverged member is caught outside the kernel). Not
-# `fastmath=True`: numba compiles a prange body twice, on its own (the code that a process runs
-# right after compiling) and linked into the calling function, where LLVM optimises it again (the
-# code that the on-disk cache stores and every later process runs). With re-association and FMA
-# contraction the two copies round differently (quasi-static kernel, float32: 868 vs 1064 FMA
-# instructions), and the freeplay dynamics amplify a last-bit difference to the size of the
-# signal: a cached and a freshly compiled kernel gave different sweeps. Without them both copies
-# compute the IEEE result of the operations in source order (tests/test_simulate_determinism.py).
-FASTMATH = {"nnan", "ninf"}
-# Every function of the kernels says `error_model="numpy"` (a division by zero gives inf or NaN,
-# no exception): what `parallel=True` compiles a prange body with, so also the helpers compiled
-# on their own (kernel_qs._active_set, _solve_block_h) and any kernel without prange compile as
-# the body did (the Python error model puts a zero-divisor branch into every division, which
-# kept the quasi-static kernel's loops from being vectorised: 2x slower as a plain function).
+# numba keys the cache of this file's kernels on this file alone, but they inline arith.py and
+# fir.py: the digest of those (tests/test_simulate_determinism.py checks it), so that an edit
+# there comes with an edit here, which invalidates the cache (on a mismatch: no cache)
+INLINED_SHA256 = "096bb387dcc6469071858e28107efe5438dd71ae813004ad407cde886f177fc9"
+_CACHE = cache_unless_stale(__name__, INLINED_SHA256, arith, fir)
 
 
-@intrinsic
-def _fma(typingctx, a, b, c):
-    """``a * b + c`` rounded once (``llvm.fma``), for three floats of one type.
-
-    The fused multiply-adds of the kernels are written out with this: with no contraction
-    flag (see FASTMATH) every compiled copy fuses exactly these operations, so the kernels stay
-    the same arithmetic in every copy and on every machine (``llvm.fma`` is exact also where
-    the CPU has no FMA unit, only slower), while on the ones that have it (x86-64 since 2013,
-    ARMv8) each is one vectorised instruction instead of a multiply and an add.
-    """
-    if not (isinstance(a, types.Float) and a == b == c):
-        return None
-
-    def codegen(context, builder, signature, args):
-        t = args[0].type
-        fn = builder.module.declare_intrinsic("llvm.fma", [t], ir.FunctionType(t, [t, t, t]))
-        return builder.call(fn, args)
-
-    return a(a, b, c), codegen
-
-
-@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=CACHE)
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=_CACHE)
 def _accel(eta, v, s, kn, dl, lev, lam, cm, cdiag, diag, D, g, th, acc):
     N, H = D.shape
     for j in range(H):
@@ -76,7 +41,7 @@ def _accel(eta, v, s, kn, dl, lev, lam, cm, cdiag, diag, D, g, th, acc):
         for k in range(N):
             d = D[k, j]
             for b in range(BLOCK):
-                th[j, b] = _fma(d, eta[k, b], th[j, b])
+                th[j, b] = fma(d, eta[k, b], th[j, b])
         for b in range(BLOCK):
             x = th[j, b]
             c = min(max(x, -dl[b]), dl[b])
@@ -85,97 +50,23 @@ def _accel(eta, v, s, kn, dl, lev, lam, cm, cdiag, diag, D, g, th, acc):
         gi = g[i] * s
         li = lam[i]
         for b in range(BLOCK):
-            acc[i, b] = _fma(-li, eta[i, b], gi * lev[b])
+            acc[i, b] = fma(-li, eta[i, b], gi * lev[b])
         if diag:
             ci = cdiag[i]
             for b in range(BLOCK):
-                acc[i, b] = _fma(-ci, v[i, b], acc[i, b])
+                acc[i, b] = fma(-ci, v[i, b], acc[i, b])
         else:
             for k in range(N):
                 c = cm[i, k]
                 for b in range(BLOCK):
-                    acc[i, b] = _fma(-c, v[k, b], acc[i, b])
+                    acc[i, b] = fma(-c, v[k, b], acc[i, b])
         for j in range(H):
             d = D[i, j]
             for b in range(BLOCK):
-                acc[i, b] = _fma(-d, th[j, b], acc[i, b])
-
-# ------------------------------------------------------------------ anti-aliasing FIR ring
-# The decimating FIR of the output is fused into the step loop: each recorded step value is added
-# to the open outputs it contributes to (a ring of accumulators per member block); an output is
-# emitted when its last tap arrives. The ring persists between chunks (`ring`), so a chunk
-# boundary changes nothing. Shared by both kernels (kernel_qs.py).
+                acc[i, b] = fma(-d, th[j, b], acc[i, b])
 
 
-@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=CACHE)
-def _ring_load(ring, acc_r, b0):
-    """Open outputs of the member block starting at b0: ring -> acc_r (R, channels, BLOCK)."""
-    for r in range(acc_r.shape[0]):
-        for c in range(acc_r.shape[1]):
-            for b in range(BLOCK):
-                acc_r[r, c, b] = ring[r, c, b0 + b]
-
-
-@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=CACHE)
-def _ring_store(ring, acc_r, b0):
-    """Open outputs back to the ring for the next chunk: acc_r -> ring."""
-    for r in range(acc_r.shape[0]):
-        for c in range(acc_r.shape[1]):
-            for b in range(BLOCK):
-                ring[r, c, b0 + b] = acc_r[r, c, b]
-
-
-@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=CACHE)
-def _fir_add(acc_r, val, gi, half, ntap, m, taps, w0):
-    """Add the recorded value of global step ``gi`` to its open outputs.
-
-    ``val`` (channels, BLOCK); ``w0`` are the summed weights of the constant pre-history at
-    gi = 0 (the value at gi = 0 also stands for the padding j < half, the state at rest).
-    """
-    R = acc_r.shape[0]
-    C = acc_r.shape[1]
-    j = gi + half
-    if gi == 0:
-        for kk in range(w0.shape[0]):
-            wk = w0[kk]
-            r = kk % R
-            for c in range(C):
-                for b in range(BLOCK):
-                    acc_r[r, c, b] = _fma(wk, val[c, b], acc_r[r, c, b])
-    else:
-        for kk in range(max(0, (j - ntap + m) // m), j // m + 1):
-            wk = taps[j - kk * m]
-            r = kk % R
-            for c in range(C):
-                for b in range(BLOCK):
-                    acc_r[r, c, b] = _fma(wk, val[c, b], acc_r[r, c, b])
-
-
-@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=CACHE)
-def _fir_emit(acc_r, gi, half, ntap, m, out, col, b0):
-    """Emit the output that step ``gi`` completed, if any, to ``out[b0 + b, c, col]``.
-
-    Only the members of ``out`` are written (not the padding of the last block) and only the
-    samples inside it (not the filter's tail). Returns 1 if an output was completed, else 0.
-    """
-    R = acc_r.shape[0]
-    C = acc_r.shape[1]
-    jd = gi + half - ntap + 1
-    if jd < 0 or jd % m != 0:
-        return 0
-    r = (jd // m) % R
-    nb = min(BLOCK, out.shape[0] - b0)
-    if col < out.shape[2]:
-        for c in range(C):
-            for b in range(nb):
-                out[b0 + b, c, col] = acc_r[r, c, b]
-    for c in range(C):
-        for b in range(BLOCK):
-            acc_r[r, c, b] = 0.0
-    return 1
-
-
-@numba.njit(parallel=True, fastmath=FASTMATH, error_model="numpy", cache=CACHE)
+@numba.njit(parallel=True, fastmath=FASTMATH, error_model="numpy", cache=_CACHE)
 def rk4_chunk(blk0, blk1, eta, v, kn, dl, lev, lam, cm, cdiag, diag, D, g, S, mode, s_half, coef,
               out, col0, taps, m, half, w0, ring, gi0):
     # RK4 steps gi0 .. gi0 + L - 1 of the member blocks blk0 .. blk1 - 1 (members
@@ -216,7 +107,7 @@ def rk4_chunk(blk0, blk1, eta, v, kn, dl, lev, lam, cm, cdiag, diag, D, g, S, mo
                 w[i, b] = v[i, b0 + b]
         val = np.empty((C, BLOCK), dt)
         acc_r = np.empty((R, C, BLOCK), dt)
-        _ring_load(ring, acc_r, b0)
+        ring_load(ring, acc_r, b0)
         n_emit = 0
         h = coef[0]
         h2 = coef[1]
@@ -239,87 +130,47 @@ def rk4_chunk(blk0, blk1, eta, v, kn, dl, lev, lam, cm, cdiag, diag, D, g, S, mo
                         for i in range(N):
                             sc = S[c, i]
                             for b in range(BLOCK):
-                                val[c, b] = _fma(sc, src[i, b], val[c, b])
-                    _fir_add(acc_r, val, gi0 + step, half, ntap, m, taps, w0)
-                    n_emit += _fir_emit(acc_r, gi0 + step, half, ntap, m, out, col0 + n_emit, b0)
+                                val[c, b] = fma(sc, src[i, b], val[c, b])
+                    fir_add(acc_r, val, gi0 + step, half, ntap, m, taps, w0)
+                    n_emit += fir_emit(acc_r, gi0 + step, half, ntap, m, out, col0 + n_emit, b0)
                     for i in range(N):
                         for b in range(BLOCK):
                             se[i, b] = w[i, b]
                             sv[i, b] = k[i, b]
-                            et[i, b] = _fma(h2, w[i, b], e[i, b])
-                            vt[i, b] = _fma(h2, k[i, b], w[i, b])
+                            et[i, b] = fma(h2, w[i, b], e[i, b])
+                            vt[i, b] = fma(h2, k[i, b], w[i, b])
                 elif stage < 3:
                     a = h2 if stage == 1 else h
                     for i in range(N):
                         for b in range(BLOCK):
-                            se[i, b] = _fma(two, vt[i, b], se[i, b])
-                            sv[i, b] = _fma(two, k[i, b], sv[i, b])
-                            et[i, b] = _fma(a, vt[i, b], e[i, b])
-                            vt[i, b] = _fma(a, k[i, b], w[i, b])
+                            se[i, b] = fma(two, vt[i, b], se[i, b])
+                            sv[i, b] = fma(two, k[i, b], sv[i, b])
+                            et[i, b] = fma(a, vt[i, b], e[i, b])
+                            vt[i, b] = fma(a, k[i, b], w[i, b])
                 else:
                     for i in range(N):
                         for b in range(BLOCK):
-                            e[i, b] = _fma(h6, (se[i, b] + vt[i, b]), e[i, b])
-                            w[i, b] = _fma(h6, (sv[i, b] + k[i, b]), w[i, b])
+                            e[i, b] = fma(h6, (se[i, b] + vt[i, b]), e[i, b])
+                            w[i, b] = fma(h6, (sv[i, b] + k[i, b]), w[i, b])
         for i in range(N):
             for b in range(BLOCK):
                 eta[i, b0 + b] = e[i, b]
                 v[i, b0 + b] = w[i, b]
         # the open outputs carry over to the next chunk (without this every chunk boundary
         # drops the partial sums: a glitch to ~0 and a filter-length recovery in the record)
-        _ring_store(ring, acc_r, b0)
-
-
-# ------------------------------------------------------------------ first compile
-
-
-class _Announce(event.Listener):
-    # "compiling ..." on stderr when numba compiles `dispatcher` (not when it loads the cache)
-    def __init__(self, dispatcher, what):
-        self.dispatcher, self.what, self.t0 = dispatcher, what, None
-
-    def on_start(self, ev):
-        if ev.data["dispatcher"] is self.dispatcher and self.t0 is None:
-            print(f"compiling the numba RK4 kernel ({self.what})...", end=" ", file=sys.stderr,
-                  flush=True)
-            self.t0 = time.perf_counter()
-
-    def on_end(self, ev):
-        pass
-
-
-def compile_kernel(kernel, args: tuple, what: str) -> None:
-    """Compile ``kernel`` for ``args`` (or load it from numba's cache) by a call on no blocks.
-
-    A compile prints one line to stderr, e.g. ``compiling the numba RK4 kernel (float32, full
-    model)... 12.3 s, cached for later runs``; a cache load prints nothing.
-    """
-    listener = _Announce(kernel, what)
-    with event.install_listener("numba:compile", listener):
-        kernel(0, 0, *args)
-    if listener.t0 is not None:
-        path = kernel.stats.cache_path
-        where = f"cached for later runs in {path}" if path else "not cached"
-        print(f"{time.perf_counter() - listener.t0:.1f} s, {where}", file=sys.stderr, flush=True)
+        ring_store(ring, acc_r, b0)
 
 
 class NumbaRK4:
-    """Compiled CPU engine with the interface of :class:`.engines.TorchRK4`.
+    """Compiled CPU engine with the interface of :class:`..torch.TorchRK4`.
 
-    Parameters are those of :class:`.engines.TorchRK4`; ``dtype`` is a numpy or torch float
+    Parameters are those of :class:`..torch.TorchRK4`; ``dtype`` is a numpy or torch float
     dtype (float32 or float64).
     """
 
     def __init__(self, form: ModalForm, kn, delta, level_g, eta0, v0, *, h, quantity, dtype,
                  taps, factor):
-        import torch
-
-        if dtype in (torch.float32, np.float32):
-            nd = np.float32
-        elif dtype in (torch.float64, np.float64):
-            nd = np.float64
-        else:
-            raise ValueError(f"`dtype` must be float32 or float64, got {dtype!r}")
+        nd = float_dtype(dtype)
         a = lambda x: np.ascontiguousarray(np.asarray(x, dtype=nd))  # noqa: E731
         self.nd = nd
         self.mode = MODES[quantity]
@@ -349,17 +200,12 @@ class NumbaRK4:
         self._compiled = False  # compile_kernel has run (first chunk)
 
     def start_weights(self, taps) -> np.ndarray:
-        """Summed weights of ``taps`` over the constant pre-history (steps before the first) that
-        output k sees, k = 0 .. half // m (see ``_fir_add``)."""
-        w = [np.sum(taps[: self.half - k * self.m + 1]) for k in range(self.half // self.m + 1)]
-        return np.ascontiguousarray(np.asarray(w, dtype=self.nd))
+        """:func:`.fir.start_weights` of ``taps`` in the engine's dtype."""
+        return start_weights(taps, self.m, self.nd)
 
     def emitted(self, L: int) -> int:
         """Number of output samples the next chunk of ``L`` steps completes."""
-        m, half, gi0 = self.m, self.half, self.gi
-        k_first = max(0, -(-(gi0 - half) // m))
-        k_last = (gi0 + L - 1 - half) // m
-        return max(0, k_last - k_first + 1)
+        return emitted_outputs(self.gi, L, self.half, self.m)
 
     def run(self, s_half: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
         """Integrate one chunk and decimate on the fly.
@@ -417,7 +263,7 @@ class NumbaRK4:
     def _call(self, kernel, model: str, args: tuple) -> None:
         # the first chunk compiles (or loads) the kernel in this thread, announced on stderr
         if not self._compiled:
-            compile_kernel(kernel, args, f"{np.dtype(self.nd).name}, {model}")
+            compile_kernel(kernel, args, f"RK4 kernel ({np.dtype(self.nd).name}, {model})")
             self._compiled = True
         kernel(0, self.kn.shape[0] // BLOCK, *args)
 

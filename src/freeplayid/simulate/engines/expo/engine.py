@@ -1,5 +1,6 @@
-"""The exponential engine: the compiled CPU kernel of the exponential integrator
-(``exponential.py``, ``kernel_expo.py``), which decimates on the fly into the signal array.
+"""The exponential engine: the compiled CPU kernel of the exponential integrator (the step
+matrices and step rule in ``steps.py``, the kernel in ``kernel.py``), which decimates on the fly
+into the signal array.
 
 Its step is set by accuracy, not stability (``Engine.step_rule = "accuracy"``): the linear modal
 dynamics are integrated exactly, the contact implicitly and exactly per member, so a stiff or
@@ -8,15 +9,15 @@ overdamped mode costs nothing. numba is optional; the kernel is imported when an
 
 from __future__ import annotations
 
-from .numba import NumbaEngine, numba_available
-from .protocol import EngineSetup
+from ..numba.engine import NumbaEngine, numba_available
+from ..protocol import EngineSetup
 
 __all__ = ["ExpoEngine"]
 
 
 class ExpoEngine(NumbaEngine):
-    """:class:`.protocol.Engine` of :class:`.kernel_expo.NumbaExpo`: CPU only, full model,
-    decimates in place, step by the accuracy rule (:func:`..exponential.expo_step_limit`).
+    """:class:`..protocol.Engine` of :class:`.kernel.NumbaExpo`: CPU only, full model,
+    decimates in place, step by the accuracy rule (:func:`.steps.expo_step_limit`).
     Running and divergence are the numba engine's (its kernel has the same interface)."""
 
     devices = ("cpu",)
@@ -26,7 +27,7 @@ class ExpoEngine(NumbaEngine):
     name = "expo"
 
     def __init__(self, setup: EngineSetup):
-        from ..kernel_expo import NumbaExpo
+        from .kernel import NumbaExpo
 
         s = setup
         self.kernel = NumbaExpo(s.form, s.kn, s.delta, s.level_g, s.eta0, s.v0, h=s.h,
