@@ -8,6 +8,7 @@ import torch
 from freeplayid.model import sdof_system
 from freeplayid.simulate import StreamingDecimator, Sweep, simulate_sweeps
 from freeplayid.simulate.engines import ENGINES, TorchRK4, numba_available, resolve_engine
+from freeplayid.simulate.engines.protocol import rk4_max_step
 
 CPU, CUDA = torch.device("cpu"), torch.device("cuda")
 
@@ -27,6 +28,7 @@ class _Records:
     devices = ("cpu",)
     quasi_static = False
     decimates = False
+    max_step = staticmethod(rk4_max_step)
     chunks = 0
 
     def __init__(self, setup):
@@ -118,3 +120,20 @@ def test_a_registered_engine_runs_without_editing_simulate_sweeps(monkeypatch, f
         _run("fake", quasi_static_hz=1000.0)
     with pytest.raises(ValueError, match=r"`engine`='fake' runs on the CPU only, got device meta"):
         _run("fake", device="meta")
+
+
+def test_the_engine_sets_the_step(monkeypatch):
+    # simulate_sweeps asks the engine for its step (Engine.max_step) and runs at the largest
+    # whole fraction of the output interval not above it; omega_dt reaches the rule as given
+    asked = []
+
+    class _Step(_Records):
+        @staticmethod
+        def max_step(form, *, sweep, kn_max, omega_dt):
+            asked.append((sweep.stop_hz, kn_max, omega_dt))
+            return 1.0 / (256.0 * 4.5)
+
+    monkeypatch.setitem(ENGINES, "step", _Step)
+    r = _run("step", steps_per_sample=None, omega_dt=0.7, sweep=Sweep(40.0, 41.0, 0.5))
+    assert asked == [(41.0, 1e18, 0.7)]
+    assert r.steps_per_sample == 5 and r.dt == 1.0 / (256.0 * 5)

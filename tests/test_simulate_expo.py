@@ -340,7 +340,14 @@ def test_mixed_kn_falls_back_to_the_linear_hold():
 # ----------------------------------------------------------------------------- (6) registry
 def test_expo_is_registered_and_declares_its_step_rule(monkeypatch):
     cls = ENGINES["expo"]
-    assert cls.step_rule == "accuracy" and cls.decimates and not cls.quasi_static
+    assert cls.decimates and not cls.quasi_static
+    # its step is set by accuracy: expo_step_limit at the sweep's top frequency, whatever omega_dt
+    form = build_modal_form(chain3(stiff_tip=True), channels=("a",), quantity="acceleration",
+                            frame="absolute", kn_max=1e4)
+    h = expo_step_limit(form, top_hz=40.0, kn_max=1e4)
+    for sw, omega_dt in ((Sweep(30.0, 40.0, 50.0), 1.5), (Sweep(40.0, 30.0, 50.0), 0.1)):
+        assert cls.max_step(form, sweep=sw, kn_max=1e4, omega_dt=omega_dt) == h
+    assert ENGINES["numba"].max_step(form, sweep=sw, kn_max=1e4, omega_dt=1.5) < h / 100
     assert cls.available() == numba_available()
     # "auto" stays RK4 (the training bank's cache key and pinned results depend on it)
     assert resolve_engine("auto", device=CPU)[0] in ("numba", "torch")

@@ -13,8 +13,8 @@ from ..model.system import FreeplaySystem
 from ..quantity import G, derivative_order, si_unit
 from ..sweep import Sweep
 from .engines import Engine, EngineSetup, resolve_engine
-from .engines.expo.steps import expo_step_limit
-from .formulation import METHODS, ModalTruncation, build_modal_form, rk4_step_limit
+from .engines.protocol import rk4_max_step
+from .formulation import METHODS, ModalTruncation, build_modal_form
 from .quasistatic import QuasiStatic, condense_modal_form
 from .resample import StreamingDecimator, derivative_taps, design_decimator
 
@@ -235,7 +235,7 @@ def simulate_sweeps(
         engine"): exact linear part and contact, step by accuracy, fast for small batches.
     omega_dt : float [-]
         RK4 engines: bound on omega_max * dt for the fastest closed-hinge mode (<= 2.5). Not
-        used by an engine whose step is set by accuracy (``Engine.step_rule``).
+        used by an engine whose step is set by accuracy (its ``Engine.max_step``).
     steps_per_sample : int, optional
         Override the automatic m (no stability check: a member may then diverge).
     cutoff_hz : float [Hz], optional
@@ -296,12 +296,12 @@ def simulate_sweeps(
     kn_a, dl_a, lv_a = (x.reshape(-1) for x in (kn_a, dl_a, lv_a))
     batch = kn_a.shape[0]
 
-    # the step rule is declared by the engine (Engine.step_rule), not implied by its name
+    # the step rule is the engine's (Engine.max_step), not implied by its name
     plan = _step_plan(system, kn_max=float(kn_a.max()), sweep=sweep, sample_rate=sample_rate,
                       channels=channels, quantity=quantity, frame=frame, method=method,
                       cutoff_hz=cutoff_hz, quasi_static_hz=quasi_static_hz, omega_dt=omega_dt,
                       steps_per_sample=steps_per_sample, large_mass_ratio=large_mass_ratio,
-                      step_rule=getattr(engine_cls, "step_rule", "stability"))
+                      max_step=engine_cls.max_step)
     form, qs, m, h, taps, taps_d = plan.form, plan.qs, plan.m, plan.h, plan.taps, plan.taps_d
     n_out, n_steps = plan.n_out, plan.n_steps
 
@@ -389,12 +389,11 @@ class _StepPlan:
 
 def _step_plan(system, *, kn_max, sweep, sample_rate, channels, quantity, frame, method,
                cutoff_hz, quasi_static_hz, omega_dt, steps_per_sample, large_mass_ratio,
-               filters: bool = True, step_rule: str = "stability") -> _StepPlan:
+               filters: bool = True, max_step=rk4_max_step) -> _StepPlan:
     """The modal form, the step and the step count of a simulation (before running it);
     without ``filters`` no decimator is designed (its length grows with m) and the count leaves
-    out the filter look-ahead (a few samples). ``step_rule`` is the engine's
-    (``Engine.step_rule``): "stability" (RK4, ``omega_dt``) or "accuracy"
-    (``engines.expo.steps.expo_step_limit``)."""
+    out the filter look-ahead (a few samples). ``max_step`` is the engine's step rule
+    (``Engine.max_step``; default the RK4 engines' stability rule)."""
     qs = None
     if quasi_static_hz is not None:
         if cutoff_hz is not None:
@@ -409,14 +408,8 @@ def _step_plan(system, *, kn_max, sweep, sample_rate, channels, quantity, frame,
         qs = condense_modal_form(form, threshold_hz=quasi_static_hz, quantity=quantity,
                                  kn_max=kn_max)
         form = qs.slow
-    if step_rule not in ("stability", "accuracy"):
-        raise ValueError(f"`step_rule` must be 'stability' or 'accuracy', got {step_rule!r}")
     if steps_per_sample is None:
-        if step_rule == "accuracy":
-            h_max = expo_step_limit(form, top_hz=max(sweep.start_hz, sweep.stop_hz),
-                                    kn_max=kn_max)
-        else:
-            h_max = rk4_step_limit(form.omega_max, omega_dt=omega_dt)
+        h_max = max_step(form, sweep=sweep, kn_max=kn_max, omega_dt=omega_dt)
         m = max(1, math.ceil(1.0 / (sample_rate * h_max) - 1e-9))
     else:
         if not (isinstance(steps_per_sample, (int, np.integer)) and steps_per_sample >= 1):

@@ -12,7 +12,7 @@ import numpy as np
 import torch
 
 from ..formulation import BLOWUP, MODES, ModalForm
-from .protocol import EngineSetup
+from .protocol import EngineSetup, rk4_max_step
 
 __all__ = ["TorchEngine", "TorchRK4"]
 
@@ -23,6 +23,7 @@ class TorchEngine:
     devices = None
     quasi_static = False
     decimates = False
+    max_step = staticmethod(rk4_max_step)
 
     def __init__(self, setup: EngineSetup):
         s = setup

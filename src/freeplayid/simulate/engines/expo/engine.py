@@ -2,15 +2,18 @@
 matrices and step rule in ``steps.py``, the kernel in ``kernel.py``), which decimates on the fly
 into the signal array.
 
-Its step is set by accuracy, not stability (``Engine.step_rule = "accuracy"``): the linear modal
+Its step is set by accuracy, not stability (:meth:`ExpoEngine.max_step`): the linear modal
 dynamics are integrated exactly, the contact implicitly and exactly per member, so a stiff or
 overdamped mode costs nothing. numba is optional; the kernel is imported when an engine is built.
 """
 
 from __future__ import annotations
 
+from ....sweep import Sweep
+from ...formulation import ModalForm
 from ..numba.engine import NumbaEngine, numba_available
 from ..protocol import EngineSetup
+from .steps import expo_step_limit
 
 __all__ = ["ExpoEngine"]
 
@@ -23,7 +26,6 @@ class ExpoEngine(NumbaEngine):
     devices = ("cpu",)
     quasi_static = False
     decimates = True
-    step_rule = "accuracy"
     name = "expo"
 
     def __init__(self, setup: EngineSetup):
@@ -33,6 +35,13 @@ class ExpoEngine(NumbaEngine):
         self.kernel = NumbaExpo(s.form, s.kn, s.delta, s.level_g, s.eta0, s.v0, h=s.h,
                                 quantity=s.quantity, dtype=s.dtype, taps=s.taps, factor=s.factor)
         self.record_width = self.kernel.width
+
+    @staticmethod
+    def max_step(form: ModalForm, *, sweep: Sweep, kn_max: float, omega_dt: float) -> float:
+        """:meth:`..protocol.Engine.max_step` by accuracy (:func:`.steps.expo_step_limit`: steps
+        per period of the sweep's top frequency and of the closed-hinge modes that a contact
+        excites); ``omega_dt`` is not used (no stability bound)."""
+        return expo_step_limit(form, top_hz=max(sweep.start_hz, sweep.stop_hz), kn_max=kn_max)
 
     @classmethod
     def available(cls) -> bool:

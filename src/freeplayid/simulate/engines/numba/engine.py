@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..protocol import EngineSetup
+from ..protocol import EngineSetup, rk4_max_step
 
 __all__ = ["NumbaEngine", "numba_available"]
 
@@ -30,6 +30,7 @@ class NumbaEngine:
     devices = ("cpu",)
     quasi_static = True
     decimates = True
+    max_step = staticmethod(rk4_max_step)
     name = "numba"
 
     def __init__(self, setup: EngineSetup):
