@@ -23,7 +23,8 @@ from .arith import FASTMATH, fma
 from .fir import BLOCK, emitted_outputs, fir_add, fir_emit, ring_load, ring_store, start_weights
 from .jit import compile_kernel, float_dtype
 
-__all__ = ["NumbaRK4", "rk4_chunk", "INLINED_SHA256"]
+__all__ = ["NumbaRK4", "rk4_chunk", "load_block", "store_block", "modal_accel", "rk4_stage",
+           "project", "INLINED_SHA256"]
 
 # numba keys the cache of this file's kernels on this file alone, but they inline arith.py and
 # fir.py: the digest of those (tests/test_simulate_determinism.py checks it), so that an edit
@@ -32,20 +33,53 @@ INLINED_SHA256 = "096bb387dcc6469071858e28107efe5438dd71ae813004ad407cde886f177f
 _CACHE = cache_unless_stale(__name__, INLINED_SHA256, arith, fir)
 
 
+# ------------------------------------------------------------------ one RK4 step of a block
+# What the full-model kernel (rk4_chunk) and the quasi-static one (rk4_qs.rk4_qs_chunk) share,
+# written once: they differ only in how the hinge moments f are found (f(D^T eta) here, the
+# algebraic hinge equation there) and in what a step records. One step of x = (eta, v), with
+# a(eta, v, s) the right-hand side of (ETA) and s = sin(phase):
+#
+#     k1 = a(eta, v, s0)                                  (recorded: the acceleration at t_i)
+#     k2 = a(eta + h/2 v, v + h/2 k1, s1/2)
+#     k3 = a(eta + h/2 v2, v + h/2 k2, s1/2)              v2 = v + h/2 k1
+#     k4 = a(eta + h v3, v + h k3, s1)                    v3 = v + h/2 k2
+#     eta += h/6 (v + 2 v2 + 2 v3 + v4),  v += h/6 (k1 + 2 k2 + 2 k3 + k4)   v4 = v + h k3
+#
+# The kernels run the four stages as one loop around one copy of the stage code (the same
+# operations in the same order as four written-out stages, a quarter of the code to compile;
+# docs/simulate.md, "Compile time"): stage q evaluates k at (x, y) = (e, w) for q = 0, else
+# (et, vt), then rk4_stage(q) updates the sums (se, sv) and the next stage's (et, vt).
+
+
 @numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=_CACHE)
-def _accel(eta, v, s, kn, dl, lev, lam, cm, cdiag, diag, D, g, th, acc):
+def load_block(b0, eta, v, kn, dl, lev, e, w, knb, dlb, lvb):
+    """Members ``b0 .. b0 + BLOCK - 1``: state (eta, v) -> (e, w), parameters -> knb, dlb, lvb."""
+    N = e.shape[0]
+    for b in range(BLOCK):
+        knb[b] = kn[b0 + b]
+        dlb[b] = dl[b0 + b]
+        lvb[b] = lev[b0 + b]
+    for i in range(N):
+        for b in range(BLOCK):
+            e[i, b] = eta[i, b0 + b]
+            w[i, b] = v[i, b0 + b]
+
+
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=_CACHE)
+def store_block(b0, e, w, eta, v):
+    """The block's state back: (e, w) -> (eta, v) of members ``b0 .. b0 + BLOCK - 1``."""
+    N = e.shape[0]
+    for i in range(N):
+        for b in range(BLOCK):
+            eta[i, b0 + b] = e[i, b]
+            v[i, b0 + b] = w[i, b]
+
+
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=_CACHE)
+def modal_accel(eta, v, s, lev, lam, cm, cdiag, diag, D, g, f, acc):
+    """acc = g s lev - lam eta - Cm v - D f: the right-hand side of (ETA) for a block, given
+    its hinge moments ``f`` (H, BLOCK); ``diag``: Cm is diagonal (``cdiag``)."""
     N, H = D.shape
-    for j in range(H):
-        for b in range(BLOCK):
-            th[j, b] = 0.0
-        for k in range(N):
-            d = D[k, j]
-            for b in range(BLOCK):
-                th[j, b] = fma(d, eta[k, b], th[j, b])
-        for b in range(BLOCK):
-            x = th[j, b]
-            c = min(max(x, -dl[b]), dl[b])
-            th[j, b] = kn[b] * (x - c)
     for i in range(N):
         gi = g[i] * s
         li = lam[i]
@@ -63,7 +97,72 @@ def _accel(eta, v, s, kn, dl, lev, lam, cm, cdiag, diag, D, g, th, acc):
         for j in range(H):
             d = D[i, j]
             for b in range(BLOCK):
-                acc[i, b] = fma(-d, th[j, b], acc[i, b])
+                acc[i, b] = fma(-d, f[j, b], acc[i, b])
+
+
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=_CACHE)
+def rk4_stage(stage, e, w, et, vt, se, sv, k, h, h2, h6, two):
+    """After stage ``stage`` (0-3) evaluated ``k``: stage 0 starts the sums (se, sv) = (v, k1)
+    and sets (et, vt) for stage 1, stages 1 and 2 add 2 v_q, 2 k_q and set the next stage's
+    (et, vt), stage 3 completes the step in (e, w)."""
+    N = e.shape[0]
+    if stage == 0:
+        for i in range(N):
+            for b in range(BLOCK):
+                se[i, b] = w[i, b]
+                sv[i, b] = k[i, b]
+                et[i, b] = fma(h2, w[i, b], e[i, b])
+                vt[i, b] = fma(h2, k[i, b], w[i, b])
+    elif stage < 3:
+        a = h2 if stage == 1 else h
+        for i in range(N):
+            for b in range(BLOCK):
+                se[i, b] = fma(two, vt[i, b], se[i, b])
+                sv[i, b] = fma(two, k[i, b], sv[i, b])
+                et[i, b] = fma(a, vt[i, b], e[i, b])
+                vt[i, b] = fma(a, k[i, b], w[i, b])
+    else:
+        for i in range(N):
+            for b in range(BLOCK):
+                e[i, b] = fma(h6, (se[i, b] + vt[i, b]), e[i, b])
+                w[i, b] = fma(h6, (sv[i, b] + k[i, b]), w[i, b])
+
+
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=_CACHE)
+def project(mode, e, w, k, S, val):
+    """val = S @ (e, w or k for ``mode`` 0, 1, 2): the recorded channels of a block."""
+    N = e.shape[0]
+    C = S.shape[0]
+    src = e if mode == 0 else (w if mode == 1 else k)
+    for c in range(C):
+        for b in range(BLOCK):
+            val[c, b] = 0.0
+        for i in range(N):
+            sc = S[c, i]
+            for b in range(BLOCK):
+                val[c, b] = fma(sc, src[i, b], val[c, b])
+
+
+# ------------------------------------------------------------------ the full model
+
+
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=_CACHE)
+def _accel(eta, v, s, kn, dl, lev, lam, cm, cdiag, diag, D, g, th, acc):
+    # the hinge moments f(D^T eta) into th (branch-free: kn (theta - clamp(theta, -dl, dl))),
+    # then the modal acceleration
+    N, H = D.shape
+    for j in range(H):
+        for b in range(BLOCK):
+            th[j, b] = 0.0
+        for k in range(N):
+            d = D[k, j]
+            for b in range(BLOCK):
+                th[j, b] = fma(d, eta[k, b], th[j, b])
+        for b in range(BLOCK):
+            x = th[j, b]
+            c = min(max(x, -dl[b]), dl[b])
+            th[j, b] = kn[b] * (x - c)
+    modal_accel(eta, v, s, lev, lam, cm, cdiag, diag, D, g, th, acc)
 
 
 @numba.njit(parallel=True, fastmath=FASTMATH, error_model="numpy", cache=_CACHE)
@@ -71,12 +170,9 @@ def rk4_chunk(blk0, blk1, eta, v, kn, dl, lev, lam, cm, cdiag, diag, D, g, S, mo
               out, col0, taps, m, half, w0, ring, gi0):
     # RK4 steps gi0 .. gi0 + L - 1 of the member blocks blk0 .. blk1 - 1 (members
     # blk0 BLOCK .. blk1 BLOCK - 1; no blocks: compile only) with the anti-aliasing FIR fused
-    # in: the recorded value of step gi (padded filter index j = gi + half) is added to every
-    # open output k with k m <= j <= k m + ntap - 1 (weight taps[j - k m]) in a ring of
-    # accumulators kept in `ring` between chunks; output k is written to
-    # `out[:, :, col0 + n]` (out: members, channels, samples; n counts this chunk's outputs)
-    # once j = k m + ntap - 1. At gi = 0 the value also stands for the padding j < half (the
-    # state at rest), with weights w0[k].
+    # in (fir.py): the recorded value of step gi goes to the open outputs of `ring` (kept
+    # between chunks); a completed output is written to `out[:, :, col0 + n]` (out: members,
+    # channels, samples; n counts this chunk's outputs)
     N = eta.shape[0]
     H = D.shape[1]
     C = S.shape[0]
@@ -97,14 +193,7 @@ def rk4_chunk(blk0, blk1, eta, v, kn, dl, lev, lam, cm, cdiag, diag, D, g, S, mo
         knb = np.empty(BLOCK, dt)
         dlb = np.empty(BLOCK, dt)
         lvb = np.empty(BLOCK, dt)
-        for b in range(BLOCK):
-            knb[b] = kn[b0 + b]
-            dlb[b] = dl[b0 + b]
-            lvb[b] = lev[b0 + b]
-        for i in range(N):
-            for b in range(BLOCK):
-                e[i, b] = eta[i, b0 + b]
-                w[i, b] = v[i, b0 + b]
+        load_block(b0, eta, v, kn, dl, lev, e, w, knb, dlb, lvb)
         val = np.empty((C, BLOCK), dt)
         acc_r = np.empty((R, C, BLOCK), dt)
         ring_load(ring, acc_r, b0)
@@ -114,48 +203,17 @@ def rk4_chunk(blk0, blk1, eta, v, kn, dl, lev, lam, cm, cdiag, diag, D, g, S, mo
         h6 = coef[2]
         two = coef[3]
         for step in range(L):
-            # the four RK4 stages as one loop around one copy of the stage code: the same
-            # operations in the same order as four written-out stages, a quarter of the code to
-            # compile (docs/simulate.md, "Compile time")
-            for stage in range(4):
+            for stage in range(4):  # one copy of the stage code (see rk4_stage)
                 x = e if stage == 0 else et
                 y = w if stage == 0 else vt
                 s = s_half[2 * step + (stage + 1) // 2]
                 _accel(x, y, s, knb, dlb, lvb, lam, cm, cdiag, diag, D, g, th, k)
                 if stage == 0:
-                    src = e if mode == 0 else (w if mode == 1 else k)
-                    for c in range(C):
-                        for b in range(BLOCK):
-                            val[c, b] = 0.0
-                        for i in range(N):
-                            sc = S[c, i]
-                            for b in range(BLOCK):
-                                val[c, b] = fma(sc, src[i, b], val[c, b])
+                    project(mode, e, w, k, S, val)
                     fir_add(acc_r, val, gi0 + step, half, ntap, m, taps, w0)
                     n_emit += fir_emit(acc_r, gi0 + step, half, ntap, m, out, col0 + n_emit, b0)
-                    for i in range(N):
-                        for b in range(BLOCK):
-                            se[i, b] = w[i, b]
-                            sv[i, b] = k[i, b]
-                            et[i, b] = fma(h2, w[i, b], e[i, b])
-                            vt[i, b] = fma(h2, k[i, b], w[i, b])
-                elif stage < 3:
-                    a = h2 if stage == 1 else h
-                    for i in range(N):
-                        for b in range(BLOCK):
-                            se[i, b] = fma(two, vt[i, b], se[i, b])
-                            sv[i, b] = fma(two, k[i, b], sv[i, b])
-                            et[i, b] = fma(a, vt[i, b], e[i, b])
-                            vt[i, b] = fma(a, k[i, b], w[i, b])
-                else:
-                    for i in range(N):
-                        for b in range(BLOCK):
-                            e[i, b] = fma(h6, (se[i, b] + vt[i, b]), e[i, b])
-                            w[i, b] = fma(h6, (sv[i, b] + k[i, b]), w[i, b])
-        for i in range(N):
-            for b in range(BLOCK):
-                eta[i, b0 + b] = e[i, b]
-                v[i, b0 + b] = w[i, b]
+                rk4_stage(stage, e, w, et, vt, se, sv, k, h, h2, h6, two)
+        store_block(b0, e, w, eta, v)
         # the open outputs carry over to the next chunk (without this every chunk boundary
         # drops the partial sums: a glitch to ~0 and a filter-length recovery in the record)
         ring_store(ring, acc_r, b0)

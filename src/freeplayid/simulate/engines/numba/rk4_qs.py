@@ -19,14 +19,14 @@ from ...quasistatic import QuasiStaticForm
 from . import arith, fir, rk4
 from .arith import FASTMATH, fma
 from .fir import BLOCK, fir_add, fir_add2, fir_emit, ring_load, ring_store
-from .rk4 import NumbaRK4
+from .rk4 import NumbaRK4, load_block, modal_accel, project, rk4_stage, store_block
 
 __all__ = ["NumbaQSRK4", "rk4_qs_chunk", "INLINED_SHA256"]
 
 # numba keys the cache of this file's kernels on this file alone, but they inline arith.py,
 # fir.py and rk4.py: the digest of those (tests/test_simulate_determinism.py checks it), so that
 # an edit there comes with an edit here, which invalidates the cache (on a mismatch: no cache)
-INLINED_SHA256 = "a0a7c920acf8a60e6b150fc7dea292b39835c63a8a7121ca990e7f68f2701206"
+INLINED_SHA256 = "6aa06eb96509f4bdf9db8d7a970fb59c1dd14fd3cefd7c2fc1739ee0a7f48c5f"
 _CACHE = cache_unless_stale(__name__, INLINED_SHA256, arith, fir, rk4)
 
 
@@ -222,6 +222,7 @@ def _hinge_states(F, c, st, kn, dl, A, tv, A3, T, bad, tol):
 @numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=_CACHE)
 def _accel_qs(eta, v, s, kn, dl, lev, lam, cm, cdiag, diag, D, g, F, e, gam, st, c, fo, acc, A,
               tv, A3, T, bad, tol):
+    # the hinge moments fo of (QS), c = D^T eta + e a - Gam eta', then the modal acceleration
     N, H = D.shape
     for j in range(H):
         ej = e[j] * s
@@ -237,24 +238,7 @@ def _accel_qs(eta, v, s, kn, dl, lev, lam, cm, cdiag, diag, D, g, F, e, gam, st,
         for b in range(BLOCK):
             sj = st[j, b]
             fo[j, b] = kn[b] * abs(sj) * (T[j, b] - sj * dl[b])
-    for i in range(N):
-        gi = g[i] * s
-        li = lam[i]
-        for b in range(BLOCK):
-            acc[i, b] = fma(-li, eta[i, b], gi * lev[b])
-        if diag:
-            ci = cdiag[i]
-            for b in range(BLOCK):
-                acc[i, b] = fma(-ci, v[i, b], acc[i, b])
-        else:
-            for k in range(N):
-                cc = cm[i, k]
-                for b in range(BLOCK):
-                    acc[i, b] = fma(-cc, v[k, b], acc[i, b])
-        for j in range(H):
-            dd = D[i, j]
-            for b in range(BLOCK):
-                acc[i, b] = fma(-dd, fo[j, b], acc[i, b])
+    modal_accel(eta, v, s, lev, lam, cm, cdiag, diag, D, g, fo, acc)
 
 
 @numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=_CACHE)
@@ -266,14 +250,7 @@ def _record_qs(e_, w, k, fo, S, hout, vout, mode, val, valf, acc_r, gi, half, nt
     N = e_.shape[0]
     C = S.shape[0]
     H = fo.shape[0]
-    src = e_ if mode == 0 else (w if mode == 1 else k)
-    for c in range(C):
-        for b in range(BLOCK):
-            val[c, b] = 0.0
-        for i in range(N):
-            sc = S[c, i]
-            for b in range(BLOCK):
-                val[c, b] = fma(sc, src[i, b], val[c, b])
+    project(mode, e_, w, k, S, val)
     dst = val if mode == 0 else valf
     for c in range(C):
         if mode != 0:
@@ -297,10 +274,10 @@ def _record_qs(e_, w, k, fo, S, hout, vout, mode, val, valf, acc_r, gi, half, nt
 def rk4_qs_chunk(blk0, blk1, eta, v, stp, kn, dl, lev, lam, cm, cdiag, diag, D, g, F, e, gam,
                  S, hout, vout, mode, s_half, coef, out, col0, taps, tapsd, m, half, w0, w0d, ring,
                  gi0):
-    # rk4.rk4_chunk (blocks blk0 .. blk1 - 1) with the condensed hinge moments; the fast
-    # modes' quasi-static response q = hout @ f + vout @ eta' is added to the displacement
-    # output (mode 0), else filtered through the derivative taps `tapsd` (its derivative,
-    # decimated) into the same outputs
+    # rk4.rk4_chunk (blocks blk0 .. blk1 - 1) with the condensed hinge moments and their
+    # contact states `stp` (kept between chunks); the fast modes' quasi-static response
+    # q = hout @ f + vout @ eta' is added to the displacement output (mode 0), else filtered
+    # through the derivative taps `tapsd` (its derivative, decimated) into the same outputs
     N = eta.shape[0]
     H = D.shape[1]
     C = S.shape[0]
@@ -329,17 +306,10 @@ def rk4_qs_chunk(blk0, blk1, eta, v, stp, kn, dl, lev, lam, cm, cdiag, diag, D, 
         knb = np.empty(BLOCK, dt)
         dlb = np.empty(BLOCK, dt)
         lvb = np.empty(BLOCK, dt)
-        for b in range(BLOCK):
-            knb[b] = kn[b0 + b]
-            dlb[b] = dl[b0 + b]
-            lvb[b] = lev[b0 + b]
+        load_block(b0, eta, v, kn, dl, lev, e_, w, knb, dlb, lvb)
         for j in range(H):
             for b in range(BLOCK):
                 st[j, b] = stp[j, b0 + b]
-        for i in range(N):
-            for b in range(BLOCK):
-                e_[i, b] = eta[i, b0 + b]
-                w[i, b] = v[i, b0 + b]
         val = np.empty((C, BLOCK), dt)
         valf = np.empty((C, BLOCK), dt)
         acc_r = np.empty((R, C, BLOCK), dt)
@@ -350,10 +320,7 @@ def rk4_qs_chunk(blk0, blk1, eta, v, stp, kn, dl, lev, lam, cm, cdiag, diag, D, 
         h6 = coef[2]
         two = coef[3]
         for step in range(L):
-            # the four RK4 stages as one loop around one copy of the (large) stage code: the same
-            # operations in the same order as four written-out stages, a quarter of the code to
-            # compile (docs/simulate.md, "Compile time")
-            for stage in range(4):
+            for stage in range(4):  # one copy of the (large) stage code (see rk4.rk4_stage)
                 x = e_ if stage == 0 else et
                 y = w if stage == 0 else vt
                 s = s_half[2 * step + (stage + 1) // 2]
@@ -363,29 +330,8 @@ def rk4_qs_chunk(blk0, blk1, eta, v, stp, kn, dl, lev, lam, cm, cdiag, diag, D, 
                     _record_qs(e_, w, k, fo, S, hout, vout, mode, val, valf, acc_r, gi0 + step,
                                half, ntap, m, taps, tapsd, w0, w0d)
                     n_emit += fir_emit(acc_r, gi0 + step, half, ntap, m, out, col0 + n_emit, b0)
-                    for i in range(N):
-                        for b in range(BLOCK):
-                            se[i, b] = w[i, b]
-                            sv[i, b] = k[i, b]
-                            et[i, b] = fma(h2, w[i, b], e_[i, b])
-                            vt[i, b] = fma(h2, k[i, b], w[i, b])
-                elif stage < 3:
-                    a = h2 if stage == 1 else h
-                    for i in range(N):
-                        for b in range(BLOCK):
-                            se[i, b] = fma(two, vt[i, b], se[i, b])
-                            sv[i, b] = fma(two, k[i, b], sv[i, b])
-                            et[i, b] = fma(a, vt[i, b], e_[i, b])
-                            vt[i, b] = fma(a, k[i, b], w[i, b])
-                else:
-                    for i in range(N):
-                        for b in range(BLOCK):
-                            e_[i, b] = fma(h6, (se[i, b] + vt[i, b]), e_[i, b])
-                            w[i, b] = fma(h6, (sv[i, b] + k[i, b]), w[i, b])
-        for i in range(N):
-            for b in range(BLOCK):
-                eta[i, b0 + b] = e_[i, b]
-                v[i, b0 + b] = w[i, b]
+                rk4_stage(stage, e_, w, et, vt, se, sv, k, h, h2, h6, two)
+        store_block(b0, e_, w, eta, v)
         for j in range(H):
             for b in range(BLOCK):
                 stp[j, b0 + b] = st[j, b]
