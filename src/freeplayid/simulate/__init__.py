@@ -9,10 +9,11 @@ data set. See docs/simulate.md.
 from ..quantity import G
 from ..sweep import Sweep
 from .formulation import ModalForm, ModalTruncation, build_modal_form, rk4_step_limit
+from .plan import DEFAULT_OMEGA_DT, rk4_step_count
 from .quasistatic import QuasiStatic
 from .records import default_columns, sweep_dataset
 from .resample import StreamingDecimator, design_decimator
-from .run import DEFAULT_OMEGA_DT, SweepResult, rk4_step_count, simulate_sweeps
+from .run import SweepResult, simulate_sweeps
 
 __all__ = [
     "G",

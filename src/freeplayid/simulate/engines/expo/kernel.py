@@ -29,7 +29,7 @@ from ...cache import cache_unless_stale
 from ...formulation import BLOWUP, MODES, ModalForm
 from ..numba import arith, fir
 from ..numba.arith import FASTMATH, fma
-from ..numba.fir import emitted_outputs, fir_add1, fir_emit1, start_weights
+from ..numba.fir import emitted_outputs, fir_add1, fir_emit1, ring_load1, ring_store1, start_weights
 from ..numba.jit import compile_kernel, float_dtype
 from .steps import discretize, discretize_states, switch_levels
 
@@ -39,7 +39,7 @@ __all__ = ["NumbaExpo", "expo_chunk", "expo_states_chunk", "INLINED_SHA256", "MA
 # numba keys the cache of this file's kernels on this file alone, but they inline the numba
 # engines' arith.py and fir.py: the digest of those (tests/test_simulate_determinism.py checks
 # it), so that an edit there comes with an edit here (on a mismatch: no cache)
-INLINED_SHA256 = "096bb387dcc6469071858e28107efe5438dd71ae813004ad407cde886f177fc9"
+INLINED_SHA256 = "30521c5fa19c9eb4026374afeccc2d5a7db5fd82c842976bd5b91ddec60e3266"
 _CACHE = cache_unless_stale(__name__, INLINED_SHA256, arith, fir)
 MAX_ACTIVE_SET = 8  # active-set iterations before the exhaustive search
 # per-state propagation for batches with at most this many distinct kn (one matrix set per kn,
@@ -114,6 +114,24 @@ def _contact(G, a, st, kn, d, A, tv, tol):
     return False
 
 
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=_CACHE)
+def _record(O, Of, Og, zc, f0, u, val, acc_r, gi, half, ntap, m, taps, w0, out, col, i):
+    # the recorded value at t_k, O z + Of f + Og u (u = level sin phase), into the open outputs
+    # of member i; returns 1 if an output was completed (fir_emit1)
+    C = O.shape[0]
+    n2 = zc.shape[0]
+    H = f0.shape[0]
+    for c in range(C):
+        x = Og[c] * u
+        for k in range(n2):
+            x = fma(O[c, k], zc[k], x)
+        for j in range(H):
+            x = fma(Of[c, j], f0[j], x)
+        val[c] = x
+    fir_add1(acc_r, val, gi, half, ntap, m, taps, w0)
+    return fir_emit1(acc_r, gi, half, ntap, m, out, col, i)
+
+
 @numba.njit(parallel=True, fastmath=FASTMATH, error_model="numpy", cache=_CACHE)
 def expo_chunk(i0, i1, z, fz, kn, dl, lev, PhiT, p11, p12, p21, p22, diag, W, P0T, P1T, D, G,
                O, Of, Og, s_half, tol, out, col0, taps, m, half, w0, ring, gi0, bad):
@@ -147,25 +165,15 @@ def expo_chunk(i0, i1, z, fz, kn, dl, lev, PhiT, p11, p12, p21, p22, diag, W, P0
             zc[k] = z[i, k]
         for j in range(H):
             f0[j] = fz[i, j]
-        for r in range(R):
-            for c in range(C):
-                acc_r[r, c] = ring[i, r, c]
+        ring_load1(ring, acc_r, i)
         k_n = kn[i]
         d = dl[i]
         lv = lev[i]
         n_emit = 0
         for step in range(L):
             s0 = s_half[2 * step]
-            # record at t_k
-            for c in range(C):
-                x = Og[c] * (lv * s0)
-                for k in range(n2):
-                    x = fma(O[c, k], zc[k], x)
-                for j in range(H):
-                    x = fma(Of[c, j], f0[j], x)
-                val[c] = x
-            fir_add1(acc_r, val, gi0 + step, half, ntap, m, taps, w0)
-            n_emit += fir_emit1(acc_r, gi0 + step, half, ntap, m, out, col0 + n_emit, i)
+            n_emit += _record(O, Of, Og, zc, f0, lv * s0, val, acc_r, gi0 + step, half, ntap,
+                              m, taps, w0, out, col0 + n_emit, i)  # record at t_k
             # free response and the base load
             u0 = lv * s0
             um = lv * s_half[2 * step + 1]
@@ -217,9 +225,7 @@ def expo_chunk(i0, i1, z, fz, kn, dl, lev, PhiT, p11, p12, p21, p22, diag, W, P0
             z[i, k] = zc[k]
         for j in range(H):
             fz[i, j] = f0[j]
-        for r in range(R):
-            for c in range(C):
-                ring[i, r, c] = acc_r[r, c]
+        ring_store1(ring, acc_r, i)
 
 
 @numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=_CACHE)
@@ -294,9 +300,7 @@ def expo_states_chunk(i0, i1, z, kset, dl, lev, kns, levels, PhiT, Ws, cs, P1T, 
         acc_r = np.empty((R, C), dt)
         for k in range(n2):
             zc[k] = z[i, k]
-        for r in range(R):
-            for c in range(C):
-                acc_r[r, c] = ring[i, r, c]
+        ring_load1(ring, acc_r, i)
         ki = kset[i]
         k_n = kns[ki]
         d = dl[i]
@@ -307,16 +311,8 @@ def expo_states_chunk(i0, i1, z, kset, dl, lev, kns, levels, PhiT, Ws, cs, P1T, 
             code = _hinge_state(D, zc, d, th, st0)
             for j in range(H):
                 f0[j] = k_n * abs(st0[j]) * (th[j] - st0[j] * d)
-            # record at t_k
-            for c in range(C):
-                x = Og[c] * (lv * s0)
-                for k in range(n2):
-                    x = fma(O[c, k], zc[k], x)
-                for j in range(H):
-                    x = fma(Of[c, j], f0[j], x)
-                val[c] = x
-            fir_add1(acc_r, val, gi0 + step, half, ntap, m, taps, w0)
-            n_emit += fir_emit1(acc_r, gi0 + step, half, ntap, m, out, col0 + n_emit, i)
+            n_emit += _record(O, Of, Og, zc, f0, lv * s0, val, acc_r, gi0 + step, half, ntap,
+                              m, taps, w0, out, col0 + n_emit, i)  # record at t_k
             u0 = lv * s0
             um = lv * s_half[2 * step + 1]
             u1 = lv * s_half[2 * step + 2]
@@ -376,9 +372,27 @@ def expo_states_chunk(i0, i1, z, kset, dl, lev, kns, levels, PhiT, Ws, cs, P1T, 
                     code = _hinge_state(D, zc, d, th, st0)
         for k in range(n2):
             z[i, k] = zc[k]
-        for r in range(R):
-            for c in range(C):
-                ring[i, r, c] = acc_r[r, c]
+        ring_store1(ring, acc_r, i)
+
+
+def _record_map(form: ModalForm, quantity: str):
+    """(O, Of, Og), float64: the recorded value is ``O z + Of f + Og level s`` (eta, eta' or
+    eta'' = -lam eta - Cm eta' - D f + g level s, all through S)."""
+    N, H = form.D.shape
+    S = form.S
+    mode = MODES[quantity]
+    C = S.shape[0]
+    O, Of, Og = np.zeros((C, 2 * N)), np.zeros((C, H)), np.zeros(C)
+    if mode == 0:
+        O[:, :N] = S
+    elif mode == 1:
+        O[:, N:] = S
+    else:
+        O[:, :N] = -S * form.lam[None, :]
+        O[:, N:] = -S @ form.Cm
+        Of = -S @ form.D
+        Og = S @ form.g
+    return O, Of, Og
 
 
 class NumbaExpo:
@@ -406,25 +420,14 @@ class NumbaExpo:
         nd = float_dtype(dtype)
         a = lambda x: np.ascontiguousarray(np.asarray(x, dtype=nd))  # noqa: E731
         self.nd = nd
-        N, H = form.D.shape
+        N = form.D.shape[0]
         B = len(np.atleast_1d(kn))
         kn_u, kset = np.unique(np.asarray(kn, float).reshape(B), return_inverse=True)
         # the scheme depends on the batch's distinct kn only, each set on its kn only: a
         # member's result is the same in every batch that takes the same scheme
         self.per_state = len(kn_u) <= MAX_STATE_SETS
         if self.per_state:
-            self.levels = max(switch_levels(form, h, k) for k in kn_u)
-            sets = [discretize_states(form, h, float(k), levels=self.levels) for k in kn_u]
-            self.sets = sets
-            self.kset = np.ascontiguousarray(kset, dtype=np.int64)
-            self.kns = a(kn_u)
-            self.sPhiT = a(np.stack([q.Phi.transpose(0, 1, 3, 2) for q in sets]))
-            self.sW = a(np.stack([q.W for q in sets]))
-            self.sc = a(np.stack([q.c for q in sets]))
-            self.sP1T = a(np.stack([q.P1.transpose(0, 2, 1) for q in sets]))
-            self.sGm = a(np.stack([q.Gm for q in sets]))
-            self.sM = a(np.stack([q.M for q in sets]))
-            self.se = a(np.stack([q.e for q in sets]))
+            self._state_sets(form, h, kn_u, kset)
         st = discretize(form, h)
         self.step = st
         self.PhiT = a(st.Phi.T)
@@ -434,22 +437,8 @@ class NumbaExpo:
         self.p21, self.p22 = a(st.Phi[N + idx, idx]), a(st.Phi[N + idx, N + idx])
         self.W, self.P0T, self.P1T = a(st.W), a(st.P0.T), a(st.P1.T)
         self.D, self.G = a(form.D), a(st.Gamma)
-        # recorded value = O z + Of f + Og level s (eta, eta' or eta'' = -lam eta - Cm eta'
-        # - D f + g level s, all through S)
-        S = form.S
-        mode = MODES[quantity]
-        C = S.shape[0]
-        O, Of, Og = np.zeros((C, 2 * N)), np.zeros((C, H)), np.zeros(C)
-        if mode == 0:
-            O[:, :N] = S
-        elif mode == 1:
-            O[:, N:] = S
-        else:
-            O[:, :N] = -S * form.lam[None, :]
-            O[:, N:] = -S @ form.Cm
-            Of = -S @ form.D
-            Og = S @ form.g
-        self.O, self.Of, self.Og = a(O), a(Of), a(Og)
+        self.O, self.Of, self.Og = (a(x) for x in _record_map(form, quantity))
+        C = self.O.shape[0]
         self.batch = B = len(np.atleast_1d(kn))
         self.kn, self.dl, self.lev = a(kn), a(delta), a(level_g)
         self.z = a(np.hstack([np.asarray(eta0, float).reshape(B, N),
@@ -469,6 +458,22 @@ class NumbaExpo:
         self.outputs = 0
         self.width = C
         self._compiled = False
+
+    def _state_sets(self, form: ModalForm, h: float, kn_u: np.ndarray, kset: np.ndarray):
+        # the per-state step matrices (steps.discretize_states) of each distinct kn, stacked
+        a = lambda x: np.ascontiguousarray(np.asarray(x, dtype=self.nd))  # noqa: E731
+        self.levels = max(switch_levels(form, h, k) for k in kn_u)
+        sets = [discretize_states(form, h, float(k), levels=self.levels) for k in kn_u]
+        self.sets = sets
+        self.kset = np.ascontiguousarray(kset, dtype=np.int64)
+        self.kns = a(kn_u)
+        self.sPhiT = a(np.stack([q.Phi.transpose(0, 1, 3, 2) for q in sets]))
+        self.sW = a(np.stack([q.W for q in sets]))
+        self.sc = a(np.stack([q.c for q in sets]))
+        self.sP1T = a(np.stack([q.P1.transpose(0, 2, 1) for q in sets]))
+        self.sGm = a(np.stack([q.Gm for q in sets]))
+        self.sM = a(np.stack([q.M for q in sets]))
+        self.se = a(np.stack([q.e for q in sets]))
 
     def emitted(self, L: int) -> int:
         """Number of output samples the next chunk of ``L`` steps completes."""

@@ -23,8 +23,8 @@ import numpy as np
 from ...cache import CACHE
 from .arith import FASTMATH, fma
 
-__all__ = ["BLOCK", "ring_load", "ring_store", "fir_add", "fir_add2", "fir_emit", "fir_add1",
-           "fir_emit1", "start_weights", "emitted_outputs"]
+__all__ = ["BLOCK", "ring_load", "ring_store", "fir_add", "fir_add2", "fir_emit", "ring_load1",
+           "ring_store1", "fir_add1", "fir_emit1", "start_weights", "emitted_outputs"]
 
 # members per block of the RK4 kernels: 4 AVX-512 float32 vectors; block state ~ 8 x 12 x 64 words
 BLOCK = 64
@@ -142,6 +142,22 @@ def fir_emit(acc_r, gi, half, ntap, m, out, col, b0):
 
 
 # ------------------------------------------------------------------ one member
+
+
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=CACHE)
+def ring_load1(ring, acc_r, i):
+    # open outputs of member i: ring (batch, R, C) -> acc_r (R, C)
+    for r in range(acc_r.shape[0]):
+        for c in range(acc_r.shape[1]):
+            acc_r[r, c] = ring[i, r, c]
+
+
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=CACHE)
+def ring_store1(ring, acc_r, i):
+    # open outputs of member i back to the ring for the next chunk
+    for r in range(acc_r.shape[0]):
+        for c in range(acc_r.shape[1]):
+            ring[i, r, c] = acc_r[r, c]
 
 
 @numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=CACHE)

@@ -29,7 +29,7 @@ __all__ = ["NumbaRK4", "rk4_chunk", "load_block", "store_block", "modal_accel", 
 # numba keys the cache of this file's kernels on this file alone, but they inline arith.py and
 # fir.py: the digest of those (tests/test_simulate_determinism.py checks it), so that an edit
 # there comes with an edit here, which invalidates the cache (on a mismatch: no cache)
-INLINED_SHA256 = "096bb387dcc6469071858e28107efe5438dd71ae813004ad407cde886f177fc9"
+INLINED_SHA256 = "30521c5fa19c9eb4026374afeccc2d5a7db5fd82c842976bd5b91ddec60e3266"
 _CACHE = cache_unless_stale(__name__, INLINED_SHA256, arith, fir)
 
 

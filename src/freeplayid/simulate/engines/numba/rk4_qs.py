@@ -26,7 +26,7 @@ __all__ = ["NumbaQSRK4", "rk4_qs_chunk", "INLINED_SHA256"]
 # numba keys the cache of this file's kernels on this file alone, but they inline arith.py,
 # fir.py and rk4.py: the digest of those (tests/test_simulate_determinism.py checks it), so that
 # an edit there comes with an edit here, which invalidates the cache (on a mismatch: no cache)
-INLINED_SHA256 = "6aa06eb96509f4bdf9db8d7a970fb59c1dd14fd3cefd7c2fc1739ee0a7f48c5f"
+INLINED_SHA256 = "c86745b401e5c9a0c1eec196f7d930ad0bc1ca82350f154a5f6918d6931b1779"
 _CACHE = cache_unless_stale(__name__, INLINED_SHA256, arith, fir, rk4)
 
 
