@@ -1,6 +1,11 @@
 """The engine registry: names, the "auto" rule, validation from declared capabilities, and an
 engine registered from outside that ``simulate_sweeps`` runs without an edit."""
 
+import os
+import subprocess
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 import torch
@@ -137,3 +142,17 @@ def test_the_engine_sets_the_step(monkeypatch):
     r = _run("step", steps_per_sample=None, omega_dt=0.7, sweep=Sweep(40.0, 41.0, 0.5))
     assert asked == [(41.0, 1e18, 0.7)]
     assert r.steps_per_sample == 5 and r.dt == 1.0 / (256.0 * 5)
+
+
+def test_the_registry_imports_no_kernel():
+    # numba is optional and its kernels compile on first use: importing the simulator and its
+    # registry imports no kernel module (nor numba); building an engine imports its kernels
+    code = ("import sys; import freeplayid.simulate; from freeplayid.simulate.engines import "
+            "ENGINES, MODES, BLOWUP; print(sorted(m for m in sys.modules if m == 'numba' or "
+            "m.startswith('freeplayid.simulate.engines.') and m.split('.')[-1] in ('rk4', "
+            "'rk4_qs', 'kernel', 'arith', 'fir', 'jit')))")
+    src = str(Path(__file__).resolve().parents[1] / "src")
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([src, os.environ.get("PYTHONPATH", "")])}
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
+                         check=True).stdout
+    assert out.strip() == "[]"
