@@ -21,7 +21,7 @@ Which kernels the commands compile (``scripts/identify.py`` simulates nothing):
 - ``scripts/simulate.py quasi_static_hz=1000``: the quasi-static kernel and ``assemble._add``;
 - ``scripts/train.py debug=fast`` (bank: float32, acceleration, relative, full model): the
   full-model kernel, float32 (the relative frame has no base terms: no ``assemble._add``);
-- ``simulate_sweeps(engine="expo")`` (float64): the exponential kernel (``kernel_expo``).
+- ``simulate_sweeps(engine="expo")`` (float64): the exponential kernel (``engines/expo/kernel.py``).
 """
 
 from __future__ import annotations
@@ -63,8 +63,14 @@ CHILD = textwrap.dedent("""
         from freeplayid.simulate.quasistatic import condense_modal_form
         from freeplayid.simulate.resample import derivative_taps, design_decimator
         from freeplayid.simulate.engines import MODES
-        from freeplayid.simulate.kernel import NumbaRK4
-        from freeplayid.simulate.kernel_qs import NumbaQSRK4
+        try:
+            from freeplayid.simulate.engines.expo.kernel import NumbaExpo
+            from freeplayid.simulate.engines.numba.rk4 import NumbaRK4
+            from freeplayid.simulate.engines.numba.rk4_qs import NumbaQSRK4
+        except ImportError:  # a --baseline revision before the engines' folders
+            from freeplayid.simulate.kernel import NumbaRK4
+            from freeplayid.simulate.kernel_expo import NumbaExpo
+            from freeplayid.simulate.kernel_qs import NumbaQSRK4
         q = case["quantity"]
         form = build_modal_form(default_fin(), channels=("uz_top_left", "uz_lower_right"),
                                 quantity=q, frame="absolute", kn_max=480.0)
@@ -73,7 +79,6 @@ CHILD = textwrap.dedent("""
         kw = dict(h=h, quantity=q, dtype=getattr(np, case["dtype"]), taps=design_decimator(m),
                   factor=m)
         if case["what"] == "expo":
-            from freeplayid.simulate.kernel_expo import NumbaExpo
             eng = NumbaExpo(form, np.full(B, 480.0), np.full(B, 3e-3), np.ones(B), z, z, **kw)
         elif case["what"] == "qs":
             qf = condense_modal_form(form, threshold_hz=1000.0, quantity=q, kn_max=480.0)

@@ -46,7 +46,7 @@ def beam_fin():
 
 if __name__ == "__main__":
     from freeplayid.simulate import build_modal_form
-    from freeplayid.simulate.exponential import closed_hinge_hz
+    from freeplayid.simulate.engines.expo.steps import closed_hinge_hz
 
     s, ch, kn, d = beam_fin()
     f = build_modal_form(s, channels=ch, quantity="acceleration", frame="relative", kn_max=kn)

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 import torch
 
-import freeplayid.simulate.run as run_module
+import freeplayid.simulate.chunks as chunks
 from freeplayid.model import sdof_system
 from freeplayid.simulate import Sweep, simulate_sweeps
 
@@ -16,7 +16,7 @@ def test_chunk_boundaries_do_not_change_the_record(monkeypatch, engine):
               channels=["x"], sample_rate=256.0, dtype=torch.float64, engine=engine,
               frame="relative", steps_per_sample=32)  # a real FIR (factor 32)
     whole = simulate_sweeps(system, **kw).signals
-    monkeypatch.setattr(run_module, "_MAX_CHUNK_STEPS", 320)  # 10-sample chunks
+    monkeypatch.setattr(chunks, "MAX_CHUNK_STEPS", 320)  # 10-sample chunks
     chunked = simulate_sweeps(system, **kw).signals
     assert np.abs(whole).max() > 0
     np.testing.assert_allclose(chunked, whole, rtol=0, atol=1e-9 * np.abs(whole).max())
@@ -30,7 +30,7 @@ def test_quasi_static_kernel_chunk_boundaries_do_not_change_the_record(monkeypat
               frame="relative", quasi_static_hz=1500.0)
     fin = default_fin()
     whole = simulate_sweeps(fin, **kw).signals
-    monkeypatch.setattr(run_module, "_MAX_CHUNK_STEPS", 200)
+    monkeypatch.setattr(chunks, "MAX_CHUNK_STEPS", 200)
     chunked = simulate_sweeps(fin, **kw).signals
     assert np.abs(whole).max() > 0
     np.testing.assert_allclose(chunked, whole, rtol=0, atol=1e-9 * np.abs(whole).max())

@@ -29,7 +29,7 @@ QS_HZ = 1500.0  # [Hz] condensation threshold of the default fin (6 of 12 modes 
 
 
 # ----------------------------------------------------------------------------- exact fma
-# kernel._fma is llvm.fma: a * b + c rounded once. numpy has no fma, so it is emulated in float64
+# arith.fma is llvm.fma: a * b + c rounded once. numpy has no fma, so it is emulated in float64
 # by error-free transformations (Dekker's product, Knuth's sum) and the round-to-odd sum of
 # Boldo & Melquiond ("Emulation of FMA and correctly rounded sums: proved algorithms using
 # rounding to odd", IEEE Trans. Computers 57, 2008), exact when nothing over- or underflows;
@@ -70,9 +70,10 @@ def _fma(a, b, c):
 
 
 # ----------------------------------------------------------------------------- NumPy references
-# Transcriptions of kernel.py / kernel_qs.py over the whole (padded) batch: every kernel line is
-# elementwise over the members, so a member's arithmetic is the same in both; the only member
-# reduction (the count of members whose contact state changed) only decides whether to look.
+# Transcriptions of engines/numba/rk4.py and rk4_qs.py over the whole (padded) batch: every
+# kernel line is elementwise over the members, so a member's arithmetic is the same in both; the
+# only member reduction (the count of members whose contact state changed) only decides whether
+# to look.
 def _solve_state(F, c, st, b, kn, d):
     H = F.shape[0]
     A = np.empty((H, H))
@@ -164,7 +165,7 @@ def _hinge_states(F, c, st, kn, dl, tol, count):
 
 
 def _accel(eng, eta, v, s, qs, count):
-    """Modal acceleration and hinge moments (kernel._accel / kernel_qs._accel_qs)."""
+    """Modal acceleration and hinge moments (rk4._accel / rk4_qs._accel_qs)."""
     N, H = eng.D.shape
     kn, dl, lev = eng.kn, eng.dl, eng.lev
     fo = np.empty((H, eta.shape[1]))
@@ -219,7 +220,7 @@ def _reference_chunk(eng, s_half, qs, count):
                     dst[c] = _fma(eng.hout[c, j], fo[j], dst[c])
                 for i in range(len(e)):
                     dst[c] = _fma(eng.vout[c, i], w[i], dst[c])
-        # kernel._fir_add (kernel_qs._fir_add2 for the fast part's derivative)
+        # fir.fir_add (fir.fir_add2 for the fast part's derivative)
         two_src = qs and eng.mode != 0
         gi = eng.gi + step
         j = gi + half
@@ -232,7 +233,7 @@ def _reference_chunk(eng, s_half, qs, count):
         for kk, wk, wd in pairs:
             r = _fma(wk, val, eng.ring[kk % R])
             eng.ring[kk % R] = _fma(wd, valf, r) if two_src else r
-        # kernel._fir_emit
+        # fir.fir_emit
         jd = j - ntap + 1
         if jd >= 0 and jd % m == 0:
             rows.append(eng.ring[(jd // m) % R].copy())
@@ -271,8 +272,8 @@ def test_fma_emulation_is_correctly_rounded():
 
 def _engine(system, kn, qs, quantity, batch, seed):
     """A float64 numba engine of the default fin with a random batch in every contact state."""
-    from freeplayid.simulate.kernel import NumbaRK4
-    from freeplayid.simulate.kernel_qs import NumbaQSRK4
+    from freeplayid.simulate.engines.numba.rk4 import NumbaRK4
+    from freeplayid.simulate.engines.numba.rk4_qs import NumbaQSRK4
 
     rng = np.random.default_rng(seed)
     kn = kn * rng.uniform(0.5, 2.0, batch)  # [N m/rad]
@@ -308,8 +309,8 @@ def default_fin_model():
     return default_fin(), default_fin_parameters()
 
 
-# the default fin's two hinges take kernel_qs._solve_block2; one hinge (the mid one dropped) and
-# three (a third spring from q1 to the base) the general elimination kernel_qs._solve_block
+# the default fin's two hinges take rk4_qs._solve_block2; one hinge (the mid one dropped) and
+# three (a third spring from q1 to the base) the general elimination rk4_qs._solve_block
 HINGES = {2: None, 1: (("rx_left_out", "rx_left_in"),),
           3: (("rx_left_out", "rx_left_in"), ("rx_mid_out", "rx_mid_in"), ("q1", ""))}
 
@@ -357,7 +358,7 @@ def test_cached_kernel_equals_fresh_compile(tmp_path):
         import sys, numpy as np, torch
         from freeplayid.model import default_fin
         from freeplayid.simulate import Sweep, simulate_sweeps
-        from freeplayid.simulate.kernel_qs import rk4_qs_chunk
+        from freeplayid.simulate.engines.numba.rk4_qs import rk4_qs_chunk
         r = simulate_sweeps(default_fin(), kn=480.0, delta=3e-3,
                             level_g=np.linspace(0.6, 1.2, 128), sweep=Sweep(38.0, 46.0, 4.0),
                             channels=("uz_top_left", "uz_lower_right"), dtype=torch.float32,
@@ -381,13 +382,20 @@ def test_cached_kernel_equals_fresh_compile(tmp_path):
     np.testing.assert_array_equal(fresh, cached)
 
 
-def test_quasi_static_kernel_records_the_kernel_py_it_inlines():
-    # numba keys the cached quasi-static kernel on kernel_qs.py alone; it inlines helpers of
-    # kernel.py, so an edit of kernel.py must come with an edit of this digest (else the cache
-    # would serve the kernel compiled from the old kernel.py)
-    from freeplayid.simulate import kernel_qs
+@pytest.mark.parametrize("kernel,inlined", [("numba.rk4", ("arith", "fir")),
+                                            ("numba.rk4_qs", ("arith", "fir", "rk4")),
+                                            ("expo.kernel", ("arith", "fir"))])
+def test_each_kernel_file_records_the_sources_it_inlines(kernel, inlined):
+    # numba keys a cached kernel on its own file alone; the kernels inline functions of other
+    # files, so an edit of those must come with an edit of the digest recorded in every file
+    # that inlines them (else the cache would serve the kernel compiled from the old sources)
+    import importlib
 
-    digest = kernel_qs.kernel_source_digest()
-    assert digest == kernel_qs.KERNEL_SOURCE_SHA256, (
-        f"kernel.py changed: set KERNEL_SOURCE_SHA256 = {digest!r} in kernel_qs.py")
-    assert kernel_qs._CACHE
+    from freeplayid.simulate.cache import CACHE, source_digest
+
+    mod = importlib.import_module(f"freeplayid.simulate.engines.{kernel}")
+    deps = [importlib.import_module(f"freeplayid.simulate.engines.numba.{d}") for d in inlined]
+    digest = source_digest(*deps)
+    assert digest == mod.INLINED_SHA256, (
+        f"{', '.join(inlined)} changed: set INLINED_SHA256 = {digest!r} in {kernel}")
+    assert mod._CACHE == CACHE

@@ -1,6 +1,11 @@
 """The engine registry: names, the "auto" rule, validation from declared capabilities, and an
 engine registered from outside that ``simulate_sweeps`` runs without an edit."""
 
+import os
+import subprocess
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 import torch
@@ -8,6 +13,7 @@ import torch
 from freeplayid.model import sdof_system
 from freeplayid.simulate import StreamingDecimator, Sweep, simulate_sweeps
 from freeplayid.simulate.engines import ENGINES, TorchRK4, numba_available, resolve_engine
+from freeplayid.simulate.engines.protocol import rk4_max_step
 
 CPU, CUDA = torch.device("cpu"), torch.device("cuda")
 
@@ -27,6 +33,7 @@ class _Records:
     devices = ("cpu",)
     quasi_static = False
     decimates = False
+    max_step = staticmethod(rk4_max_step)
     chunks = 0
 
     def __init__(self, setup):
@@ -118,3 +125,34 @@ def test_a_registered_engine_runs_without_editing_simulate_sweeps(monkeypatch, f
         _run("fake", quasi_static_hz=1000.0)
     with pytest.raises(ValueError, match=r"`engine`='fake' runs on the CPU only, got device meta"):
         _run("fake", device="meta")
+
+
+def test_the_engine_sets_the_step(monkeypatch):
+    # simulate_sweeps asks the engine for its step (Engine.max_step) and runs at the largest
+    # whole fraction of the output interval not above it; omega_dt reaches the rule as given
+    asked = []
+
+    class _Step(_Records):
+        @staticmethod
+        def max_step(form, *, sweep, kn_max, omega_dt):
+            asked.append((sweep.stop_hz, kn_max, omega_dt))
+            return 1.0 / (256.0 * 4.5)
+
+    monkeypatch.setitem(ENGINES, "step", _Step)
+    r = _run("step", steps_per_sample=None, omega_dt=0.7, sweep=Sweep(40.0, 41.0, 0.5))
+    assert asked == [(41.0, 1e18, 0.7)]
+    assert r.steps_per_sample == 5 and r.dt == 1.0 / (256.0 * 5)
+
+
+def test_the_registry_imports_no_kernel():
+    # numba is optional and its kernels compile on first use: importing the simulator and its
+    # registry imports no kernel module (nor numba); building an engine imports its kernels
+    code = ("import sys; import freeplayid.simulate; from freeplayid.simulate.engines import "
+            "ENGINES, MODES, BLOWUP; print(sorted(m for m in sys.modules if m == 'numba' or "
+            "m.startswith('freeplayid.simulate.engines.') and m.split('.')[-1] in ('rk4', "
+            "'rk4_qs', 'kernel', 'arith', 'fir', 'jit')))")
+    src = str(Path(__file__).resolve().parents[1] / "src")
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([src, os.environ.get("PYTHONPATH", "")])}
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
+                         check=True).stdout
+    assert out.strip() == "[]"

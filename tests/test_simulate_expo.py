@@ -10,7 +10,7 @@ from freeplayid.model import FreeplaySystem, freeplay_force, rayleigh_damping, s
 from freeplayid.quantity import G
 from freeplayid.simulate import Sweep, build_modal_form, simulate_sweeps
 from freeplayid.simulate.engines import ENGINES, numba_available, resolve_engine
-from freeplayid.simulate.exponential import (
+from freeplayid.simulate.engines.expo.steps import (
     discretize,
     discretize_states,
     expo_step_limit,
@@ -131,7 +131,7 @@ def test_linear_matches_solve_ivp():
 def _run_engine(form, *, kn, delta, level, v0, sweep, fs, m):
     # the engine driven directly (simulate_sweeps starts at rest; the SDOF reference starts on
     # the in-gap steady state): one chunk, outputs at fs
-    from freeplayid.simulate.kernel_expo import NumbaExpo
+    from freeplayid.simulate.engines.expo.kernel import NumbaExpo
 
     h = 1.0 / (fs * m)
     taps = design_decimator(m)
@@ -194,7 +194,7 @@ def test_sdof_freeplay_matches_rk4_at_a_small_step():
 def test_contact_solve_matches_the_exhaustive_search():
     # theta + Gamma f(theta) = a, Gamma of either sign structure, against the quasi-static
     # module's exhaustive search (the same equation, another implementation)
-    from freeplayid.simulate.kernel_expo import _contact
+    from freeplayid.simulate.engines.expo.kernel import _contact
     from freeplayid.simulate.quasistatic import solve_hinge_states
 
     rng = np.random.default_rng(5)
@@ -299,7 +299,7 @@ def test_members_do_not_depend_on_the_batch(scheme, monkeypatch):
     # per_state: 3 distinct kn (a matrix set each); linear_hold: the fallback for batches with
     # more distinct kn than MAX_STATE_SETS (forced here for all)
     from freeplayid.model import default_fin
-    from freeplayid.simulate import kernel_expo
+    from freeplayid.simulate.engines.expo import kernel as kernel_expo
 
     if scheme == "linear_hold":
         monkeypatch.setattr(kernel_expo, "MAX_STATE_SETS", 0)
@@ -321,7 +321,7 @@ def test_members_do_not_depend_on_the_batch(scheme, monkeypatch):
 def test_mixed_kn_falls_back_to_the_linear_hold():
     # more distinct kn than MAX_STATE_SETS: the linear-hold scheme, which converges to the
     # per-state one (same model, another contact treatment)
-    from freeplayid.simulate import kernel_expo
+    from freeplayid.simulate.engines.expo import kernel as kernel_expo
 
     system = chain3()
     kn = np.linspace(5e3, 2e4, kernel_expo.MAX_STATE_SETS + 1)
@@ -340,11 +340,18 @@ def test_mixed_kn_falls_back_to_the_linear_hold():
 # ----------------------------------------------------------------------------- (6) registry
 def test_expo_is_registered_and_declares_its_step_rule(monkeypatch):
     cls = ENGINES["expo"]
-    assert cls.step_rule == "accuracy" and cls.decimates and not cls.quasi_static
+    assert cls.decimates and not cls.quasi_static
+    # its step is set by accuracy: expo_step_limit at the sweep's top frequency, whatever omega_dt
+    form = build_modal_form(chain3(stiff_tip=True), channels=("a",), quantity="acceleration",
+                            frame="absolute", kn_max=1e4)
+    h = expo_step_limit(form, top_hz=40.0, kn_max=1e4)
+    for sw, omega_dt in ((Sweep(30.0, 40.0, 50.0), 1.5), (Sweep(40.0, 30.0, 50.0), 0.1)):
+        assert cls.max_step(form, sweep=sw, kn_max=1e4, omega_dt=omega_dt) == h
+    assert ENGINES["numba"].max_step(form, sweep=sw, kn_max=1e4, omega_dt=1.5) < h / 100
     assert cls.available() == numba_available()
     # "auto" stays RK4 (the training bank's cache key and pinned results depend on it)
     assert resolve_engine("auto", device=CPU)[0] in ("numba", "torch")
-    import freeplayid.simulate.engines.expo as expo
+    import freeplayid.simulate.engines.expo.engine as expo
 
     monkeypatch.setattr(expo, "numba_available", lambda: False)
     assert not cls.available()
@@ -365,11 +372,3 @@ def test_simulate_sweeps_uses_the_accuracy_step():
     m = int(np.ceil(1 / (512.0 * expo_step_limit(form, top_hz=40.0, kn_max=1e4)) - 1e-9))
     assert res.engine == "expo" and res.steps_per_sample == m
 
-
-def test_kernel_source_digest():
-    pytest.importorskip("numba")
-    from freeplayid.simulate import kernel_expo, kernel_qs
-
-    digest = kernel_qs.kernel_source_digest()
-    assert digest == kernel_expo.KERNEL_SOURCE_SHA256, (
-        f"kernel.py changed: set KERNEL_SOURCE_SHA256 = {digest!r} in kernel_expo.py")

@@ -41,7 +41,7 @@ import numpy as np
 import scipy.linalg
 
 from ..model.system import FreeplaySystem
-from ..quantity import G, check_quantity
+from ..quantity import QUANTITY, G, check_quantity
 
 __all__ = [
     "ModalForm",
@@ -49,9 +49,15 @@ __all__ = [
     "build_modal_form",
     "rk4_step_limit",
     "RK4_STABILITY_LIMIT",
+    "MODES",
+    "BLOWUP",
 ]
 
 RK4_STABILITY_LIMIT = 2.785  # |mu dt| on the negative real axis; 2.828 on the imaginary axis
+# what every engine records of the state of (ETA) for each quantity: eta, eta' or eta'' (the
+# quantity's derivative order), and the size above which a member's state counts as diverged
+MODES = {name: q.order for name, q in QUANTITY.items()}
+BLOWUP = 1e12  # |modal state| above this (or non-finite) marks a member as diverged
 
 FRAMES = ("absolute", "relative")
 METHODS = ("relative", "large_mass")
@@ -221,56 +227,14 @@ def build_modal_form(
     M, K, C, B, F, r_full, ib = _physical_form(system, method, large_mass_ratio)
     n = M.shape[0]
     idx = system.dof_index(list(channels))
-    r = system.influence
-
-    # output rows in physical coordinates
-    S_phys = np.zeros((len(idx), n))
-    S_phys[np.arange(len(idx)), idx] = 1.0
-    base_coef = np.zeros(len(idx))
-    if method == "relative" and frame == "absolute":
-        base_coef = G * r[idx]
-    if method == "large_mass" and frame == "relative":
-        S_phys[:, ib] -= r[idx]
-
+    S_phys, base_coef = _output_rows(system.influence, idx, n, method=method, frame=frame,
+                                     base_index=ib)
     # basis: full space, or closed-hinge modes below the cut-off
     truncation = None
     static_coef = np.zeros(len(idx))
-    Kc = K + kn_max * B @ B.T
     if cutoff_hz is not None:
-        if not cutoff_hz > 0:
-            raise ValueError(f"`cutoff_hz` must be > 0 or None, got {cutoff_hz!r}")
-        lam_c, phi_c = scipy.linalg.eigh(Kc, M)
-        lam_c = np.clip(lam_c, 0.0, None)
-        lam_o, phi_o = scipy.linalg.eigh(K, M)
-        fc = (2 * np.pi * cutoff_hz) ** 2
-        keep_c, keep_o = lam_c <= fc, lam_o <= fc
-        if not np.any(keep_c):
-            raise ValueError(
-                f"`cutoff_hz`={cutoff_hz!r} keeps no mode; the lowest closed-hinge mode is at "
-                f"{math.sqrt(lam_c[0]) / (2 * np.pi):.4g} Hz"
-            )
-        # span of the open- and closed-hinge modes below the cut-off (the in-gap motion and the
-        # contact state), M-orthonormalised with rank detection
-        W = np.hstack([phi_o[:, keep_o], phi_c[:, keep_c]])
-        gw, U = np.linalg.eigh(W.T @ M @ W)
-        ok = gw > 1e-10 * gw.max()
-        V = W @ (U[:, ok] / np.sqrt(gw[ok]))
-        # residual flexibility: full elastic flexibility minus the subspace's (pinv: rigid modes)
-        elastic = lam_c > 1e-9 * lam_c[-1]
-        flex_full = (phi_c[:, elastic] / lam_c[elastic]) @ phi_c[:, elastic].T
-        flex_sub = V @ np.linalg.pinv(V.T @ Kc @ V, rcond=1e-10, hermitian=True) @ V.T
-        full_static = S_phys @ flex_full @ F
-        static_coef = S_phys @ (flex_full - flex_sub) @ F
-        denom = np.maximum(np.abs(full_static), 1e-300)
-        total = float(F @ np.linalg.solve(M, F))
-        captured = float(np.sum((V.T @ F) ** 2))
-        truncation = ModalTruncation(
-            cutoff_hz=float(cutoff_hz),
-            kept=int(V.shape[1]),
-            total=n,
-            static_error=float(np.max(np.abs(static_coef) / denom)),
-            missing_mass=max(0.0, 1.0 - captured / max(total, 1e-300)),
-        )
+        V, static_coef, truncation = _truncated_basis(M, K, B, F, S_phys, kn_max=kn_max,
+                                                      cutoff_hz=cutoff_hz)
     else:
         V = np.eye(n)
     # open-hinge modal basis inside the subspace: Phi^T M Phi = I, Phi^T K Phi = diag(lam)
@@ -304,6 +268,62 @@ def build_modal_form(
         omega_max=_omega_max(lam, Cm, D, kn_max),
         truncation=truncation,
     )
+
+
+def _output_rows(r, idx, n, *, method, frame, base_index):
+    """(S_phys, base_coef): the output rows in physical coordinates (C, n) and the channel gain
+    of the base motion per g (absolute frame of the relative form; the relative frame of the
+    large-mass form subtracts the base DOF ``base_index`` instead)."""
+    S_phys = np.zeros((len(idx), n))
+    S_phys[np.arange(len(idx)), idx] = 1.0
+    base_coef = np.zeros(len(idx))
+    if method == "relative" and frame == "absolute":
+        base_coef = G * r[idx]
+    if method == "large_mass" and frame == "relative":
+        S_phys[:, base_index] -= r[idx]
+    return S_phys, base_coef
+
+
+def _truncated_basis(M, K, B, F, S_phys, *, kn_max, cutoff_hz):
+    """(V, static_coef, ModalTruncation): the M-orthonormal span of the open- and closed-hinge
+    modes below ``cutoff_hz`` (the in-gap motion and the contact state), the residual-flexibility
+    gain of the outputs and what was dropped (module docstring)."""
+    Kc = K + kn_max * B @ B.T
+    if not cutoff_hz > 0:
+        raise ValueError(f"`cutoff_hz` must be > 0 or None, got {cutoff_hz!r}")
+    lam_c, phi_c = scipy.linalg.eigh(Kc, M)
+    lam_c = np.clip(lam_c, 0.0, None)
+    lam_o, phi_o = scipy.linalg.eigh(K, M)
+    fc = (2 * np.pi * cutoff_hz) ** 2
+    keep_c, keep_o = lam_c <= fc, lam_o <= fc
+    if not np.any(keep_c):
+        raise ValueError(
+            f"`cutoff_hz`={cutoff_hz!r} keeps no mode; the lowest closed-hinge mode is at "
+            f"{math.sqrt(lam_c[0]) / (2 * np.pi):.4g} Hz"
+        )
+    # span of the open- and closed-hinge modes below the cut-off (the in-gap motion and the
+    # contact state), M-orthonormalised with rank detection
+    W = np.hstack([phi_o[:, keep_o], phi_c[:, keep_c]])
+    gw, U = np.linalg.eigh(W.T @ M @ W)
+    ok = gw > 1e-10 * gw.max()
+    V = W @ (U[:, ok] / np.sqrt(gw[ok]))
+    # residual flexibility: full elastic flexibility minus the subspace's (pinv: rigid modes)
+    elastic = lam_c > 1e-9 * lam_c[-1]
+    flex_full = (phi_c[:, elastic] / lam_c[elastic]) @ phi_c[:, elastic].T
+    flex_sub = V @ np.linalg.pinv(V.T @ Kc @ V, rcond=1e-10, hermitian=True) @ V.T
+    full_static = S_phys @ flex_full @ F
+    static_coef = S_phys @ (flex_full - flex_sub) @ F
+    denom = np.maximum(np.abs(full_static), 1e-300)
+    total = float(F @ np.linalg.solve(M, F))
+    captured = float(np.sum((V.T @ F) ** 2))
+    truncation = ModalTruncation(
+        cutoff_hz=float(cutoff_hz),
+        kept=int(V.shape[1]),
+        total=M.shape[0],
+        static_error=float(np.max(np.abs(static_coef) / denom)),
+        missing_mass=max(0.0, 1.0 - captured / max(total, 1e-300)),
+    )
+    return V, static_coef, truncation
 
 
 def rk4_step_limit(omega_max: float, *, omega_dt: float) -> float:

@@ -1,32 +1,27 @@
-"""`simulate_sweeps`: batched sine-sweep responses of a freeplay system, and its result."""
+"""`simulate_sweeps`: batched sine-sweep responses of a freeplay system, and its result.
+
+The steps: check the request, resolve the engine, plan the step (``plan.py``), build the
+engine on the members at rest, integrate chunk by chunk (``chunks.py``), collect the result.
+"""
 
 from __future__ import annotations
 
 import math
-import sys
 from dataclasses import dataclass
 
 import numpy as np
 import torch
 
 from ..model.system import FreeplaySystem
-from ..quantity import G, derivative_order, si_unit
+from ..quantity import G, si_unit
 from ..sweep import Sweep
-from .engines import Engine, EngineSetup, resolve_engine
-from .exponential import expo_step_limit
-from .formulation import METHODS, ModalTruncation, build_modal_form, rk4_step_limit
-from .quasistatic import QuasiStatic, condense_modal_form
-from .resample import StreamingDecimator, derivative_taps, design_decimator
+from .chunks import integrate_chunks
+from .engines import EngineSetup, resolve_engine
+from .formulation import METHODS, ModalTruncation
+from .plan import DEFAULT_OMEGA_DT, StepPlan, step_plan
+from .quasistatic import QuasiStatic
 
-__all__ = ["simulate_sweeps", "rk4_step_count", "SweepResult", "DEFAULT_OMEGA_DT"]
-
-# omega_max * dt of the fastest closed-hinge mode. Measured on the 12-DOF test fin (3 kHz top
-# mode, docs/simulate.md): at 1.5 the linear response is within ~3e-7 of the matrix-exponential
-# solution and the first-harmonic peak of the freeplay response within ~2e-5 of a 6x finer step;
-# the RK4 stability limit is 2.785.
-DEFAULT_OMEGA_DT = 1.5
-_CHUNK_ELEMENTS = 1 << 24  # recorded values per chunk (memory bound of the chunked loop)
-_MAX_CHUNK_STEPS = 1 << 16  # steps per chunk at most (sin/base arrays of a chunk stay small)
+__all__ = ["simulate_sweeps", "SweepResult"]
 
 
 @dataclass(frozen=True)
@@ -104,79 +99,6 @@ def _as_batch(name: str, value, *, minimum: float | None) -> np.ndarray:
     return a
 
 
-def _base_signals(sweep: Sweep, t0_index: int, L: int, h: float, s_half: np.ndarray, state):
-    """Unit base motion (u_b, v_b, a_g = sin phase) and the derivatives of sin phase on t_i.
-
-    u_b, v_b are integrated by the RK4 rule of the structure (for u'' = a(t) it is Simpson's rule
-    on the half steps); ``state`` = [u_b, v_b] at the chunk start, updated in place.
-    """
-    a = s_half
-    dv = h / 6.0 * (a[0:-1:2] + 4.0 * a[1::2] + a[2::2])
-    v = state[1] + np.concatenate([[0.0], np.cumsum(dv)])
-    du = h * v[:-1] + h * h / 6.0 * (a[0:-1:2] + 2.0 * a[1::2])
-    u = state[0] + np.concatenate([[0.0], np.cumsum(du)])
-    state[0], state[1] = u[-1], v[-1]
-    t = (t0_index + np.arange(L)) * h
-    phase = sweep.phase(t)
-    w = 2 * np.pi * sweep.frequency(t)
-    c, s = np.cos(phase), np.sin(phase)
-    return {
-        "base": np.stack([u[:-1], v[:-1], a[0:-1:2]]),
-        "quasi_static": np.stack([s, w * c, 2 * np.pi * sweep.rate(t) * c - w * w * s]),
-    }
-
-
-class _DecimatedRecords:
-    """Signals of an engine that returns step-rate records: decimated here, chunk by chunk."""
-
-    def __init__(self, eng: Engine, shape: tuple[int, int, int], *, taps, factor: int, dtype,
-                 device):
-        self.eng, self.shape = eng, shape
-        self.dec = StreamingDecimator(taps, factor, dtype=dtype, device=device)
-        self.outs = []
-
-    def run(self, s_half: np.ndarray) -> None:
-        rec = self.eng.run(s_half)  # (batch, C, L)
-        batch, C, _ = self.shape
-        self.outs.append(self.dec.push(rec.reshape(batch * C, rec.shape[-1])))
-
-    def signals(self, base: np.ndarray, *, base_coef, static_coef, level_g) -> np.ndarray:
-        """(batch, C, n_out) member signals plus ``level_g * (base_coef * base[0] + static_coef
-        * base[1])``."""
-        n_out = self.shape[-1]
-        y = torch.cat(self.outs, dim=1)[:, :n_out].reshape(self.shape)
-        y = y.cpu().numpy()
-        extra = base_coef[None, :, None] * base[0] + static_coef[None, :, None] * base[1]
-        if np.any(extra):
-            y = y + (level_g[:, None, None] * extra).astype(y.dtype)
-        return y
-
-
-class _InPlaceOutputs:
-    """Signals of an engine that decimates on the fly into the (batch, C, n_out) array."""
-
-    def __init__(self, eng: Engine, shape: tuple[int, int, int], *, dtype):
-        self.eng = eng
-        nd = np.float32 if dtype == torch.float32 else np.float64
-        self.y = np.empty(shape, dtype=nd)
-        self.written = 0  # output samples completed so far (those past n_out are dropped)
-
-    def run(self, s_half: np.ndarray) -> None:
-        self.written += self.eng.run(s_half, out=self.y)
-
-    def signals(self, base: np.ndarray, *, base_coef, static_coef, level_g) -> np.ndarray:
-        """The signals plus the base terms, added in place in one compiled pass."""
-        n_out = self.y.shape[-1]
-        if self.written < n_out:  # columns left unwritten would be garbage (np.empty)
-            raise AssertionError(f"{type(self.eng).__name__}: {self.written} outputs of "
-                                 f"{n_out} written")
-        from .assemble import add_base_terms
-
-        add_base_terms(self.y, base_coef=base_coef, static_coef=static_coef, base=base,
-                       level_g=level_g)
-        return self.y
-
-
 def simulate_sweeps(
     system: FreeplaySystem,
     *,
@@ -235,7 +157,7 @@ def simulate_sweeps(
         engine"): exact linear part and contact, step by accuracy, fast for small batches.
     omega_dt : float [-]
         RK4 engines: bound on omega_max * dt for the fastest closed-hinge mode (<= 2.5). Not
-        used by an engine whose step is set by accuracy (``Engine.step_rule``).
+        used by an engine whose step is set by accuracy (its ``Engine.max_step``).
     steps_per_sample : int, optional
         Override the automatic m (no stability check: a member may then diverge).
     cutoff_hz : float [Hz], optional
@@ -258,12 +180,7 @@ def simulate_sweeps(
     -------
     SweepResult
     """
-    if not isinstance(system, FreeplaySystem):
-        raise TypeError(f"`system` must be a FreeplaySystem, got {type(system).__name__}")
-    if not isinstance(sweep, Sweep):
-        raise TypeError(f"`sweep` must be a Sweep, got {type(sweep).__name__}")
-    if dtype not in (torch.float32, torch.float64):
-        raise ValueError(f"`dtype` must be torch.float32 or torch.float64, got {dtype!r}")
+    _check_types(system, sweep, dtype)
     if device is None:
         use_cuda = torch.cuda.is_available() and quasi_static_hz is None
         device = "cuda" if use_cuda else "cpu"
@@ -271,6 +188,45 @@ def simulate_sweeps(
     # the engine's name (unknown: the valid ones listed), and whether it does device and options
     engine, engine_cls = resolve_engine(engine, device=device,
                                         quasi_static=quasi_static_hz is not None)
+    channels = _check_request(system, method=method, sample_rate=sample_rate, channels=channels)
+    kn_a, dl_a, lv_a = _members(kn, delta, level_g)
+    # the step rule is the engine's (Engine.max_step), not implied by its name
+    plan = step_plan(system, kn_max=float(kn_a.max()), sweep=sweep, sample_rate=sample_rate,
+                     channels=channels, quantity=quantity, frame=frame, method=method,
+                     cutoff_hz=cutoff_hz, quasi_static_hz=quasi_static_hz, omega_dt=omega_dt,
+                     steps_per_sample=steps_per_sample, large_mass_ratio=large_mass_ratio,
+                     max_step=engine_cls.max_step)
+    base_state = np.array([0.0, -1.0 / (2 * np.pi * sweep.start_hz)])  # unit (u_b, v_b)(0)
+    eng = engine_cls(_engine_setup(plan, kn_a, dl_a, lv_a, base_state, quantity=quantity,
+                                   dtype=dtype, device=device, cuda_graphs=cuda_graphs))
+    shape = (len(kn_a), len(channels), plan.n_out)
+    y = integrate_chunks(eng, plan, sweep=sweep, quantity=quantity, level_g=lv_a, shape=shape,
+                         base_state=base_state, dtype=dtype, device=device, progress=progress,
+                         desc=f"sweeps x{len(kn_a)} ({engine})")
+    diverged = np.asarray(eng.diverged, dtype=bool)
+    y[diverged] = np.nan
+    return SweepResult(
+        time=np.arange(plan.n_out) / sample_rate, signals=y, channels=channels,
+        quantity=quantity, frame=frame, diverged=diverged, dt=plan.h,
+        sample_rate=float(sample_rate), kn=kn_a, delta=dl_a, level_g=lv_a, sweep=sweep,
+        method=method, engine=engine, omega_max=plan.form.omega_max,
+        truncation=plan.form.truncation,
+        quasi_static=None if plan.qs is None else plan.qs.info,
+    )
+
+
+def _check_types(system, sweep, dtype) -> None:
+    if not isinstance(system, FreeplaySystem):
+        raise TypeError(f"`system` must be a FreeplaySystem, got {type(system).__name__}")
+    if not isinstance(sweep, Sweep):
+        raise TypeError(f"`sweep` must be a Sweep, got {type(sweep).__name__}")
+    if dtype not in (torch.float32, torch.float64):
+        raise ValueError(f"`dtype` must be torch.float32 or torch.float64, got {dtype!r}")
+
+
+def _check_request(system, *, method, sample_rate, channels) -> tuple[str, ...]:
+    """``channels`` as a tuple of the system's DOF names, once ``method`` and ``sample_rate``
+    are checked."""
     if method not in METHODS:
         raise ValueError(f"`method` must be one of {METHODS}, got {method!r}")
     if not (math.isfinite(sample_rate) and sample_rate > 0):
@@ -283,6 +239,11 @@ def simulate_sweeps(
     for c in channels:
         if c not in system.dof_names:
             raise ValueError(f"`channels`: unknown DOF {c!r}; known: {list(system.dof_names)}")
+    return channels
+
+
+def _members(kn, delta, level_g) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(kn, delta, level_g) checked and broadcast to one batch: three C-contiguous (batch,)."""
     kn_a = _as_batch("kn", kn, minimum=0.0)
     dl_a = _as_batch("delta", delta, minimum=0.0)
     lv_a = _as_batch("level_g", level_g, minimum=None)
@@ -293,182 +254,19 @@ def simulate_sweeps(
             f"`kn`, `delta`, `level_g` must broadcast to one batch, got shapes "
             f"{kn_a.shape}, {dl_a.shape}, {lv_a.shape}"
         ) from None
-    kn_a, dl_a, lv_a = (x.reshape(-1) for x in (kn_a, dl_a, lv_a))
-    batch = kn_a.shape[0]
+    return tuple(x.reshape(-1) for x in (kn_a, dl_a, lv_a))
 
-    # the step rule is declared by the engine (Engine.step_rule), not implied by its name
-    plan = _step_plan(system, kn_max=float(kn_a.max()), sweep=sweep, sample_rate=sample_rate,
-                      channels=channels, quantity=quantity, frame=frame, method=method,
-                      cutoff_hz=cutoff_hz, quasi_static_hz=quasi_static_hz, omega_dt=omega_dt,
-                      steps_per_sample=steps_per_sample, large_mass_ratio=large_mass_ratio,
-                      step_rule=getattr(engine_cls, "step_rule", "stability"))
-    form, qs, m, h, taps, taps_d = plan.form, plan.qs, plan.m, plan.h, plan.taps, plan.taps_d
-    n_out, n_steps = plan.n_out, plan.n_steps
 
-    # initial state: at rest relative to the base; the large-mass form starts on the base motion
-    base_state = np.array([0.0, -1.0 / (2 * np.pi * sweep.start_hz)])  # unit (u_b, v_b)(0)
-    G_lv = lv_a * G
+def _engine_setup(plan: StepPlan, kn, delta, level_g, base_state, *, quantity, dtype, device,
+                  cuda_graphs) -> EngineSetup:
+    """The engine's setup: the plan's equations, step and filters, and the members at rest
+    relative to the base (the large-mass form starts on the base motion ``base_state``)."""
+    form = plan.form
+    G_lv = level_g * G
     eta0 = np.outer(G_lv * base_state[0], form.x0_per_ub)
     v0 = np.outer(G_lv * base_state[1], form.v0_per_vb)
-    eng = engine_cls(EngineSetup(
-        form=form, quasi_static=qs, kn=kn_a, delta=dl_a, level_g=lv_a, eta0=eta0, v0=v0, h=h,
-        quantity=quantity, dtype=dtype, device=device, taps=taps, taps_d=taps_d, factor=m,
-        cuda_graphs=cuda_graphs,
-    ))
-    # where the decimation happens is declared by the engine (Engine.decimates), not its name
-    shape = (batch, len(channels), n_out)
-    if eng.decimates:
-        outputs = _InPlaceOutputs(eng, shape, dtype=dtype)
-    else:
-        outputs = _DecimatedRecords(eng, shape, taps=taps, factor=m, dtype=dtype, device=device)
-    dec_base = StreamingDecimator(taps, m, dtype=torch.float64, device=torch.device("cpu"))
-    # steps per chunk: bounded by the recorded values and by the per-chunk sweep arrays
-    chunk = max(m, min(_CHUNK_ELEMENTS // max(1, batch * eng.record_width),
-                       _MAX_CHUNK_STEPS) // m * m)
-
-    if progress is None:
-        progress = n_steps * batch > 5e8 and sys.stderr.isatty()
-    bar = None
-    if progress:
-        from tqdm.auto import tqdm
-
-        bar = tqdm(total=round(sweep.duration, 3), unit="s", desc=f"sweeps x{batch} ({engine})")
-    base_outs = []
-    i0 = 0
-    while i0 < n_steps:
-        L = min(chunk, n_steps - i0)
-        s_half = np.sin(sweep.phase((i0 + 0.5 * np.arange(2 * L + 1)) * h))
-        outputs.run(s_half)
-        sig = _base_signals(sweep, i0, L, h, s_half, base_state)
-        q = derivative_order(quantity)
-        rows = np.stack([sig["base"][q], sig["quasi_static"][q]])
-        base_outs.append(dec_base.push(torch.from_numpy(rows)))
-        i0 += L
-        if bar is not None:
-            bar.update(round(min(i0 * h, sweep.duration) - bar.n, 3))
-    if bar is not None:
-        bar.close()
-    base = torch.cat(base_outs, dim=1)[:, :n_out].numpy()
-    y = outputs.signals(base, base_coef=form.base_coef, static_coef=form.static_coef,
-                        level_g=lv_a)
-    diverged = np.asarray(eng.diverged, dtype=bool)
-    y[diverged] = np.nan
-    return SweepResult(
-        time=np.arange(n_out) / sample_rate,
-        signals=y,
-        channels=channels,
-        quantity=quantity,
-        frame=frame,
-        diverged=diverged,
-        dt=h,
-        sample_rate=float(sample_rate),
-        kn=kn_a,
-        delta=dl_a,
-        level_g=lv_a,
-        sweep=sweep,
-        method=method,
-        engine=engine,
-        omega_max=form.omega_max,
-        truncation=form.truncation,
-        quasi_static=None if qs is None else qs.info,
+    return EngineSetup(
+        form=form, quasi_static=plan.qs, kn=kn, delta=delta, level_g=level_g, eta0=eta0, v0=v0,
+        h=plan.h, quantity=quantity, dtype=dtype, device=device, taps=plan.taps,
+        taps_d=plan.taps_d, factor=plan.m, cuda_graphs=cuda_graphs,
     )
-
-
-@dataclass(frozen=True)
-class _StepPlan:
-    form: object
-    qs: object
-    m: int
-    h: float
-    taps: np.ndarray | None
-    taps_d: np.ndarray | None
-    n_out: int
-    look: int
-    n_steps: int
-
-
-def _step_plan(system, *, kn_max, sweep, sample_rate, channels, quantity, frame, method,
-               cutoff_hz, quasi_static_hz, omega_dt, steps_per_sample, large_mass_ratio,
-               filters: bool = True, step_rule: str = "stability") -> _StepPlan:
-    """The modal form, the step and the step count of a simulation (before running it);
-    without ``filters`` no decimator is designed (its length grows with m) and the count leaves
-    out the filter look-ahead (a few samples). ``step_rule`` is the engine's
-    (``Engine.step_rule``): "stability" (RK4, ``omega_dt``) or "accuracy"
-    (``exponential.expo_step_limit``)."""
-    qs = None
-    if quasi_static_hz is not None:
-        if cutoff_hz is not None:
-            raise ValueError("`quasi_static_hz` and `cutoff_hz` cannot be combined")
-        if method != "relative":
-            raise ValueError(f"`quasi_static_hz` needs method='relative', got {method!r}")
-    form = build_modal_form(
-        system, channels=channels, quantity=quantity, frame=frame, method=method,
-        kn_max=kn_max, cutoff_hz=cutoff_hz, large_mass_ratio=large_mass_ratio,
-    )
-    if quasi_static_hz is not None:
-        qs = condense_modal_form(form, threshold_hz=quasi_static_hz, quantity=quantity,
-                                 kn_max=kn_max)
-        form = qs.slow
-    if step_rule not in ("stability", "accuracy"):
-        raise ValueError(f"`step_rule` must be 'stability' or 'accuracy', got {step_rule!r}")
-    if steps_per_sample is None:
-        if step_rule == "accuracy":
-            h_max = expo_step_limit(form, top_hz=max(sweep.start_hz, sweep.stop_hz),
-                                    kn_max=kn_max)
-        else:
-            h_max = rk4_step_limit(form.omega_max, omega_dt=omega_dt)
-        m = max(1, math.ceil(1.0 / (sample_rate * h_max) - 1e-9))
-    else:
-        if not (isinstance(steps_per_sample, (int, np.integer)) and steps_per_sample >= 1):
-            raise ValueError(f"`steps_per_sample` must be an int >= 1, got {steps_per_sample!r}")
-        m = int(steps_per_sample)
-    h = 1.0 / (sample_rate * m)
-
-    n_out = int(math.floor(sweep.duration * sample_rate + 1e-9)) + 1
-    if not filters:
-        return _StepPlan(form=form, qs=qs, m=m, h=h, taps=None, taps_d=None, n_out=n_out,
-                         look=0, n_steps=(n_out - 1) * m + 1)
-    taps = design_decimator(m)
-    taps_d = None
-    if qs is not None and quantity != "displacement":
-        # the fast part's derivative is decimated by the same fused FIR (resample.derivative_taps)
-        taps, taps_d = derivative_taps(taps, m, h, 1 if quantity == "velocity" else 2)
-    look = (len(taps) - 1) // 2 // m + 1  # filter look-ahead (+1: the polyphase block padding)
-    n_steps = (n_out - 1 + look) * m + 1  # recorded step-rate samples t_0 .. t_{n_steps-1}
-    return _StepPlan(form=form, qs=qs, m=m, h=h, taps=taps, taps_d=taps_d, n_out=n_out,
-                     look=look, n_steps=n_steps)
-
-
-def rk4_step_count(
-    system: FreeplaySystem, *, kn: float, sweep: Sweep, sample_rate: float, channels,
-    quantity: str = "acceleration", frame: str = "absolute", method: str = "relative",
-    omega_dt: float = DEFAULT_OMEGA_DT, cutoff_hz: float | None = None,
-    quasi_static_hz: float | None = None, large_mass_ratio: float = 1e6,
-) -> tuple[int, float]:
-    """RK4 steps per batch member :func:`simulate_sweeps` would take, without simulating.
-
-    The step follows the fastest closed-hinge mode (``omega_max * dt <= omega_dt``), so it
-    shrinks as sqrt(kn) grows: the cost of a huge contact stiffness is known up front.
-
-    Parameters
-    ----------
-    kn : float [N m/rad]
-        The largest contact stiffness of the batch.
-    sweep, sample_rate, channels, quantity, frame, method, omega_dt, cutoff_hz,
-    quasi_static_hz, large_mass_ratio
-        As :func:`simulate_sweeps`.
-
-    Returns
-    -------
-    n_steps : int
-        Steps per member over the whole sweep (less the filter's look-ahead, a few samples).
-    dt : float [s]
-        The step.
-    """
-    if isinstance(channels, str):
-        channels = (channels,)
-    plan = _step_plan(system, kn_max=float(kn), sweep=sweep, sample_rate=float(sample_rate),
-                      channels=tuple(channels), quantity=quantity, frame=frame, method=method,
-                      cutoff_hz=cutoff_hz, quasi_static_hz=quasi_static_hz, omega_dt=omega_dt,
-                      steps_per_sample=None, large_mass_ratio=large_mass_ratio, filters=False)
-    return plan.n_steps, plan.h

@@ -4,12 +4,12 @@ Every engine integrates the same arithmetic, chunk by chunk, with the members of
 independent (one member's divergence never touches another):
 
 - ``"torch"`` (:class:`TorchEngine`, ``torch.py``): batched tensors, any device (CPU or CUDA).
-- ``"numba"`` (:class:`NumbaEngine`, ``numba.py``): the compiled CPU kernels (``kernel.py``,
-  ``kernel_qs.py``), a fused RK4 step with the members in the innermost (SIMD) loop, blocks of
-  members spread over threads, decimating on the fly.
-- ``"expo"`` (:class:`ExpoEngine`, ``expo.py``): not RK4 but the exponential integrator of
-  ``exponential.py`` (exact linear part, exact implicit contact per member, step by accuracy),
-  compiled (``kernel_expo.py``), one member per thread task, decimating on the fly.
+- ``"numba"`` (:class:`NumbaEngine`, ``numba/``): the compiled CPU kernels (``numba/rk4.py``,
+  ``numba/rk4_qs.py``), a fused RK4 step with the members in the innermost (SIMD) loop, blocks
+  of members spread over threads, decimating on the fly.
+- ``"expo"`` (:class:`ExpoEngine`, ``expo/``): not RK4 but the exponential integrator of
+  ``expo/steps.py`` (exact linear part, exact implicit contact per member, step by accuracy),
+  compiled (``expo/kernel.py``), one member per thread task, decimating on the fly.
 
 One RK4 step of x = (eta, v), a(eta, v, s) the right-hand side of (ETA) and s = sin(phase)::
 
@@ -23,7 +23,7 @@ The freeplay force is branch-free: ``kn * (theta - clamp(theta, -delta, delta))`
 
 An engine is a class of the :class:`Engine` protocol (``protocol.py``) that declares its
 devices, whether it does ``quasi_static_hz`` and whether it decimates in place; adding one is
-one file and one line in :data:`ENGINES`. ``engine="auto"`` picks the first of :data:`AUTO`
+one module and one line in :data:`ENGINES`. ``engine="auto"`` picks the first of :data:`AUTO`
 that is available and runs on the device (and does ``quasi_static_hz`` when asked).
 """
 
@@ -31,9 +31,10 @@ from __future__ import annotations
 
 import torch
 
+from ..formulation import BLOWUP, MODES
 from .expo import ExpoEngine
 from .numba import NumbaEngine, numba_available
-from .protocol import BLOWUP, MODES, Engine, EngineSetup
+from .protocol import Engine, EngineSetup
 from .torch import TorchEngine, TorchRK4
 
 __all__ = [

@@ -1,5 +1,6 @@
 """What an engine is: the :class:`Engine` protocol, the :class:`EngineSetup` it is built from,
-and the constants that every engine shares."""
+and the RK4 engines' step rule :func:`rk4_max_step` (the constants every engine shares,
+``MODES`` and ``BLOWUP``, are the formulation's)."""
 
 from __future__ import annotations
 
@@ -9,15 +10,11 @@ from typing import ClassVar, Protocol
 import numpy as np
 import torch
 
-from ...quantity import QUANTITY
-from ..formulation import ModalForm
+from ...sweep import Sweep
+from ..formulation import ModalForm, rk4_step_limit
 from ..quasistatic import QuasiStaticForm
 
-__all__ = ["Engine", "EngineSetup", "MODES", "BLOWUP"]
-
-# the recorded state of each quantity: eta, v or the acceleration (its derivative order)
-MODES = {name: q.order for name, q in QUANTITY.items()}
-BLOWUP = 1e12  # |modal state| above this (or non-finite) marks a member as diverged
+__all__ = ["Engine", "EngineSetup", "rk4_max_step"]
 
 
 @dataclass(frozen=True)
@@ -85,15 +82,6 @@ class Engine(Protocol):
         completes into the signal array ``out`` in place (the caller then adds the base terms in
         one compiled pass). False: ``run`` returns the chunk's step-rate records, which the
         caller decimates.
-    step_rule : {"stability", "accuracy"}, optional
-        How ``simulate_sweeps`` sets the step (``run._step_plan``). "stability" (the default when
-        a class does not declare it; the RK4 engines): ``omega_max * dt <= omega_dt`` of the
-        fastest closed-hinge mode (``formulation.rk4_step_limit``). "accuracy": an engine with
-        no stability bound (the exponential one) runs at the step of
-        ``exponential.expo_step_limit`` (steps per period of the sweep's top frequency and of the
-        closed-hinge modes that a contact excites); ``omega_dt`` is then not used. Either way
-        the step is a whole fraction of the output sample interval, and ``steps_per_sample``
-        overrides it.
     record_width : int
         Values held per member and step of a chunk (bounds the steps per chunk in memory).
     """
@@ -101,10 +89,30 @@ class Engine(Protocol):
     devices: ClassVar[tuple[str, ...] | None]
     quasi_static: ClassVar[bool]
     decimates: ClassVar[bool]
-    step_rule: ClassVar[str]
     record_width: int
 
     def __init__(self, setup: EngineSetup) -> None: ...
+
+    @staticmethod
+    def max_step(form: ModalForm, *, sweep: Sweep, kn_max: float, omega_dt: float) -> float:
+        """The largest step [s] this engine takes for ``form`` (its step rule).
+
+        ``simulate_sweeps`` runs at the largest whole fraction of the output sample interval
+        that is not longer (``steps_per_sample`` overrides it). The RK4 engines' rule is set by
+        stability (:func:`rk4_max_step`); an engine with no stability bound (the exponential one)
+        sets it by accuracy and need not use ``omega_dt``.
+
+        Parameters
+        ----------
+        form : ModalForm
+            The equations it integrates (the slow part of a quasi-static condensation).
+        sweep : Sweep
+        kn_max : float [N m/rad]
+            The batch's largest contact stiffness.
+        omega_dt : float [-]
+            The caller's bound on ``omega_max * dt`` for a stability rule.
+        """
+        ...
 
     @classmethod
     def available(cls) -> bool:
@@ -136,3 +144,10 @@ class Engine(Protocol):
     def diverged(self) -> np.ndarray:
         """(batch,) bool: members flagged as diverged so far (frozen at rest since)."""
         ...
+
+
+def rk4_max_step(form: ModalForm, *, sweep: Sweep, kn_max: float, omega_dt: float) -> float:
+    """The RK4 engines' :meth:`Engine.max_step`, set by stability: ``omega_max * dt <= omega_dt``
+    of the fastest closed-hinge mode (:func:`..formulation.rk4_step_limit`; ``form.omega_max``
+    is that of ``kn_max``, and the sweep does not matter)."""
+    return rk4_step_limit(form.omega_max, omega_dt=omega_dt)

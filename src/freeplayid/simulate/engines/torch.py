@@ -11,8 +11,8 @@ import warnings
 import numpy as np
 import torch
 
-from ..formulation import ModalForm
-from .protocol import BLOWUP, MODES, EngineSetup
+from ..formulation import BLOWUP, MODES, ModalForm
+from .protocol import EngineSetup, rk4_max_step
 
 __all__ = ["TorchEngine", "TorchRK4"]
 
@@ -23,6 +23,7 @@ class TorchEngine:
     devices = None
     quasi_static = False
     decimates = False
+    max_step = staticmethod(rk4_max_step)
 
     def __init__(self, setup: EngineSetup):
         s = setup

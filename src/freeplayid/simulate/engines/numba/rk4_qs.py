@@ -1,7 +1,7 @@
-"""Compiled CPU kernel of the quasi-statically condensed model (``quasistatic.py``).
+"""Compiled CPU kernel of the quasi-statically condensed model (``...quasistatic``).
 
 The RK4 step, the layout (members innermost, blocks of ``BLOCK`` per thread) and the fused
-anti-aliasing FIR are those of ``kernel.py``; the hinge moments are the solution of the algebraic
+anti-aliasing FIR are those of ``rk4.py``; the hinge moments are the solution of the algebraic
 hinge equation (QS) ``theta + F f(theta) = c``, ``c = D^T eta + e a - Gam eta'``, instead of
 ``f(D^T eta)``. (QS) is solved per member (scalar code, a branchy active set) by semismooth
 Newton over the contact states, started from the member's previous state (kept between stages,
@@ -11,50 +11,26 @@ a linear h x h solve.
 
 from __future__ import annotations
 
-import hashlib
-import warnings
-from pathlib import Path
-
 import numba
 import numpy as np
 
-from . import kernel
-from .cache import CACHE
-from .kernel import BLOCK, FASTMATH, NumbaRK4, _fir_add, _fir_emit, _fma, _ring_load, _ring_store
-from .quasistatic import QuasiStaticForm
+from ...cache import cache_unless_stale
+from ...quasistatic import QuasiStaticForm
+from . import arith, fir, rk4
+from .arith import FASTMATH, fma
+from .fir import BLOCK, fir_add, fir_add2, fir_emit, ring_load, ring_store
+from .rk4 import NumbaRK4, load_block, modal_accel, project, rk4_stage, store_block
 
-__all__ = ["NumbaQSRK4", "KERNEL_SOURCE_SHA256", "kernel_source_digest"]
+__all__ = ["NumbaQSRK4", "rk4_qs_chunk", "INLINED_SHA256"]
 
-# numba's on-disk cache of rk4_qs_chunk is keyed on this file alone, but the kernel inlines BLOCK,
-# FASTMATH and the FIR ring helpers of kernel.py: after a change there numba would go on loading
-# the kernel compiled from the old kernel.py, silently. This is the digest of the kernel.py that
-# this file goes with (tests/test_simulate_determinism.py checks it), so that a change of kernel.py
-# comes with a change of this file, which invalidates the cache; on a mismatch the kernel is
-# compiled without the cache.
-KERNEL_SOURCE_SHA256 = "7eeed77b974bd3156085b926569590ecfb0b3d84d8fc9953949a1b101b7670e5"
-
-
-def kernel_source_digest() -> str:
-    """sha256 (hex) of the source of ``kernel.py``, line endings normalised; "" if unreadable."""
-    try:
-        src = Path(kernel.__file__).read_bytes()
-    except OSError:
-        return ""
-    return hashlib.sha256(src.replace(b"\r\n", b"\n")).hexdigest()
+# numba keys the cache of this file's kernels on this file alone, but they inline arith.py,
+# fir.py and rk4.py: the digest of those (tests/test_simulate_determinism.py checks it), so that
+# an edit there comes with an edit here, which invalidates the cache (on a mismatch: no cache)
+INLINED_SHA256 = "c86745b401e5c9a0c1eec196f7d930ad0bc1ca82350f154a5f6918d6931b1779"
+_CACHE = cache_unless_stale(__name__, INLINED_SHA256, arith, fir, rk4)
 
 
-_CACHE = CACHE and kernel_source_digest() == KERNEL_SOURCE_SHA256
-if CACHE and not _CACHE:
-    warnings.warn(
-        "kernel.py does not match kernel_qs.KERNEL_SOURCE_SHA256: the quasi-static kernel is "
-        "compiled without numba's on-disk cache (update the digest to "
-        f"{kernel_source_digest()!r})",
-        RuntimeWarning,
-        stacklevel=1,
-    )
-
-
-@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=CACHE)
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=_CACHE)
 def _solve_state(F, c, st, b, kn, d, A, tv):
     # (I + kn F P) theta = c + kn F P s delta, P = diag|s|: elimination without pivoting (the
     # leading minors are >= 1), result in tv
@@ -81,7 +57,7 @@ def _solve_state(F, c, st, b, kn, d, A, tv):
         tv[i] = r / A[i, i]
 
 
-@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=CACHE)
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=_CACHE)
 def _solve_block(F, c, st, kn, dl, A3, T):
     # _solve_state for every member of the block at once (each in its own state), vectorised
     # over the members: the elimination has no pivoting, so no branch
@@ -96,23 +72,23 @@ def _solve_block(F, c, st, kn, dl, A3, T):
                 sj = st[j, b]
                 a = fij * kn[b] * abs(sj)
                 A3[i, j, b] = a + one
-                T[i, b] = _fma(a * sj, dl[b], T[i, b])
+                T[i, b] = fma(a * sj, dl[b], T[i, b])
     for k in range(H):
         for i in range(k + 1, H):
             for b in range(BLOCK):
                 m = A3[i, k, b] / A3[k, k, b]
                 for j in range(k + 1, H):
-                    A3[i, j, b] = _fma(-m, A3[k, j, b], A3[i, j, b])
-                T[i, b] = _fma(-m, T[k, b], T[i, b])
+                    A3[i, j, b] = fma(-m, A3[k, j, b], A3[i, j, b])
+                T[i, b] = fma(-m, T[k, b], T[i, b])
     for i in range(H - 1, -1, -1):
         for b in range(BLOCK):
             r = T[i, b]
             for j in range(i + 1, H):
-                r = _fma(-A3[i, j, b], T[j, b], r)
+                r = fma(-A3[i, j, b], T[j, b], r)
             T[i, b] = r / A3[i, i, b]
 
 
-@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=CACHE)
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=_CACHE)
 def _violation(x, s, d, e):
     # how far theta = x violates contact state s (open |x| <= d, closed s x >= d), tolerance e;
     # branch-free, 0 when consistent
@@ -120,7 +96,7 @@ def _violation(x, s, d, e):
     return (1.0 - p) * max(abs(x) - d - e, 0.0) + p * max(d - e - s * x, 0.0)
 
 
-@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=CACHE)
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=_CACHE)
 def _solve_block2(F, c, st, kn, dl, T, bad, tol):
     # _solve_block and the violation check of _hinge_states for two hinges, one pass over the
     # members with the 2 x 2 system in registers: the same operations in the same order, so the
@@ -144,21 +120,21 @@ def _solve_block2(F, c, st, kn, dl, T, bad, tol):
         a01 = f01 * k * p1
         a10 = f10 * k * p0
         a11 = f11 * k * p1
-        t0 = _fma(a01 * s1, d, _fma(a00 * s0, d, c0))
-        t1 = _fma(a11 * s1, d, _fma(a10 * s0, d, c1))
+        t0 = fma(a01 * s1, d, fma(a00 * s0, d, c0))
+        t1 = fma(a11 * s1, d, fma(a10 * s0, d, c1))
         u00 = a00 + one
         u01 = a01 + zero
         m = (a10 + zero) / u00
-        u11 = _fma(-m, u01, a11 + one)
-        t1 = _fma(-m, t0, t1) / u11
-        t0 = _fma(-u01, t1, t0) / u00
+        u11 = fma(-m, u01, a11 + one)
+        t1 = fma(-m, t0, t1) / u11
+        t0 = fma(-u01, t1, t0) / u00
         T[0, b] = t0
         T[1, b] = t1
         v = _violation(t0, s0, d, tol * (d + abs(c0)))
         bad[b] = v + _violation(t1, s1, d, tol * (d + abs(c1)))
 
 
-@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=CACHE)
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=_CACHE)
 def _consistent(tv, c, st, b, d, tol):
     H = tv.shape[0]
     ok = True
@@ -175,7 +151,7 @@ def _consistent(tv, c, st, b, d, tol):
     return ok
 
 
-@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="never", cache=CACHE)
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="never", cache=_CACHE)
 def _solve_block_h(F, c, st, kn, dl, A3, T, bad, tol):
     # _solve_block and the violations for h != 2 hinges. Not inlined (nor _active_set): a
     # function of its own is compiled once, not as part of the kernel, which saves 1.5 s and 4 s
@@ -190,7 +166,7 @@ def _solve_block_h(F, c, st, kn, dl, A3, T, bad, tol):
             bad[b] += _violation(T[j, b], st[j, b], dl[b], tol * (dl[b] + abs(c[j, b])))
 
 
-@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="never", cache=CACHE)
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="never", cache=_CACHE)
 def _active_set(F, c, st, kn, dl, A, tv, T, bad, tol):
     # the scalar active set of _hinge_states for the members whose state changed (bad != 0):
     # semismooth Newton from the previous state, the exhaustive search as the fallback
@@ -225,8 +201,7 @@ def _active_set(F, c, st, kn, dl, A, tv, T, bad, tol):
             T[j, b] = tv[j]
 
 
-
-@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=CACHE)
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=_CACHE)
 def _hinge_states(F, c, st, kn, dl, A, tv, A3, T, bad, tol):
     # solution T of (QS) and its contact state st (updated in place) for every member
     H = F.shape[0]
@@ -244,9 +219,10 @@ def _hinge_states(F, c, st, kn, dl, A, tv, A3, T, bad, tol):
     _active_set(F, c, st, kn, dl, A, tv, T, bad, tol)
 
 
-@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=CACHE)
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=_CACHE)
 def _accel_qs(eta, v, s, kn, dl, lev, lam, cm, cdiag, diag, D, g, F, e, gam, st, c, fo, acc, A,
               tv, A3, T, bad, tol):
+    # the hinge moments fo of (QS), c = D^T eta + e a - Gam eta', then the modal acceleration
     N, H = D.shape
     for j in range(H):
         ej = e[j] * s
@@ -256,58 +232,16 @@ def _accel_qs(eta, v, s, kn, dl, lev, lam, cm, cdiag, diag, D, g, F, e, gam, st,
             dk = D[k, j]
             gk = gam[j, k]
             for b in range(BLOCK):
-                c[j, b] = _fma(-gk, v[k, b], _fma(dk, eta[k, b], c[j, b]))
+                c[j, b] = fma(-gk, v[k, b], fma(dk, eta[k, b], c[j, b]))
     _hinge_states(F, c, st, kn, dl, A, tv, A3, T, bad, tol)
     for j in range(H):
         for b in range(BLOCK):
             sj = st[j, b]
             fo[j, b] = kn[b] * abs(sj) * (T[j, b] - sj * dl[b])
-    for i in range(N):
-        gi = g[i] * s
-        li = lam[i]
-        for b in range(BLOCK):
-            acc[i, b] = _fma(-li, eta[i, b], gi * lev[b])
-        if diag:
-            ci = cdiag[i]
-            for b in range(BLOCK):
-                acc[i, b] = _fma(-ci, v[i, b], acc[i, b])
-        else:
-            for k in range(N):
-                cc = cm[i, k]
-                for b in range(BLOCK):
-                    acc[i, b] = _fma(-cc, v[k, b], acc[i, b])
-        for j in range(H):
-            dd = D[i, j]
-            for b in range(BLOCK):
-                acc[i, b] = _fma(-dd, fo[j, b], acc[i, b])
+    modal_accel(eta, v, s, lev, lam, cm, cdiag, diag, D, g, fo, acc)
 
 
-@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=CACHE)
-def _fir_add2(acc_r, val, valf, gi, half, ntap, m, taps, tapsd, w0, w0d):
-    # kernel._fir_add of val through `taps` plus valf through `tapsd` (the fast part, whose
-    # derivative the derivative taps take), in one pass over the open outputs
-    R = acc_r.shape[0]
-    C = acc_r.shape[1]
-    j = gi + half
-    if gi == 0:
-        for kk in range(w0.shape[0]):
-            wk = w0[kk]
-            wd = w0d[kk]
-            r = kk % R
-            for c in range(C):
-                for b in range(BLOCK):
-                    acc_r[r, c, b] = _fma(wd, valf[c, b], _fma(wk, val[c, b], acc_r[r, c, b]))
-    else:
-        for kk in range(max(0, (j - ntap + m) // m), j // m + 1):
-            wk = taps[j - kk * m]
-            wd = tapsd[j - kk * m]
-            r = kk % R
-            for c in range(C):
-                for b in range(BLOCK):
-                    acc_r[r, c, b] = _fma(wd, valf[c, b], _fma(wk, val[c, b], acc_r[r, c, b]))
-
-
-@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=CACHE)
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=_CACHE)
 def _record_qs(e_, w, k, fo, S, hout, vout, mode, val, valf, acc_r, gi, half, ntap, m, taps,
                tapsd, w0, w0d):
     # the recorded value of the step (the output quantity of the slow modes, plus the fast
@@ -316,14 +250,7 @@ def _record_qs(e_, w, k, fo, S, hout, vout, mode, val, valf, acc_r, gi, half, nt
     N = e_.shape[0]
     C = S.shape[0]
     H = fo.shape[0]
-    src = e_ if mode == 0 else (w if mode == 1 else k)
-    for c in range(C):
-        for b in range(BLOCK):
-            val[c, b] = 0.0
-        for i in range(N):
-            sc = S[c, i]
-            for b in range(BLOCK):
-                val[c, b] = _fma(sc, src[i, b], val[c, b])
+    project(mode, e_, w, k, S, val)
     dst = val if mode == 0 else valf
     for c in range(C):
         if mode != 0:
@@ -332,25 +259,25 @@ def _record_qs(e_, w, k, fo, S, hout, vout, mode, val, valf, acc_r, gi, half, nt
         for j in range(H):
             hc = hout[c, j]
             for b in range(BLOCK):
-                dst[c, b] = _fma(hc, fo[j, b], dst[c, b])
+                dst[c, b] = fma(hc, fo[j, b], dst[c, b])
         for i in range(N):
             vc = vout[c, i]
             for b in range(BLOCK):
-                dst[c, b] = _fma(vc, w[i, b], dst[c, b])
+                dst[c, b] = fma(vc, w[i, b], dst[c, b])
     if mode == 0:
-        _fir_add(acc_r, val, gi, half, ntap, m, taps, w0)
+        fir_add(acc_r, val, gi, half, ntap, m, taps, w0)
     else:
-        _fir_add2(acc_r, val, valf, gi, half, ntap, m, taps, tapsd, w0, w0d)
+        fir_add2(acc_r, val, valf, gi, half, ntap, m, taps, tapsd, w0, w0d)
 
 
 @numba.njit(parallel=True, fastmath=FASTMATH, error_model="numpy", cache=_CACHE)
 def rk4_qs_chunk(blk0, blk1, eta, v, stp, kn, dl, lev, lam, cm, cdiag, diag, D, g, F, e, gam,
                  S, hout, vout, mode, s_half, coef, out, col0, taps, tapsd, m, half, w0, w0d, ring,
                  gi0):
-    # kernel.rk4_chunk (blocks blk0 .. blk1 - 1) with the condensed hinge moments; the fast
-    # modes' quasi-static response q = hout @ f + vout @ eta' is added to the displacement
-    # output (mode 0), else filtered through the derivative taps `tapsd` (its derivative,
-    # decimated) into the same outputs
+    # rk4.rk4_chunk (blocks blk0 .. blk1 - 1) with the condensed hinge moments and their
+    # contact states `stp` (kept between chunks); the fast modes' quasi-static response
+    # q = hout @ f + vout @ eta' is added to the displacement output (mode 0), else filtered
+    # through the derivative taps `tapsd` (its derivative, decimated) into the same outputs
     N = eta.shape[0]
     H = D.shape[1]
     C = S.shape[0]
@@ -379,31 +306,21 @@ def rk4_qs_chunk(blk0, blk1, eta, v, stp, kn, dl, lev, lam, cm, cdiag, diag, D, 
         knb = np.empty(BLOCK, dt)
         dlb = np.empty(BLOCK, dt)
         lvb = np.empty(BLOCK, dt)
-        for b in range(BLOCK):
-            knb[b] = kn[b0 + b]
-            dlb[b] = dl[b0 + b]
-            lvb[b] = lev[b0 + b]
+        load_block(b0, eta, v, kn, dl, lev, e_, w, knb, dlb, lvb)
         for j in range(H):
             for b in range(BLOCK):
                 st[j, b] = stp[j, b0 + b]
-        for i in range(N):
-            for b in range(BLOCK):
-                e_[i, b] = eta[i, b0 + b]
-                w[i, b] = v[i, b0 + b]
         val = np.empty((C, BLOCK), dt)
         valf = np.empty((C, BLOCK), dt)
         acc_r = np.empty((R, C, BLOCK), dt)
-        _ring_load(ring, acc_r, b0)
+        ring_load(ring, acc_r, b0)
         n_emit = 0
         h = coef[0]
         h2 = coef[1]
         h6 = coef[2]
         two = coef[3]
         for step in range(L):
-            # the four RK4 stages as one loop around one copy of the (large) stage code: the same
-            # operations in the same order as four written-out stages, a quarter of the code to
-            # compile (docs/simulate.md, "Compile time")
-            for stage in range(4):
+            for stage in range(4):  # one copy of the (large) stage code (see rk4.rk4_stage)
                 x = e_ if stage == 0 else et
                 y = w if stage == 0 else vt
                 s = s_half[2 * step + (stage + 1) // 2]
@@ -412,41 +329,20 @@ def rk4_qs_chunk(blk0, blk1, eta, v, stp, kn, dl, lev, lam, cm, cdiag, diag, D, 
                 if stage == 0:
                     _record_qs(e_, w, k, fo, S, hout, vout, mode, val, valf, acc_r, gi0 + step,
                                half, ntap, m, taps, tapsd, w0, w0d)
-                    n_emit += _fir_emit(acc_r, gi0 + step, half, ntap, m, out, col0 + n_emit, b0)
-                    for i in range(N):
-                        for b in range(BLOCK):
-                            se[i, b] = w[i, b]
-                            sv[i, b] = k[i, b]
-                            et[i, b] = _fma(h2, w[i, b], e_[i, b])
-                            vt[i, b] = _fma(h2, k[i, b], w[i, b])
-                elif stage < 3:
-                    a = h2 if stage == 1 else h
-                    for i in range(N):
-                        for b in range(BLOCK):
-                            se[i, b] = _fma(two, vt[i, b], se[i, b])
-                            sv[i, b] = _fma(two, k[i, b], sv[i, b])
-                            et[i, b] = _fma(a, vt[i, b], e_[i, b])
-                            vt[i, b] = _fma(a, k[i, b], w[i, b])
-                else:
-                    for i in range(N):
-                        for b in range(BLOCK):
-                            e_[i, b] = _fma(h6, (se[i, b] + vt[i, b]), e_[i, b])
-                            w[i, b] = _fma(h6, (sv[i, b] + k[i, b]), w[i, b])
-        for i in range(N):
-            for b in range(BLOCK):
-                eta[i, b0 + b] = e_[i, b]
-                v[i, b0 + b] = w[i, b]
+                    n_emit += fir_emit(acc_r, gi0 + step, half, ntap, m, out, col0 + n_emit, b0)
+                rk4_stage(stage, e_, w, et, vt, se, sv, k, h, h2, h6, two)
+        store_block(b0, e_, w, eta, v)
         for j in range(H):
             for b in range(BLOCK):
                 stp[j, b0 + b] = st[j, b]
-        # the open outputs carry over to the next chunk (see kernel.rk4_chunk)
-        _ring_store(ring, acc_r, b0)
+        # the open outputs carry over to the next chunk (see rk4.rk4_chunk)
+        ring_store(ring, acc_r, b0)
 
 
 class NumbaQSRK4(NumbaRK4):
-    """:class:`.kernel.NumbaRK4` for a :class:`.quasistatic.QuasiStaticForm`.
+    """:class:`.rk4.NumbaRK4` for a :class:`...quasistatic.QuasiStaticForm`.
 
-    For velocity and acceleration, ``taps_d`` (from :func:`.resample.derivative_taps`, the same
+    For velocity and acceleration, ``taps_d`` (from :func:`...resample.derivative_taps`, the same
     length as ``taps``) decimate the derivative of the fast part (``hinge_out @ f + vel_out @
     eta'``) into the same outputs.
     """

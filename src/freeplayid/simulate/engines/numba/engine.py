@@ -1,4 +1,4 @@
-"""The numba engine: the compiled CPU kernels (``kernel.py``, and ``kernel_qs.py`` for the
+"""The numba engine: the compiled CPU RK4 kernels (``rk4.py``, and ``rk4_qs.py`` for the
 quasi-static model), which decimate on the fly into the signal array.
 
 numba is optional and its kernels compile on first use, so this module imports neither: the
@@ -9,13 +9,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from .protocol import EngineSetup
+from ..protocol import EngineSetup, rk4_max_step
 
 __all__ = ["NumbaEngine", "numba_available"]
 
 
 def numba_available() -> bool:
-    """True if numba imports, so the compiled engine (``kernel.py``) can be used."""
+    """True if numba imports, so the compiled engines (``rk4.py``, ``..expo``) can be used."""
     try:
         import numba  # noqa: F401
     except Exception:  # pragma: no cover - depends on the environment
@@ -24,23 +24,24 @@ def numba_available() -> bool:
 
 
 class NumbaEngine:
-    """:class:`.protocol.Engine` of :class:`.kernel.NumbaRK4` (full model) and
-    :class:`.kernel_qs.NumbaQSRK4` (quasi-static): CPU only, decimates in place."""
+    """:class:`..protocol.Engine` of :class:`.rk4.NumbaRK4` (full model) and
+    :class:`.rk4_qs.NumbaQSRK4` (quasi-static): CPU only, decimates in place."""
 
     devices = ("cpu",)
     quasi_static = True
     decimates = True
+    max_step = staticmethod(rk4_max_step)
     name = "numba"
 
     def __init__(self, setup: EngineSetup):
         s = setup
         kw = dict(h=s.h, quantity=s.quantity, dtype=s.dtype, taps=s.taps, factor=s.factor)
         if s.quasi_static is None:
-            from ..kernel import NumbaRK4
+            from .rk4 import NumbaRK4
 
             self.kernel = NumbaRK4(s.form, s.kn, s.delta, s.level_g, s.eta0, s.v0, **kw)
         else:
-            from ..kernel_qs import NumbaQSRK4
+            from .rk4_qs import NumbaQSRK4
 
             self.kernel = NumbaQSRK4(s.quasi_static, s.kn, s.delta, s.level_g, s.eta0, s.v0,
                                      taps_d=s.taps_d, **kw)

@@ -1,8 +1,8 @@
 """Simulated sweeps as a data set: what a test engineer's recorder would have written.
 
 :func:`sweep_dataset` turns a :class:`SweepResult` into an in-memory
-:class:`freeplayid.io.Dataset` (one run per member, the sweep hint and level in each run, the base
-channel with absolute accelerations), so simulated data go through the same
+:class:`freeplayid.dataset.Dataset` (one run per member, the sweep hint and level in each run,
+the base channel with absolute accelerations), so simulated data go through the same
 :func:`freeplayid.identify` as measured data; :func:`freeplayid.io.write_dataset` writes it.
 """
 

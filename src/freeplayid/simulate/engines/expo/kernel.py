@@ -1,4 +1,4 @@
-"""Compiled CPU kernel of the exponential integrator (``exponential.py``), numba.
+"""Compiled CPU kernel of the exponential integrator (``steps.py``), numba.
 
 Layout for small batches: one member per ``prange`` iteration, its state ``z = (eta, eta')``
 contiguous, so the 2N-long column updates of ``z <- Phi z`` vectorise (``Phi`` stored
@@ -13,78 +13,38 @@ pivoting: ``I + kn Gamma P`` is close to I for the short steps of the step rule)
 re-checked and the iteration repeated (at most ``MAX_ACTIVE_SET`` times), then the exhaustive
 search over the 3^h states; a member with no consistent state is flagged and frozen at rest.
 
-The anti-aliasing FIR is fused as in ``kernel.py`` (same ring arithmetic: each recorded value is
-added to its open outputs, an output is emitted when its last tap arrives, the ring persists
-between chunks); its helpers here are the single-lane forms of ``kernel._fir_add`` /
-``_fir_emit`` (those loop over ``BLOCK`` member lanes). The FASTMATH flags, the numpy error model
-and the explicit ``_fma`` are those of ``kernel.py`` (its comments: cached and fresh compiles
-give the same bits).
+The anti-aliasing FIR is fused as in the RK4 kernels (same ring arithmetic, ``..numba.fir``:
+each recorded value is added to its open outputs, an output is emitted when its last tap
+arrives, the ring persists between chunks), in its single-lane form ``fir_add1`` /
+``fir_emit1``. The FASTMATH flags, the numpy error model and the explicit ``fma`` are those of
+the RK4 kernels (``..numba.arith``: cached and fresh compiles give the same bits).
 """
 
 from __future__ import annotations
 
-import sys
-import time
-
 import numba
 import numpy as np
-from numba.core import event
 
-from .cache import CACHE
-from .engines.protocol import BLOWUP, MODES
-from .exponential import discretize, discretize_states, switch_levels
-from .formulation import ModalForm
-from .kernel import FASTMATH, _Announce, _fma
-from .kernel_qs import kernel_source_digest
+from ...cache import cache_unless_stale
+from ...formulation import BLOWUP, MODES, ModalForm
+from ..numba import arith, fir
+from ..numba.arith import FASTMATH, fma
+from ..numba.fir import emitted_outputs, fir_add1, fir_emit1, ring_load1, ring_store1, start_weights
+from ..numba.jit import compile_kernel, float_dtype
+from .steps import discretize, discretize_states, switch_levels
 
-__all__ = ["NumbaExpo", "KERNEL_SOURCE_SHA256", "MAX_ACTIVE_SET", "MAX_STATE_SETS"]
+__all__ = ["NumbaExpo", "expo_chunk", "expo_states_chunk", "INLINED_SHA256", "MAX_ACTIVE_SET",
+           "MAX_STATE_SETS"]
 
-# numba keys the cache of expo_chunk on this file, but it inlines `_fma` and FASTMATH from
-# kernel.py: the digest of the kernel.py this file goes with (as kernel_qs.py does; checked by
-# tests/test_simulate_expo.py), so that an edit there comes with an edit here
-KERNEL_SOURCE_SHA256 = "7eeed77b974bd3156085b926569590ecfb0b3d84d8fc9953949a1b101b7670e5"
-_CACHE = CACHE and kernel_source_digest() == KERNEL_SOURCE_SHA256
+# numba keys the cache of this file's kernels on this file alone, but they inline the numba
+# engines' arith.py and fir.py: the digest of those (tests/test_simulate_determinism.py checks
+# it), so that an edit there comes with an edit here (on a mismatch: no cache)
+INLINED_SHA256 = "30521c5fa19c9eb4026374afeccc2d5a7db5fd82c842976bd5b91ddec60e3266"
+_CACHE = cache_unless_stale(__name__, INLINED_SHA256, arith, fir)
 MAX_ACTIVE_SET = 8  # active-set iterations before the exhaustive search
 # per-state propagation for batches with at most this many distinct kn (one matrix set per kn,
 # 3^H states x (levels + 1) sub-steps each); more distinct kn: the linear-hold scheme
 MAX_STATE_SETS = 8
-
-
-@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=_CACHE)
-def _fir_add1(acc_r, val, gi, half, ntap, m, taps, w0):
-    # kernel._fir_add for one member: acc_r (R, C), val (C,)
-    R = acc_r.shape[0]
-    C = acc_r.shape[1]
-    j = gi + half
-    if gi == 0:
-        for kk in range(w0.shape[0]):
-            wk = w0[kk]
-            r = kk % R
-            for c in range(C):
-                acc_r[r, c] = _fma(wk, val[c], acc_r[r, c])
-    else:
-        for kk in range(max(0, (j - ntap + m) // m), j // m + 1):
-            wk = taps[j - kk * m]
-            r = kk % R
-            for c in range(C):
-                acc_r[r, c] = _fma(wk, val[c], acc_r[r, c])
-
-
-@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=_CACHE)
-def _fir_emit1(acc_r, gi, half, ntap, m, out, col, i):
-    # kernel._fir_emit for member i: the output step gi completed, if any, to out[i, :, col]
-    R = acc_r.shape[0]
-    C = acc_r.shape[1]
-    jd = gi + half - ntap + 1
-    if jd < 0 or jd % m != 0:
-        return 0
-    r = (jd // m) % R
-    if col < out.shape[2]:
-        for c in range(C):
-            out[i, c, col] = acc_r[r, c]
-    for c in range(C):
-        acc_r[r, c] = 0.0
-    return 1
 
 
 @numba.njit(fastmath=FASTMATH, error_model="numpy", inline="never", cache=_CACHE)
@@ -97,18 +57,18 @@ def _solve_state(G, a, st, kn, d, A, tv):
             sj = st[j]
             q = kn * G[i, j] * abs(sj)
             A[i, j] = q + (1.0 if i == j else 0.0)
-            r = _fma(q * sj, d, r)
+            r = fma(q * sj, d, r)
         tv[i] = r
     for k in range(H):
         for i in range(k + 1, H):
             f = A[i, k] / A[k, k]
             for j in range(k + 1, H):
-                A[i, j] = _fma(-f, A[k, j], A[i, j])
-            tv[i] = _fma(-f, tv[k], tv[i])
+                A[i, j] = fma(-f, A[k, j], A[i, j])
+            tv[i] = fma(-f, tv[k], tv[i])
     for i in range(H - 1, -1, -1):
         r = tv[i]
         for j in range(i + 1, H):
-            r = _fma(-A[i, j], tv[j], r)
+            r = fma(-A[i, j], tv[j], r)
         tv[i] = r / A[i, i]
 
 
@@ -154,12 +114,30 @@ def _contact(G, a, st, kn, d, A, tv, tol):
     return False
 
 
+@numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=_CACHE)
+def _record(O, Of, Og, zc, f0, u, val, acc_r, gi, half, ntap, m, taps, w0, out, col, i):
+    # the recorded value at t_k, O z + Of f + Og u (u = level sin phase), into the open outputs
+    # of member i; returns 1 if an output was completed (fir_emit1)
+    C = O.shape[0]
+    n2 = zc.shape[0]
+    H = f0.shape[0]
+    for c in range(C):
+        x = Og[c] * u
+        for k in range(n2):
+            x = fma(O[c, k], zc[k], x)
+        for j in range(H):
+            x = fma(Of[c, j], f0[j], x)
+        val[c] = x
+    fir_add1(acc_r, val, gi, half, ntap, m, taps, w0)
+    return fir_emit1(acc_r, gi, half, ntap, m, out, col, i)
+
+
 @numba.njit(parallel=True, fastmath=FASTMATH, error_model="numpy", cache=_CACHE)
 def expo_chunk(i0, i1, z, fz, kn, dl, lev, PhiT, p11, p12, p21, p22, diag, W, P0T, P1T, D, G,
                O, Of, Og, s_half, tol, out, col0, taps, m, half, w0, ring, gi0, bad):
     # steps gi0 .. gi0 + L - 1 of members i0 .. i1 - 1 (none: compile only). z (batch, 2N) state
     # at the chunk start, fz (batch, H) f(theta) there, ring (batch, R, C) the open outputs of
-    # the fused FIR (kernel.rk4_chunk: output k gets weight taps[j - k m] of the value of step
+    # the fused FIR (..numba.fir: output k gets weight taps[j - k m] of the value of step
     # gi, j = gi + half, and is written to out[i, :, col0 + n] once complete). The recorded value
     # at t_k is O z_k + Of f_k + Og level s_k (eta, eta' or eta'' through S). A member without a
     # consistent contact state is flagged in `bad` and frozen at rest with no load.
@@ -187,25 +165,15 @@ def expo_chunk(i0, i1, z, fz, kn, dl, lev, PhiT, p11, p12, p21, p22, diag, W, P0
             zc[k] = z[i, k]
         for j in range(H):
             f0[j] = fz[i, j]
-        for r in range(R):
-            for c in range(C):
-                acc_r[r, c] = ring[i, r, c]
+        ring_load1(ring, acc_r, i)
         k_n = kn[i]
         d = dl[i]
         lv = lev[i]
         n_emit = 0
         for step in range(L):
             s0 = s_half[2 * step]
-            # record at t_k
-            for c in range(C):
-                x = Og[c] * (lv * s0)
-                for k in range(n2):
-                    x = _fma(O[c, k], zc[k], x)
-                for j in range(H):
-                    x = _fma(Of[c, j], f0[j], x)
-                val[c] = x
-            _fir_add1(acc_r, val, gi0 + step, half, ntap, m, taps, w0)
-            n_emit += _fir_emit1(acc_r, gi0 + step, half, ntap, m, out, col0 + n_emit, i)
+            n_emit += _record(O, Of, Og, zc, f0, lv * s0, val, acc_r, gi0 + step, half, ntap,
+                              m, taps, w0, out, col0 + n_emit, i)  # record at t_k
             # free response and the base load
             u0 = lv * s0
             um = lv * s_half[2 * step + 1]
@@ -214,26 +182,26 @@ def expo_chunk(i0, i1, z, fz, kn, dl, lev, PhiT, p11, p12, p21, p22, diag, W, P0
                 for k in range(N):
                     e_ = zc[k]
                     v_ = zc[N + k]
-                    zn[k] = _fma(p12[k], v_, p11[k] * e_)
-                    zn[N + k] = _fma(p22[k], v_, p21[k] * e_)
+                    zn[k] = fma(p12[k], v_, p11[k] * e_)
+                    zn[N + k] = fma(p22[k], v_, p21[k] * e_)
             else:
                 for k in range(n2):
                     zn[k] = 0.0
                 for j in range(n2):
                     zj = zc[j]
                     for k in range(n2):
-                        zn[k] = _fma(PhiT[j, k], zj, zn[k])
+                        zn[k] = fma(PhiT[j, k], zj, zn[k])
             for k in range(n2):
-                zn[k] = _fma(W[0, k], u0, _fma(W[1, k], um, _fma(W[2, k], u1, zn[k])))
+                zn[k] = fma(W[0, k], u0, fma(W[1, k], um, fma(W[2, k], u1, zn[k])))
             for j in range(H):
                 fj = f0[j]
                 for k in range(n2):
-                    zn[k] = _fma(-P0T[j, k], fj, zn[k])
+                    zn[k] = fma(-P0T[j, k], fj, zn[k])
             # the contact at t_{k+1}: theta = a - G f(theta)
             for j in range(H):
                 x = zero
                 for k in range(N):
-                    x = _fma(D[k, j], zn[k], x)
+                    x = fma(D[k, j], zn[k], x)
                 a[j] = x
             if not _contact(G, a, st, k_n, d, A, tv, tol):
                 bad[i] = True
@@ -248,7 +216,7 @@ def expo_chunk(i0, i1, z, fz, kn, dl, lev, PhiT, p11, p12, p21, p22, diag, W, P0
                 for j in range(H):
                     fj = f1[j]
                     for k in range(n2):
-                        zn[k] = _fma(-P1T[j, k], fj, zn[k])
+                        zn[k] = fma(-P1T[j, k], fj, zn[k])
             for k in range(n2):
                 zc[k] = zn[k]
             for j in range(H):
@@ -257,9 +225,7 @@ def expo_chunk(i0, i1, z, fz, kn, dl, lev, PhiT, p11, p12, p21, p22, diag, W, P0
             z[i, k] = zc[k]
         for j in range(H):
             fz[i, j] = f0[j]
-        for r in range(R):
-            for c in range(C):
-                ring[i, r, c] = acc_r[r, c]
+        ring_store1(ring, acc_r, i)
 
 
 @numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=_CACHE)
@@ -267,11 +233,11 @@ def _state_prop(PhiT, W, c, zc, zn, ua, um, ub, d):
     # zn = Phi_s zc + W0_s ua + Wm_s um + W1_s ub + d c_s (u already times the level)
     n2 = zc.shape[0]
     for k in range(n2):
-        zn[k] = _fma(W[0, k], ua, _fma(W[1, k], um, _fma(W[2, k], ub, d * c[k])))
+        zn[k] = fma(W[0, k], ua, fma(W[1, k], um, fma(W[2, k], ub, d * c[k])))
     for j in range(n2):
         zj = zc[j]
         for k in range(n2):
-            zn[k] = _fma(PhiT[j, k], zj, zn[k])
+            zn[k] = fma(PhiT[j, k], zj, zn[k])
 
 
 @numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=_CACHE)
@@ -292,7 +258,7 @@ def _hinge_state(D, z, d, th, st):
     for j in range(H):
         x = z.dtype.type(0.0)
         for k in range(N):
-            x = _fma(D[k, j], z[k], x)
+            x = fma(D[k, j], z[k], x)
         th[j] = x
         s = 1.0 if x > d else (-1.0 if x < -d else 0.0)
         st[j] = s
@@ -304,7 +270,7 @@ def _hinge_state(D, z, d, th, st):
 @numba.njit(parallel=True, fastmath=FASTMATH, error_model="numpy", cache=_CACHE)
 def expo_states_chunk(i0, i1, z, kset, dl, lev, kns, levels, PhiT, Ws, cs, P1T, Gm, Ms, es, D,
                       O, Of, Og, s_half, tol, out, col0, taps, m, half, w0, ring, gi0, bad):
-    # as expo_chunk, with exact steps per contact state (exponential.discretize_states): member
+    # as expo_chunk, with exact steps per contact state (steps.discretize_states): member
     # i uses the matrices kset[i] (its kn, kns[kset[i]]). A step is taken in the state of its
     # start; if a hinge's state at its end differs, it is halved (down to h / 2^levels) and the
     # sub-step holding the switch is corrected by the residual moment held linear. The state
@@ -334,9 +300,7 @@ def expo_states_chunk(i0, i1, z, kset, dl, lev, kns, levels, PhiT, Ws, cs, P1T, 
         acc_r = np.empty((R, C), dt)
         for k in range(n2):
             zc[k] = z[i, k]
-        for r in range(R):
-            for c in range(C):
-                acc_r[r, c] = ring[i, r, c]
+        ring_load1(ring, acc_r, i)
         ki = kset[i]
         k_n = kns[ki]
         d = dl[i]
@@ -347,16 +311,8 @@ def expo_states_chunk(i0, i1, z, kset, dl, lev, kns, levels, PhiT, Ws, cs, P1T, 
             code = _hinge_state(D, zc, d, th, st0)
             for j in range(H):
                 f0[j] = k_n * abs(st0[j]) * (th[j] - st0[j] * d)
-            # record at t_k
-            for c in range(C):
-                x = Og[c] * (lv * s0)
-                for k in range(n2):
-                    x = _fma(O[c, k], zc[k], x)
-                for j in range(H):
-                    x = _fma(Of[c, j], f0[j], x)
-                val[c] = x
-            _fir_add1(acc_r, val, gi0 + step, half, ntap, m, taps, w0)
-            n_emit += _fir_emit1(acc_r, gi0 + step, half, ntap, m, out, col0 + n_emit, i)
+            n_emit += _record(O, Of, Og, zc, f0, lv * s0, val, acc_r, gi0 + step, half, ntap,
+                              m, taps, w0, out, col0 + n_emit, i)  # record at t_k
             u0 = lv * s0
             um = lv * s_half[2 * step + 1]
             u1 = lv * s_half[2 * step + 2]
@@ -392,7 +348,7 @@ def expo_states_chunk(i0, i1, z, kset, dl, lev, kns, levels, PhiT, Ws, cs, P1T, 
                     for j in range(H):
                         x = -d * es[ki, code, j]
                         for q in range(H):
-                            x = _fma(Mm[j, q], a[q], x)
+                            x = fma(Mm[j, q], a[q], x)
                         th[j] = x
                     if not _contact(Gs, th, st, k_n, d, A, tv, tol):
                         bad[i] = True
@@ -405,7 +361,7 @@ def expo_states_chunk(i0, i1, z, kset, dl, lev, kns, levels, PhiT, Ws, cs, P1T, 
                             rj = (k_n * abs(st[j]) * (tv[j] - st[j] * d)
                                   - k_n * abs(st0[j]) * (tv[j] - st0[j] * d))
                             for k in range(n2):
-                                zn[k] = _fma(-P1T[ki, code, j, k], rj, zn[k])
+                                zn[k] = fma(-P1T[ki, code, j, k], rj, zn[k])
                 for k in range(n2):
                     zc[k] = zn[k]
                 pos += ln
@@ -416,30 +372,27 @@ def expo_states_chunk(i0, i1, z, kset, dl, lev, kns, levels, PhiT, Ws, cs, P1T, 
                     code = _hinge_state(D, zc, d, th, st0)
         for k in range(n2):
             z[i, k] = zc[k]
-        for r in range(R):
-            for c in range(C):
-                ring[i, r, c] = acc_r[r, c]
+        ring_store1(ring, acc_r, i)
 
 
-class _AnnounceExpo(_Announce):
-    def on_start(self, ev):
-        if ev.data["dispatcher"] is self.dispatcher and self.t0 is None:
-            print(f"compiling the numba exponential kernel ({self.what})...", end=" ",
-                  file=sys.stderr, flush=True)
-            self.t0 = time.perf_counter()
-
-
-def compile_expo(kernel, args: tuple, what: str) -> None:
-    """Compile (or load from numba's cache) ``kernel`` (``expo_chunk`` or
-    ``expo_states_chunk``) for ``args`` by a call on no members; a compile prints one line to
-    stderr, as :func:`.kernel.compile_kernel` does."""
-    listener = _AnnounceExpo(kernel, what)
-    with event.install_listener("numba:compile", listener):
-        kernel(0, 0, *args)
-    if listener.t0 is not None:
-        path = kernel.stats.cache_path
-        where = f"cached for later runs in {path}" if path else "not cached"
-        print(f"{time.perf_counter() - listener.t0:.1f} s, {where}", file=sys.stderr, flush=True)
+def _record_map(form: ModalForm, quantity: str):
+    """(O, Of, Og), float64: the recorded value is ``O z + Of f + Og level s`` (eta, eta' or
+    eta'' = -lam eta - Cm eta' - D f + g level s, all through S)."""
+    N, H = form.D.shape
+    S = form.S
+    mode = MODES[quantity]
+    C = S.shape[0]
+    O, Of, Og = np.zeros((C, 2 * N)), np.zeros((C, H)), np.zeros(C)
+    if mode == 0:
+        O[:, :N] = S
+    elif mode == 1:
+        O[:, N:] = S
+    else:
+        O[:, :N] = -S * form.lam[None, :]
+        O[:, N:] = -S @ form.Cm
+        Of = -S @ form.D
+        Og = S @ form.g
+    return O, Of, Og
 
 
 class NumbaExpo:
@@ -464,35 +417,17 @@ class NumbaExpo:
 
     def __init__(self, form: ModalForm, kn, delta, level_g, eta0, v0, *, h, quantity, dtype,
                  taps, factor):
-        import torch
-
-        if dtype in (torch.float32, np.float32):
-            nd = np.float32
-        elif dtype in (torch.float64, np.float64):
-            nd = np.float64
-        else:
-            raise ValueError(f"`dtype` must be float32 or float64, got {dtype!r}")
+        nd = float_dtype(dtype)
         a = lambda x: np.ascontiguousarray(np.asarray(x, dtype=nd))  # noqa: E731
         self.nd = nd
-        N, H = form.D.shape
+        N = form.D.shape[0]
         B = len(np.atleast_1d(kn))
         kn_u, kset = np.unique(np.asarray(kn, float).reshape(B), return_inverse=True)
         # the scheme depends on the batch's distinct kn only, each set on its kn only: a
         # member's result is the same in every batch that takes the same scheme
         self.per_state = len(kn_u) <= MAX_STATE_SETS
         if self.per_state:
-            self.levels = max(switch_levels(form, h, k) for k in kn_u)
-            sets = [discretize_states(form, h, float(k), levels=self.levels) for k in kn_u]
-            self.sets = sets
-            self.kset = np.ascontiguousarray(kset, dtype=np.int64)
-            self.kns = a(kn_u)
-            self.sPhiT = a(np.stack([q.Phi.transpose(0, 1, 3, 2) for q in sets]))
-            self.sW = a(np.stack([q.W for q in sets]))
-            self.sc = a(np.stack([q.c for q in sets]))
-            self.sP1T = a(np.stack([q.P1.transpose(0, 2, 1) for q in sets]))
-            self.sGm = a(np.stack([q.Gm for q in sets]))
-            self.sM = a(np.stack([q.M for q in sets]))
-            self.se = a(np.stack([q.e for q in sets]))
+            self._state_sets(form, h, kn_u, kset)
         st = discretize(form, h)
         self.step = st
         self.PhiT = a(st.Phi.T)
@@ -502,22 +437,8 @@ class NumbaExpo:
         self.p21, self.p22 = a(st.Phi[N + idx, idx]), a(st.Phi[N + idx, N + idx])
         self.W, self.P0T, self.P1T = a(st.W), a(st.P0.T), a(st.P1.T)
         self.D, self.G = a(form.D), a(st.Gamma)
-        # recorded value = O z + Of f + Og level s (eta, eta' or eta'' = -lam eta - Cm eta'
-        # - D f + g level s, all through S)
-        S = form.S
-        mode = MODES[quantity]
-        C = S.shape[0]
-        O, Of, Og = np.zeros((C, 2 * N)), np.zeros((C, H)), np.zeros(C)
-        if mode == 0:
-            O[:, :N] = S
-        elif mode == 1:
-            O[:, N:] = S
-        else:
-            O[:, :N] = -S * form.lam[None, :]
-            O[:, N:] = -S @ form.Cm
-            Of = -S @ form.D
-            Og = S @ form.g
-        self.O, self.Of, self.Og = a(O), a(Of), a(Og)
+        self.O, self.Of, self.Og = (a(x) for x in _record_map(form, quantity))
+        C = self.O.shape[0]
         self.batch = B = len(np.atleast_1d(kn))
         self.kn, self.dl, self.lev = a(kn), a(delta), a(level_g)
         self.z = a(np.hstack([np.asarray(eta0, float).reshape(B, N),
@@ -531,20 +452,32 @@ class NumbaExpo:
         self.taps = a(taps)
         self.m = int(factor)
         self.half = (len(taps) - 1) // 2
-        w = [np.sum(taps[: self.half - k * self.m + 1]) for k in range(self.half // self.m + 1)]
-        self.w0 = a(w)
+        self.w0 = start_weights(taps, self.m, nd)
         self.ring = np.zeros((B, len(taps) // self.m + 2, C), dtype=nd)
         self.gi = 0
         self.outputs = 0
         self.width = C
         self._compiled = False
 
+    def _state_sets(self, form: ModalForm, h: float, kn_u: np.ndarray, kset: np.ndarray):
+        # the per-state step matrices (steps.discretize_states) of each distinct kn, stacked
+        a = lambda x: np.ascontiguousarray(np.asarray(x, dtype=self.nd))  # noqa: E731
+        self.levels = max(switch_levels(form, h, k) for k in kn_u)
+        sets = [discretize_states(form, h, float(k), levels=self.levels) for k in kn_u]
+        self.sets = sets
+        self.kset = np.ascontiguousarray(kset, dtype=np.int64)
+        self.kns = a(kn_u)
+        self.sPhiT = a(np.stack([q.Phi.transpose(0, 1, 3, 2) for q in sets]))
+        self.sW = a(np.stack([q.W for q in sets]))
+        self.sc = a(np.stack([q.c for q in sets]))
+        self.sP1T = a(np.stack([q.P1.transpose(0, 2, 1) for q in sets]))
+        self.sGm = a(np.stack([q.Gm for q in sets]))
+        self.sM = a(np.stack([q.M for q in sets]))
+        self.se = a(np.stack([q.e for q in sets]))
+
     def emitted(self, L: int) -> int:
         """Number of output samples the next chunk of ``L`` steps completes."""
-        m, half, gi0 = self.m, self.half, self.gi
-        k_first = max(0, -(-(gi0 - half) // m))
-        k_last = (gi0 + L - 1 - half) // m
-        return max(0, k_last - k_first + 1)
+        return emitted_outputs(self.gi, L, self.half, self.m)
 
     def run(self, s_half: np.ndarray, out: np.ndarray) -> np.ndarray:
         """Integrate one chunk of ``L = (len(s_half) - 1) / 2`` steps, decimating into ``out``
@@ -569,7 +502,7 @@ class NumbaExpo:
                     self.Of, self.Og, args[19], self.tol, out, self.outputs, self.taps, self.m,
                     self.half, self.w0, self.ring, self.gi, self.bad)
         if not self._compiled:
-            compile_expo(kernel, args, np.dtype(self.nd).name)
+            compile_kernel(kernel, args, f"exponential kernel ({np.dtype(self.nd).name})")
             self._compiled = True
         kernel(0, self.batch, *args)
         self.gi += L

@@ -45,7 +45,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg
 
-from .formulation import ModalForm
+from ...formulation import ModalForm
 
 __all__ = ["ExpoStep", "StateSteps", "discretize", "discretize_states", "expo_step_limit",
            "switch_levels", "ringing_hz", "closed_hinge_hz", "contact_states", "state_code",

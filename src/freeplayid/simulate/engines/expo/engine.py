@@ -1,0 +1,48 @@
+"""The exponential engine: the compiled CPU kernel of the exponential integrator (the step
+matrices and step rule in ``steps.py``, the kernel in ``kernel.py``), which decimates on the fly
+into the signal array.
+
+Its step is set by accuracy, not stability (:meth:`ExpoEngine.max_step`): the linear modal
+dynamics are integrated exactly, the contact implicitly and exactly per member, so a stiff or
+overdamped mode costs nothing. numba is optional; the kernel is imported when an engine is built.
+"""
+
+from __future__ import annotations
+
+from ....sweep import Sweep
+from ...formulation import ModalForm
+from ..numba.engine import NumbaEngine, numba_available
+from ..protocol import EngineSetup
+from .steps import expo_step_limit
+
+__all__ = ["ExpoEngine"]
+
+
+class ExpoEngine(NumbaEngine):
+    """:class:`..protocol.Engine` of :class:`.kernel.NumbaExpo`: CPU only, full model,
+    decimates in place, step by the accuracy rule (:func:`.steps.expo_step_limit`).
+    Running and divergence are the numba engine's (its kernel has the same interface)."""
+
+    devices = ("cpu",)
+    quasi_static = False
+    decimates = True
+    name = "expo"
+
+    def __init__(self, setup: EngineSetup):
+        from .kernel import NumbaExpo
+
+        s = setup
+        self.kernel = NumbaExpo(s.form, s.kn, s.delta, s.level_g, s.eta0, s.v0, h=s.h,
+                                quantity=s.quantity, dtype=s.dtype, taps=s.taps, factor=s.factor)
+        self.record_width = self.kernel.width
+
+    @staticmethod
+    def max_step(form: ModalForm, *, sweep: Sweep, kn_max: float, omega_dt: float) -> float:
+        """:meth:`..protocol.Engine.max_step` by accuracy (:func:`.steps.expo_step_limit`: steps
+        per period of the sweep's top frequency and of the closed-hinge modes that a contact
+        excites); ``omega_dt`` is not used (no stability bound)."""
+        return expo_step_limit(form, top_hz=max(sweep.start_hz, sweep.stop_hz), kn_max=kn_max)
+
+    @classmethod
+    def available(cls) -> bool:
+        return numba_available()
