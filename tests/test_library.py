@@ -69,7 +69,7 @@ def test_notebook_identify_equals_the_script(two_runs, tmp_path):
 
 def test_identification_json_round_trip_and_errors(tmp_path):
     from freeplayid.io import read_identification, write_identification
-    from freeplayid.io.result import ResultFileError
+    from freeplayid.io.result_file import ResultFileError
 
     rec = {"kn": 480.0, "delta": 3e-3, "kn_ci95": (470.0, 490.0), "delta_ci95": [2.9e-3, 3.1e-3],
            "points": [{"run": "a", "channel": "c", "f_hz": float("nan"), "amplitude_m": 1e-3,
@@ -95,7 +95,7 @@ def test_identification_json_round_trip_and_errors(tmp_path):
 def test_input_errors_share_one_base():
     from freeplayid import IdentificationError, InputError
     from freeplayid.io import DatasetError
-    from freeplayid.io.result import ResultFileError
+    from freeplayid.io.result_file import ResultFileError
     from freeplayid.model import SystemFileError
 
     for cls in (DatasetError, SystemFileError, IdentificationError, ResultFileError):

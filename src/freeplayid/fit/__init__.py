@@ -10,10 +10,10 @@ points' distance from contact (:func:`gap_ratios`).
 ``uncertainty``: :func:`jacobian_intervals`, :func:`bootstrap_intervals`.
 """
 
+from .fitting_points import FittingPoints
 from .least_squares import FitResult, fit_backbone
 from .objective import MIN_GAP_RATIO, BackboneModel, gap_ratios
 from .options import FitOptions, MultiStart, multistart_grid
-from .points import FittingPoints
 from .starts import Start, count_resonances, resolve_start
 from .uncertainty import bootstrap_intervals, jacobian_intervals
 

@@ -24,8 +24,8 @@ import scipy.optimize
 from ..backbone import amplitude_grid, backbone_method
 from ..model import FreeplaySystem
 from ..signal import BackbonePoints
+from .fitting_points import FittingPoints
 from .objective import BackboneModel
-from .points import FittingPoints
 from .starts import count_resonances, plausible_first, resolve_start
 from .uncertainty import bootstrap_intervals, jacobian_intervals
 

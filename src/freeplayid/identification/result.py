@@ -125,7 +125,7 @@ class Identification:
         return out
 
     def to_dict(self) -> dict:
-        """The ``identification.json`` record (see :mod:`freeplayid.io.result`)."""
+        """The ``identification.json`` record (see :mod:`freeplayid.io.result_file`)."""
         out = {
             "kn": self.kn,
             "delta": self.delta,

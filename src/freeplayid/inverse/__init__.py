@@ -12,7 +12,7 @@ The simulated data sets it is trained on and the comparison studies are in
 from .inference import InverseModel, InverseModelError, InversePrediction, load_inverse_model
 from .lightning import InverseModule, PointSetDataModule, train_inverse_model
 from .network import InverseNet, Normalisation, collate_point_sets
-from .points import PointSets, point_sets_from_records
+from .pointsets import PointSets, point_sets_from_records
 
 __all__ = [
     "PointSets", "point_sets_from_records",

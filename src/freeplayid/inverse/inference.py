@@ -19,7 +19,7 @@ from ..errors import InverseModelError
 from ..fit import FittingPoints
 from .lightning import _CKPT_KEY, _CKPT_VERSION, _STRUCTURE_KEY, InverseModule
 from .network import Normalisation, collate_point_sets
-from .points import PointSets, point_sets_from_records
+from .pointsets import PointSets, point_sets_from_records
 
 __all__ = ["InverseModelError", "InversePrediction", "InverseModel", "load_inverse_model"]
 

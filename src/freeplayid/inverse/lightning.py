@@ -24,7 +24,7 @@ import pytorch_lightning as pl
 import torch
 
 from .network import InverseNet, Normalisation, collate_point_sets
-from .points import PointSets
+from .pointsets import PointSets
 
 __all__ = ["InverseModule", "PointSetDataModule", "train_inverse_model", "gaussian_nll"]
 

@@ -26,7 +26,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from .points import PointSets
+from .pointsets import PointSets
 
 __all__ = ["Normalisation", "collate_point_sets", "InverseNet", "LOGVAR_RANGE"]
 

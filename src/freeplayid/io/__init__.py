@@ -2,13 +2,13 @@
 
 - :mod:`~freeplayid.io.manifest`: a data set's ``manifest.yaml`` parsed and checked into a
   :class:`~freeplayid.io.manifest.Manifest`;
-- :mod:`~freeplayid.io.dataset`: :func:`read_dataset` (the manifest, then every run file) and
+- :mod:`~freeplayid.io.dataset_files`: :func:`read_dataset` (the manifest, then every run file) and
   :func:`write_dataset`;
 - :mod:`~freeplayid.io.readers`: the run-file reader of each suffix,
   :data:`freeplayid.io.readers.READERS` (CSV, gzipped CSV, UFF 58, MATLAB ``.mat``, NI
   ``.tdms``); adding a file type is one module there and one registry line;
-- :mod:`~freeplayid.io.modal`: modal-test files (:func:`read_modal_test`);
-- :mod:`~freeplayid.io.result`: identification results (``identification.json``),
+- :mod:`~freeplayid.io.modal_tests`: modal-test files (:func:`read_modal_test`);
+- :mod:`~freeplayid.io.result_file`: identification results (``identification.json``),
   :func:`write_identification` and :func:`read_identification`.
 
 Linear model files (`.npz`) are read and written by :func:`freeplayid.model.load_system` and
@@ -19,10 +19,10 @@ Linear model files (`.npz`) are read and written by :func:`freeplayid.model.load
 
 from ..atomic import atomic_path, atomic_write_text, staged_folder
 from ..errors import DatasetError
-from .dataset import Dataset, Run, read_dataset, write_dataset
-from .modal import ModalTestError, read_modal_test
+from .dataset_files import Dataset, Run, read_dataset, write_dataset
+from .modal_tests import ModalTestError, read_modal_test
 from .readers.uff import read_uff, write_uff
-from .result import ResultFileError, read_identification, write_identification
+from .result_file import ResultFileError, read_identification, write_identification
 
 __all__ = [
     "Dataset", "DatasetError", "Run", "read_dataset", "write_dataset", "read_uff", "write_uff",

@@ -37,7 +37,7 @@ import yaml
 from ..errors import DatasetError, ModalTestError, SystemFileError
 from ..model.system import load_system
 from ..quantity import check_units
-from .modal import parse_modes
+from .modal_tests import parse_modes
 from .readers import reader_for
 
 __all__ = ["Manifest", "RunEntry", "read_manifest", "check_quantity_units",

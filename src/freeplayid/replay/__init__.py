@@ -69,7 +69,7 @@ solve), ``bootstrap`` (the bootstrap by replay), ``misfit`` (the self-check's cu
 
 from .bootstrap import ReplayBootstrap
 from .corrected import PointOffset, ReplayIteration, ReplayResult, corrected_fit
-from .damping import ZETA_RTOL, ZETA_START, ReplayDamping, damped_system, initial_zeta
+from .damping_estimate import ZETA_RTOL, ZETA_START, ReplayDamping, damped_system, initial_zeta
 from .misfit import curve_misfit
 from .options import Replay
 from .runs import replay_dataset, replay_levels, replay_sweeps

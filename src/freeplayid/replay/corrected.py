@@ -13,7 +13,7 @@ from ..fit import FitOptions, fit_backbone
 from ..signal import Extraction
 from .bootstrap import ReplayBootstrap, bootstrap_by_replay
 from .broyden import solve_binding
-from .damping import ZETA_RTOL, ReplayDamping, damped_system, damping_mode, initial_zeta
+from .damping_estimate import ZETA_RTOL, ReplayDamping, damped_system, damping_mode, initial_zeta
 from .misfit import run_misfits
 from .options import Replay
 from .runs import replay_dataset, replay_levels, replay_sweeps, with_sweep_hints

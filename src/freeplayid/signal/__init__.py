@@ -8,6 +8,13 @@
 """
 
 from .acmp import ChirpMode, acmp, bandwidth_weight, narrowest_bandwidth, ridge_frequency
+from .extract import (
+    AmplitudeCurve,
+    BackbonePoint,
+    BackbonePoints,
+    extract_backbone_points,
+    to_displacement,
+)
 from .jump import (
     REASON_EDGE,
     REASON_FAILED,
@@ -21,13 +28,6 @@ from .lockin import lockin
 from .noise import add_noise_for_snr, white_noise
 from .options import EXTRACTION_METHODS, Extraction
 from .peak import JUMP_POINTS
-from .points import (
-    AmplitudeCurve,
-    BackbonePoint,
-    BackbonePoints,
-    extract_backbone_points,
-    to_displacement,
-)
 from .sweeplaw import SweepEstimate, estimate_sweep
 
 __all__ = [

@@ -117,11 +117,6 @@ class StreamingDecimator:
         self.H = torch.as_tensor(padded.reshape(Q, m).T.copy(), dtype=dtype, device=device)
         self.buffer: torch.Tensor | None = None
 
-    @property
-    def delay_outputs(self) -> int:
-        """K: output samples the filter needs past the last one (look-ahead)."""
-        return self.half // self.factor
-
     def push(self, x: torch.Tensor) -> torch.Tensor:
         """Feed the next samples and return every output now complete.
 

@@ -24,7 +24,8 @@ from .cases import (
     require_plan_index,
     split_by_kn,
 )
-from .compare import (
+from .comparison import Comparison, compare_methods, pick_cases
+from .methods import (
     CORRECTED,
     METHODS,
     corrected_cases,
@@ -33,7 +34,6 @@ from .compare import (
     network_rows,
     summarise,
 )
-from .comparison import Comparison, compare_methods, pick_cases
 from .study import StudyData, prepare_study, train_study_network
 
 __all__ = [

@@ -31,15 +31,15 @@ DELTA_REF = 1e-3  # [rad] gap of the stored bank records (levels s * DELTA_REF)
 # bump when the cached layout, the meaning of a spec field or the simulated numbers change
 # (2: 2026-11-21, the numba kernels fuse their multiply-adds and the quasi-static model takes the
 # derivative of its fast part inside the decimating FIR)
-_FORMAT = 2
+CACHE_FORMAT = 2
 
 
-def _digest(obj) -> str:
+def digest(obj) -> str:
     text = json.dumps(obj, sort_keys=True, default=float)
     return hashlib.sha256(text.encode()).hexdigest()[:12]
 
 
-def _pair(name, v, *, positive=True) -> tuple[float, float]:
+def check_pair(name, v, *, positive=True) -> tuple[float, float]:
     try:
         lo, hi = (float(x) for x in v)
     except (TypeError, ValueError):
@@ -89,8 +89,8 @@ class BankSpec:
     quasi_static_hz: float | None = None
 
     def __post_init__(self):
-        object.__setattr__(self, "kn_range", _pair("kn_range", self.kn_range))
-        object.__setattr__(self, "ratio_range", _pair("ratio_range", self.ratio_range))
+        object.__setattr__(self, "kn_range", check_pair("kn_range", self.kn_range))
+        object.__setattr__(self, "ratio_range", check_pair("ratio_range", self.ratio_range))
         object.__setattr__(self, "channels", tuple(str(c) for c in self.channels))
         if not self.channels:
             raise ValueError("`channels` must name at least one DOF")
@@ -115,7 +115,7 @@ class BankSpec:
             d.pop("quasi_static_hz")
         if d["sweep"].get("octaves_per_min") is None:  # linear: keys of banks before log sweeps
             d["sweep"].pop("octaves_per_min", None)
-        return _digest({"bank": d, "model": system.fingerprint(), "format": _FORMAT})
+        return digest({"bank": d, "model": system.fingerprint(), "format": CACHE_FORMAT})
 
     def draw(self) -> tuple[np.ndarray, np.ndarray]:
         """kn (n_kn,) [N m/rad] and ratios (n_kn, n_ratios) [g/rad], from ``seed``."""

@@ -29,9 +29,9 @@ from typing import NamedTuple
 import numpy as np
 
 from ..atomic import atomic_path
-from ..inverse.points import PointSets
+from ..inverse.pointsets import PointSets
 from ..quantity import G
-from .bank import _FORMAT, DELTA_REF, SweepBank, _digest, _pair
+from .bank import CACHE_FORMAT, DELTA_REF, SweepBank, check_pair, digest
 
 __all__ = ["CaseSpec", "AXES", "PlannedCase", "plan_cases", "build_cases", "rebuild_case",
            "require_plan_index", "split_by_kn"]
@@ -84,7 +84,7 @@ class CaseSpec:
         if self.axis == "delta" and min(vals) <= 0:
             raise ValueError(f"clearance `values` must be > 0 [rad], got {self.values!r}")
         object.__setattr__(self, "values", vals)
-        object.__setattr__(self, "delta_range", _pair("delta_range", self.delta_range))
+        object.__setattr__(self, "delta_range", check_pair("delta_range", self.delta_range))
         lo, hi = (int(v) for v in self.runs)
         if not 1 <= lo <= hi:
             raise ValueError(f"`runs` must be [low, high] with 1 <= low <= high, got {self.runs!r}")
@@ -100,7 +100,7 @@ class CaseSpec:
         d.pop("n_jobs")
         if self.axis == "delta":  # clearances are drawn in a bin around each value (format 2)
             d["delta_sampling"] = "bin"
-        return _digest({"cases": d, "bank": bank.key, "format": _FORMAT})
+        return digest({"cases": d, "bank": bank.key, "format": CACHE_FORMAT})
 
     def delta_bins(self) -> np.ndarray:
         """Edges [rad], shape (len(values) + 1,), of the clearance bins (axis "delta").

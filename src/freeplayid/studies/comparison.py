@@ -15,11 +15,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..fit import FitOptions
-from ..inverse.points import PointSets
+from ..inverse.pointsets import PointSets
 from ..model.system import FreeplaySystem
 from .bank import SweepBank
 from .cases import CaseSpec
-from .compare import CORRECTED, METHODS, corrected_cases, fit_cases, network_rows, summarise
+from .methods import CORRECTED, METHODS, corrected_cases, fit_cases, network_rows, summarise
 
 __all__ = ["Comparison", "compare_methods", "pick_cases"]
 

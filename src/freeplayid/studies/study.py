@@ -15,7 +15,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..inverse.points import PointSets
+from ..inverse.pointsets import PointSets
 from ..model.system import FreeplaySystem
 from .bank import BankSpec, simulate_bank
 from .cases import CaseSpec, build_cases, split_by_kn

@@ -176,7 +176,7 @@ def _check_sweep_law(node, prefix: str) -> None:
 
 
 def _extraction_method() -> Rule:
-    from ..signal.points import EXTRACTION_METHODS
+    from ..signal.extract import EXTRACTION_METHODS
 
     return choice(*sorted(EXTRACTION_METHODS))
 

@@ -18,7 +18,7 @@ from ..errors import ConfigError
 from ..identification import Identification, SuspectResultError
 from ..identification import identify as identify_dataset
 from ..io import DatasetError, read_dataset
-from ..io.result import write_identification
+from ..io.result_file import write_identification
 from .checks import IDENTIFY, check_config
 from .common import run_dir, write_metrics, writing_to
 from .options import identify_options

@@ -33,7 +33,7 @@ import numpy as np
 
 from ..fit import FitOptions
 from ..identification import identify
-from ..inverse.points import PointSets
+from ..inverse.pointsets import PointSets
 from ..model.system import FreeplaySystem
 from ..replay import Replay
 from ..signal import Extraction
