@@ -9,7 +9,7 @@ import numpy as np
 
 from .quantity import G
 
-__all__ = ["Sweep", "SWEEP_LAWS"]
+__all__ = ["Sweep", "MeasuredSweep", "SWEEP_LAWS"]
 
 SWEEP_LAWS = ("linear", "log")
 
@@ -187,3 +187,114 @@ class Sweep:
     def acceleration(self, t, level_g: float = 1.0):
         """Base acceleration [m/s^2] at times ``t`` [s] for an amplitude of ``level_g`` [g]."""
         return level_g * G * np.sin(self.phase(t))
+
+
+@dataclass(frozen=True, eq=False)
+class MeasuredSweep:
+    """The base excitation as it was measured: ``a_g(t) = A envelope(t) sin(phase(t))``.
+
+    A controller's sweep departs from the ideal law: the level dips where the structure
+    resonates (force limiting, notching), drifts or ramps, and the phase follows its own clock.
+    This holds what the base channel recorded, its first harmonic at every sample (an extraction
+    of the base record: :func:`freeplayid.replay.measured_sweep`), as smooth functions of time,
+    so a simulation can be driven by the test's own excitation. It answers what :class:`Sweep`
+    answers (``frequency``, ``rate``, ``phase``, ``duration``, ``start_hz``, ``stop_hz``) and
+    ``envelope(t)`` (1 for a :class:`Sweep`); the level ``A`` stays the simulation's
+    ``level_g`` (the envelope's median is 1).
+
+    Parameters
+    ----------
+    sample_rate : float [Hz]
+    phase : ndarray, shape (N,) [rad]
+        The phase of ``sin`` at the samples ``n / sample_rate`` (unwrapped).
+    envelope : ndarray, shape (N,) [-], > 0
+        The first harmonic's amplitude relative to its median.
+    """
+
+    sample_rate: float
+    phase_samples: np.ndarray
+    envelope_samples: np.ndarray
+
+    def __post_init__(self) -> None:
+        import scipy.interpolate
+
+        _positive("sample_rate", self.sample_rate)
+        ph = np.asarray(self.phase_samples, dtype=float).reshape(-1)
+        env = np.asarray(self.envelope_samples, dtype=float).reshape(-1)
+        if ph.size < 4 or env.shape != ph.shape:
+            raise ValueError(f"MeasuredSweep needs `phase_samples` and `envelope_samples` of one "
+                             f"length >= 4, got {ph.size} and {env.size}")
+        if not (np.all(np.isfinite(ph)) and np.all(np.isfinite(env)) and np.all(env > 0)):
+            raise ValueError("MeasuredSweep `phase_samples` must be finite and "
+                             "`envelope_samples` finite and > 0")
+        t = np.arange(ph.size) / float(self.sample_rate)
+        object.__setattr__(self, "_phase", scipy.interpolate.CubicSpline(t, ph))
+        object.__setattr__(self, "_env", scipy.interpolate.CubicSpline(t, env))
+
+    law = "measured"
+    rate_hz_per_s = None
+    octaves_per_min = None
+
+    @property
+    def duration(self) -> float:
+        """Length of the record [s] (its last sample's time)."""
+        return (np.asarray(self.phase_samples).size - 1) / float(self.sample_rate)
+
+    @property
+    def start_hz(self) -> float:
+        return float(self.frequency(0.0))
+
+    @property
+    def stop_hz(self) -> float:
+        return float(self.frequency(self.duration))
+
+    @property
+    def mean_rate(self) -> float:
+        """The mean |df/dt| [Hz/s] over the record."""
+        return abs(self.stop_hz - self.start_hz) / self.duration
+
+    def phase(self, t):
+        return self._phase(np.clip(np.asarray(t, dtype=float), 0.0, self.duration))
+
+    def frequency(self, t):
+        return self._phase(np.clip(np.asarray(t, dtype=float), 0.0, self.duration), 1) / (2 * np.pi)
+
+    def rate(self, t):
+        return self._phase(np.clip(np.asarray(t, dtype=float), 0.0, self.duration), 2) / (2 * np.pi)
+
+    def envelope(self, t, order: int = 0):
+        """The relative amplitude (or its ``order``-th time derivative) at times ``t`` [s]."""
+        return self._env(np.clip(np.asarray(t, dtype=float), 0.0, self.duration), order)
+
+    def time_at(self, freq_hz):
+        """The time [s] the measured frequency passes ``freq_hz`` (its running maximum, or
+        minimum for a down-sweep, so a track that wavers still maps one to one)."""
+        t = np.arange(np.asarray(self.phase_samples).size) / float(self.sample_rate)
+        f = self.frequency(t)
+        if f[-1] < f[0]:
+            f, t = f[::-1], t[::-1]
+        return np.interp(freq_hz, np.maximum.accumulate(f), t)
+
+    def acceleration(self, t, level_g: float = 1.0):
+        """Base acceleration [m/s^2] at times ``t`` [s] for a level of ``level_g`` [g]."""
+        return level_g * G * self.envelope(t) * np.sin(self.phase(t))
+
+    def describe(self) -> str:
+        return (f"{self.start_hz:.5g} -> {self.stop_hz:.5g} Hz as measured (mean "
+                f"{self.mean_rate:.3g} Hz/s, level {np.min(self.envelope_samples):.2f}-"
+                f"{np.max(self.envelope_samples):.2f} x its median)")
+
+    def to_dict(self) -> dict:
+        """What a report says of it (not a hint: a record's own excitation has no keys)."""
+        return {"start_hz": self.start_hz, "stop_hz": self.stop_hz, "rate_hz_per_s": None,
+                "octaves_per_min": None, "mean_rate_hz_per_s": self.mean_rate,
+                "envelope_range": [float(np.min(self.envelope_samples)),
+                                   float(np.max(self.envelope_samples))]}
+
+    def record_mismatch(self, n_samples: int, sample_rate: float) -> str:
+        """The record it was measured on fits it by construction ("" unless the length or rate
+        differ)."""
+        if n_samples != np.asarray(self.phase_samples).size or sample_rate != self.sample_rate:
+            return (f"the measured excitation has {np.asarray(self.phase_samples).size} samples at "
+                    f"{self.sample_rate:g} Hz, the record {n_samples} at {sample_rate:g} Hz")
+        return ""

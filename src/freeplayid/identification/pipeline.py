@@ -14,13 +14,14 @@ from ..io import read_dataset
 from ..model import FreeplaySystem, load_system, validate_modes
 from ..replay import Replay, corrected_fit
 from ..signal import Extraction
+from .replay_checks import replay_checks
 from .result import Identification
 from .verdict import (
+    answer_checks,
     base_level_checks,
+    channel_checks,
     fit_checks,
-    interval_check,
     make_verdict,
-    replay_checks,
     validation_checks,
 )
 
@@ -89,11 +90,11 @@ def identify(dataset, *, system: FreeplaySystem | None = None, init=None,
     system = _system(dataset, system)
     est = plain_estimate(dataset, system, extraction=extraction, fit=fit, init=init,
                          progress=progress)
-    result = _plain_result(dataset, system, est, fit.mode, t0)
-    if replay is not None:
-        result = _with_replay(result, est, dataset, system, extraction=extraction, fit=fit,
-                              replay=replay, progress=progress, t0=t0)
-    return result
+    if replay is None:
+        return _plain_result(dataset, system, est, fit.mode, t0)
+    rep = corrected_fit(dataset, system, est, extraction=extraction, fit=fit, replay=replay,
+                        progress=progress)
+    return _corrected_result(dataset, system, est, rep, fit.mode, t0)
 
 
 def _option(cls, value, name: str):
@@ -133,8 +134,17 @@ def _zero_clearance_check(dataset, system, kn: float):
     return validate_modes(system, kn, ref["frequencies_hz"], ref["shapes"], ref["dofs"])
 
 
+def _record(dataset) -> dict:
+    """What the report says of the data set."""
+    return {"name": dataset.name, "path": str(dataset.path) if dataset.path else None,
+            "model": str(dataset.model) if dataset.model else None,
+            "quantity": dataset.quantity, "units": dataset.units,
+            "sample_rate": float(dataset.sample_rate), "n_runs": len(dataset.runs),
+            "channels": dict(dataset.channels), "base_channel": dataset.base_channel}
+
+
 def _plain_result(dataset, system, est: PlainEstimate, mode: int, t0: float) -> Identification:
-    """The plain estimate as an :class:`Identification`, with its checks."""
+    """The plain estimate as an :class:`Identification`, judged on its own fit."""
     validation = _zero_clearance_check(dataset, system, est.kn)
     verdict = make_verdict(base_level_checks(dataset)
                            + fit_checks(est.fitting_points(), est.fit, system, est.points,
@@ -146,33 +156,15 @@ def _plain_result(dataset, system, est: PlainEstimate, mode: int, t0: float) -> 
         runtime_s=time.perf_counter() - t0, points=est.points, dofs=est.dofs,
         rejected_runs=est.rejected_runs, system=system, mode=mode,
         inverse_estimate=est.inverse_estimate,
-        truth=dict(dataset.truth) if dataset.truth else None,
-        dataset={
-            "name": dataset.name, "path": str(dataset.path) if dataset.path else None,
-            "model": str(dataset.model) if dataset.model else None,
-            "quantity": dataset.quantity, "units": dataset.units,
-            "sample_rate": float(dataset.sample_rate), "n_runs": len(dataset.runs),
-            "channels": dict(dataset.channels), "base_channel": dataset.base_channel,
-        },
+        truth=dict(dataset.truth) if dataset.truth else None, dataset=_record(dataset),
         verdict=verdict, validation=validation,
     )
 
 
-def _with_replay(result, plain, dataset, system, *, extraction, fit, replay, progress, t0):
-    """``result`` with the bias-corrected (kn, delta) of :func:`freeplayid.replay.corrected_fit`.
-
-    Intervals: the Jacobian ones of the statistic's fit (the points the replays match, each
-    run's points one observation: :func:`freeplayid.fit.uncertainty.jacobian_intervals`) moved
-    with the estimate (same relative width); with the bootstrap by replay, the smallest
-    interval holding both (``interval_source`` says which).
-    A replay that failed keeps the plain estimate and makes the verdict ``suspect``.
-    """
-    rep = corrected_fit(dataset, system, plain, extraction=extraction, fit=fit, replay=replay,
-                        progress=progress)
-    checks = result.verdict.checks + tuple(replay_checks(rep))
-    if rep.failure:
-        return dataclasses.replace(result, verdict=make_verdict(checks), replay=rep,
-                                   runtime_s=time.perf_counter() - t0)
+def _corrected_intervals(rep) -> tuple[tuple, tuple, str]:
+    """The corrected estimate's intervals: the Jacobian ones of the statistic's fit (the points
+    the replays match, each run's points one observation) moved with the estimate (same
+    relative width); with the bootstrap by replay, the smallest interval holding both."""
     (kn_ci, delta_ci) = rep.statistic_ci95
     sk, sd = rep.kn / rep.kn_statistic, rep.delta / rep.delta_statistic
     kn_ci = tuple(v * sk for v in kn_ci)
@@ -183,10 +175,30 @@ def _with_replay(result, plain, dataset, system, *, extraction, fit, replay, pro
         kn_ci = (min(kn_ci[0], boot.kn_ci95[0]), max(kn_ci[1], boot.kn_ci95[1]))
         delta_ci = (min(delta_ci[0], boot.delta_ci95[0]), max(delta_ci[1], boot.delta_ci95[1]))
         source = f"bootstrap by replay ({boot.n} copies) joined with the Jacobian interval"
-    # the interval check on the reported intervals, not the plain fit's
-    verdict = make_verdict([c for c in checks if c.name != "interval_width"]
-                           + [interval_check(rep.kn, rep.delta, kn_ci, delta_ci)])
+    return kn_ci, delta_ci, source
+
+
+def _corrected_result(dataset, system, plain: PlainEstimate, rep, mode: int,
+                      t0: float) -> Identification:
+    """The corrected estimate as an :class:`Identification`, judged as reported: the data's
+    checks, the answer's own (bound, contact margin, backbone range and intervals at the
+    corrected estimate), the replay's at the answer and the zero-clearance check at the
+    reported kn. A replay that failed keeps the plain estimate, judged on its fit, and makes
+    the verdict ``suspect``."""
+    result = _plain_result(dataset, system, plain, mode, t0)
+    if rep.failure:
+        verdict = make_verdict(result.verdict.checks + tuple(replay_checks(rep)))
+        return dataclasses.replace(result, verdict=verdict, replay=rep,
+                                   runtime_s=time.perf_counter() - t0)
+    kn_ci, delta_ci, source = _corrected_intervals(rep)
+    validation = _zero_clearance_check(dataset, system, rep.kn)
+    verdict = make_verdict(
+        base_level_checks(dataset) + channel_checks(plain.points)
+        + answer_checks(plain.fitting_points(), rep.kn, rep.delta, kn_ci, delta_ci, system,
+                        mode=mode)
+        + replay_checks(rep) + validation_checks(validation))
     return dataclasses.replace(
         result, kn=rep.kn, delta=rep.delta, verdict=verdict, kn_ci95=kn_ci, delta_ci95=delta_ci,
         runtime_s=time.perf_counter() - t0, replay=rep, interval_source=source,
+        validation=validation,
     )

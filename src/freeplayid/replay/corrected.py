@@ -6,21 +6,28 @@ import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.stats
 
 from ..errors import IdentificationError
 from ..estimate import PlainEstimate, plain_estimate, weights_of
-from ..fit import FitOptions, fit_backbone
+from ..fit import BackboneModel, FitOptions, fit_backbone
 from ..signal import Extraction
 from .bootstrap import ReplayBootstrap, bootstrap_by_replay
 from .broyden import solve_binding
 from .damping_estimate import ZETA_RTOL, ReplayDamping, damped_system, damping_mode, initial_zeta
-from .misfit import run_misfits
+from .misfit import resonance_misfits, run_misfits
 from .options import Replay
-from .runs import replay_dataset, replay_levels, replay_sweeps, with_sweep_hints
+from .runs import (
+    replay_dataset,
+    replay_excitations,
+    replay_levels,
+    replay_sweeps,
+    with_sweep_hints,
+)
 from .statistic import amplitude_ratios, by_run_intervals, median_se, misfit_in_se
 from .weights import noise_levels, point_weights
 
-__all__ = ["ReplayResult", "ReplayIteration", "PointOffset", "corrected_fit"]
+__all__ = ["ReplayResult", "ReplayIteration", "PointOffset", "CrossCheck", "corrected_fit"]
 
 
 @dataclass(frozen=True)
@@ -74,6 +81,40 @@ class PointOffset:
     amplitude_offset: float
 
 
+# the second statistic the answer is checked on (:func:`_cross_check`), by the statistic matched:
+# the maxima for the drop (the drop's place on the backbone depends on how the damping acts, the
+# maximum's hardly), the drop for the maxima; none for the quadrature point (the phase
+# resonance lies on the backbone itself: a second statistic would be the less robust one)
+CROSS_RULE = {"drop": "windowed", "drop_smoothed": "windowed", "smoothed": "drop",
+              "windowed": "drop", "quadrature": None}
+
+
+@dataclass(frozen=True)
+class CrossCheck:
+    """The answer's replay against the test on a statistic the replays were not fitted to.
+
+    Attributes
+    ----------
+    rule : str
+        That statistic's jump-point rule.
+    kn_shift, delta_shift : float [-]
+        log(test / replay) of that statistic's fit: how far it would move the answer (to first
+        order; 0 when the replay reproduces the test).
+    kn_se, delta_se : float [-]
+        Standard errors of those logs from the test's own scatter (each run one observation;
+        NaN with two runs or fewer).
+    """
+
+    rule: str
+    kn_shift: float
+    delta_shift: float
+    kn_se: float
+    delta_se: float
+
+    def to_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+
 @dataclass(frozen=True)
 class ReplayResult:
     """The bias-corrected estimate and its iterations.
@@ -115,6 +156,13 @@ class ReplayResult:
         The bootstrap by replay (``Replay.n_bootstrap`` copies), when asked for.
     weights : tuple of PointWeight or None
         Each point's weight in the statistic's fit; None when every point weighs the same.
+    resonance : dict of str -> RunMisfit
+        Per run, at the answer: the replayed statistic point's frequency, the peak and the upper
+        branch against the measured ones (:func:`.misfit.resonance_misfits`).
+    cross : CrossCheck or None
+        The answer's replay on a second statistic (:class:`Replay` ``cross_check``).
+    excitation : str
+        What drove the replays: "measured" (the base channel's record) or "law".
     """
 
     kn: float
@@ -135,6 +183,9 @@ class ReplayResult:
     failure: str = ""
     bootstrap: ReplayBootstrap | None = None
     weights: tuple | None = None
+    resonance: dict = dataclasses.field(default_factory=dict)
+    cross: CrossCheck | None = None
+    excitation: str = "law"
 
 
 @dataclass(frozen=True)
@@ -148,10 +199,11 @@ class _Test:
     statistic: PlainEstimate
     extraction: Extraction
     fit: FitOptions
+    excitations: dict  # run file -> MeasuredSweep, the runs driven by what the base measured
 
 
 def _replayed_test(dataset, system, plain: PlainEstimate, rule: str, extraction: Extraction,
-                   fit: FitOptions) -> _Test | str:
+                   fit: FitOptions, measured: bool) -> _Test | str:
     """The test to replay (:class:`_Test`), or why it cannot be replayed.
 
     Only the runs whose points were fitted are replayed: a run rejected in the test (e.g. it
@@ -184,7 +236,13 @@ def _replayed_test(dataset, system, plain: PlainEstimate, rule: str, extraction:
             levels = replay_levels(dataset, sweeps)
         except ValueError as err:
             return f"the test cannot be replayed: {err}"
-    return _Test(stat_ds, sweeps, levels, stat, extraction, fit)
+    excitations = {}
+    if measured and dataset.base_channel:
+        try:
+            excitations, levels = replay_excitations(dataset, sweeps)
+        except ValueError as err:
+            return f"the test cannot be replayed as measured: {err}"
+    return _Test(stat_ds, sweeps, levels, stat, extraction, fit, excitations)
 
 
 class _Binding:
@@ -193,11 +251,9 @@ class _Binding:
     median log(X_rep / X)]. It keeps every replay (``history``), the last one, the point weights
     it fixed after the first, and why a replay failed."""
 
-    def __init__(self, test: _Test, system, damping: tuple, kn_damping: float, opts: Replay,
-                 progress: bool):
+    def __init__(self, test: _Test, system, damping: tuple, opts: Replay, progress: bool):
         self.test, self.system, self.opts, self.progress = test, system, opts, progress
         self.source, self.zeta = damping
-        self.kn_damping = kn_damping  # closed-hinge stiffness of a modal damping: the plain kn
         self.history, self.rep, self.rep_ds, self.failure = [], None, None, ""
         self.weights, self.weight_table = None, None if opts.weighted else ()
         self.ratios = np.array([])
@@ -211,10 +267,11 @@ class _Binding:
     def replay(self, theta, zeta):
         """The plain estimate of the test replayed at theta = (kn, delta) with ``zeta``."""
         t = self.test
+        # a modal damping of the closed-hinge modes at the replayed kn (not the plain fit's)
         sys_k = self.system if self.source == "model" else \
-            damped_system(self.system, zeta, self.kn_damping)
+            damped_system(self.system, zeta, float(theta[0]))
         self.rep_ds = replay_dataset(t.dataset, sys_k, *theta, levels=t.levels, sweeps=t.sweeps,
-                                     engine=self.opts.engine)
+                                     excitations=t.excitations, engine=self.opts.engine)
         return plain_estimate(self.rep_ds, self.system, init=tuple(theta),
                               extraction=t.extraction, fit=t.fit, point_weights=self.weights)
 
@@ -289,8 +346,9 @@ def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extracti
     """
     opts = Replay() if replay is None else replay
     source, zeta = damping_mode(system, opts.damping)
-    rule = extraction.jump_point if opts.jump_point is None else opts.jump_point
-    test = _replayed_test(dataset, system, plain, rule, extraction, fit)
+    rule = opts.statistic(extraction.jump_point, bool(dataset.base_channel))
+    test = _replayed_test(dataset, system, plain, rule, extraction, fit,
+                          measured=opts.excitation == "measured")
     if isinstance(test, str):
         return ReplayResult(kn=float(plain.kn), delta=float(plain.delta), jump_point=rule,
                             failure=test)
@@ -298,7 +356,7 @@ def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extracti
     if estimate:
         zeta = initial_zeta(system, test.statistic.points.used(), test.levels, float(plain.kn),
                             test.statistic.dofs, fit.mode)
-    binding = _Binding(test, system, (source, zeta), float(plain.kn), opts, progress)
+    binding = _Binding(test, system, (source, zeta), opts, progress)
     u0 = np.log(np.append(binding.hat, zeta) if estimate else binding.hat)
     tol = [np.log1p(opts.rtol)] * 2 + ([np.log1p(ZETA_RTOL)] if estimate else [])
     sol = solve_binding(binding, u0, np.diag([1.0, 1.0, -1.0][: u0.size]),
@@ -329,7 +387,7 @@ def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts
     """The :class:`ReplayResult` of a finished loop: offsets, curve misfits and the bootstrap
     at the last replay."""
     rep, stat = b.rep, b.stat
-    offsets, misfit, boot = (), {}, None
+    offsets, misfit, boot, resonance, cross = (), {}, None, {}, None
     if rep is not None:
         replayed = {(p.run, p.channel): p for p in rep.points.used()}
         offsets = tuple(PointOffset(p.run, p.channel, q.f_hz / p.f_hz - 1,
@@ -337,6 +395,10 @@ def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts
                         for p in stat.points.used()
                         if (q := replayed.get((p.run, p.channel))) is not None)
         misfit = run_misfits(plain.points.curves, rep.points.curves, b.test.levels)
+        resonance = resonance_misfits(stat.points.used(), rep.points.used(), stat.points.curves,
+                                      rep.points.curves, _backbone_at(b, theta))
+        if opts.cross_check and CROSS_RULE.get(rule) and not b.failure:
+            cross = _cross_check(b, theta, CROSS_RULE[rule])
         if opts.n_bootstrap > 0 and not b.failure:
             boot = bootstrap_by_replay(
                 b.rep_ds, system, noise_levels(b.test.dataset, b.rep_ds), theta=theta,
@@ -350,9 +412,46 @@ def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts
         closest_misfit_se=closest, levels=b.test.levels, offsets=offsets,
         curves=tuple(rep.points.curves) if rep is not None else (), misfit=misfit,
         damping=damping, failure=b.failure, bootstrap=boot, weights=b.weight_table or None,
+        resonance=resonance, cross=cross,
+        excitation="measured" if b.test.excitations else "law",
         sweeps={run: {"source": src, "law": sw.law, **sw.to_dict(),
                       **({} if res is None else {"residual_hz": float(res)})}
                 for run, (sw, src, res) in b.test.sweeps.items()})
+
+
+def _backbone_at(b: _Binding, theta):
+    """``point -> f_BC(X; theta)`` [Hz] at the point's amplitude and channel (its model DOF)."""
+    dofs = b.stat.dofs
+    model = BackboneModel(b.system, sorted(set(dofs.values())), backbone=b.test.fit.backbone,
+                          mode=b.test.fit.mode)
+
+    def f(point):
+        cidx = np.array([model.channels.index(dofs[point.channel])])
+        return float(model.frequency(np.array([point.amplitude_m]), cidx, *theta)[0])
+    return f
+
+
+def _cross_check(b: _Binding, theta, rule: str) -> CrossCheck | None:
+    """The test and its last replay (at the answer ``theta``) on a second statistic, ``rule``'s
+    points fitted alike (unweighted): how far that statistic would move the answer."""
+    t = b.test
+    extraction = dataclasses.replace(t.extraction, jump_point=rule, use_sweep_hint=True)
+    try:
+        test = plain_estimate(t.dataset, b.system, init=tuple(theta), extraction=extraction,
+                              fit=t.fit)
+        rep = plain_estimate(b.rep_ds, b.system, init=tuple(theta), extraction=extraction,
+                             fit=t.fit)
+    except IdentificationError:
+        return None  # the second statistic's points cannot be fitted: nothing to compare
+    shift = np.log(np.array([test.kn, test.delta]) / np.array([rep.kn, rep.delta]))
+    runs = len({p.run for p in test.points.used()})
+    se = [float("nan"), float("nan")]
+    if runs > 2:
+        tq = float(scipy.stats.t.ppf(0.975, runs - 2))
+        se = [float(np.log(hi / lo) / (2 * tq)) if lo > 0 else float("inf")
+              for lo, hi in by_run_intervals(test)]
+    return CrossCheck(rule=rule, kn_shift=float(shift[0]), delta_shift=float(shift[1]),
+                      kn_se=se[0], delta_se=se[1])
 
 
 def _refit(est: PlainEstimate, system, weights: dict, fit: FitOptions) -> PlainEstimate:

@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
-__all__ = ["curve_misfit", "run_misfits"]
+__all__ = ["RunMisfit", "curve_misfit", "resonance_misfits", "run_misfits"]
 
 
 def curve_misfit(measured, replayed) -> float:
@@ -41,4 +43,96 @@ def run_misfits(measured_curves, replayed_curves, runs) -> dict:
         r = replayed.get((c.run, c.channel))
         if r is not None and c.run in runs:
             out[c.run] = max(out.get(c.run, 0.0), curve_misfit(c, r))
+    return out
+
+
+@dataclass(frozen=True)
+class RunMisfit:
+    """How far one run's replay at the answer misses the test, where the information lies.
+
+    Attributes
+    ----------
+    run : str
+    f_offset : float [-]
+        The replayed statistic point's frequency over the measured one, minus 1 (median over the
+        run's channels): a jump 0.7 Hz late at 40 Hz is +0.0175.
+    f_hz : float [Hz]
+        The measured point's frequency (median over the channels).
+    backbone_offset : float [-]
+        The replayed point's relative distance from the backbone at the answer, minus the
+        measured point's (f / f_BC(X) - 1 each; median over the channels): what the fit sees. A
+        point that moves along the backbone (another damping puts the phase resonance at another
+        amplitude) has none.
+    peak_offset : float [-]
+        The replayed curve's peak over the measured one, minus 1 (the run's strongest channel).
+    branch : float [-]
+        Median |X_replayed - X_measured| over the measured curve's upper branch (from where it
+        rises through half its peak to the point), relative to the peak.
+    """
+
+    run: str
+    f_offset: float
+    f_hz: float
+    backbone_offset: float
+    peak_offset: float
+    branch: float
+
+    def to_dict(self) -> dict:
+        return {"run": self.run, "f_offset": self.f_offset, "f_hz": self.f_hz,
+                "backbone_offset": self.backbone_offset, "peak_offset": self.peak_offset,
+                "branch": self.branch}
+
+
+def _upper_branch(curve, f_point: float) -> np.ndarray:
+    """Indices of ``curve`` on its upper branch: the lobe around its peak (at or above half the
+    peak) on the point's side away from the jump: from the lobe's start up to the point on an
+    up-sweep, from the point (the jump-up) to the lobe's end on a down-sweep."""
+    x = np.asarray(curve.amplitude_m, float)
+    f = np.asarray(curve.frequency, float)
+    ok = np.isfinite(x) & np.isfinite(f)
+    if np.count_nonzero(ok) < 4:
+        return np.zeros(0, dtype=int)
+    k = int(np.argmax(np.where(ok, x, -np.inf)))
+    low = np.nonzero(~ok | (x < 0.5 * x[k]))[0]
+    start = int(low[low < k][-1]) + 1 if np.any(low < k) else 0
+    stop = int(low[low > k][0]) if np.any(low > k) else x.shape[0]
+    lobe = np.arange(start, stop)
+    j = int(lobe[np.argmin(np.abs(f[lobe] - f_point))])
+    return np.arange(start, j + 1) if f[-1] > f[0] else np.arange(j, stop)
+
+
+def resonance_misfits(measured_points, replayed_points, measured_curves, replayed_curves,
+                      backbone_f=None) -> dict[str, RunMisfit]:
+    """Per run: the replayed statistic point's frequency (and its distance from the backbone),
+    the replayed curve's peak and its upper branch against the measured ones
+    (:class:`RunMisfit`), for the runs found in both. ``backbone_f(point)``: the backbone's
+    frequency [Hz] at the point's amplitude and channel (None: no backbone offsets)."""
+    rep = {(p.run, p.channel): p for p in replayed_points}
+    curves = {(c.run, c.channel): c for c in measured_curves}
+    rcurves = {(c.run, c.channel): c for c in replayed_curves}
+    by_run: dict[str, list] = {}
+    for p in measured_points:
+        q = rep.get((p.run, p.channel))
+        c, r = curves.get((p.run, p.channel)), rcurves.get((p.run, p.channel))
+        if q is None or c is None or r is None or not c.amplitude_m.size or not r.amplitude_m.size:
+            continue
+        peak = float(np.nanmax(c.amplitude_m))
+        idx = _upper_branch(c, p.f_hz)
+        branch = float("nan")
+        if idx.size >= 2:
+            order = np.argsort(r.frequency)
+            xr = np.interp(c.frequency[idx], r.frequency[order], r.amplitude_m[order])
+            branch = float(np.median(np.abs(xr - c.amplitude_m[idx])) / peak)
+        off = float("nan") if backbone_f is None else \
+            q.f_hz / backbone_f(q) - p.f_hz / backbone_f(p)
+        by_run.setdefault(p.run, []).append(
+            (q.f_hz / p.f_hz - 1, p.f_hz, float(np.nanmax(r.amplitude_m)) / peak - 1, branch,
+             peak, off))
+    out = {}
+    for run, rows in by_run.items():
+        strongest = max(rows, key=lambda row: row[4])
+        out[run] = RunMisfit(run, float(np.median([row[0] for row in rows])),
+                             float(np.median([row[1] for row in rows])),
+                             float(np.median([row[5] for row in rows])), strongest[2],
+                             strongest[3])
     return out

@@ -4,13 +4,16 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..arguments import check_bool, check_int, check_number, is_number
+from ..arguments import check_bool, check_choice, check_int, check_number, is_number
 from ..signal import JUMP_POINTS
 
-__all__ = ["Replay", "DAMPING_FORMS"]
+__all__ = ["Replay", "DAMPING_FORMS", "EXCITATIONS"]
 
 # the replay's damping by name (a number is a modal damping ratio)
 DAMPING_FORMS = ("model", "estimate")
+# what drives the replays: the base channel's record ("measured", when the data set has one) or
+# the sweep law at one level per run ("law")
+EXCITATIONS = ("measured", "law")
 
 
 @dataclass(frozen=True)
@@ -32,8 +35,10 @@ class Replay:
         Seed of those copies' noise.
     jump_point : str or None
         Jump-point rule of the points the replays match (:data:`freeplayid.signal.JUMP_POINTS`):
-        "drop" (default; the frequency where each curve drops, far less noisy than the
-        maximum's on a flat top), or None for the extraction's own rule.
+        "auto" (default): "quadrature" when the data set has a base channel (the phase
+        resonance, on the backbone whatever the damping's form), else "drop" (the frequency
+        where each curve drops, far less noisy than the maximum's on a flat top); a rule's
+        name; or None for the extraction's own rule.
     weighted : bool
         Weight the matched points by their amplitude noise, measured against the first replay.
     rtol : float [-]
@@ -43,16 +48,28 @@ class Replay:
     engine : str or None
         Simulator engine of the replays (:data:`freeplayid.simulate.engines.ENGINES` or
         "auto"); None: the exponential engine when available, else "auto".
+    cross_check : bool
+        With a statistic other than "quadrature": at the answer, compare the replay with the test
+        on a second statistic it was not fitted to (the drop's maxima, the maxima's drop); a
+        model that is not the test's (damping of another form) puts the two apart, and the
+        verdict says so (:class:`CrossCheck`).
+    excitation : {"measured", "law"}
+        What drives the replays of a data set with a base channel: "measured" (default) its
+        first harmonic as recorded (:func:`measured_sweep`: the level profile, the controller's
+        notching, the sweep law and its direction, as they happened); "law" each run's sweep
+        law at one level. Without a base channel: always the law at ``level_g``.
     """
 
     damping: float | str | None = None
     n_bootstrap: int = 0
     seed: int = 0
-    jump_point: str | None = "drop"
+    jump_point: str | None = "auto"
     weighted: bool = True
     rtol: float = 5e-4
     max_iter: int = 8
     engine: str | None = None
+    excitation: str = "measured"
+    cross_check: bool = True
 
     def __post_init__(self):
         d = self.damping
@@ -63,12 +80,14 @@ class Replay:
                              f"got {d!r}")
         check_int("n_bootstrap", self.n_bootstrap, 0)
         check_int("seed", self.seed, 0)
-        if self.jump_point is not None and self.jump_point not in JUMP_POINTS:
-            raise ValueError(f"`jump_point` must be one of {sorted(JUMP_POINTS)} or None, "
-                             f"got {self.jump_point!r}")
+        if self.jump_point is not None and self.jump_point not in ("auto", *JUMP_POINTS):
+            raise ValueError(f"`jump_point` must be one of {['auto', *sorted(JUMP_POINTS)]} or "
+                             f"None, got {self.jump_point!r}")
         check_bool("weighted", self.weighted)
+        check_bool("cross_check", self.cross_check)
         check_number("rtol", self.rtol, 0.0, 1.0, open_lo=True, open_hi=True)
         check_int("max_iter", self.max_iter, 1)
+        check_choice("excitation", self.excitation, EXCITATIONS)
         if self.engine is not None:
             # the engines' registry imports torch: only when an engine is named
             from ..simulate.engines import ENGINES
@@ -76,3 +95,12 @@ class Replay:
             if self.engine not in ("auto", *ENGINES):
                 raise ValueError(f"`engine` must be None or one of {['auto', *ENGINES]}, "
                                  f"got {self.engine!r}")
+
+    def statistic(self, extraction_rule: str, has_base: bool) -> str:
+        """The jump-point rule the replays match for a data set with (or without) a base
+        channel whose plain points were taken with ``extraction_rule``."""
+        if self.jump_point is None:
+            return extraction_rule
+        if self.jump_point == "auto":
+            return "quadrature" if has_base else "drop"
+        return self.jump_point

@@ -10,8 +10,10 @@ from ..dataset import Dataset
 from ..estimate import run_sweep_law
 from ..quantity import G, check_quantity
 from ..signal import window_amplitudes
+from .excitation import measured_sweep
 
-__all__ = ["replay_sweeps", "replay_levels", "replay_dataset", "with_sweep_hints"]
+__all__ = ["replay_sweeps", "replay_levels", "replay_excitations", "replay_dataset",
+           "with_sweep_hints"]
 
 
 def replay_sweeps(dataset) -> dict:
@@ -59,16 +61,41 @@ def replay_levels(dataset, sweeps: dict | None = None) -> dict:
     return out
 
 
+def replay_excitations(dataset, sweeps: dict) -> tuple[dict, dict]:
+    """Each usable run's excitation as its base channel measured it
+    (:func:`.excitation.measured_sweep`), and its level [g] from the same first harmonic.
+
+    Returns
+    -------
+    excitations : dict of run file -> MeasuredSweep
+    levels : dict of run file -> (level [g], "base channel, as measured")
+
+    Raises
+    ------
+    ValueError
+        A run without a base channel or without a usable first harmonic in it.
+    """
+    excitations, levels = {}, {}
+    for run in dataset.runs:
+        if run.reason or run.file not in sweeps:
+            continue
+        excitations[run.file], level = measured_sweep(dataset, run, sweeps[run.file][0])
+        levels[run.file] = (level, "base channel, as measured")
+    return excitations, levels
+
+
 def replay_dataset(dataset, system, kn: float, delta: float, *, levels: dict | None = None,
-                   sweeps: dict | None = None, dtype=None, engine: str | None = None):
+                   sweeps: dict | None = None, excitations: dict | None = None, dtype=None,
+                   engine: str | None = None):
     """The data set's usable runs simulated at (kn, delta): a data set of the same layout.
 
-    Runs sharing a sweep law are simulated in one batch; absolute frame with the base channel
-    when the data set has one, else relative. ``sweeps`` and ``levels`` are
+    Runs sharing a sweep law are simulated in one batch; a run with a measured excitation
+    (``excitations``: :func:`replay_excitations`) alone, driven by it; absolute frame with the
+    base channel when the data set has one, else relative. ``sweeps`` and ``levels`` are
     :func:`replay_sweeps` and :func:`replay_levels` (computed when not given). A replayed run
-    carries a sweep hint only where the measured run has one, so both go through the same
-    extraction. ``engine``: a simulator engine name (:data:`freeplayid.simulate.engines.ENGINES`
-    or "auto"); None: the exponential engine when available, else "auto".
+    carries the measured run's sweep hint (or none), so both go through the same extraction.
+    ``engine``: a simulator engine name (:data:`freeplayid.simulate.engines.ENGINES` or
+    "auto"); None: the exponential engine when available, else "auto".
     """
     # the simulator (torch) only when a replay runs: `import freeplayid.identification` stays
     # light for a notebook that reads results
@@ -85,11 +112,13 @@ def replay_dataset(dataset, system, kn: float, delta: float, *, levels: dict | N
     sweeps = replay_sweeps(dataset) if sweeps is None else sweeps
     levels = replay_levels(dataset, sweeps) if levels is None else levels
     frame = "absolute" if dataset.base_channel else "relative"
-    hinted = {run.file for run in dataset.runs if run.sweep is not None}
+    hints = {run.file: run.sweep for run in dataset.runs}
+    excitations = excitations or {}
     groups: dict = {}
     for run in dataset.runs:
         if run.file in levels:
-            groups.setdefault(sweeps[run.file][0], []).append(run.file)
+            key = excitations.get(run.file) or sweeps[run.file][0]
+            groups.setdefault(key, []).append(run.file)
     runs = []
     for sweep, files in groups.items():
         res = simulate_sweeps(system, kn=kn, delta=delta, level_g=[levels[f][0] for f in files],
@@ -99,7 +128,7 @@ def replay_dataset(dataset, system, kn: float, delta: float, *, levels: dict | N
                               dtype=torch.float64 if dtype is None else dtype, progress=False,
                               engine=engine)
         ds = sweep_dataset(res, columns=dataset.channels, units=dataset.units, run_names=files)
-        runs += [r if r.file in hinted else dataclasses.replace(r, sweep=None) for r in ds.runs]
+        runs += [dataclasses.replace(r, sweep=hints[r.file]) for r in ds.runs]
     order = {r.file: i for i, r in enumerate(dataset.runs)}
     runs.sort(key=lambda r: order[r.file])
     return Dataset(name=f"replay of {dataset.name}", model=None, quantity=dataset.quantity,

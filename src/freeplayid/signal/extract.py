@@ -19,7 +19,7 @@ from ..quantity import check_quantity
 from .acmp import ChirpMode
 from .jump import REASON_FAILED, REASON_NOISY, find_jump_peak, reason_dead
 from .options import EXTRACTION_METHODS, Extraction, with_options
-from .peak import JUMP_POINTS
+from .peak import JUMP_POINTS, NEEDS_BASE
 from .sweeplaw import estimate_sweep
 from .validate import check_positive, dead_channel
 
@@ -241,6 +241,9 @@ def extract_backbone_points(
     if opts.method == "lockin" and any(s is None for s in sweeps):
         raise ValueError("`method='lockin'` needs the sweep law: pass `sweep`")
     bases = _bases(base, runs)
+    if opts.jump_point in NEEDS_BASE and bases is None:
+        raise ValueError(f"`jump_point={opts.jump_point!r}` needs the base channel (its phase is "
+                         "the reference): pass `base`")
     points, curves = [], []
     for i, run in enumerate(runs):
         got = _run_points(run, fs, run_names[i], channel_names, sweep=sweeps[i],
@@ -327,6 +330,13 @@ def _run_points(run, fs, run_name, channel_names, *, sweep, base, base_name, opt
                              base_name=base_name, quantity=quantity)
     out = []
     n_ch = run.shape[0]
+    base_phase = None
+    if opts.jump_point in NEEDS_BASE and not run_reason:
+        try:
+            base_phase = _base_phase(base, fs, trim=trim, sweep=sweep, opts=opts,
+                                     quantity=quantity)
+        except (np.linalg.LinAlgError, _ExtractionError) as e:
+            run_reason = f"{REASON_FAILED}: the base channel {base_name}: {e}"
     for j in range(n_ch):
         names = (run_name, channel_names[j])
         reason = run_reason or reason_dead(channel_names[j], dead_channel(
@@ -339,7 +349,7 @@ def _run_points(run, fs, run_name, channel_names, *, sweep, base, base_name, opt
         x = run[j] - base if base is not None else run[j]
         try:
             out.append(_channel_point(x, fs, names, sweep=sweep, trim=trim, opts=opts,
-                                      quantity=quantity))
+                                      quantity=quantity, base_phase=base_phase))
         except (np.linalg.LinAlgError, _ExtractionError) as e:
             # one bad channel (no sweep in it, a failed solve) does not stop the batch
             out.append((BackbonePoint(*names, nan, nan, False, f"{REASON_FAILED}: {e}", nan, nan),
@@ -391,9 +401,8 @@ def _sweep_band(x, fs, n, sl, ti, *, sweep, run_opts, quantity):
     return None, rate, (float(f_init[sl][0]), float(f_init[sl][-1]))
 
 
-def _channel_point(x, fs, names, *, sweep, trim, opts: Extraction,
-                   quantity) -> tuple[BackbonePoint, AmplitudeCurve]:
-    """Fitting point and thinned curve of one channel of one run (see extract_backbone_points)."""
+def _first_harmonic(x, fs, *, trim, sweep, opts: Extraction, quantity):
+    """(mode, law, rate [Hz/s] per analysed sample, band [Hz], bandwidth [Hz]) of one record."""
     n = x.shape[0]
     if np.ptp(x) == 0:
         raise _ExtractionError("constant signal")
@@ -406,6 +415,23 @@ def _channel_point(x, fs, names, *, sweep, trim, opts: Extraction,
         else opts.bandwidth_hz
     mode: ChirpMode = EXTRACTION_METHODS[opts.method](x, fs, sweep=sweep, bandwidth_hz=bw,
                                                       **run_opts)
+    return mode, law, rate, band, bw
+
+
+def _base_phase(base, fs, *, trim, sweep, opts: Extraction, quantity) -> np.ndarray:
+    """The base channel's first-harmonic phase [rad] at every sample (the quadrature rule's
+    reference), extracted as the responses are."""
+    return _first_harmonic(base, fs, trim=trim, sweep=sweep, opts=opts, quantity=quantity)[0].phase
+
+
+def _channel_point(x, fs, names, *, sweep, trim, opts: Extraction, quantity,
+                   base_phase=None) -> tuple[BackbonePoint, AmplitudeCurve]:
+    """Fitting point and thinned curve of one channel of one run (see extract_backbone_points)."""
+    n = x.shape[0]
+    sl = slice(trim, n - trim)
+    ti = np.arange(n)[sl] / fs
+    mode, law, rate, band, bw = _first_harmonic(x, fs, trim=trim, sweep=sweep, opts=opts,
+                                                quantity=quantity)
     fi = mode.frequency[sl]
     # the first harmonic lives in the swept band; keep a wild IF (noise, after a jump) from
     # blowing up X = A / w^2
@@ -426,7 +452,7 @@ def _channel_point(x, fs, names, *, sweep, trim, opts: Extraction,
     kp, xp = JUMP_POINTS[opts.jump_point](
         k, x=x, fs=fs, mode=mode, trim=trim, xi=xi, ratio=opts.jump_ratio,
         bandwidth_hz=bw, to_disp=lambda a, f: to_displacement(a, f, quantity), clip=clip,
-        steep_after=peak_rate > 0,
+        steep_after=peak_rate > 0, base_phase=base_phase,
     )
     t_point = float(np.interp(kp, np.arange(ti.shape[0]), ti))  # "drop": a fractional index
     if xp is None:  # the smoothed curve's own maximum and frequency

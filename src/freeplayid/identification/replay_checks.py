@@ -1,0 +1,178 @@
+"""The verdict's checks of the replay: does the replay at the reported answer reproduce the test?
+
+- ``replay_failed``: the test could not be replayed, or a replay could not be fitted.
+- ``replay_misfit``: each run's replay at the answer against the test where the fit takes its
+  information: the statistic point's place against the backbone at the answer (its relative
+  distance f / f_BC(X) - 1, replayed minus measured) within ``backbone_offset`` (0.2 %, about a
+  0.4 % move of kn). A point that only moves along the backbone (another damping puts the phase
+  resonance at another amplitude) does not move the answer and does not fail; the peaks and the
+  upper branches are reported beside it (a replay of the right model lands 0.01-0.03 % from
+  each run's jump and 0.1-0.5 % from its peak on the bundled example, 0.05 g noise).
+- ``replay_consistency`` (the drop or maxima statistics): the answer's replay against the test
+  on a second statistic it was not fitted to (:class:`freeplayid.replay.CrossCheck`); apart by
+  more than ``cross_delta`` / ``cross_kn`` (half the accuracy bounds) and three standard errors.
+- ``sweep_law``, ``replay_binding``, ``replay_converged``, ``damping_estimate``: where the laws
+  came from, a replayed fit that jumps, convergence and an estimated damping the amplitudes pin
+  down (:mod:`freeplayid.identification.verdict`).
+
+Each reason names what it measured and the causes that produce it.
+"""
+
+from __future__ import annotations
+
+import math
+
+from .verdict import LIMITS, Check
+
+__all__ = ["replay_checks"]
+
+
+def _causes(replay) -> str:
+    """What makes a replay miss a test it was fitted to, given what it already replays."""
+    causes = ["damping of another form than the replay's", "a linear model that is not the "
+              "tested structure", "unequal gaps"]
+    if getattr(replay, "excitation", "law") != "measured":
+        causes.append("a level profile or sweep law the replay does not know (no base channel "
+                      "to replay)")
+    return ", ".join(causes[:-1]) + " or " + causes[-1]
+
+
+def _resonance_check(replay) -> Check:
+    """``replay_misfit``: every run's statistic point against the backbone at the answer, with
+    its peak and upper branch for the record (module docstring)."""
+    misfits = getattr(replay, "resonance", None) or {}
+    if not misfits:
+        return Check("replay_misfit", True, "no replayed point to compare")
+    lim = LIMITS["backbone_offset"]
+    what = "phase resonance" if replay.jump_point == "quadrature" else "jump"
+    bad = [f"run {run}: its {what} {100 * abs(m.backbone_offset):.2g} % "
+           f"{'above' if m.backbone_offset > 0 else 'below'} the measured one's place against "
+           f"the backbone ({m.f_offset * m.f_hz:+.2g} Hz, the peak {100 * m.peak_offset:+.2g} %)"
+           for run, m in misfits.items()
+           if math.isfinite(m.backbone_offset) and abs(m.backbone_offset) > lim]
+    worst = max((abs(m.backbone_offset) / lim for m in misfits.values()
+                 if math.isfinite(m.backbone_offset)), default=0.0)
+    peaks = max(abs(m.peak_offset) for m in misfits.values())
+    branch = max((m.branch for m in misfits.values() if math.isfinite(m.branch)), default=0.0)
+    shape = (f"; its peaks differ by up to {100 * peaks:.2g} % and its upper branches by "
+             f"{100 * branch:.2g} % of the peak")
+    if peaks > LIMITS["peak_amplitude"] and not bad:
+        shape += (f" (the replay's damping is not the test's; the {what} points the answer "
+                  "rests on are reproduced)")
+    if not bad:
+        return Check("replay_misfit", True,
+                     f"the replay at the answer puts every run's {what} where the test has it "
+                     f"against the backbone (within {100 * worst * lim:.2g} %; limit "
+                     f"{100 * lim:g} %)" + shape, worst)
+    return Check("replay_misfit", False,
+                 f"the replay at the answer does not reproduce the test's {what} points: "
+                 + "; ".join(bad) + f" (limit {100 * lim:g} %){shape} ({_causes(replay)}?)",
+                 worst)
+
+
+def _consistency_check(replay) -> Check | None:
+    """``replay_consistency``: the answer on a second statistic (module docstring)."""
+    cross = getattr(replay, "cross", None)
+    if cross is None:
+        return None
+    k = LIMITS["cross_se"]
+    off = []
+    for name, shift, se, tol in (("delta", cross.delta_shift, cross.delta_se,
+                                  LIMITS["cross_delta"]),
+                                 ("kn", cross.kn_shift, cross.kn_se, LIMITS["cross_kn"])):
+        limit = max(tol, k * se) if math.isfinite(se) else tol
+        if abs(shift) > limit:
+            off.append(f"{name} {100 * shift:+.2g} % (limit {100 * limit:.2g} %)")
+    value = max(abs(cross.delta_shift) / LIMITS["cross_delta"],
+                abs(cross.kn_shift) / LIMITS["cross_kn"])
+    if not off:
+        return Check("replay_consistency", True,
+                     f"the replay at the answer also reproduces the points taken with "
+                     f"`{cross.rule}` (delta {100 * cross.delta_shift:+.2g} %, kn "
+                     f"{100 * cross.kn_shift:+.2g} %)", value)
+    return Check("replay_consistency", False,
+                 f"the replay at the answer reproduces the `{replay.jump_point}` points it was "
+                 f"fitted to but not the `{cross.rule}` points, which put the answer elsewhere: "
+                 + ", ".join(off) + f" ({_causes(replay)}?)", value)
+
+
+def replay_checks(replay) -> list[Check]:
+    """The replay's self-check (module docstring)."""
+    if getattr(replay, "failure", ""):
+        return [Check("replay_failed", False, replay.failure)]
+    misfit = {r: m for r, m in (replay.misfit or {}).items() if math.isfinite(m)}
+    checks = [_resonance_check(replay), _consistency_check(replay),
+              _sweep_law_check(replay, misfit, LIMITS["replay_misfit"]),
+              _binding_check(replay.iterations), _converged_check(replay)]
+    damping = getattr(replay, "damping", None)
+    if damping is not None and damping.source == "estimated":
+        ci = damping.zeta_ci95
+        ratio = None if ci is None else ci[1] / ci[0]
+        ok = ratio is not None and ratio <= LIMITS["zeta_ci_ratio"]
+        checks.append(Check(
+            "damping_estimate", ok,
+            f"damping estimated from the peak amplitudes: zeta = {damping.zeta:.3g}"
+            + ("" if ci is None else f" (95 % CI {ci[0]:.3g} to {ci[1]:.3g})")
+            + ("" if ok else "; the amplitudes do not pin it down (give `damping=` or C in "
+               "the model file)"), ratio))
+    return [c for c in checks if c is not None]
+
+
+def _converged_check(replay) -> Check:
+    """``replay_converged``: converged, or the closest replay within the statistics' noise."""
+    n = len(replay.iterations)
+    if replay.converged:
+        return Check("replay_converged", True, f"the corrected fit converged in {n} replays")
+    close = getattr(replay, "closest_misfit_se", None)
+    if close is not None and close <= LIMITS["binding_noise"]:
+        return Check("replay_converged", True,
+                     f"the corrected fit did not converge in {n} replays, but its closest replay "
+                     f"matches the test's statistics within {close:.2g} of their standard error",
+                     close)
+    return Check("replay_converged", False,
+                 f"the corrected fit did not converge in {n} replays"
+                 + ("" if close is None else
+                    f" (its closest replay misses the test's statistics by {close:.2g} of their "
+                    "standard error)"), close)
+
+
+def _binding_check(iterations) -> Check:
+    """``replay_binding``: no two replays whose fits differ by a jump (module docstring)."""
+    worst = None  # (move of the fit, move of the parameter, name)
+    for a, b in zip(iterations, iterations[1:]):
+        for name in ("kn", "delta"):
+            move = abs(math.log(getattr(b, f"{name}_rep") / getattr(a, f"{name}_rep")))
+            cause = abs(math.log(getattr(b, name) / getattr(a, name)))
+            if (move > LIMITS["binding_jump"] and move > LIMITS["binding_slope"] * cause
+                    and (worst is None or move > worst[0])):
+                worst = (move, cause, name)
+    if worst is None:
+        return Check("replay_binding", True, "the replayed fits move smoothly with (kn, delta)")
+    move, cause, name = worst
+    return Check("replay_binding", False,
+                 f"the replayed fit's {name} jumped by {100 * move:.2g} % when the replayed "
+                 f"{name} moved by {100 * cause:.2g} %: a replayed point changes branch near "
+                 "the estimate (a run at the edge of jumping?), which can lie anywhere across "
+                 "that jump", move)
+
+
+def _sweep_law_check(replay, misfit: dict, limit: float) -> Check:
+    """Where the replayed sweep laws came from; a law guessed from the responses passes only
+    when the replay reproduces that run (module docstring)."""
+    sweeps = replay.sweeps or {}
+    by_source: dict[str, list[str]] = {}
+    for run, sw in sweeps.items():
+        by_source.setdefault(sw["source"], []).append(run)
+    where = "; ".join(f"{src}: {', '.join(runs)}" for src, runs in by_source.items())
+    guessed = by_source.get("response", [])
+    if not guessed:
+        return Check("sweep_law", True, f"sweep laws from {where or 'no run'}")
+    worst = max((sweeps[r].get("residual_hz", 0.0) for r in guessed), default=0.0)
+    bad = [r for r in guessed if not misfit.get(r, math.inf) <= limit]
+    text = (f"sweep law of run(s) {', '.join(guessed)} estimated from the response channels "
+            f"(no hint, no base channel; fit residual up to {worst:.2g} Hz)")
+    if bad:
+        return Check("sweep_law", False, text + f"; the replay does not reproduce {', '.join(bad)}"
+                     ": the estimated law may be wrong (give the runs' `sweep` hints)", worst)
+    return Check("sweep_law", True, text + "; the replay reproduces them (caution: no hint)",
+                 worst)
