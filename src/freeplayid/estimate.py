@@ -12,6 +12,7 @@ this estimate one layer up.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass
 
@@ -30,7 +31,8 @@ from .fit import (
 from .signal import BackbonePoints, Extraction, estimate_sweep, extract_backbone_points
 from .sweep import Sweep
 
-__all__ = ["PlainEstimate", "plain_estimate", "extract_points", "run_sweep_law", "weights_of"]
+__all__ = ["PlainEstimate", "plain_estimate", "refit", "extract_points", "run_sweep_law",
+           "weights_of"]
 
 
 @dataclass(frozen=True)
@@ -203,3 +205,14 @@ def plain_estimate(dataset, system, *, extraction: Extraction, fit: FitOptions, 
                           seed=fit.seed, weights=weights_of(points, point_weights))
     return PlainEstimate(points=pts, rejected_runs=tuple(rejected.items()), fit=result,
                          dofs=dict(dataset.channels), inverse_estimate=start.inverse)
+
+
+def refit(est: PlainEstimate, system, fit: FitOptions, *,
+          point_weights: Mapping | None = None) -> PlainEstimate:
+    """``est`` fitted again to its own points (the extraction does not depend on the model)
+    against ``system``, started from its estimate, with ``point_weights``."""
+    pts = est.fitting_points()
+    result = fit_backbone(pts, system, init=(est.kn, est.delta), init_label=est.fit.init,
+                          backbone=fit.backbone, mode=fit.mode,
+                          weights=weights_of(pts, point_weights))
+    return dataclasses.replace(est, fit=result)

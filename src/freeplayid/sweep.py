@@ -188,6 +188,22 @@ class Sweep:
         """Base acceleration [m/s^2] at times ``t`` [s] for an amplitude of ``level_g`` [g]."""
         return level_g * G * np.sin(self.phase(t))
 
+    def unit(self, t):
+        """The excitation per unit level at times ``t`` [s]: ``sin(phase(t))``."""
+        return np.sin(self.phase(t))
+
+    def unit_derivatives(self, t) -> tuple:
+        """``unit`` and its first two time derivatives at times ``t`` [s]."""
+        phase = self.phase(t)
+        w = 2 * np.pi * self.frequency(t)
+        c, s = np.cos(phase), np.sin(phase)
+        return s, w * c, 2 * np.pi * self.rate(t) * c - w * w * s
+
+    def unit_start(self) -> tuple[float, float]:
+        """The base displacement and velocity at t = 0 per unit level whose oscillation has no
+        mean (``-sin(phase) / w^2``, ``-cos(phase) / w``): (0, -1 / (2 pi f0))."""
+        return 0.0, -1.0 / (2 * np.pi * self.start_hz)
+
 
 @dataclass(frozen=True, eq=False)
 class MeasuredSweep:
@@ -277,7 +293,27 @@ class MeasuredSweep:
 
     def acceleration(self, t, level_g: float = 1.0):
         """Base acceleration [m/s^2] at times ``t`` [s] for a level of ``level_g`` [g]."""
-        return level_g * G * self.envelope(t) * np.sin(self.phase(t))
+        return level_g * G * self.unit(t)
+
+    def unit(self, t):
+        """The excitation per unit level at times ``t`` [s]: ``envelope(t) sin(phase(t))``."""
+        return self.envelope(t) * np.sin(self.phase(t))
+
+    def unit_derivatives(self, t) -> tuple:
+        """``unit`` and its first two time derivatives at times ``t`` [s]."""
+        a, a1, a2 = (self.envelope(t, k) for k in (0, 1, 2))
+        phase = self.phase(t)
+        w = 2 * np.pi * self.frequency(t)
+        c, s = np.cos(phase), np.sin(phase)
+        return (a * s, a1 * s + a * w * c,
+                a2 * s + 2 * a1 * w * c + a * (2 * np.pi * self.rate(t) * c - w * w * s))
+
+    def unit_start(self) -> tuple[float, float]:
+        """The base displacement and velocity at t = 0 per unit level whose oscillation has no
+        mean: ``-A sin(phase) / w^2``, ``-A cos(phase) / w``."""
+        a, ph = float(self.envelope(0.0)), float(self.phase(0.0))
+        w = 2 * np.pi * float(self.frequency(0.0))
+        return -a * np.sin(ph) / w**2, -a * np.cos(ph) / w
 
     def describe(self) -> str:
         return (f"{self.start_hz:.5g} -> {self.stop_hz:.5g} Hz as measured (mean "

@@ -11,9 +11,10 @@ from ..errors import DatasetError
 from ..estimate import PlainEstimate, plain_estimate
 from ..fit import FitOptions
 from ..io import read_dataset
-from ..model import FreeplaySystem, load_system, validate_modes
+from ..model import FreeplaySystem, ModelOptions, load_system, validate_modes
 from ..replay import Replay, corrected_fit
 from ..signal import Extraction
+from .model_error import ModelError, model_error, update_model, widen
 from .replay_checks import replay_checks
 from .result import Identification
 from .verdict import (
@@ -22,6 +23,7 @@ from .verdict import (
     channel_checks,
     fit_checks,
     make_verdict,
+    model_checks,
     validation_checks,
 )
 
@@ -34,6 +36,7 @@ def identify(dataset, *, system: FreeplaySystem | None = None, init=None,
              extraction: Extraction | Mapping | None = None,
              fit: FitOptions | Mapping | None = None,
              replay: Replay | Mapping | None = DEFAULT_REPLAY,
+             model: ModelOptions | Mapping | None = None,
              progress: bool = True) -> Identification:
     """Identify (kn, delta) from a measured (or simulated) sine-sweep data set.
 
@@ -63,6 +66,10 @@ def identify(dataset, *, system: FreeplaySystem | None = None, init=None,
         The bias correction by replaying the test (:class:`freeplayid.replay.Replay`: damping,
         statistic, weights, bootstrap by replay, convergence, engine). On by default (the plain
         fit is biased by 2-7 % in delta on swept, damped tests); None: the plain backbone fit.
+    model : ModelOptions or mapping, optional
+        What the identification assumes of the linear model
+        (:class:`freeplayid.model.ModelOptions`): its update to the data set's sealed-fin modes
+        (``reference_modes``), and its frequency uncertainty, which enters kn's interval.
     progress : bool
         Progress bars and the replays' progress lines.
 
@@ -85,16 +92,19 @@ def identify(dataset, *, system: FreeplaySystem | None = None, init=None,
     extraction = _option(Extraction, extraction, "extraction")
     fit = _option(FitOptions, fit, "fit")
     replay = None if replay is None else _option(Replay, replay, "replay")
+    model = _option(ModelOptions, model, "model")
     if isinstance(dataset, (str, os.PathLike)):
         dataset = read_dataset(dataset)
     system = _system(dataset, system)
     est = plain_estimate(dataset, system, extraction=extraction, fit=fit, init=init,
                          progress=progress)
+    system, est, update = update_model(dataset, system, est, fit, model)
+    error = model_error(system, est, fit, model, update)
     if replay is None:
-        return _plain_result(dataset, system, est, fit.mode, t0)
+        return _plain_result(dataset, system, est, fit.mode, t0, error)
     rep = corrected_fit(dataset, system, est, extraction=extraction, fit=fit, replay=replay,
                         progress=progress)
-    return _corrected_result(dataset, system, est, rep, fit.mode, t0)
+    return _corrected_result(dataset, system, est, rep, fit.mode, t0, error)
 
 
 def _option(cls, value, name: str):
@@ -143,21 +153,23 @@ def _record(dataset) -> dict:
             "channels": dict(dataset.channels), "base_channel": dataset.base_channel}
 
 
-def _plain_result(dataset, system, est: PlainEstimate, mode: int, t0: float) -> Identification:
-    """The plain estimate as an :class:`Identification`, judged on its own fit."""
+def _plain_result(dataset, system, est: PlainEstimate, mode: int, t0: float,
+                  error: ModelError) -> Identification:
+    """The plain estimate as an :class:`Identification`, judged on its own fit; kn's interval
+    takes in the model's error."""
     validation = _zero_clearance_check(dataset, system, est.kn)
     verdict = make_verdict(base_level_checks(dataset)
                            + fit_checks(est.fitting_points(), est.fit, system, est.points,
                                         mode=mode)
-                           + validation_checks(validation))
+                           + model_checks(error) + validation_checks(validation))
     return Identification(
-        kn=est.kn, delta=est.delta, kn_ci95=tuple(est.fit.kn_ci95),
+        kn=est.kn, delta=est.delta, kn_ci95=widen(est.fit.kn_ci95, est.kn, error.kn_shift),
         delta_ci95=tuple(est.fit.delta_ci95), plain_fit=est.fit,
         runtime_s=time.perf_counter() - t0, points=est.points, dofs=est.dofs,
         rejected_runs=est.rejected_runs, system=system, mode=mode,
         inverse_estimate=est.inverse_estimate,
         truth=dict(dataset.truth) if dataset.truth else None, dataset=_record(dataset),
-        verdict=verdict, validation=validation,
+        verdict=verdict, validation=validation, model_error=error,
     )
 
 
@@ -178,25 +190,26 @@ def _corrected_intervals(rep) -> tuple[tuple, tuple, str]:
     return kn_ci, delta_ci, source
 
 
-def _corrected_result(dataset, system, plain: PlainEstimate, rep, mode: int,
-                      t0: float) -> Identification:
+def _corrected_result(dataset, system, plain: PlainEstimate, rep, mode: int, t0: float,
+                      error: ModelError) -> Identification:
     """The corrected estimate as an :class:`Identification`, judged as reported: the data's
     checks, the answer's own (bound, contact margin, backbone range and intervals at the
     corrected estimate), the replay's at the answer and the zero-clearance check at the
     reported kn. A replay that failed keeps the plain estimate, judged on its fit, and makes
     the verdict ``suspect``."""
-    result = _plain_result(dataset, system, plain, mode, t0)
+    result = _plain_result(dataset, system, plain, mode, t0, error)
     if rep.failure:
         verdict = make_verdict(result.verdict.checks + tuple(replay_checks(rep)))
         return dataclasses.replace(result, verdict=verdict, replay=rep,
                                    runtime_s=time.perf_counter() - t0)
     kn_ci, delta_ci, source = _corrected_intervals(rep)
+    kn_ci = widen(kn_ci, rep.kn, error.kn_shift)
     validation = _zero_clearance_check(dataset, system, rep.kn)
     verdict = make_verdict(
         base_level_checks(dataset) + channel_checks(plain.points)
         + answer_checks(plain.fitting_points(), rep.kn, rep.delta, kn_ci, delta_ci, system,
                         mode=mode)
-        + replay_checks(rep) + validation_checks(validation))
+        + replay_checks(rep) + model_checks(error) + validation_checks(validation))
     return dataclasses.replace(
         result, kn=rep.kn, delta=rep.delta, verdict=verdict, kn_ci95=kn_ci, delta_ci95=delta_ci,
         runtime_s=time.perf_counter() - t0, replay=rep, interval_source=source,

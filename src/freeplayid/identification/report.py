@@ -13,7 +13,8 @@ def render_report(result, figures: Sequence[str] = ()) -> str:
     truth, the replay, the fitting points, the rejected runs, the zero-clearance check and the
     figures."""
     lines = (_header(result) + _verdict(result.verdict) + _inverse(result) + _truth(result)
-             + _replay(result) + _points(result) + _rejected(result.rejected_runs)
+             + _model(result) + _replay(result) + _points(result)
+             + _rejected(result.rejected_runs)
              + _validation_lines(result.validation)
              + ["", "## Figures", ""] + [f"![{f}]({f})" for f in figures])
     return "\n".join(lines) + "\n"
@@ -76,6 +77,20 @@ def _truth(r) -> list[str]:
              "| parameter | truth | identified | error |", "|---|---|---|---|"]
             + [f"| {k} | {r.truth[k]:.5g} | {getattr(r, k):.5g} | {100 * e:+.2f} % |"
                for k, e in err.items()])
+
+
+def _model(r) -> list[str]:
+    err = getattr(r, "model_error", None)
+    if err is None:
+        return []
+    lines = ["", "## Linear model", "", err.describe()[0].upper() + err.describe()[1:] + "."]
+    upd = err.update
+    if upd is not None:
+        lines += ["", "| sealed mode | reference [Hz] | model before [Hz] | updated [Hz] |",
+                  "|---|---|---|---|"]
+        lines += [f"| {i + 1} | {f:.3f} | {b:.3f} | {a:.3f} |" for i, (f, b, a) in
+                  enumerate(zip(upd.reference_hz, upd.before_hz, upd.after_hz, strict=True))]
+    return lines
 
 
 def _replay_lead(r) -> str:

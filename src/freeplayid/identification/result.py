@@ -55,6 +55,9 @@ class Identification:
     validation : freeplayid.model.ModeValidation or None
         The zero-clearance check (paper's Table 11): the model closed at the identified kn
         against the data set's ``reference_modes``, if it has them.
+    model_error : freeplayid.identification.model_error.ModelError or None
+        What kn owes to the linear model: its update to the sealed modes, the frequency
+        uncertainty taken into kn's interval.
     """
 
     kn: float
@@ -75,6 +78,7 @@ class Identification:
     replay: object = None
     interval_source: str = "Jacobian"
     validation: object | None = None
+    model_error: object | None = None
 
     @property
     def residual_rms(self) -> float:
@@ -151,6 +155,8 @@ class Identification:
             out["checks"] = [c.to_dict() for c in self.verdict.checks]
         if self.validation is not None:
             out["validation"] = validation_record(self.validation)
+        if self.model_error is not None:
+            out["model_error"] = self.model_error.to_dict()
         if self.replay is not None:
             out["replay"] = self._replay_record()
             out["interval_source"] = self.interval_source

@@ -49,7 +49,7 @@ from ..signal import window_amplitudes
 from ..sweep import Sweep
 
 __all__ = ["Check", "Verdict", "LIMITS", "base_level_checks", "answer_checks", "channel_checks",
-           "fit_checks", "interval_check", "make_verdict", "validation_checks"]
+           "fit_checks", "interval_check", "make_verdict", "model_checks", "validation_checks"]
 
 LIMITS = {
     "delta_max_rad": 0.05,  # [rad] largest plausible half-gap
@@ -73,6 +73,7 @@ LIMITS = {
     "cross_delta": 5e-3,  # [-] a second statistic's move of delta (half the 1 % bound) ...
     "cross_kn": 1e-2,  # [-] ... and of kn (half the 2 % bound) ...
     "cross_se": 3.0,  # [-] ... or this many of its standard errors, whichever is larger
+    "model_scale": 0.2,  # [-] an update to sealed modes scaling the stiffness by more is no fix
 }
 
 
@@ -275,6 +276,21 @@ def interval_check(kn: float, delta: float, kn_ci95, delta_ci95) -> Check:
     return Check("interval_width", not wide,
                  "95 % intervals narrower than the estimates" if not wide else
                  "95 % interval wider than the estimate: " + ", ".join(wide))
+
+
+def model_checks(error) -> list[Check]:
+    """``linear_model``: what kn owes to the linear model (its update to the sealed modes, its
+    frequency uncertainty in kn's interval). An update that needs a stiffness scale beyond
+    ``model_scale`` says the model is not the tested structure."""
+    if error is None:
+        return []
+    upd = error.update
+    bad = upd is not None and abs(math.log(upd.scale)) > math.log(1 + LIMITS["model_scale"])
+    msg = error.describe()
+    if bad:
+        msg += (f": a stiffness scale of {upd.scale:.3g} is no small model error, the linear "
+                "model is not the tested structure")
+    return [Check("linear_model", not bad, msg, None if upd is None else upd.scale)]
 
 
 def validation_checks(validation) -> list[Check]:

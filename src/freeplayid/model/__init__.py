@@ -40,20 +40,24 @@ from .from_test import (
     ModalTestError,
     ModelBuild,
     ModeValidation,
+    SealedUpdate,
     TestComparison,
     UpdateResult,
     mode_table,
     model_from_modal_test,
     part_modes,
     update_model,
+    update_to_sealed_modes,
     validate_modes,
 )
 from .modal import Modes, mac, modal_analysis, pair_modes
+from .options import ModelOptions
 from .reduce import Reduction, craig_bampton, guyan
 from .small import sdof_system, two_dof_system
 from .system import FreeplaySystem, SystemFileError, load_system, save_system
 
 __all__ = [
+    "ModelOptions",
     "FreeplaySystem",
     "SystemFileError",
     "load_system",
@@ -97,6 +101,8 @@ __all__ = [
     "guyan",
     "ModeValidation",
     "validate_modes",
+    "update_to_sealed_modes",
+    "SealedUpdate",
     "ModelBuild",
     "TestComparison",
     "model_from_modal_test",

@@ -9,8 +9,8 @@ import numpy as np
 import scipy.stats
 
 from ..errors import IdentificationError
-from ..estimate import PlainEstimate, plain_estimate, weights_of
-from ..fit import BackboneModel, FitOptions, fit_backbone
+from ..estimate import PlainEstimate, plain_estimate, refit
+from ..fit import BackboneModel, FitOptions
 from ..signal import Extraction
 from .bootstrap import ReplayBootstrap, bootstrap_by_replay
 from .broyden import solve_binding
@@ -286,9 +286,9 @@ class _Binding:
         if not weights:
             return rep
         self.weights = weights
-        self.stat = _refit(self.stat, self.system, weights, t.fit)
+        self.stat = refit(self.stat, self.system, t.fit, point_weights=weights)
         self.stat_ci95 = by_run_intervals(self.stat)
-        return _refit(rep, self.system, weights, t.fit)
+        return refit(rep, self.system, t.fit, point_weights=weights)
 
     def __call__(self, u: np.ndarray) -> np.ndarray | None:
         theta = np.exp(u[:2])
@@ -452,11 +452,3 @@ def _cross_check(b: _Binding, theta, rule: str) -> CrossCheck | None:
               for lo, hi in by_run_intervals(test)]
     return CrossCheck(rule=rule, kn_shift=float(shift[0]), delta_shift=float(shift[1]),
                       kn_se=se[0], delta_se=se[1])
-
-
-def _refit(est: PlainEstimate, system, weights: dict, fit: FitOptions) -> PlainEstimate:
-    """``est`` fitted again to its own points with ``weights``."""
-    pts = est.fitting_points()
-    new = fit_backbone(pts, system, init=(est.kn, est.delta), init_label=est.fit.init,
-                       backbone=fit.backbone, mode=fit.mode, weights=weights_of(pts, weights))
-    return dataclasses.replace(est, fit=new)

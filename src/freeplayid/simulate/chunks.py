@@ -28,7 +28,8 @@ MAX_CHUNK_STEPS = 1 << 16  # steps per chunk at most (sin/base arrays of a chunk
 
 
 def _base_signals(sweep: Sweep, t0_index: int, L: int, h: float, s_half: np.ndarray, state):
-    """Unit base motion (u_b, v_b, a_g = sin phase) and the derivatives of sin phase on t_i.
+    """Unit base motion (u_b, v_b, a_g = the sweep's unit excitation) and the derivatives of the
+    unit excitation (sin phase, or a measured envelope times it) on t_i.
 
     u_b, v_b are integrated by the RK4 rule of the structure (for u'' = a(t) it is Simpson's rule
     on the half steps); ``state`` = [u_b, v_b] at the chunk start, updated in place.
@@ -40,12 +41,9 @@ def _base_signals(sweep: Sweep, t0_index: int, L: int, h: float, s_half: np.ndar
     u = state[0] + np.concatenate([[0.0], np.cumsum(du)])
     state[0], state[1] = u[-1], v[-1]
     t = (t0_index + np.arange(L)) * h
-    phase = sweep.phase(t)
-    w = 2 * np.pi * sweep.frequency(t)
-    c, s = np.cos(phase), np.sin(phase)
     return {
         "base": np.stack([u[:-1], v[:-1], a[0:-1:2]]),
-        "quasi_static": np.stack([s, w * c, 2 * np.pi * sweep.rate(t) * c - w * w * s]),
+        "quasi_static": np.stack(sweep.unit_derivatives(t)),
     }
 
 
@@ -145,7 +143,7 @@ def integrate_chunks(eng: Engine, plan: StepPlan, *, sweep: Sweep, quantity: str
     i0 = 0
     while i0 < n_steps:
         L = min(chunk, n_steps - i0)
-        s_half = np.sin(sweep.phase((i0 + 0.5 * np.arange(2 * L + 1)) * h))
+        s_half = sweep.unit((i0 + 0.5 * np.arange(2 * L + 1)) * h)
         outputs.run(s_half)
         sig = _base_signals(sweep, i0, L, h, s_half, base_state)
         rows = np.stack([sig["base"][q], sig["quasi_static"][q]])

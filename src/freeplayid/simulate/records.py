@@ -14,6 +14,7 @@ import numpy as np
 
 from ..dataset import Dataset, Run
 from ..quantity import check_quantity, check_units
+from ..sweep import Sweep
 
 __all__ = ["sweep_dataset", "default_columns", "BASE_COLUMN"]
 
@@ -83,7 +84,7 @@ def sweep_dataset(
         raise ValueError(f"`noise` must have shape {result.signals.shape}, "
                          f"got {np.shape(noise)}")
     sw = result.sweep
-    hint = sw.to_dict()
+    hint = sw.to_dict() if isinstance(sw, Sweep) else None  # a measured excitation has no law
     with_base = q == "acceleration" and result.frame == "absolute"
     runs = []
     for k, i in enumerate(members):
@@ -93,7 +94,8 @@ def sweep_dataset(
         base = sw.acceleration(result.time, float(result.level_g[i])) / scale if with_base \
             else None
         runs.append(Run(file=str(run_names[k]), time=result.time, data=data / scale,
-                        level_g=float(result.level_g[i]), sweep=dict(hint), base=base))
+                        level_g=float(result.level_g[i]), base=base,
+                        sweep=None if hint is None else dict(hint)))
     kn, delta = result.kn[members], result.delta[members]
     truth = None
     if np.all(kn == kn[0]) and np.all(delta == delta[0]):

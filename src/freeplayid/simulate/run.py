@@ -14,7 +14,7 @@ import torch
 
 from ..model.system import FreeplaySystem
 from ..quantity import G, si_unit
-from ..sweep import Sweep
+from ..sweep import MeasuredSweep, Sweep
 from .chunks import integrate_chunks
 from .engines import EngineSetup, resolve_engine
 from .formulation import METHODS, ModalTruncation
@@ -136,8 +136,9 @@ def simulate_sweeps(
         Half-gap.
     level_g : float or array_like, shape (batch,) [g]
         Base acceleration amplitude; kn, delta, level_g broadcast to one batch.
-    sweep : Sweep
-        Linear or logarithmic sweep (up or down); the output covers [0, sweep.duration].
+    sweep : Sweep or MeasuredSweep
+        Linear or logarithmic sweep (up or down), or an excitation as a base channel measured it
+        (its envelope times ``level_g``); the output covers [0, sweep.duration].
     channels : sequence of str
         DOF names to record.
     quantity : {"displacement", "velocity", "acceleration"}
@@ -196,7 +197,7 @@ def simulate_sweeps(
                      cutoff_hz=cutoff_hz, quasi_static_hz=quasi_static_hz, omega_dt=omega_dt,
                      steps_per_sample=steps_per_sample, large_mass_ratio=large_mass_ratio,
                      max_step=engine_cls.max_step)
-    base_state = np.array([0.0, -1.0 / (2 * np.pi * sweep.start_hz)])  # unit (u_b, v_b)(0)
+    base_state = np.array(sweep.unit_start(), dtype=float)  # unit (u_b, v_b)(0)
     eng = engine_cls(_engine_setup(plan, kn_a, dl_a, lv_a, base_state, quantity=quantity,
                                    dtype=dtype, device=device, cuda_graphs=cuda_graphs))
     shape = (len(kn_a), len(channels), plan.n_out)
@@ -218,8 +219,8 @@ def simulate_sweeps(
 def _check_types(system, sweep, dtype) -> None:
     if not isinstance(system, FreeplaySystem):
         raise TypeError(f"`system` must be a FreeplaySystem, got {type(system).__name__}")
-    if not isinstance(sweep, Sweep):
-        raise TypeError(f"`sweep` must be a Sweep, got {type(sweep).__name__}")
+    if not isinstance(sweep, (Sweep, MeasuredSweep)):
+        raise TypeError(f"`sweep` must be a Sweep or a MeasuredSweep, got {type(sweep).__name__}")
     if dtype not in (torch.float32, torch.float64):
         raise ValueError(f"`dtype` must be torch.float32 or torch.float64, got {dtype!r}")
 

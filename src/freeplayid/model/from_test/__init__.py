@@ -13,6 +13,7 @@ from .build import (
     part_modes,
 )
 from .measured import CONFIG_POINTS, TEST_NAMES, MeasuredModes, ModalTest, ModalTestError
+from .sealed import SealedUpdate, update_to_sealed_modes
 from .update import UpdateResult, mode_table, update_model
 from .zero_clearance import ModeValidation, validate_modes
 
@@ -21,4 +22,5 @@ __all__ = [
     "model_from_modal_test", "part_modes",
     "CONFIG_POINTS", "TEST_NAMES", "MeasuredModes", "ModalTest", "ModalTestError",
     "UpdateResult", "mode_table", "update_model", "ModeValidation", "validate_modes",
+    "SealedUpdate", "update_to_sealed_modes",
 ]
