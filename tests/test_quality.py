@@ -58,7 +58,7 @@ def envelope(t, f_jump: float, peak: float):
     f = SWEEP.frequency(t)
     t_j = SWEEP.time_at(f_jump)
     up = peak * (0.15 + 0.85 * ((f - SWEEP.start_hz) / (f_jump - SWEEP.start_hz)) ** 2)
-    down = peak * (0.15 * (f_jump / f) ** 2 + 0.85 * np.exp(-(t - t_j) / 0.05))
+    down = peak * (0.15 * (f_jump / f) ** 2 + 0.85 * np.exp(-np.clip(t - t_j, 0, None) / 0.05))
     return np.where(t < t_j, up, down)
 
 
@@ -251,6 +251,20 @@ def test_wrong_sample_rate_is_suspect_with_its_factor(clean):
     assert f"{FS:.6g} Hz" in f.message
 
 
+@pytest.mark.parametrize("law", [Sweep(30, 46.5, octaves_per_min=1.5), Sweep(46.5, 30, 0.5)],
+                         ids=["log", "down"])
+def test_log_and_down_sweeps_pass_and_their_rate_is_checked(law):
+    runs = [replace(make_run(i, sweep=law), sweep=law.to_dict()) for i in range(3)]
+    assert check_records(make_dataset(runs), SYSTEM).findings == ()
+    declared = FS * 2000 / 2048
+    runs = [replace(r, time=np.arange(r.time.size) / declared) for r in runs]
+    report = check_records(make_dataset(runs, sample_rate=declared), SYSTEM,
+                           options=RecordCheckOptions(checks=("sample_rate", "sweep_hint",
+                                                              "foreign_record")))
+    (f,) = report.findings
+    assert f.check == "sample_rate" and f.size == pytest.approx(-2.34375, abs=0.02)
+
+
 def test_another_tests_record_is_rejected_as_such(clean):
     other = Sweep(46.5, 63.0, 0.5)  # the band above: never resonates, "stayed in the gap"
     runs = list(clean.runs)
@@ -406,3 +420,17 @@ def test_options_are_validated_and_the_registry_lists_every_check():
     assert RecordCheckOptions(checks=("units", "hum")).checks == ("hum", "units")
     with pytest.raises(TypeError, match="`dataset` must be"):
         check_records("examples/fin_sweeps")
+
+
+def test_a_copied_run_and_a_dead_channel(clean):
+    runs = list(clean.runs)
+    runs.append(replace(runs[1], file="copy.csv", level_g=1.2))
+    dead = runs[0].data.copy()
+    dead[1] = 0.0
+    runs[0] = replace(runs[0], data=dead)
+    report = check_records(make_dataset(runs), SYSTEM,
+                           options=RecordCheckOptions(checks=("dropout", "foreign_record")))
+    found = {(f.check, f.run, f.channel, f.action) for f in report.findings}
+    assert found == {("foreign_record", "copy.csv", "", "reject_run"),
+                     ("dropout", "run0.csv", "acc_in", "warning")}
+    assert "run1.csv" in report.rejected_runs["copy.csv"]

@@ -13,7 +13,9 @@ samples is a dropout when
 Where the stretch overlaps the run's resonance (the envelope's lobe above half its maximum,
 widened by the extraction's smoothing) the fitting point is missing or cut (0.5 s of zeros at
 each jump moved kn by -0.96 % with an interval that missed): the run is rejected. Elsewhere the
-points do not see it: a warning.
+points do not see it: a warning. A response channel held over the whole record is dead: the
+extraction rejects its points and keeps the run's others (a warning); a dead base channel
+cannot be subtracted and rejects the run.
 """
 
 from __future__ import annotations
@@ -55,10 +57,12 @@ def _finding(records, rec, name, x, a, b, unit) -> Finding:
     res = records.resonance(rec)
     at_peak = res is not None and bool(res.window[a:b].any())
     what = "zeros" if value == 0 else f"the value {value:.5g} {unit}"
-    if b - a >= x.size:
-        where = "over the whole record (a dead channel)"
-    else:
-        where = f"for {dur:.3g} s from t = {a / fs:.2f} s"
+    if b - a >= x.size and name != records.base_name:
+        return Finding("dropout", rec.file, name, dur, "s", "warning",
+                       f"run {rec.file}, channel {name}: {what} over the whole record, a dead "
+                       "channel (the extraction rejects its points and keeps the others')")
+    where = ("over the whole record, a dead base channel" if b - a >= x.size else
+             f"for {dur:.3g} s from t = {a / fs:.2f} s")
     if at_peak:
         action, tail = "reject_run", ", across the resonance: its fitting point is lost"
     else:

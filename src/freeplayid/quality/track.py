@@ -26,7 +26,9 @@ residual / its mean frequency)``. The first that fits decides:
 
 Without a hint a run is compared with the other runs' common law (the median start, stop and
 rate): a run off it while two others agree on it is ``suspect`` (``foreign_record``): nothing
-says which sweep the test used. A run in which no sweep can be found at all is rejected.
+says which sweep the test used. A run in which no sweep can be found at all is rejected, and so
+is a run whose record is sample for sample another run's (a copied file: its points would count
+twice and narrow the intervals).
 """
 
 from __future__ import annotations
@@ -191,10 +193,28 @@ def _unhinted(records, verdicts) -> list[Finding]:
                     "record? (no sweep hint says which)") for f, (rec, dev) in off.items()]
 
 
+def _copies(records) -> list[Finding]:
+    """Runs whose records are sample for sample another run's (a file copied under another
+    name): their points would count twice and narrow the intervals."""
+    out, seen = [], {}
+    for rec in records.runs:
+        key = (rec.data.shape, hash(rec.data.tobytes()))
+        first = seen.get(key)
+        if first is not None and np.array_equal(first.data, rec.data):
+            out.append(Finding(
+                "foreign_record", rec.file, "", float("nan"), "", "reject_run",
+                f"run {rec.file}: its record is sample for sample run {first.file}'s (a copied "
+                "file?): its points would count twice"))
+        else:
+            seen.setdefault(key, rec)
+    return out
+
+
 def check_foreign_record(records) -> list[Finding]:
-    """Runs that are not records of their hint, or of the other runs' sweep (module docstring)."""
+    """Runs that are not records of their hint, or of the other runs' sweep, and copies of
+    another run (module docstring)."""
     verdicts = _verdicts(records)
-    out = []
+    out = _copies(records)
     for rec in records.runs:
         kind, cmp = verdicts[rec.file]
         if kind == "no_law":
