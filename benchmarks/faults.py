@@ -13,11 +13,10 @@ with ``read_dataset``, and ``freeplayid.quality.check_records`` runs on it:
   (the strongest channel's first-harmonic maximum);
 - ``rate_2000``: the sample rate declared 2000/2048 of the true one (time column too);
 - ``swapped``: two channels swapped in the manifest's ``channels``;
-- ``no_base_ms2``: no base channel, and ``m/s^2`` declared for data in g;
+- ``no_base_ms2``: no base channel, and the data in g declared as ``m/s^2``;
 - ``drift``: a DC offset of 5 % and a linear drift of 10 % of each channel's peak;
 - ``hum50``: a 50 Hz line of 1 % of each channel's peak;
-- ``spikes``: ten +-50 g samples (+-50 x the unit for other units) in every channel of every
-  run, at random times;
+- ``spikes``: ten +-50 g samples in every channel of every run, at random times;
 - ``foreign``: the middle run replaced by another test's record: the same structure swept over
   the band above the hint's (same rate and length), simulated at the manifest's ``truth`` with
   white noise of the base channel's level (time-reversed, i.e. a down-sweep, when the data set
@@ -42,6 +41,7 @@ import yaml
 from freeplayid.io import read_dataset, write_dataset
 from freeplayid.model import load_system
 from freeplayid.quality import check_records
+from freeplayid.quantity import G
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "examples" / "fin_sweeps"
@@ -101,7 +101,9 @@ def swapped(ds):
 
 
 def no_base_ms2(ds):
-    runs = tuple(replace(r, base=None) for r in ds.runs)
+    """No base channel, and the values in g declared as m/s^2."""
+    to_g = ds.si_scale / G
+    runs = tuple(replace(r, data=r.data * to_g, base=None) for r in ds.runs)
     return replace(ds, runs=runs, base_channel=None, units="m/s^2")
 
 
@@ -127,7 +129,9 @@ def hum(ds, f_hz: float = 50.0):
     return _each_signal(ds, lambda x, t, p, rng: x + 0.01 * p * np.sin(2 * np.pi * f_hz * t + 1))
 
 
-def spikes(ds, count: int = 10, size: float = 50.0):
+def spikes(ds, count: int = 10, size_g: float = 50.0):
+    size = size_g * G / ds.si_scale  # in the data's units
+
     def add(x, t, p, rng):
         y = x.copy()
         k = rng.choice(np.arange(50, x.size - 50), count, replace=False)
