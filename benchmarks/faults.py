@@ -23,8 +23,10 @@ with ``read_dataset``, and ``freeplayid.quality.check_records`` runs on it:
   has no model or truth).
 
 The table lists, per fault, each finding: check, run, channel, size and action. With
-``--identify`` each faulty set also goes through ``freeplayid.identify`` and the table gains the
-delta / kn errors against ``truth`` and the verdict (or the one-line error).
+``--identify`` each faulty set also goes through ``freeplayid.identify`` (as it stands: the
+record checks are not wired into it) and the table gains the delta / kn errors against
+``truth`` and the verdict (or the one-line error); where the checks repaired something, the
+repaired data set (``report.dataset``) is identified too (``identify_repaired``).
 """
 
 from __future__ import annotations
@@ -211,13 +213,14 @@ def write_faulty(ds, folder: Path, source: Path) -> Path:
     return manifest
 
 
-def identify_errors(manifest: Path, truth) -> dict:
-    """delta / kn errors [%] against ``truth`` and the verdict, or the one-line error (the only
-    call of the identification API here)."""
+def identify_errors(data, truth) -> dict:
+    """delta / kn errors [%] against ``truth`` and the verdict, or the one-line error, for a
+    data set (its manifest's path, or a Dataset read from one); the only call of the
+    identification API here."""
     from freeplayid import InputError, identify
 
     try:
-        res = identify(manifest, progress=False)
+        res = identify(data, progress=False)
     except InputError as exc:
         return {"error": str(exc).splitlines()[0]}
     verdict = getattr(res, "verdict", None)
@@ -239,6 +242,8 @@ def run_fault(name: str, ds, source: Path, tmp: Path, *, with_identify: bool) ->
     out = {"fault": name, "report": report, "seconds": time.perf_counter() - t0}
     if with_identify:
         out["identify"] = identify_errors(manifest, ds.truth)
+        if report.repairs:  # the answer from the repaired records
+            out["identify_repaired"] = identify_errors(report.dataset, ds.truth)
     return out
 
 
@@ -251,8 +256,9 @@ def _table(results, markdown: bool) -> str:
             rows.append([r["fault"], *(("(nothing)", "", "", "", "") if f is None else
                                        (f.check, f.run or "all", f.channel or "all",
                                         f.size_text(), f.action))])
-        if "identify" in r:
-            rows.append([r["fault"], "identify", "", "", "", _identify_text(r["identify"])])
+        for key in ("identify", "identify_repaired"):
+            if key in r:
+                rows.append([r["fault"], key, "", "", "", _identify_text(r[key])])
     if markdown:
         lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
         return "\n".join(lines + ["| " + " | ".join(row) + " |" for row in rows])
@@ -280,8 +286,9 @@ def _merged(results) -> str:
             rows.append([r["fault"], check, action,
                          f"{len(runs)} runs" if len(runs) > 2 else ", ".join(runs),
                          ", ".join(chans), size.strip()])
-        if "identify" in r:
-            rows.append([r["fault"], "identify", _identify_text(r["identify"]), "", "", ""])
+        for key in ("identify", "identify_repaired"):
+            if key in r:
+                rows.append([r["fault"], key, _identify_text(r[key]), "", "", ""])
     head = ["fault", "check", "action", "runs", "channels", "size"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     return "\n".join(lines + ["| " + " | ".join(row) + " |" for row in rows])

@@ -63,7 +63,8 @@ def _mode(system, k: float, mode: int):
 
 
 def shape_at_frequency(system, f_hz: float, *, mode: int = 0) -> np.ndarray:
-    """The mode shape whose hinge stiffness puts mode ``mode`` at ``f_hz`` [Hz], shape (n,).
+    """The mode shape, shape (n_dof,) [mass-normalised], of ``system`` with every hinge spring
+    at the stiffness that puts mode ``mode`` at ``f_hz`` [Hz].
 
     The frequency rises with the hinge stiffness (from the open to the rigid hinge); outside
     that range the nearer end's shape is returned.

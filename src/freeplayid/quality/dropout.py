@@ -28,7 +28,18 @@ __all__ = ["check_dropout", "held_stretches"]
 
 
 def held_stretches(x, min_len: int) -> np.ndarray:
-    """(start, stop) sample indices of every stretch of >= ``min_len`` equal samples, (k, 2)."""
+    """Stretches of at least ``min_len`` exactly equal consecutive samples.
+
+    Parameters
+    ----------
+    x : ndarray, shape (T,)
+    min_len : int [samples]
+
+    Returns
+    -------
+    ndarray of int, shape (k, 2)
+        (start, stop) sample indices of each stretch (stop exclusive).
+    """
     same = np.diff(x) == 0
     d = np.diff(np.concatenate([[0], same.astype(np.int8), [0]]))
     starts, stops = np.nonzero(d == 1)[0], np.nonzero(d == -1)[0] + 1

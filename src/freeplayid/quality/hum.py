@@ -57,6 +57,15 @@ def _segment_spectra(x, fs: float):
 def find_lines(x, fs: float, *, lines_hz, harmonics: int, snr: float):
     """Stationary lines near ``h x f`` for f in ``lines_hz``, h = 1..``harmonics``.
 
+    Parameters
+    ----------
+    x : ndarray, shape (T,)
+    fs : float [Hz]
+    lines_hz : sequence of float [Hz]
+    harmonics : int
+    snr : float [-]
+        Power ratio over the neighbouring floor a line needs in three quarters of the segments.
+
     Returns
     -------
     list of (frequency [Hz], amplitude [x's units], median power ratio [-])
@@ -87,10 +96,18 @@ def find_lines(x, fs: float, *, lines_hz, harmonics: int, snr: float):
 
 
 def remove_line(x, fs: float, f_line: float, law=None) -> np.ndarray:
-    """``x`` without its stationary line at ``f_line`` [Hz] (module docstring), shape (T,).
+    """``x`` without its stationary line at ``f_line`` (module docstring).
 
-    ``law`` (a Sweep, optional): the record's sweep, whose harmonic passages are left out of
-    the line's fit.
+    Parameters
+    ----------
+    x : ndarray, shape (T,)
+    fs, f_line : float [Hz]
+    law : Sweep, optional
+        The record's sweep, whose harmonics' passages near the line are left out of its fit.
+
+    Returns
+    -------
+    ndarray, shape (T,)
     """
     t = np.arange(x.size) / fs
     z = demodulate(x, fs, 2 * np.pi * f_line * t, NOTCH_HZ, order=2)

@@ -40,7 +40,9 @@ def _lowpass(x, fs: float, cutoff_hz: float) -> np.ndarray:
 
 
 def slow_trend(x, fs: float, cutoff_hz: float) -> np.ndarray:
-    """The slow trend of ``x`` below ``cutoff_hz`` [Hz], shape (T,) (module docstring).
+    """The slow trend of ``x``, shape (T,) [x's units] (module docstring).
+
+    ``x`` : ndarray, shape (T,); ``fs``, ``cutoff_hz`` : float [Hz].
 
     The zero-phase low-pass, its bumps shorter than ``MEDIAN_TIMES`` filter times removed by a
     running median, low-passed again: an abrupt change of a large vibration (a dropout's

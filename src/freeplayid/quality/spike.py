@@ -111,7 +111,21 @@ def _fill_one(x, bad, a: int, b: int, half: int) -> None:
 
 
 def fill_gaps(x, mask, *, span: int) -> np.ndarray:
-    """``x`` with the samples of ``mask`` interpolated (module docstring), shape (T,)."""
+    """``x`` with the samples of ``mask`` interpolated (module docstring).
+
+    Parameters
+    ----------
+    x : ndarray, shape (T,)
+    mask : ndarray of bool, shape (T,)
+        Samples to replace (clusters of a few).
+    span : int [samples]
+        Two periods of the lowest swept frequency: the AR model is fitted to twice that on
+        either side of each cluster (at least 8 x its order).
+
+    Returns
+    -------
+    ndarray, shape (T,)
+    """
     y = np.array(x, dtype=float)
     bad = np.array(mask, dtype=bool)
     half = max(2 * span, 8 * AR_ORDER)

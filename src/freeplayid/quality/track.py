@@ -52,6 +52,15 @@ def _deviation(f_rec, f_model) -> float:
 def compare_track(law: Sweep, hint: Sweep, duration_s: float) -> dict:
     """Fit the three explanations of the module docstring.
 
+    Parameters
+    ----------
+    law : Sweep
+        The record's own law (declared time axis).
+    hint : Sweep
+        The run's sweep hint.
+    duration_s : float [s]
+        The record's length.
+
     Returns
     -------
     dict
