@@ -25,8 +25,10 @@ with ``read_dataset``, and ``freeplayid.quality.check_records`` runs on it:
 The table lists, per fault, each finding: check, run, channel, size and action. With
 ``--identify`` each faulty set also goes through ``freeplayid.identify`` (as it stands: the
 record checks are not wired into it) and the table gains the delta / kn errors against
-``truth`` and the verdict (or the one-line error); where the checks repaired something, the
-repaired data set (``report.dataset``) is identified too (``identify_repaired``).
+``truth`` and the verdict (or the one-line error), and ``identify_checked`` the same with the
+checks' actions taken as the wiring into ``identify`` will take them: the repaired records
+(``report.dataset``) without the rejected runs, ``suspect`` with the checks' first reason
+(``--identify as_is`` or ``checked`` for one of them).
 """
 
 from __future__ import annotations
@@ -232,7 +234,7 @@ def identify_errors(data, truth) -> dict:
     return out
 
 
-def run_fault(name: str, ds, source: Path, tmp: Path, *, with_identify: bool) -> dict:
+def run_fault(name: str, ds, source: Path, tmp: Path, *, with_identify: str | None) -> dict:
     faulty = FAULTS[name](ds) if name != "clean" else ds
     manifest = write_faulty(faulty, tmp / name, source)
     back = read_dataset(manifest)
@@ -240,10 +242,26 @@ def run_fault(name: str, ds, source: Path, tmp: Path, *, with_identify: bool) ->
     t0 = time.perf_counter()
     report = check_records(back, system)
     out = {"fault": name, "report": report, "seconds": time.perf_counter() - t0}
-    if with_identify:
+    if with_identify in ("both", "as_is"):
         out["identify"] = identify_errors(manifest, ds.truth)
-        if report.repairs:  # the answer from the repaired records
-            out["identify_repaired"] = identify_errors(report.dataset, ds.truth)
+    if with_identify in ("both", "checked"):
+        out["identify_checked"] = identify_checked(report, ds.truth)
+    return out
+
+
+def identify_checked(report, truth) -> dict:
+    """What the identification gives with the checks' actions taken (what the wiring into
+    ``identify`` will do): the repaired records without the rejected runs, and ``suspect``
+    with the checks' reasons whatever the fit's verdict."""
+    ds = report.dataset
+    kept = tuple(r for r in ds.runs if r.file not in report.rejected_runs)
+    if not kept:
+        first = next(iter(report.rejected_runs.items()))
+        return {"error": f"every run rejected by the record checks (e.g. {first[0]}: "
+                         f"{first[1]})"}
+    out = identify_errors(replace(ds, runs=kept), truth)
+    if report.suspect_reasons and "error" not in out:
+        out.update(verdict="suspect", reasons="record checks: " + report.suspect_reasons[0])
     return out
 
 
@@ -256,7 +274,7 @@ def _table(results, markdown: bool) -> str:
             rows.append([r["fault"], *(("(nothing)", "", "", "", "") if f is None else
                                        (f.check, f.run or "all", f.channel or "all",
                                         f.size_text(), f.action))])
-        for key in ("identify", "identify_repaired"):
+        for key in ("identify", "identify_checked"):
             if key in r:
                 rows.append([r["fault"], key, "", "", "", _identify_text(r[key])])
     if markdown:
@@ -286,7 +304,7 @@ def _merged(results) -> str:
             rows.append([r["fault"], check, action,
                          f"{len(runs)} runs" if len(runs) > 2 else ", ".join(runs),
                          ", ".join(chans), size.strip()])
-        for key in ("identify", "identify_repaired"):
+        for key in ("identify", "identify_checked"):
             if key in r:
                 rows.append([r["fault"], key, _identify_text(r[key]), "", "", ""])
     head = ["fault", "check", "action", "runs", "channels", "size"]
@@ -309,7 +327,10 @@ def main() -> None:
                     "manifest.yaml)")
     ap.add_argument("--faults", nargs="+", default=["clean", *FAULTS],
                     choices=["clean", *FAULTS], help="faults to apply (default all, and clean)")
-    ap.add_argument("--identify", action="store_true", help="also identify each faulty set")
+    ap.add_argument("--identify", nargs="?", const="both", default=None,
+                    choices=["both", "as_is", "checked"],
+                    help="also identify each faulty set: as it is, with the checks' actions "
+                    "taken, or both (default)")
     ap.add_argument("--markdown", action="store_true", help="print a Markdown table")
     ap.add_argument("--merged", action="store_true", help="print one Markdown row per fault, "
                     "check and action")

@@ -203,7 +203,10 @@ def test_offset_and_drift_are_removed_within_noise(clean):
     t = clean.runs[1].time
     x = clean.runs[1].data.copy()
     x[0] += 0.3 + 0.4 * t / t[-1]  # [g] offset and ramp
-    report = check_records(with_data(clean, 1, x), SYSTEM)
+    drifting = with_data(clean, 1, x)
+    report = check_records(drifting, SYSTEM)
+    assert drifting.runs[1].data is x and np.allclose(x[0] - clean.runs[1].data[0],
+                                                     0.3 + 0.4 * t / t[-1])  # input kept
     (f,) = only(report, "offset")
     assert (f.run, f.channel, f.action) == ("run1.csv", "acc_out", "repaired")
     assert "+0.5" in f.message  # the mean offset, 0.3 + 0.4 / 2
