@@ -1,9 +1,10 @@
 """The option records of the library as Hydra config groups, and back.
 
-The groups ``extraction``, ``fit`` and ``replay`` are made from :class:`freeplayid.signal.
-Extraction`, :class:`freeplayid.fit.FitOptions` and :class:`freeplayid.replay.Replay`
-themselves (their defaults, stored in Hydra's ConfigStore by :func:`register_option_groups`),
-so an option is one field of one dataclass and its default lives there only. The nodes are
+The groups ``extraction``, ``fit``, ``replay`` and ``linear_model`` are made from
+:class:`freeplayid.signal.Extraction`, :class:`freeplayid.fit.FitOptions`,
+:class:`freeplayid.replay.Replay` and :class:`freeplayid.model.ModelOptions` themselves (their
+defaults, stored in Hydra's ConfigStore by :func:`register_option_groups`), so an option is one
+field of one dataclass and its default lives there only. The nodes are
 stored untyped: a wrong value (``fit.n_bootstrap=2.7``) reaches the record's own validation and
 ends as one line naming the field (``fit.n_bootstrap``), where OmegaConf's typed nodes would end
 in Hydra's five-line error. ``replay=off`` selects the plain fit.
@@ -19,13 +20,18 @@ from omegaconf.errors import OmegaConfBaseException
 
 from ..errors import ConfigError
 from ..fit import FitOptions
+from ..model import ModelOptions
 from ..replay import Replay
 from ..signal import Extraction
 
 __all__ = ["OPTION_GROUPS", "register_option_groups", "options_from_config", "identify_options"]
 
 # config group -> the option record it is made of
-OPTION_GROUPS = {"extraction": Extraction, "fit": FitOptions, "replay": Replay}
+OPTION_GROUPS = {"extraction": Extraction, "fit": FitOptions, "replay": Replay,
+                 "linear_model": ModelOptions}
+# config group -> the argument of freeplayid.identify it becomes
+IDENTIFY_ARGUMENTS = {"extraction": "extraction", "fit": "fit", "replay": "replay",
+                      "linear_model": "model"}
 # the replay group's switch (not a field of Replay): replay=off sets it false
 ENABLED = "enabled"
 
@@ -82,5 +88,5 @@ def options_from_config(cfg: DictConfig, group: str):
 
 
 def identify_options(cfg: DictConfig) -> dict:
-    """``extraction``, ``fit`` and ``replay`` of :func:`freeplayid.identify` from the config."""
-    return {group: options_from_config(cfg, group) for group in OPTION_GROUPS}
+    """The option arguments of :func:`freeplayid.identify` from the config's groups."""
+    return {arg: options_from_config(cfg, group) for group, arg in IDENTIFY_ARGUMENTS.items()}
