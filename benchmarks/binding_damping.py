@@ -49,7 +49,8 @@ def beam(n_in: int = 3, n_out: int = 4) -> FreeplaySystem:
     Inboard 0.15 m, outboard 0.3 m, steel 40 x 20 mm (closed-hinge first bending 41 Hz at
     kn = 5000 N m/rad, 80 Hz with a rigid hinge: the hinge shapes the mode); nodes carry
     (w, theta); the hinge node shares w, the inboard and outboard rotations there are separate
-    DOFs joined by the freeplay spring. ``n_in + n_out`` elements: 2 (n_in + n_out) + 1 DOFs (15 by default).
+    DOFs joined by the freeplay spring. ``n_in + n_out`` elements: 2 (n_in + n_out) + 1 DOFs
+    (15 by default).
     """
     E, rho, b, h = 2.0e11, 7850.0, 0.04, 0.02
     EI, rhoA = E * b * h**3 / 12, rho * b * h
