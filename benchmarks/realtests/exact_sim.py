@@ -33,7 +33,7 @@ Method (nothing is shared with freeplayid.simulate / replay / signal):
 3. Switching. Each knot interval is walked in dyadic pieces (the largest piece its offset's
    alignment allows). A piece whose end state leaves the regime's region (|th_j| <= delta_j open,
    s_j th_j >= delta_j in contact) is halved and retried, down to h / 2^L (L = 26:
-   ~5e-12 s at 8192 knots/s), where the switch is taken: the exact solution is evaluated at
+   ~1e-12 s at 16384 knots/s), where the switch is taken: the exact solution is evaluated at
    every trial point, so the switching instant th_j = +-delta_j is located by bisection on the
    exact solution to h / 2^L, and the new regime restarts from the exact state there. A
    crossing pair within one knot interval (a graze shorter than h) can be missed; halving h
@@ -46,17 +46,20 @@ Method (nothing is shared with freeplayid.simulate / replay / signal):
    from the output Nyquist frequency, pass band to 0.3 fs) decimates it to the sample rate
    (scipy.signal.resample_poly). Time 0 is the start of a_g; the structure is at rest before.
 
-Default 64 knots per output sample (16384 knots/s at 256 Hz): at 32 the missed short grazes of
-the stiff knuckle modes move the contact part of the records by ~3e-4 of their peak, at 64 by
-~5e-6 (--check). Near a drop (the jump down of an up-sweep) the trajectory itself is sensitive:
-perturbations of 1e-10 move the drop instant by milliseconds, so the records differ briefly there
-by up to O(10 %) between any two accurate integrators; --check reports that window apart.
+Default 64 knots per output sample (16384 knots/s at 256 Hz): from 32 to 64 knots the records
+move by ~5e-4 of their peak (short grazes of the stiff knuckle modes missed at 32), from 64 to
+128 by < 1e-5 (--check). Near a drop (the jump down of an up-sweep) the trajectory itself is
+sensitive: tiny differences move the drop and its transient slightly, so the records differ
+there briefly (up to ~3e-2 of the peak within ~1 s, the drop instant by < 0.1 ms) between any
+two accurate integrations; --check reports that window apart.
 
 What --check prints: (i) the records at knots/sample = 32 vs 64 vs 128 (and L = 26 vs 30); (ii) the
 records of freeplayid.simulate.simulate_sweeps at one shared idealised case (default fin, modal
 C of the model file, constant levels, linear up-sweep, 256 Hz) against these, by RMS difference
-and by each run's first-harmonic peak amplitude and its frequency from a lock-in written here;
-(iii) the exact SDOF backbone period against the switching instants of a free vibration.
+and by each run's first-harmonic peak amplitude and its frequency from a lock-in written here, and
+on a short sweep the project's records at its default step and at half of it (the difference
+that remains is the project's: it shrinks with its step); (iii) the exact SDOF backbone period
+against the switching instants of a free vibration.
 """
 
 from __future__ import annotations
@@ -552,6 +555,7 @@ def check(levels_g=(0.6, 1.0), rate=0.1) -> None:
             print(f"| {lv:g} | {name} | {rms:.1e} | {far:.1e} | {near:.1e} | "
                   f"{1e3 * (ta - tb):+.2f} | {A1[i1] / G0:.4f} | {A2[i2] / G0:.4f} | "
                   f"{A1[i1] / A2[i2] - 1:+.1e} | {fr[i1]:.3f} | {fr[i2]:.3f} |")
+    check_their_step(fin, st, chans)
     print("\n### (iii) exact SDOF backbone (free vibration, k only in contact)\n")
     print("| A / delta | exact f/f_n | simulated f/f_n (switching instants) | rel. error |")
     print("|---|---|---|---|")
@@ -569,6 +573,35 @@ def check(levels_g=(0.6, 1.0), rate=0.1) -> None:
         exact = 1.0 / (1.0 + 2 * d / (math.pi * (A - d)))
         sim = (2 * np.pi / period) / wn
         print(f"| {ratio:g} | {exact:.9f} | {sim:.9f} | {sim / exact - 1:+.1e} |")
+
+
+def check_their_step(fin, st, chans, level=0.8, rate=0.5) -> None:
+    """Is the remaining difference the project's? Halve its step on a short sweep."""
+    import torch
+
+    from freeplayid.simulate import Sweep, simulate_sweeps
+
+    f0, f1, fs = 30.0, 46.5, 256.0
+    dur = sweep_duration(f0, f1, rate_hz_per_s=rate)
+    ours = simulate(st, lambda t: level * G0 * np.sin(sweep_phase(t, f0, f1, rate_hz_per_s=rate)),
+                    duration=dur, sample_rate=fs, channels=chans)
+    t = ours.time
+    td = drop_time(ours.accel[0], t, sweep_phase(t, f0, f1, rate_hz_per_s=rate))
+    print(f"\n{level:g} g, {f0:g} -> {f1:g} Hz at {rate:g} Hz/s: the project's records against "
+          "ours at its default step and at half of it\n")
+    print("| project dt [s] | max away from drop | within drop | RMS / peak |")
+    print("|---|---|---|---|")
+    spm = None
+    for halve in (False, True):
+        kw = {"steps_per_sample": 2 * spm} if halve else {}
+        res = simulate_sweeps(fin, kn=480.0, delta=0.003, level_g=[level],
+                              sweep=Sweep(f0, f1, rate), channels=list(chans),
+                              sample_rate=fs, dtype=torch.float64, progress=False, **kw)
+        spm = round(1.0 / (res.dt * fs))
+        b = res.signals[0]
+        n = min(b.shape[1], t.size)
+        far, near, rms = _compare(ours.accel[:, :n], b[:, :n], t[:n], td)
+        print(f"| {res.dt:.3g} | {far:.1e} | {near:.1e} | {rms:.1e} |")
 
 
 def main() -> None:
