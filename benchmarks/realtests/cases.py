@@ -1,0 +1,606 @@
+"""Benchmark data sets of the conditions a real sine-sweep test has, simulated by exact_sim.py.
+
+    nice -n 15 python benchmarks/realtests/cases.py      # every case -> /work/realtests_data
+    python benchmarks/realtests/cases.py --list                      # names and conditions
+    python benchmarks/realtests/cases.py --cases fin_level_dip --out DIR
+
+Each case is a folder ``OUT/<case>/`` holding ``clean.npz`` (the noise-free records at the output
+rate: absolute accelerations [m/s^2] of the channels and of the base, per run) and one data set
+per noise draw, ``OUT/<case>/d0`` and ``d1``: the same clean simulation with two independent
+white-noise seeds, in the project's format (manifest.yaml with ``truth: {kn, delta}``, one
+CSV.gz per run, model.npz) plus ``truth.json`` (every hinge's gap, the condition's parameters, the
+clean records' jump frequencies from a lock-in written here). For unequal gaps the manifest's
+delta is the mean of the hinges' gaps.
+
+The records come from exact_sim.py (no code of freeplayid.simulate / replay / signal); freeplayid
+is used only to build the default fin's matrices (default_fin, the plate FE) and to write files
+(write_dataset, save_system). The model file is what an engineer would have: the nominal linear
+model, which is NOT the true structure in several cases (damping of another form, stiffness off,
+a damper the model does not know).
+
+Reuse (issue 28, record faults): :func:`load_clean` returns a case's clean records and spec, and
+:func:`write_draw` writes a data set from them with any ``transform(records) -> records`` applied
+after the noise, so a fault (clipping, dropouts, a wrong sample rate) is one function away.
+Every condition is a function of keyword parameters (levels, magnitudes, the structure), so a
+variant is one argument away; see CONDITIONS.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import math
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import scipy.linalg
+import scipy.optimize
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import exact_sim as es  # noqa: E402
+
+DEFAULT_OUT = "/work/realtests_data"
+NOISE_G = 0.05  # white noise std on every channel [g]
+SEEDS = (101, 202)  # the two noise draws
+FS = 256.0  # output sample rate [Hz]
+FIN_CHANNELS = {"acc_tl": "uz_top_left", "acc_lr": "uz_lower_right"}
+FIN_LEVELS = (0.4, 0.6, 0.8, 1.0, 1.2)  # [g] at delta 3 mrad (the bundled example's)
+FIN_SWEEP = {"start_hz": 30.0, "stop_hz": 46.5, "rate_hz_per_s": 0.1}
+FIN_KN, FIN_DELTA = 480.0, 0.003
+
+
+@dataclass
+class RunSpec:
+    """One sweep run: nominal level [g], sweep law (hint keys), level profile factor(t, f)."""
+
+    level_g: float
+    sweep: dict
+    profile: Callable | None = None
+    declared_level_g: float | None = None  # what the manifest says (default: level_g)
+
+    @property
+    def file(self) -> str:
+        return f"sweep_{self.declared_level_g or self.level_g:.2f}g.csv.gz"
+
+    def base_accel(self):
+        sw, lv, prof = self.sweep, self.level_g, self.profile
+        law = {k: sw[k] for k in ("rate_hz_per_s", "octaves_per_min") if k in sw}
+
+        def a_g(t):
+            ph = es.sweep_phase(t, sw["start_hz"], sw["stop_hz"], **law)
+            amp = lv * es.G0
+            if prof is not None:
+                amp = amp * prof(t, es.sweep_frequency(t, sw["start_hz"], sw["stop_hz"], **law))
+            return amp * np.sin(ph)
+
+        return a_g
+
+    def duration(self) -> float:
+        sw = self.sweep
+        law = {k: sw[k] for k in ("rate_hz_per_s", "octaves_per_min") if k in sw}
+        return es.sweep_duration(sw["start_hz"], sw["stop_hz"], **law)
+
+
+@dataclass
+class CaseSpec:
+    """Everything that makes one case (module docstring)."""
+
+    name: str
+    condition: str
+    structure: es.Structure  # the true structure
+    model: object  # freeplayid FreeplaySystem written as model.npz
+    channels: dict
+    runs: list
+    truth: dict  # {"kn", "delta"} for the manifest
+    params: dict = field(default_factory=dict)
+    base_channel: bool = True
+    hints: bool = True
+    reference_modes: list | None = None
+    clean_from: str | None = None
+    profile_of_run: Callable | None = None  # (run index, clean jump of profile_from) -> profile
+    noise_g: float = NOISE_G
+    sample_rate: float = FS
+    knots_per_sample: int = 64
+
+
+# --------------------------------------------------------------------------- structures
+def fin_truth(*, kn=FIN_KN, deltas=FIN_DELTA, part_scale=None, C=None, hinge_damping=0.0,
+              contact_damping=0.0):
+    """(nominal model file system, true Structure) of the default fin.
+
+    part_scale: (part, factor) scales that plate's Young's modulus in the TRUE structure only.
+    C: the true damping matrix (default the model's own C); the model file keeps its own C.
+    """
+    import freeplayid.model as fm
+
+    nominal = fm.default_fin()
+    true_sys = nominal
+    if part_scale is not None:
+        cfg = fm.load_fin_config()
+        part, factor = part_scale
+        parts = dict(cfg.parts)
+        parts[part] = dataclasses.replace(parts[part], E=parts[part].E * factor)
+        true_sys = fm.reduce_fin(fm.build_fin_fe(dataclasses.replace(cfg, parts=parts)))
+        assert true_sys.dof_names == nominal.dof_names
+    CC = true_sys.C if C is None else C(true_sys)
+    st = es.structure_from_arrays(true_sys.M, true_sys.K, CC, true_sys.hinge_matrix(), kn=kn,
+                                  deltas=deltas, dof_names=true_sys.dof_names,
+                                  influence=true_sys.base_influence,
+                                  hinge_damping=hinge_damping, contact_damping=contact_damping)
+    return nominal, st
+
+
+def closed_modes(st: es.Structure, kn=None):
+    """Closed-hinge (w^2, mass-normalised shapes) of the true structure."""
+    kn = st.kn if kn is None else kn
+    lam, phi = scipy.linalg.eigh(st.K + kn * st.B @ st.B.T, st.M)
+    return lam, phi
+
+
+def reference_modes(st: es.Structure, dofs, n_modes=3) -> list:
+    """The sealed structure's modes at the measured DOFs, the bundled example's manifest format."""
+    lam, phi = closed_modes(st)
+    rows = [st.index(d) for d in dofs]
+    out = []
+    for k in range(n_modes):
+        v = phi[rows, k] / np.max(np.abs(phi[rows, k]))
+        out.append({"frequency_hz": round(float(np.sqrt(lam[k]) / (2 * np.pi)), 3),
+                    "shape": {d: round(float(x), 4) for d, x in zip(dofs, v)}})
+    return out
+
+
+def mode1_added_damping(st: es.Structure, c) -> float:
+    """Damping ratio a damper c [N m s/rad] across every hinge adds to closed mode 1."""
+    lam, phi = closed_modes(st)
+    w = math.sqrt(lam[0])
+    return float(c * np.sum((st.B.T @ phi[:, 0]) ** 2) / (2 * w))
+
+
+def part_factor_for_shift(part: str, shift: float) -> float:
+    """Young's modulus factor of ``part`` that moves the closed fin's mode 1 by ``shift``."""
+    def f1(factor):
+        _, st = fin_truth(part_scale=(part, factor))
+        return math.sqrt(closed_modes(st)[0][0])
+
+    base = f1(1.0)
+    return float(scipy.optimize.brentq(lambda x: f1(x) / base - 1 - shift, 0.5, 2.0, xtol=1e-10))
+
+
+def beam(*, kn=5000.0, delta=2.5e-3, L_in=0.12, L_out=0.30, n_in=2, n_out=5, E=70e9,
+         rho=2700.0, b_in=0.05, t_in=0.012, b_out=0.06, t_out=0.008, zeta=0.02,
+         rayleigh_hz=(30.0, 50.0), rayleigh_on="closed"):
+    """(model file system, true Structure) of a single-hinge beam of our own (15 DOFs).
+
+    Two Euler-Bernoulli segments (aluminium, consistent mass), the inboard one (n_in elements)
+    clamped to the shaker, joined to the outboard one (n_out elements) at one node with a shared
+    deflection and separate rotations (th_hinge_in, th_hinge_out) carrying the freeplay spring.
+    2 + 5 elements: 15 DOFs; closed-hinge mode 1 at 46.4 Hz with kn 5000 N m/rad. Truth damping:
+    Rayleigh C = a M + b (K + kn b b^T) with ``zeta`` at ``rayleigh_hz`` (``rayleigh_on="open"``:
+    b K only). Load: the exact consistent-mass load M_ff r_f + M_fb 1 of the clamped root (the
+    model file carries r, the contract's -M r a_g, which differs from it by the root coupling).
+    The model file has M, K, r and no C.
+    """
+    from freeplayid.model import FreeplaySystem, rayleigh_coefficients
+
+    def ke(EI, L):  # Euler-Bernoulli element (w1, th1, w2, th2)
+        return EI / L**3 * np.array([[12, 6 * L, -12, 6 * L],
+                                     [6 * L, 4 * L * L, -6 * L, 2 * L * L],
+                                     [-12, -6 * L, 12, -6 * L],
+                                     [6 * L, 2 * L * L, -6 * L, 4 * L * L]])
+
+    def me(m, L):  # consistent mass, m per unit length
+        return m * L / 420 * np.array([[156, 22 * L, 54, -13 * L],
+                                       [22 * L, 4 * L * L, 13 * L, -3 * L * L],
+                                       [54, 13 * L, 156, -22 * L],
+                                       [-13 * L, -3 * L * L, -22 * L, 4 * L * L]])
+
+    dofs, elems, prev = ["w_root", "th_root"], [], (0, 1)
+    for i in range(1, n_in + 1):
+        dofs += ["w_hinge", "th_hinge_in"] if i == n_in else [f"w_in{i}", f"th_in{i}"]
+        cur = (len(dofs) - 2, len(dofs) - 1)
+        elems.append((prev, cur, E * b_in * t_in**3 / 12, rho * b_in * t_in, L_in / n_in))
+        prev = cur
+    dofs.append("th_hinge_out")
+    prev = (dofs.index("w_hinge"), len(dofs) - 1)
+    for i in range(1, n_out + 1):
+        nm = "tip" if i == n_out else f"out{i}"
+        dofs += [f"w_{nm}", f"th_{nm}"]
+        cur = (len(dofs) - 2, len(dofs) - 1)
+        elems.append((prev, cur, E * b_out * t_out**3 / 12, rho * b_out * t_out, L_out / n_out))
+        prev = cur
+    n = len(dofs)
+    K, M = np.zeros((n, n)), np.zeros((n, n))
+    for a, b, EI, mA, L in elems:
+        idx = [a[0], a[1], b[0], b[1]]
+        K[np.ix_(idx, idx)] += ke(EI, L)
+        M[np.ix_(idx, idx)] += me(mA, L)
+    free = list(range(2, n))
+    rigid = np.array([1.0 if d.startswith("w_") else 0.0 for d in dofs])
+    Mf, Kf, names = M[np.ix_(free, free)], K[np.ix_(free, free)], [dofs[i] for i in free]
+    load, r = M[free, :] @ rigid, rigid[free]
+    B = np.zeros((len(free), 1))
+    B[names.index("th_hinge_out"), 0], B[names.index("th_hinge_in"), 0] = 1.0, -1.0
+    a, b = rayleigh_coefficients(*rayleigh_hz, zeta)
+    Kd = Kf + (kn * B @ B.T if rayleigh_on == "closed" else 0.0)
+    st = es.structure_from_arrays(Mf, Kf, a * Mf + b * Kd, B, kn=kn, deltas=delta,
+                                  dof_names=names, influence=r, load=load)
+    model = FreeplaySystem(M=Mf, K=Kf, dof_names=tuple(names),
+                           hinge_pairs=(("th_hinge_out", "th_hinge_in"),), base_influence=r)
+    return model, st
+
+
+# --------------------------------------------------------------------------- conditions
+def _fin_runs(levels=FIN_LEVELS, sweep=FIN_SWEEP, delta=FIN_DELTA, profile=None):
+    scale = np.mean(np.atleast_1d(delta)) / FIN_DELTA  # level/delta is what matters
+    return [RunSpec(round(lv * scale, 4), dict(sweep), profile) for lv in levels]
+
+
+def _fin_case(name, condition, *, levels=FIN_LEVELS, sweep=FIN_SWEEP, deltas=FIN_DELTA,
+              kn=FIN_KN, params=None, **fin_kw) -> CaseSpec:
+    model, st = fin_truth(kn=kn, deltas=deltas, **fin_kw)
+    return CaseSpec(name, condition, st, model, dict(FIN_CHANNELS),
+                    _fin_runs(levels, sweep, deltas), {"kn": kn, "delta": float(np.mean(deltas))},
+                    params=dict(params or {}, levels_g=list(levels), sweep=dict(sweep)))
+
+
+def fin_nominal(**kw) -> CaseSpec:
+    return _fin_case("fin_nominal", "control: idealised test (model C, constant level, linear "
+                     "up-sweep, base channel)", **kw)
+
+
+def fin_no_base(*, declared_scale=1.0, name="fin_no_base", src="fin_nominal") -> CaseSpec:
+    """The ``src`` records without the base channel; level_g = true level x declared_scale."""
+    spec = CONDITIONS[src]()
+    spec.name, spec.clean_from, spec.base_channel = name, src, False
+    spec.profile_of_run = None
+    for run in spec.runs:
+        run.declared_level_g = round(run.level_g * declared_scale, 4)
+    spec.condition = (f"no base channel, level_g only ({src} records)" if declared_scale == 1 else
+                      f"no base channel, level_g {100 * (declared_scale - 1):+.0f} % off the "
+                      f"true level ({src} records)")
+    spec.params.update(declared_level_scale=declared_scale, records_of=src)
+    return spec
+
+
+def beam_rayleigh(*, levels=(1.1, 1.5, 2.0, 2.6, 3.3), sweep=None, **beam_kw) -> CaseSpec:
+    sweep = sweep or {"start_hz": 24.0, "stop_hz": 46.0, "rate_hz_per_s": 0.1}
+    model, st = beam(**beam_kw)
+    delta = st.deltas[0]
+    scale = delta / 2.5e-3
+    runs = [RunSpec(round(lv * scale, 4), dict(sweep)) for lv in levels]
+    f = np.sqrt(closed_modes(st)[0][:3]) / (2 * np.pi)
+    return CaseSpec("beam_rayleigh", "single-hinge beam (15 DOF), Rayleigh 2 % at 30/50 Hz, no C "
+                    "in the model file", st, model, {"acc_tip": "w_tip", "acc_mid": "w_out3"},
+                    runs, {"kn": st.kn, "delta": delta},
+                    params={"levels_g": [r.level_g for r in runs], "sweep": sweep,
+                            "closed_modes_hz": np.round(f, 3).tolist(), **beam_kw})
+
+
+def fin_hinge_damper(*, added_zeta=0.015, **kw) -> CaseSpec:
+    _, st = fin_truth()
+    c = added_zeta / mode1_added_damping(st, 1.0)
+    kw.setdefault("levels", _damped_levels(added_zeta))
+    return _fin_case("fin_hinge_damper", f"viscous damper across each hinge (+{100 * added_zeta:g}"
+                     " % in closed mode 1), not in the model file", hinge_damping=c,
+                     params={"hinge_damper_Nms_per_rad": c, "added_zeta_mode1": added_zeta}, **kw)
+
+
+def _damped_levels(added_zeta, zeta=0.03):
+    """The example's levels scaled with the closed mode 1's damping (similar jump range)."""
+    return tuple(round(lv * (1 + added_zeta / zeta), 3) for lv in FIN_LEVELS)
+
+
+def fin_contact_damping(*, added_zeta=0.02, **kw) -> CaseSpec:
+    _, st = fin_truth()
+    c = added_zeta / mode1_added_damping(st, 1.0)
+    kw.setdefault("levels", _damped_levels(added_zeta))
+    return _fin_case("fin_contact_damping", "extra damping only while in contact "
+                     f"(+{100 * added_zeta:g} % in closed mode 1)", contact_damping=c,
+                     params={"contact_damper_Nms_per_rad": c, "added_zeta_mode1": added_zeta}, **kw)
+
+
+def fin_rayleigh(*, zeta=0.03, f_hz=(30.0, 60.0), **kw) -> CaseSpec:
+    from freeplayid.model import rayleigh_damping
+
+    def C(sys):
+        return rayleigh_damping(sys.M, sys.closed_stiffness(FIN_KN), f1=f_hz[0], f2=f_hz[1],
+                                zeta=zeta)
+
+    spec = _fin_case("fin_rayleigh_noC", f"true damping Rayleigh {100 * zeta:g} % at "
+                     f"{f_hz[0]:g}/{f_hz[1]:g} Hz, model file without C", C=C,
+                     params={"rayleigh_zeta": zeta, "rayleigh_hz": list(f_hz)}, **kw)
+    spec.model = spec.model.replace(C=None)
+    return spec
+
+
+def fin_stiffness(*, shift=0.005, part="inboard", ref=False, **kw) -> CaseSpec:
+    factor = part_factor_for_shift(part, shift)
+    tag = f"{'p' if shift > 0 else 'm'}{abs(100 * shift):g}"
+    spec = _fin_case(f"fin_stiff_{tag}{'_ref' if ref else ''}",
+                     f"true {part} plate E x{factor:.4f}: mode 1 {100 * shift:+g} % off the model"
+                     + (", sealed-fin modes given" if ref else ""), part_scale=(part, factor),
+                     params={"part": part, "E_factor": factor, "mode1_shift": shift,
+                             "reference_modes": ref}, **kw)
+    if ref:
+        spec.reference_modes = reference_modes(spec.structure, list(FIN_CHANNELS.values()))
+        spec.clean_from = f"fin_stiff_{tag}"
+    return spec
+
+
+def fin_level_profile(name, condition, profile_of_run, params, *, src="fin_nominal", **kw):
+    """The nominal fin with a level profile per run: profile_of_run(k, clean jump [Hz])."""
+    spec = _fin_case(name, condition, params=params, **kw)
+    spec.params["profile_from"] = src
+    spec.profile_of_run = profile_of_run  # resolved by generate() once src has its jumps
+    return spec
+
+
+def fin_level_dip(*, depth=0.3, flat_hz=0.5, taper_hz=0.5, **kw) -> CaseSpec:
+    """Level reduced by ``depth`` within +-flat_hz of each run's jump (found on the constant-level
+    records), cosine tapers of taper_hz; a run without a jump keeps its level."""
+    def profile_of_run(k, f_jump):
+        if not np.isfinite(f_jump):
+            return None
+
+        def prof(t, f):
+            x = np.abs(f - f_jump)
+            w = np.where(x <= flat_hz, 1.0, np.where(
+                x >= flat_hz + taper_hz, 0.0, 0.5 * (1 + np.cos(np.pi * (x - flat_hz) / taper_hz))))
+            return 1.0 - depth * w
+        return prof
+
+    return fin_level_profile("fin_level_dip", f"level dips {100 * depth:g} % around each jump "
+                             "(force-limited shaker), base channel records it", profile_of_run,
+                             {"dip_depth": depth, "dip_flat_hz": flat_hz,
+                              "dip_taper_hz": taper_hz}, **kw)
+
+
+def fin_level_ramp(*, ramp=0.15, **kw) -> CaseSpec:
+    spec = _fin_case("fin_level_ramp", f"level ramps {-100 * ramp:+g} % -> {100 * ramp:+g} % "
+                     "over each sweep (level_g = the mean)", params={"ramp": ramp}, **kw)
+    for r in spec.runs:
+        T = r.duration()
+        r.profile = lambda t, f, T=T: 1.0 + ramp * (2.0 * np.asarray(t) / T - 1.0)
+    return spec
+
+
+def fin_unequal_gaps(*, deltas=(0.0027, 0.0033), **kw) -> CaseSpec:
+    return _fin_case("fin_unequal_gaps", f"half-gaps {1e3 * deltas[0]:g} / {1e3 * deltas[1]:g} "
+                     "mrad (truth delta = their mean)", deltas=deltas,
+                     params={"deltas": list(deltas)}, **kw)
+
+
+def fin_down_sweep(*, levels=(1.2, 1.5, 1.75, 2.0), **kw) -> CaseSpec:
+    sweep = {"start_hz": FIN_SWEEP["stop_hz"], "stop_hz": FIN_SWEEP["start_hz"],
+             "rate_hz_per_s": FIN_SWEEP["rate_hz_per_s"]}
+    return _fin_case("fin_down_sweep", "down-sweep 46.5 -> 30 Hz, jump-ups in band", levels=levels,
+                     sweep=sweep, **kw)
+
+
+def fin_log_sweep(*, octaves_per_min=0.25, **kw) -> CaseSpec:
+    sweep = {"start_hz": 30.0, "stop_hz": 46.5, "octaves_per_min": octaves_per_min}
+    return _fin_case("fin_log_sweep", f"log sweep 30 -> 46.5 Hz at {octaves_per_min:g} oct/min",
+                     sweep=sweep, **kw)
+
+
+def fin_fast_sweep(*, rate=0.5, **kw) -> CaseSpec:
+    sweep = dict(FIN_SWEEP, rate_hz_per_s=rate)
+    return _fin_case("fin_fast_sweep", f"faster sweep, {rate:g} Hz/s", sweep=sweep, **kw)
+
+
+CONDITIONS: dict[str, Callable[..., CaseSpec]] = {
+    "fin_nominal": fin_nominal,
+    "beam_rayleigh": beam_rayleigh,
+    "fin_hinge_damper": fin_hinge_damper,
+    "fin_stiff_p0.5": lambda **kw: fin_stiffness(shift=0.005, **kw),
+    "fin_stiff_p0.5_ref": lambda **kw: fin_stiffness(shift=0.005, ref=True, **kw),
+    "fin_stiff_m1": lambda **kw: fin_stiffness(shift=-0.01, **kw),
+    "fin_stiff_m1_ref": lambda **kw: fin_stiffness(shift=-0.01, ref=True, **kw),
+    "fin_level_dip": fin_level_dip,
+    "fin_level_ramp": fin_level_ramp,
+    "fin_unequal_gaps": fin_unequal_gaps,
+    "fin_down_sweep": fin_down_sweep,
+    "fin_log_sweep": fin_log_sweep,
+    "fin_contact_damping": fin_contact_damping,
+    "fin_rayleigh_noC": fin_rayleigh,
+    "fin_fast_sweep": fin_fast_sweep,
+    "fin_no_base": fin_no_base,
+    "fin_no_base_level_off": lambda **kw: fin_no_base(declared_scale=1.05,
+                                                      name="fin_no_base_level_off", **kw),
+    "fin_dip_no_base": lambda **kw: fin_no_base(name="fin_dip_no_base", src="fin_level_dip", **kw),
+}
+
+
+# --------------------------------------------------------------------------- jumps (lock-in)
+def run_jump(accel: np.ndarray, t: np.ndarray, sweep: dict) -> dict:
+    """The clean record's jump by a 0.25 s lock-in of its first channel: an up-sweep's drop (the
+    envelope falls below half its maximum after it), a down-sweep's jump-up (it first exceeds
+    half its maximum, from below a quarter); NaN when there is none (no resonance in band). The
+    first 3 s (the start transient) are left out."""
+    law = {k: sweep[k] for k in ("rate_hz_per_s", "octaves_per_min") if k in sweep}
+    ph = es.sweep_phase(t, sweep["start_hz"], sweep["stop_hz"], **law)
+    f = es.sweep_frequency(t, sweep["start_hz"], sweep["stop_hz"], **law)
+    env = es.lockin(accel, t, ph, 0.25)
+    env[t < 3.0] = np.nan
+    i = int(np.nanargmax(env))
+    out = {"peak_g": float(env[i] / es.G0), "f_peak_hz": float(f[i]), "f_jump_hz": float("nan")}
+    if sweep["stop_hz"] > sweep["start_hz"]:
+        k = np.flatnonzero(env[i:] < 0.5 * env[i])
+        if k.size:
+            out["f_jump_hz"] = float(f[i + k[0]])
+    elif np.nanmedian(env[(t >= 3.0) & (t < 5.0)]) < 0.25 * env[i]:
+        k = np.flatnonzero(env > 0.5 * env[i])
+        out["f_jump_hz"] = float(f[k[0]])
+    return out
+
+
+# --------------------------------------------------------------------------- generation
+def simulate_clean(spec: CaseSpec, log=print) -> dict:
+    """Clean records of every run: {"time", "accel" (ch, T) [m/s^2], "base"}, lists by run."""
+    st, chans = spec.structure, list(spec.channels.values())
+    fs_k = spec.sample_rate * spec.knots_per_sample
+    t0 = time.perf_counter()
+    props = es.propagators(st, 1.0 / fs_k)
+    log(f"  propagators of {3 ** st.h} regimes: {time.perf_counter() - t0:.1f} s")
+    out = {"time": [], "accel": [], "base": [], "n_events": []}
+    for run in spec.runs:
+        t1 = time.perf_counter()
+        rec = es.simulate(st, run.base_accel(), duration=run.duration(),
+                          sample_rate=spec.sample_rate, channels=chans,
+                          knots_per_sample=spec.knots_per_sample, props=props)
+        out["time"].append(rec.time)
+        out["accel"].append(rec.accel)
+        out["base"].append(rec.base)
+        out["n_events"].append(rec.n_events)
+        log(f"  {run.level_g:g} g: {rec.time[-1]:.0f} s, {rec.n_events} switches, "
+            f"{time.perf_counter() - t1:.1f} s")
+    return out
+
+
+def save_clean(folder: Path, clean: dict) -> None:
+    arrays = {}
+    for k in range(len(clean["time"])):
+        arrays[f"time_{k}"], arrays[f"accel_{k}"] = clean["time"][k], clean["accel"][k]
+        arrays[f"base_{k}"] = clean["base"][k]
+    tmp = folder / "clean.tmp.npz"
+    np.savez_compressed(tmp, **arrays)
+    tmp.replace(folder / "clean.npz")
+
+
+def load_clean(folder) -> dict:
+    """A case's clean records (see simulate_clean) and its truth.json of draw 0 as "truth"."""
+    folder = Path(folder)
+    with np.load(folder / "clean.npz") as z:
+        n = sum(1 for k in z.files if k.startswith("time_"))
+        clean = {key: [z[f"{key}_{k}"] for k in range(n)] for key in ("time", "accel", "base")}
+    truth = folder / "d0" / "truth.json"
+    clean["truth"] = json.loads(truth.read_text()) if truth.is_file() else None
+    return clean
+
+
+def write_draw(folder: Path, spec: CaseSpec, clean: dict, seed: int, jumps: list,
+               transform: Callable | None = None) -> Path:
+    """One noisy data set from the clean records (module docstring)."""
+    from freeplayid.io import Run, atomic_write_text, write_dataset
+
+    rng = np.random.default_rng(seed)
+    runs = []
+    for k in range(len(spec.runs)):
+        t = clean["time"][k]
+        data = clean["accel"][k] / es.G0 + rng.normal(0.0, spec.noise_g, clean["accel"][k].shape)
+        base = clean["base"][k] / es.G0 + rng.normal(0.0, spec.noise_g, t.size)
+        runs.append({"t": t, "data": data, "base": base})
+    if transform is not None:
+        runs = transform(runs)
+    objs = [Run(file=run.file, time=r["t"], data=r["data"],
+                level_g=float(run.declared_level_g or run.level_g),
+                sweep=dict(run.sweep) if spec.hints else None,
+                base=r["base"] if spec.base_channel else None)
+            for run, r in zip(spec.runs, runs)]
+    manifest = write_dataset(folder, name=f"realtests {spec.name}: {spec.condition}",
+                             quantity="acceleration", units="g", sample_rate=spec.sample_rate,
+                             channels=spec.channels, runs=objs, system=spec.model,
+                             base_channel="acc_base" if spec.base_channel else None,
+                             truth=spec.truth, float_format="%.6g", time_format="%.7g")
+    if spec.reference_modes:
+        import yaml
+
+        m = yaml.safe_load(manifest.read_text())
+        m["reference_modes"] = {"modes": spec.reference_modes}
+        atomic_write_text(manifest, yaml.safe_dump(m, sort_keys=False))
+    st = spec.structure
+    truth = {"kn": spec.truth["kn"], "delta": spec.truth["delta"],
+             "deltas": list(st.deltas),
+             "case": spec.name, "condition": spec.condition, "seed": seed,
+             "noise_g": spec.noise_g, "params": _jsonable(spec.params),
+             "runs": [{"file": r.file, "level_g": r.level_g, "sweep": r.sweep, **j}
+                      for r, j in zip(spec.runs, jumps)]}
+    atomic_write_text(folder / "truth.json", json.dumps(truth, indent=1) + "\n")
+    return manifest
+
+
+def _jsonable(x):
+    if isinstance(x, dict):
+        return {str(k): _jsonable(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_jsonable(v) for v in x]
+    if isinstance(x, (np.floating, np.integer)):
+        return x.item()
+    if isinstance(x, np.ndarray):
+        return x.tolist()
+    return x
+
+
+def generate(name: str, out: Path, *, force=False, redraw=False, log=print) -> dict:
+    """Make one case (and what it depends on) under ``out``; return its summary.
+
+    force: simulate again; redraw: write the draws again from the saved clean records.
+    """
+    spec = CONDITIONS[name]()
+    folder = out / name
+    if (folder / "d1" / "manifest.yaml").is_file() and not (force or redraw):
+        log(f"{name}: exists, skipped")
+        return {"name": name, "skipped": True}
+    t0 = time.perf_counter()
+    log(f"{name}: {spec.condition}")
+    folder.mkdir(parents=True, exist_ok=True)
+    if spec.profile_of_run is not None:  # a level profile set by the source's jumps
+        base = spec.params["profile_from"]
+        if not (out / base / "clean.npz").is_file():
+            generate(base, out, log=log)
+        jumps = load_clean(out / base)["truth"]["runs"]
+        for k, run in enumerate(spec.runs):
+            run.profile = spec.profile_of_run(k, jumps[k]["f_jump_hz"])
+        spec.params["dip_centres_hz"] = [j["f_jump_hz"] for j in jumps]
+    src = spec.clean_from
+    if src is not None:
+        if not (out / src / "clean.npz").is_file():
+            generate(src, out, log=log)
+        clean = load_clean(out / src)
+    elif redraw and not force and (folder / "clean.npz").is_file():
+        clean = load_clean(folder)
+    else:
+        clean = simulate_clean(spec, log=log)
+        save_clean(folder, clean)
+    jumps = [run_jump(clean["accel"][k][0], clean["time"][k], r.sweep)
+             for k, r in enumerate(spec.runs)]
+    for seed, draw in zip(SEEDS, ("d0", "d1")):
+        write_draw(folder / draw, spec, clean, seed, jumps)
+    wall = time.perf_counter() - t0
+    log(f"{name}: jumps " + ", ".join(f"{r.level_g:g} g -> {j['f_jump_hz']:.2f} Hz"
+                                      for r, j in zip(spec.runs, jumps)) + f"; {wall:.0f} s")
+    return {"name": name, "wall_s": wall, "jumps": jumps}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", default=DEFAULT_OUT)
+    ap.add_argument("--cases", default="", help="comma-separated names (default: all)")
+    ap.add_argument("--list", action="store_true")
+    ap.add_argument("--force", action="store_true", help="simulate existing cases again")
+    ap.add_argument("--redraw", action="store_true",
+                    help="write the noisy data sets again from the saved clean records")
+    args = ap.parse_args()
+    if args.list:
+        for name in CONDITIONS:
+            print(f"{name}: {CONDITIONS[name]().condition}")
+        return
+    names = [s for s in args.cases.split(",") if s] or list(CONDITIONS)
+    unknown = [s for s in names if s not in CONDITIONS]
+    if unknown:
+        raise SystemExit(f"unknown case(s) {unknown}; known: {list(CONDITIONS)}")
+    out = Path(args.out)
+    t0 = time.perf_counter()
+    for name in names:
+        generate(name, out, force=args.force, redraw=args.redraw,
+                 log=lambda s: print(s, flush=True))
+    print(f"all done in {time.perf_counter() - t0:.0f} s")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,197 @@
+"""Identify every realtests case (cases.py) with freeplayid and print the results table.
+
+    python benchmarks/realtests/run.py                          # all cases in /work/realtests_data
+    python benchmarks/realtests/run.py --cases 'fin_level_*' --jobs 2
+    python benchmarks/realtests/run.py --report /work/realtests_results   # table from saved JSONL
+
+For each case and noise draw, two identifications: the plain backbone fit and the default,
+corrected answer (the replay). The table gives each one's errors against the truth (for unequal
+gaps: against the mean of the hinges' gaps, marked "mean"), whether each 95 % interval holds the
+truth, whether the answer is within the issue's bounds (|delta| < 1 %, |kn| < 2 %), the verdict
+with its reasons (shortened), and the wall time. A refusal (freeplayid.InputError) is a row with
+its message; any other exception is a row marked ``error``. ``ok OUT`` marks an ``ok`` verdict
+outside the bounds: the failures the issue is about.
+
+The library is called in ONE function, :func:`identify_case` (its API is being changed). Results
+go to ``--out`` as one JSONL file per case (one line per draw and fit).
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import fnmatch
+import io
+import json
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+DEFAULT_DATA = "/work/realtests_data"
+DEFAULT_OUT = "/work/realtests_results"
+BOUNDS = {"delta": 0.01, "kn": 0.02}  # the issue's success bounds (relative)
+FITS = ("plain", "corrected")
+
+
+def identify_case(path: str, corrected: bool) -> dict:
+    """The one call into freeplayid: the default corrected answer or the plain fit of a data set,
+    as a plain dict (kn, delta, intervals, verdict and reasons) or {"refused": message}."""
+    import freeplayid
+
+    try:
+        with contextlib.redirect_stderr(io.StringIO()):  # the progress bars
+            res = (freeplayid.identify(path) if corrected
+                   else freeplayid.identify(path, replay=False))
+    except freeplayid.InputError as exc:
+        return {"refused": " ".join(str(exc).split())}
+    return {"kn": float(res.kn), "delta": float(res.delta),
+            "kn_ci95": [float(v) for v in res.kn_ci95],
+            "delta_ci95": [float(v) for v in res.delta_ci95],
+            "status": str(res.verdict.status), "reasons": [str(r) for r in res.verdict.reasons]}
+
+
+def _task(case: str, draw: str, folder: str, fit: str) -> dict:
+    t0 = time.perf_counter()
+    try:
+        out = identify_case(folder, fit == "corrected")
+    except Exception as exc:  # a crash is a result of the benchmark too
+        out = {"error": f"{type(exc).__name__}: {' '.join(str(exc).split())[:300]}"}
+    truth = json.loads((Path(folder) / "truth.json").read_text())
+    out.update(case=case, draw=draw, fit=fit, wall_s=time.perf_counter() - t0,
+               condition=truth["condition"], truth={"kn": truth["kn"], "delta": truth["delta"],
+                                                    "deltas": truth.get("deltas")})
+    return out
+
+
+def find_cases(data: Path, patterns: list[str]) -> list[tuple[str, str, Path]]:
+    """(case, draw, folder) of every data set under ``data``, in cases.py's order."""
+    try:
+        sys.path.insert(0, str(Path(__file__).resolve().parent))
+        from cases import CONDITIONS
+
+        order = {n: i for i, n in enumerate(CONDITIONS)}
+    except Exception:  # the table does not need the generator
+        order = {}
+    found = []
+    for manifest in sorted(data.glob("*/d*/manifest.yaml")):
+        folder = manifest.parent
+        case, draw = folder.parent.name, folder.name
+        if patterns and not any(fnmatch.fnmatch(case, p) for p in patterns):
+            continue
+        found.append((case, draw, folder))
+    return sorted(found, key=lambda x: (order.get(x[0], len(order)), x[0], x[1]))
+
+
+# --------------------------------------------------------------------------- the table
+def _pct(x: float) -> str:
+    return f"{100 * x:+.2f}"
+
+
+def row_cells(r: dict) -> list[str]:
+    t = r["truth"]
+    unequal = t.get("deltas") and len(set(t["deltas"])) > 1
+    base = [r["case"], r["condition"] + (" (delta vs the hinges' mean)" if unequal else ""),
+            r["draw"], r["fit"]]
+    if "refused" in r or "error" in r:
+        msg = r.get("refused") or r.get("error")
+        kind = "refused" if "refused" in r else "error"
+        return base + ["-", "-", "-", "-", "-", kind, _short([msg]), f"{r['wall_s']:.0f}"]
+    ed, ek = r["delta"] / t["delta"] - 1, r["kn"] / t["kn"] - 1
+    inside = abs(ed) < BOUNDS["delta"] and abs(ek) < BOUNDS["kn"]
+    hold_d = r["delta_ci95"][0] <= t["delta"] <= r["delta_ci95"][1]
+    hold_k = r["kn_ci95"][0] <= t["kn"] <= r["kn_ci95"][1]
+    status = r["status"]
+    flag = f"**{status} OUT**" if (status == "ok" and not inside) else status
+    return base + [_pct(ed), _pct(ek), "yes" if hold_d else "no", "yes" if hold_k else "no",
+                   "in" if inside else "OUT", flag, _short(r["reasons"]), f"{r['wall_s']:.0f}"]
+
+
+def _short(reasons: list[str], each: int = 70, total: int = 220) -> str:
+    parts = [(s[:each - 1] + "…") if len(s) > each else s for s in reasons]
+    text = " · ".join(parts)
+    text = (text[:total - 1] + "…") if len(text) > total else text
+    return text.replace("|", "/") or "-"
+
+
+def table(results: list[dict]) -> str:
+    head = ["case", "condition", "draw", "fit", "δ err %", "kn err %", "δ CI holds",
+            "kn CI holds", "bounds", "verdict", "reasons", "wall s"]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    lines += ["| " + " | ".join(row_cells(r)) + " |" for r in results]
+    lines += ["", summary(results)]
+    return "\n".join(lines)
+
+
+def summary(results: list[dict]) -> str:
+    out = []
+    for fit in FITS:
+        rs = [r for r in results if r["fit"] == fit]
+        if not rs:
+            continue
+        cells = [row_cells(r) for r in rs]
+        n_in = sum(c[8] == "in" for c in cells)
+        ok_out = sum("OUT**" in c[9] for c in cells)
+        ok = sum(c[9] == "ok" for c in cells)
+        sus = sum(c[9] == "suspect" for c in cells)
+        ref = sum(c[9] in ("refused", "error") for c in cells)
+        both = sum(c[6] == "yes" and c[7] == "yes" for c in cells)
+        out.append(f"- {fit}: {len(rs)} answers; within the bounds {n_in}; `ok` within the "
+                   f"bounds {ok}, **`ok` outside the bounds {ok_out}**, `suspect` {sus}, "
+                   f"refused/error {ref}; both intervals hold the truth {both}")
+    return "\n".join(out)
+
+
+def sort_key(order: dict):
+    return lambda r: (order.get(r["case"], 1e9), r["case"], r["draw"], FITS.index(r["fit"]))
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--data", default=DEFAULT_DATA, help="folder of the cases (cases.py --out)")
+    ap.add_argument("--cases", default="", help="comma-separated names or shell patterns")
+    ap.add_argument("--jobs", type=int, default=1)
+    ap.add_argument("--out", default=DEFAULT_OUT, help="folder for one JSONL per case")
+    ap.add_argument("--fits", default="plain,corrected", help="plain, corrected or both")
+    ap.add_argument("--report", default=None, help="print the table of the JSONL in this folder")
+    args = ap.parse_args()
+    patterns = [p for p in args.cases.split(",") if p]
+    cases = find_cases(Path(args.data), patterns)
+    order = {c: i for i, c in enumerate(dict.fromkeys(c for c, _, _ in cases))}
+    if args.report:
+        results = [json.loads(line) for f in sorted(Path(args.report).glob("*.jsonl"))
+                   for line in f.read_text().splitlines() if line.strip()]
+        results = [r for r in results
+                   if not patterns or any(fnmatch.fnmatch(r["case"], p) for p in patterns)]
+        print(table(sorted(results, key=sort_key(order))))
+        return
+    if not cases:
+        raise SystemExit(f"no data sets under {args.data} matching {patterns or 'anything'}")
+    fits = [f for f in args.fits.split(",") if f]
+    tasks = [(c, d, str(f), fit) for c, d, f in cases for fit in fits]
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    for case in order:  # fresh files for the cases this run covers
+        (out / f"{case}.jsonl").unlink(missing_ok=True)
+    t0, results = time.perf_counter(), []
+
+    def keep(r):
+        results.append(r)
+        with open(out / f"{r['case']}.jsonl", "a") as fh:
+            fh.write(json.dumps(r) + "\n")
+        print(f"[{time.perf_counter() - t0:6.0f} s] {r['case']} {r['draw']} {r['fit']}: "
+              f"{' '.join(row_cells(r)[4:10])}", file=sys.stderr, flush=True)
+
+    if args.jobs > 1:
+        with ProcessPoolExecutor(args.jobs) as pool:
+            for r in pool.map(_task, *zip(*tasks)):
+                keep(r)
+    else:
+        for t in tasks:
+            keep(_task(*t))
+    print(table(sorted(results, key=sort_key(order))))
+    print(f"\n{len(tasks)} identifications in {time.perf_counter() - t0:.0f} s")
+
+
+if __name__ == "__main__":
+    main()
