@@ -1,6 +1,6 @@
 """Benchmark data sets of the conditions a real sine-sweep test has, simulated by exact_sim.py.
 
-    nice -n 15 python benchmarks/realtests/cases.py      # every case -> /work/realtests_data
+    nice -n 15 python benchmarks/realtests/cases.py      # every case -> outputs/realtests/data
     python benchmarks/realtests/cases.py --list                      # names and conditions
     python benchmarks/realtests/cases.py --cases fin_level_dip --out DIR
 
@@ -44,7 +44,7 @@ import scipy.optimize
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import exact_sim as es  # noqa: E402
 
-DEFAULT_OUT = "/work/realtests_data"
+DEFAULT_OUT = "outputs/realtests/data"
 NOISE_G = 0.05  # white noise std on every channel [g]
 SEEDS = (101, 202)  # the two noise draws
 FS = 256.0  # output sample rate [Hz]

@@ -1,8 +1,8 @@
 """Identify every realtests case (cases.py) with freeplayid and print the results table.
 
-    python benchmarks/realtests/run.py                          # all cases in /work/realtests_data
+    python benchmarks/realtests/run.py                          # all cases in outputs/realtests/data
     python benchmarks/realtests/run.py --cases 'fin_level_*' --jobs 2
-    python benchmarks/realtests/run.py --report /work/realtests_results   # table from saved JSONL
+    python benchmarks/realtests/run.py --report outputs/realtests/results   # table from saved JSONL
 
 For each case and noise draw, two identifications: the plain backbone fit and the default,
 corrected answer (the replay). The table gives each one's errors against the truth (for unequal
@@ -12,8 +12,8 @@ with its reasons (shortened), and the wall time. A refusal (freeplayid.InputErro
 its message; any other exception is a row marked ``error``. ``ok OUT`` marks an ``ok`` verdict
 outside the bounds: the failures the issue is about.
 
-The library is called in ONE function, :func:`identify_case` (its API is being changed). Results
-go to ``--out`` as one JSONL file per case (one line per draw and fit).
+The library is called in one function, :func:`identify_case`, with its defaults (as a user
+would). Results go to ``--out`` as one JSONL file per case (one line per draw and fit).
 """
 
 from __future__ import annotations
@@ -28,8 +28,8 @@ import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
-DEFAULT_DATA = "/work/realtests_data"
-DEFAULT_OUT = "/work/realtests_results"
+DEFAULT_DATA = "outputs/realtests/data"  # cases.py --out
+DEFAULT_OUT = "outputs/realtests/results"
 BOUNDS = {"delta": 0.01, "kn": 0.02}  # the issue's success bounds (relative)
 FITS = ("plain", "corrected")
 
@@ -42,7 +42,7 @@ def identify_case(path: str, corrected: bool) -> dict:
     try:
         with contextlib.redirect_stderr(io.StringIO()):  # the progress bars
             res = (freeplayid.identify(path) if corrected
-                   else freeplayid.identify(path, replay=False))
+                   else freeplayid.identify(path, replay=None))
     except freeplayid.InputError as exc:
         return {"refused": " ".join(str(exc).split())}
     return {"kn": float(res.kn), "delta": float(res.delta),
