@@ -22,7 +22,7 @@ outermost outboard masses with white noise of 0.5 % of each record's peak.
 What the identification gets is what the fit does not assume: the model file has M and K only
 (no damping), no base channel (levels from ``level_g``), no sweep hints (every law estimated
 from the record). Each case runs the plain identification and the corrected one
-(``identify(..., replay=True, replay_bootstrap=B)``). A case succeeds when |delta error| < 1 %
+(``identify(..., replay=Replay(n_bootstrap=B))``). A case succeeds when |delta error| < 1 %
 and |kn error| < 2 %; an interval covers when it holds the truth.
 """
 

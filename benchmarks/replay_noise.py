@@ -14,7 +14,7 @@ float32 (as the study banks), with white noise of 0.1, 0.2 or 0.3 g (cycling) on
 The identification gets each run's ``level_g`` and sweep hint and the lock-in extraction (as
 the compare task's corrected rows) and starts its fit 5 % off the truth (as from the network).
 
-Each case runs the plain fit and corrected fits (``replay=True``) that differ only in the
+Each case runs the plain fit and corrected fits (the default replay) that differ only in the
 statistic the replays match: "smoothed" (the plain fit's points: the maximum of the smoothed
 curve, every point the same weight), "drop" (the frequency where the curve drops, the amplitude
 just ahead of it; every point the same weight) and "weighted" (the drop points, each weighted by

@@ -18,8 +18,9 @@ the RK4 engine (``engine="numba"``, its stability step, float64). What the ident
 is what the fit does not assume: no damping in the model file (C removed), no base channel (the
 level from ``level_g``), no sweep hints (each law estimated from the record).
 
-Each case runs the plain identification and the corrected one (``identify(..., replay=True,
-replay_bootstrap=B)``; replays by the exponential engine when available). A case succeeds when
+Each case runs the plain identification and the corrected one (``identify(...,
+replay=Replay(n_bootstrap=B))``; replays by the exponential engine when available). A case
+succeeds when
 |delta error| < 1 % and |kn error| < 2 %; an interval covers when it holds the truth. The
 table prints, for the plain fit and the corrected fit: success rate, median and 95th percentile
 of |errors|, coverage of the 95 % intervals, and the share of `ok` verdicts.
@@ -220,8 +221,9 @@ def write_doc(path: Path, table: str, *, n: int, seed: int, bootstrap: int, note
         "measure points at 256 Hz with 0.5 % noise, simulated by the RK4 engine; the "
         "identification gets no damping in the model file, no base channel (levels from "
         "`level_g`) and no sweep hints; the replays run on the exponential engine. Plain fit: "
-        "`identify(..., use_sweep_hint=False)`; corrected: the same with `replay=True, "
-        f"replay_bootstrap={bootstrap}` (intervals: bootstrap by replay joined with the "
+        "`identify(..., extraction={'use_sweep_hint': False}, replay=None)`; corrected: the same "
+        f"with `replay=Replay(n_bootstrap={bootstrap})` (intervals: bootstrap by replay joined "
+        "with the "
         "Jacobian interval).", "",
         table, "", note, ""])
     path.write_text(head + section, encoding="utf-8")

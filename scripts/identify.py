@@ -2,7 +2,7 @@
 
     python scripts/identify.py                              # the bundled example data set
     python scripts/identify.py data=PATH/manifest.yaml      # your data set
-    python scripts/identify.py data=PATH backbone=hb n_bootstrap=200 debug=fast
+    python scripts/identify.py data=PATH fit.backbone=hb fit.n_bootstrap=200 debug=fast
 """
 
 import sys
