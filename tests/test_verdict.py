@@ -157,7 +157,7 @@ def test_identify_script_refuses_a_suspect_result(tmp_path):
 def test_a_binding_that_jumps_is_suspect():
     # replays 3 and 4 of a noisy compare-like case (kn 327 N m/rad, delta 1.32 mrad, 0.2 g):
     # delta moved by 0.55 % and the replayed fit's delta by 5.4 % (a run's point changed branch)
-    from freeplayid.identification.verdict import replay_checks
+    from freeplayid.identification.replay_checks import replay_checks
 
     def it(kn, delta, kn_rep, delta_rep):
         return ReplayIteration(kn, delta, kn_rep, delta_rep, n_evaluations=10)
@@ -184,12 +184,12 @@ def test_a_binding_that_jumps_is_suspect():
 ])
 def test_an_unconverged_loop_within_the_noise_is_as_good_as_converged(converged, closest,
                                                                         passed, words):
-    from freeplayid.identification.verdict import replay_checks
+    from freeplayid.identification.replay_checks import replay_checks
 
     class Rep:
         failure, misfit, sweeps, damping = "", {}, {}, None
-        iterations = [{"kn": 500.0, "delta": 2e-3, "kn_rep": 510.0, "delta_rep": 2.05e-3},
-                      {"kn": 490.0, "delta": 1.95e-3, "kn_rep": 500.1, "delta_rep": 2.0e-3}]
+        iterations = [ReplayIteration(500.0, 2e-3, 510.0, 2.05e-3, n_evaluations=10),
+                      ReplayIteration(490.0, 1.95e-3, 500.1, 2.0e-3, n_evaluations=10)]
 
     Rep.converged, Rep.closest_misfit_se = converged, closest
     check = {c.name: c for c in replay_checks(Rep())}["replay_converged"]
@@ -212,3 +212,27 @@ def test_the_misfit_in_standard_errors_follows_the_by_run_intervals():
     assert misfit_in_se(np.r_[F, 0.02], ci, pts, ratios) == pytest.approx(0.02 / se_r)
     assert misfit_in_se(F, ci, pts[:4], None) is None  # two runs: nothing measures the noise
     assert misfit_in_se(F, ((0.0, np.inf), ci[1]), pts, None) is None
+
+
+@pytest.mark.parametrize("offset, peak, passed", [(5e-3, 0.01, False), (-3e-3, 0.0, False),
+                                                  (1e-3, 0.01, True), (1e-3, 0.15, True)])
+def test_the_replay_misfit_check_reads_each_runs_point_against_the_backbone(offset, peak, passed):
+    """A run whose replayed phase resonance sits off the measured one's place against the
+    backbone by more than LIMITS['backbone_offset'] fails, naming the run; a peak that differs
+    while the points sit where the test has them is reported, not failed."""
+    from freeplayid.identification.replay_checks import replay_checks
+    from freeplayid.replay.misfit import RunMisfit
+
+    class Rep:
+        failure, misfit, sweeps, damping, converged = "", {}, {}, None, True
+        jump_point, excitation, cross = "quadrature", "measured", None
+        iterations = [ReplayIteration(480.0, 3e-3, 480.0, 3e-3, n_evaluations=10)]
+        resonance = {"run_a": RunMisfit("run_a", 1e-4, 40.0, 2e-4, 0.0, 0.01),
+                     "run_b": RunMisfit("run_b", 2e-3, 42.0, offset, peak, 0.02)}
+
+    check = {c.name: c for c in replay_checks(Rep())}["replay_misfit"]
+    assert check.passed is passed
+    assert ("run_b" in check.message) is (not passed)
+    assert "run_a" not in check.message
+    if passed and peak > LIMITS["peak_amplitude"]:
+        assert "damping is not the test's" in check.message
