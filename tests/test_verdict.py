@@ -188,8 +188,8 @@ def test_an_unconverged_loop_within_the_noise_is_as_good_as_converged(converged,
 
     class Rep:
         failure, misfit, sweeps, damping = "", {}, {}, None
-        iterations = [{"kn": 500.0, "delta": 2e-3, "kn_rep": 510.0, "delta_rep": 2.05e-3},
-                      {"kn": 490.0, "delta": 1.95e-3, "kn_rep": 500.1, "delta_rep": 2.0e-3}]
+        iterations = [ReplayIteration(500.0, 2e-3, 510.0, 2.05e-3, n_evaluations=10),
+                      ReplayIteration(490.0, 1.95e-3, 500.1, 2.0e-3, n_evaluations=10)]
 
     Rep.converged, Rep.closest_misfit_se = converged, closest
     check = {c.name: c for c in replay_checks(Rep())}["replay_converged"]
