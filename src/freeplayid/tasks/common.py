@@ -166,7 +166,8 @@ def writing_to(folder: Path) -> Iterator[None]:
 
 # group overrides Hydra cannot take as values (a bool where a group option is due), with what to
 # write instead
-_GROUP_VALUES = {("replay", "false"): "replay=off", ("replay", "true"): "replay=default"}
+_GROUP_VALUES = {("replay", "false"): "replay=off", ("replay", "true"): "replay=default",
+                 ("records", "false"): "records=off", ("records", "true"): "records=default"}
 
 
 def check_command_line(command: str, argv: list[str]) -> None:
