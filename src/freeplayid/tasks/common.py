@@ -190,9 +190,26 @@ def command_errors(command: str) -> Iterator[None]:
     except InputError as exc:
         sys.exit(f"{command}: {exc}")
     except KeyboardInterrupt:
+        _close_progress_bars()
         sys.stdout.flush()
         print(f"{command}: interrupted", file=sys.stderr)
         sys.exit(INTERRUPTED)
+
+
+def _close_progress_bars() -> None:
+    """End the progress bars an interrupt left open (a bar's loop stopped in its body does not
+    close it), so that the line after them starts on a line of its own. A bar interrupted while
+    it drew itself in its constructor cannot close its line itself: it gets the line's end."""
+    from tqdm import tqdm
+
+    for bar in list(getattr(tqdm, "_instances", ())):
+        drawing = getattr(bar, "sp", None) is not None and not hasattr(bar, "last_print_t")
+        try:
+            bar.close()
+            if drawing:
+                bar.fp.write("\n")
+        except (OSError, ValueError):  # a closed stream: nothing to end
+            pass
 
 
 # group overrides Hydra cannot take as values (a bool where a group option is due), with what to
