@@ -23,11 +23,11 @@ with ``read_dataset``, and ``freeplayid.quality.check_records`` runs on it:
   has no model or truth).
 
 The table lists, per fault, each finding: check, run, channel, size and action. With
-``--identify`` each faulty set also goes through ``freeplayid.identify`` (as it stands: the
-record checks are not wired into it) and the table gains the delta / kn errors against
-``truth`` and the verdict (or the one-line error), and ``identify_checked`` the same with the
-checks' actions taken as the wiring into ``identify`` will take them: the repaired records
-(``report.dataset``) without the rejected runs, ``suspect`` with the checks' first reason
+``--identify`` each faulty set also goes through ``freeplayid.identify`` with the record checks
+off (``records=None``: the records as they are) and the table gains the delta / kn errors
+against ``truth`` and the verdict (or the one-line error), and ``identify_checked`` the same
+with the checks on (``identify``'s default: the repaired records, the rejected runs left out
+with their reasons, ``suspect`` with the checks' reasons; the first reason shown)
 (``--identify as_is`` or ``checked`` for one of them).
 """
 
@@ -215,14 +215,16 @@ def write_faulty(ds, folder: Path, source: Path) -> Path:
     return manifest
 
 
-def identify_errors(data, truth) -> dict:
+def identify_errors(data, truth, *, checked: bool = False) -> dict:
     """delta / kn errors [%] against ``truth`` and the verdict, or the one-line error, for a
-    data set (its manifest's path, or a Dataset read from one); the only call of the
-    identification API here."""
+    data set (its manifest's path, or a Dataset read from one), with the record checks on
+    (``checked``) or off; the only call of the identification API here."""
     from freeplayid import InputError, identify
+    from freeplayid.quality import RecordCheckOptions
 
     try:
-        res = identify(data, progress=False)
+        res = identify(data, progress=False,
+                       records=RecordCheckOptions() if checked else None)
     except InputError as exc:
         return {"error": str(exc).splitlines()[0]}
     verdict = getattr(res, "verdict", None)
@@ -245,24 +247,15 @@ def run_fault(name: str, ds, source: Path, tmp: Path, *, with_identify: str | No
     if with_identify in ("both", "as_is"):
         out["identify"] = identify_errors(manifest, ds.truth)
     if with_identify in ("both", "checked"):
-        out["identify_checked"] = identify_checked(report, ds.truth)
+        out["identify_checked"] = identify_checked(manifest, ds.truth)
     return out
 
 
-def identify_checked(report, truth) -> dict:
-    """What the identification gives with the checks' actions taken (what the wiring into
-    ``identify`` will do): the repaired records without the rejected runs, and ``suspect``
-    with the checks' reasons whatever the fit's verdict."""
-    ds = report.dataset
-    kept = tuple(r for r in ds.runs if r.file not in report.rejected_runs)
-    if not kept:
-        first = next(iter(report.rejected_runs.items()))
-        return {"error": f"every run rejected by the record checks (e.g. {first[0]}: "
-                         f"{first[1]})"}
-    out = identify_errors(replace(ds, runs=kept), truth)
-    if report.suspect_reasons and "error" not in out:
-        out.update(verdict="suspect", reasons="record checks: " + report.suspect_reasons[0])
-    return out
+def identify_checked(manifest, truth) -> dict:
+    """What the identification gives with the record checks wired in (``identify``'s default):
+    the repaired records, the rejected runs left out, ``suspect`` with the checks' reasons
+    first (they lead the verdict's checks)."""
+    return identify_errors(manifest, truth, checked=True)
 
 
 def _table(results, markdown: bool) -> str:

@@ -10,17 +10,16 @@ import sys
 import hydra
 from omegaconf import DictConfig
 
-from freeplayid import InputError, tasks
+from freeplayid import tasks
 
 
 @hydra.main(version_base="1.3", config_path="../conf", config_name="compare")
 def main(cfg: DictConfig) -> dict:
-    try:
+    with tasks.command_errors("compare"):  # an input problem or Ctrl-C: one line
         return tasks.compare(cfg)
-    except InputError as exc:
-        sys.exit(f"compare: {exc}")  # a configuration, data or output problem: one line
 
 
 if __name__ == "__main__":
-    tasks.check_command_line("compare", sys.argv)  # before Hydra makes the folder
-    main()
+    with tasks.command_errors("compare"):  # Ctrl-C while Hydra composes: one line too
+        tasks.check_command_line("compare", sys.argv)  # before Hydra makes the folder
+        main()

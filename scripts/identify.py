@@ -10,17 +10,16 @@ import sys
 import hydra
 from omegaconf import DictConfig
 
-from freeplayid import InputError, tasks
+from freeplayid import tasks
 
 
 @hydra.main(version_base="1.3", config_path="../conf", config_name="identify")
 def main(cfg: DictConfig) -> dict:
-    try:
+    with tasks.command_errors("identify"):  # an input problem or Ctrl-C: one line
         return tasks.identify(cfg)
-    except InputError as exc:
-        sys.exit(f"identify: {exc}")  # a data or checkpoint problem: the message says where
 
 
 if __name__ == "__main__":
-    tasks.check_command_line("identify", sys.argv)  # before Hydra makes the folder
-    main()
+    with tasks.command_errors("identify"):  # Ctrl-C while Hydra composes: one line too
+        tasks.check_command_line("identify", sys.argv)  # before Hydra makes the folder
+        main()

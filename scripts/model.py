@@ -5,21 +5,18 @@
     python scripts/model.py modal_test=... model.parts.outboard.thickness=0.005
 """
 
-import sys
-
 import hydra
 from omegaconf import DictConfig
 
-from freeplayid import InputError, tasks
+from freeplayid import tasks
 
 
 @hydra.main(version_base="1.3", config_path="../conf", config_name="model")
 def main(cfg: DictConfig) -> dict:
-    try:
+    with tasks.command_errors("model"):  # an input problem or Ctrl-C: one line
         return tasks.model(cfg)
-    except InputError as exc:
-        sys.exit(f"model: {exc}")  # a modal-test or configuration problem: the message says where
 
 
 if __name__ == "__main__":
-    main()
+    with tasks.command_errors("model"):  # Ctrl-C while Hydra composes: one line too
+        main()

@@ -6,7 +6,9 @@
     result = identify(read_dataset("examples/fin_sweeps"))
     print(result.kn, result.delta, result.kn_ci95)
 
-Steps (``pipeline``): the data set's linear model (or ``system``); the plain estimate
+Steps (``pipeline``): the data set's linear model (or ``system``); the record checks
+(:mod:`freeplayid.quality`, taken in by ``records``: repaired records, rejected runs, the
+``records`` verdict check; ``records=None`` turns them off); the plain estimate
 (:mod:`freeplayid.estimate`: the resonance point of every channel of every usable run, the fit's
 start, the backbone least squares with its intervals); the corrected fit
 (:mod:`freeplayid.replay`); the checks behind the verdict (``verdict``); one

@@ -7,14 +7,16 @@ import os
 import time
 from collections.abc import Mapping
 
-from ..errors import DatasetError
+from ..errors import DatasetError, IdentificationError
 from ..estimate import PlainEstimate, plain_estimate
 from ..fit import FitOptions
 from ..io import read_dataset
 from ..model import FreeplaySystem, ModelOptions, load_system, validate_modes
+from ..quality import RecordCheckOptions
 from ..replay import Replay, corrected_fit
 from ..signal import Extraction
 from .model_error import ModelError, model_error, update_model, widen
+from .records import checked_dataset, record_checks, record_options
 from .replay_checks import replay_checks
 from .result import Identification
 from .verdict import (
@@ -30,6 +32,7 @@ from .verdict import (
 __all__ = ["identify"]
 
 DEFAULT_REPLAY = Replay()  # identify corrects the plain fit by replaying the test unless told not
+DEFAULT_RECORDS = RecordCheckOptions()  # ... and checks the records first unless told not
 
 
 def identify(dataset, *, system: FreeplaySystem | None = None, init=None,
@@ -37,10 +40,14 @@ def identify(dataset, *, system: FreeplaySystem | None = None, init=None,
              fit: FitOptions | Mapping | None = None,
              replay: Replay | Mapping | None = DEFAULT_REPLAY,
              model: ModelOptions | Mapping | None = None,
+             records: RecordCheckOptions | Mapping | None = DEFAULT_RECORDS,
              progress: bool = True) -> Identification:
     """Identify (kn, delta) from a measured (or simulated) sine-sweep data set.
 
-    Steps: the data set's linear model (or ``system``); the plain estimate
+    Steps: the data set's linear model (or ``system``); the record checks
+    (:func:`freeplayid.quality.check_records`: the repaired records identified from, the runs
+    they reject left out with their reasons, their ``suspect`` findings failed verdict checks
+    ``records``); the plain estimate
     (:func:`freeplayid.estimate.plain_estimate`: the resonance point of every channel of every
     usable run, the fit's start, the backbone least squares with its intervals); the corrected
     fit (:func:`freeplayid.replay.corrected_fit`: the fit's bias removed by replaying the test);
@@ -84,7 +91,8 @@ def identify(dataset, *, system: FreeplaySystem | None = None, init=None,
     SystemFileError
         The model file is broken.
     IdentificationError
-        Fewer than two usable points, or all of them at one resonance.
+        Every run rejected (by the reader or the record checks), fewer than two usable points,
+        or all of them at one resonance.
     InverseModelError
         The inverse model cannot take these points (e.g. a channel it was not trained on).
     """
@@ -93,18 +101,33 @@ def identify(dataset, *, system: FreeplaySystem | None = None, init=None,
     fit = _option(FitOptions, fit, "fit")
     replay = None if replay is None else _option(Replay, replay, "replay")
     model = _option(ModelOptions, model, "model")
+    records = record_options(records, fit.mode)
     if isinstance(dataset, (str, os.PathLike)):
         dataset = read_dataset(dataset)
     system = _system(dataset, system)
-    est = plain_estimate(dataset, system, extraction=extraction, fit=fit, init=init,
-                         progress=progress)
+    dataset, checked = checked_dataset(dataset, system, records)
+    est = _plain_estimate(dataset, system, checked, extraction=extraction, fit=fit, init=init,
+                          progress=progress)
     system, est, update = update_model(dataset, system, est, fit, model)
     error = model_error(system, est, fit, model, update)
     if replay is None:
-        return _plain_result(dataset, system, est, fit.mode, t0, error)
+        return _plain_result(dataset, system, est, fit.mode, t0, error, checked)
     rep = corrected_fit(dataset, system, est, extraction=extraction, fit=fit, replay=replay,
                         progress=progress)
-    return _corrected_result(dataset, system, est, rep, fit.mode, t0, error)
+    return _corrected_result(dataset, system, est, rep, fit.mode, t0, error, checked)
+
+
+def _plain_estimate(dataset, system, checked, **options) -> PlainEstimate:
+    """:func:`plain_estimate`; when it finds too few points, its error also names what the record
+    checks found that makes any answer from these records ``suspect``."""
+    try:
+        return plain_estimate(dataset, system, **options)
+    except IdentificationError as err:
+        suspects = () if checked is None else checked.suspect_reasons
+        if not suspects:
+            raise
+        raise IdentificationError(f"{err}; the record checks also found: "
+                                  f"{'; '.join(suspects)}", points=err.points) from None
 
 
 def _option(cls, value, name: str):
@@ -154,11 +177,11 @@ def _record(dataset) -> dict:
 
 
 def _plain_result(dataset, system, est: PlainEstimate, mode: int, t0: float,
-                  error: ModelError) -> Identification:
-    """The plain estimate as an :class:`Identification`, judged on its own fit; kn's interval
-    takes in the model's error."""
+                  error: ModelError, records=None) -> Identification:
+    """The plain estimate as an :class:`Identification`, judged on its own fit and the record
+    checks' report (``records``, None when off); kn's interval takes in the model's error."""
     validation = _zero_clearance_check(dataset, system, est.kn)
-    verdict = make_verdict(base_level_checks(dataset)
+    verdict = make_verdict(record_checks(records) + base_level_checks(dataset)
                            + fit_checks(est.fitting_points(), est.fit, system, est.points,
                                         mode=mode)
                            + model_checks(error) + validation_checks(validation))
@@ -169,7 +192,7 @@ def _plain_result(dataset, system, est: PlainEstimate, mode: int, t0: float,
         rejected_runs=est.rejected_runs, system=system, mode=mode,
         inverse_estimate=est.inverse_estimate,
         truth=dict(dataset.truth) if dataset.truth else None, dataset=_record(dataset),
-        verdict=verdict, validation=validation, model_error=error,
+        verdict=verdict, validation=validation, model_error=error, records=records,
     )
 
 
@@ -191,13 +214,13 @@ def _corrected_intervals(rep) -> tuple[tuple, tuple, str]:
 
 
 def _corrected_result(dataset, system, plain: PlainEstimate, rep, mode: int, t0: float,
-                      error: ModelError) -> Identification:
+                      error: ModelError, records=None) -> Identification:
     """The corrected estimate as an :class:`Identification`, judged as reported: the data's
     checks, the answer's own (bound, contact margin, backbone range and intervals at the
     corrected estimate), the replay's at the answer and the zero-clearance check at the
     reported kn. A replay that failed keeps the plain estimate, judged on its fit, and makes
     the verdict ``suspect``."""
-    result = _plain_result(dataset, system, plain, mode, t0, error)
+    result = _plain_result(dataset, system, plain, mode, t0, error, records)
     if rep.failure:
         verdict = make_verdict(result.verdict.checks + tuple(replay_checks(rep)))
         return dataclasses.replace(result, verdict=verdict, replay=rep,
@@ -206,7 +229,7 @@ def _corrected_result(dataset, system, plain: PlainEstimate, rep, mode: int, t0:
     kn_ci = widen(kn_ci, rep.kn, error.kn_shift)
     validation = _zero_clearance_check(dataset, system, rep.kn)
     verdict = make_verdict(
-        base_level_checks(dataset) + channel_checks(plain.points)
+        record_checks(records) + base_level_checks(dataset) + channel_checks(plain.points)
         + answer_checks(plain.fitting_points(), rep.kn, rep.delta, kn_ci, delta_ci, system,
                         mode=mode)
         + replay_checks(rep) + model_checks(error) + validation_checks(validation))

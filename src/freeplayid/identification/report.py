@@ -9,10 +9,11 @@ __all__ = ["render_report", "validation_record", "format_ci"]
 
 
 def render_report(result, figures: Sequence[str] = ()) -> str:
-    """The whole report: the data set, the result, the verdict, the inverse model's start, the
-    truth, the replay, the fitting points, the rejected runs, the zero-clearance check and the
-    figures."""
-    lines = (_header(result) + _verdict(result.verdict) + _inverse(result) + _truth(result)
+    """The whole report: the data set, the result, the verdict, the record checks, the inverse
+    model's start, the truth, the replay, the fitting points, the rejected runs, the
+    zero-clearance check and the figures."""
+    lines = (_header(result) + _verdict(result.verdict) + _records(result)
+             + _inverse(result) + _truth(result)
              + _model(result) + _replay(result) + _points(result)
              + _rejected(result.rejected_runs)
              + _validation_lines(result.validation)
@@ -57,6 +58,14 @@ def _verdict(verdict) -> list[str]:
              "|---|---|---|"]
             + [f"| {c.name} | {'yes' if c.passed else '**no**'} | {c.message} |"
                for c in verdict.checks])
+
+
+def _records(r) -> list[str]:
+    """What the record checks found (docs/record_checks.md), or that they were off."""
+    report = getattr(r, "records", None)
+    if report is None:
+        return ["", "## Record checks", "", "Off: the records were taken as they are."]
+    return ["", "## Record checks", "", report.to_markdown()]
 
 
 def _inverse(r) -> list[str]:

@@ -7,6 +7,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 from ..errors import IdentificationError, SuspectResultError
+from .records import findings_text
 from .report import format_ci, render_report, validation_record
 
 __all__ = ["Identification", "IdentificationError", "SuspectResultError"]
@@ -58,6 +59,9 @@ class Identification:
     model_error : freeplayid.identification.model_error.ModelError or None
         What kn owes to the linear model: its update to the sealed modes, the frequency
         uncertainty taken into kn's interval.
+    records : freeplayid.quality.RecordReport or None
+        What the record checks found before the extraction (rejected runs, ``suspect``
+        findings, warnings, repairs, checks skipped); None when they were off.
     """
 
     kn: float
@@ -79,6 +83,7 @@ class Identification:
     interval_source: str = "Jacobian"
     validation: object | None = None
     model_error: object | None = None
+    records: object | None = None
 
     @property
     def residual_rms(self) -> float:
@@ -160,6 +165,8 @@ class Identification:
         if self.replay is not None:
             out["replay"] = self._replay_record()
             out["interval_source"] = self.interval_source
+        out["records"] = None if self.records is None else {
+            "findings": self.records.to_records(), "skipped": dict(self.records.skipped)}
         return out
 
     def _replay_record(self) -> dict:
@@ -195,13 +202,16 @@ class Identification:
         return {col: (f, bc.amplitude[0][:, names.index(d)]) for col, d in self.dofs.items()}
 
     def summary(self) -> str:
-        """The lines a command prints: the estimates, the truth if known, the rejected runs."""
+        """The lines a command prints: the estimates, the truth if known, what the record checks
+        found (one line, when they found something), the rejected runs, the verdict."""
         lines = [f"kn    = {self.kn:.5g} N·m/rad  (95 % CI {format_ci(self.kn_ci95)})",
                  f"delta = {self.delta:.5g} rad  (95 % CI {format_ci(self.delta_ci95)})"]
         err = self.truth_error
         if err:
             lines.append("truth: " + ", ".join(f"{k} = {self.truth[k]:.5g} ({100 * e:+.2f} %)"
                                                for k, e in err.items()))
+        if self.records is not None and self.records.findings:
+            lines.append(f"record checks: {findings_text(self.records)} (report.md lists them)")
         lines += [f"rejected run {r}: {w}" for r, w in self.rejected_runs]
         if self.verdict is not None:
             lines.append(f"verdict: {self.verdict.status}" + "".join(

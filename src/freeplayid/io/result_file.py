@@ -4,7 +4,11 @@ The file holds plain JSON: ``kn`` [N m/rad], ``delta`` [rad], their 95 % interva
 ``delta_ci95`` ([lo, hi]), the fitting ``points`` (run, channel, dof, f_hz, amplitude_m, used,
 reason), ``rejected_runs`` (run, reason), ``residual_rms``, ``backbone``, ``init`` and
 ``runtime_s``; optional keys (bootstrap intervals, the inverse model's estimate, the truth of a
-simulated data set) may follow. Non-finite numbers are written as ``null``.
+simulated data set, the verdict and its checks, the replay) may follow. ``records`` holds what
+the record checks found before the extraction (docs/record_checks.md): ``{"findings": [{check,
+run, channel, size, unit, action, message}], "skipped": {check: why}}``, ``null`` when they were
+off (a file written before they existed has no such key). Non-finite numbers are written as
+``null``.
 """
 
 from __future__ import annotations
@@ -24,6 +28,7 @@ RESULT_FILE = "identification.json"
 REQUIRED = ("kn", "delta", "kn_ci95", "delta_ci95", "points", "rejected_runs", "residual_rms",
             "backbone", "init", "runtime_s")
 POINT_KEYS = ("run", "channel", "f_hz", "amplitude_m", "used", "reason")
+FINDING_KEYS = ("check", "run", "channel", "size", "unit", "action", "message")
 
 
 def _json_safe(obj):
@@ -86,7 +91,7 @@ def read_identification(path: str | os.PathLike) -> dict:
     ------
     ResultFileError
         Naming the file and the field: not JSON, a missing field, a non-positive kn or delta, an
-        interval that is not [lo, hi], a point without its fields.
+        interval that is not [lo, hi], a point or a record check's finding without its fields.
     """
     file = _target(path)
     where = f"{file}: "
@@ -112,4 +117,18 @@ def read_identification(path: str | os.PathLike) -> dict:
         miss = [k for k in POINT_KEYS if not isinstance(p, dict) or k not in p]
         if miss:
             raise ResultFileError(f"{where}`points[{i}]` misses the field(s) {miss}")
+    _check_records(record.get("records"), where)
     return record
+
+
+def _check_records(records, where: str) -> None:
+    """The ``records`` entry: absent or null (no record checks), else its findings."""
+    if records is None:
+        return
+    if not (isinstance(records, dict) and isinstance(records.get("findings"), list)):
+        raise ResultFileError(f"{where}`records` must be null or {{\"findings\": [...], "
+                              f"\"skipped\": {{...}}}}")
+    for i, f in enumerate(records["findings"]):
+        miss = [k for k in FINDING_KEYS if not isinstance(f, dict) or k not in f]
+        if miss:
+            raise ResultFileError(f"{where}`records.findings[{i}]` misses the field(s) {miss}")

@@ -9,6 +9,7 @@ from .common import (
     build_system,
     check_command_line,
     check_run_dir,
+    command_errors,
     register_configs,
     run_dir,
     write_metrics,
@@ -22,7 +23,8 @@ from .train import train
 register_configs()  # model=fin: the package's default fin (one copy of its numbers)
 
 __all__ = [
-    "build_system", "check_command_line", "check_run_dir", "register_configs", "run_dir",
+    "build_system", "check_command_line", "check_run_dir", "command_errors", "register_configs",
+    "run_dir",
     "write_metrics", "simulate",
     "identify", "bundled_example", "train", "compare", "model",
 ]

@@ -182,8 +182,8 @@ def _extraction_method() -> Rule:
 
 
 def _identify() -> dict[str, Rule]:
-    # extraction, fit and replay are the library's option records, checked by them
-    # (freeplayid.tasks.options); these are the command's own keys
+    # extraction, fit, replay, linear_model and records are the library's option records,
+    # checked by them (freeplayid.tasks.options); these are the command's own keys
     return {"data": optional(text()), "inverse.checkpoint": optional(text()),
             "plot": boolean(), "allow_suspect": boolean()}
 

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 from omegaconf import DictConfig, OmegaConf
 
 from ..atomic import atomic_write_text
-from ..errors import OutputError
+from ..errors import InputError, OutputError
 from ..model import FreeplaySystem, fin_from_config, load_system, sdof_system
 from .options import register_option_groups
 
@@ -25,9 +25,10 @@ if TYPE_CHECKING:
 
 __all__ = ["build_system", "register_configs", "study_specs", "study_data", "train_network",
            "run_dir", "write_metrics", "writing_to", "check_run_dir", "check_command_line",
-           "MODEL_KINDS"]
+           "command_errors", "MODEL_KINDS", "INTERRUPTED"]
 
 MODEL_KINDS = ("fin", "npz", "sdof")
+INTERRUPTED = 130  # exit status of a command stopped by Ctrl-C (128 + SIGINT, as a shell's)
 
 
 def register_configs() -> None:
@@ -164,9 +165,57 @@ def writing_to(folder: Path) -> Iterator[None]:
                           f"{e.strerror or e}; nothing was saved") from None
 
 
+@contextmanager
+def command_errors(command: str) -> Iterator[None]:
+    """How every command ends on what it cannot finish, one line on stderr and no traceback:
+    an :class:`~freeplayid.errors.InputError` as ``command: message`` (exit status 1), Ctrl-C
+    (``KeyboardInterrupt``) as ``command: interrupted`` (exit status 130). Nothing is left half
+    written: the results are staged and moved in whole (:mod:`freeplayid.atomic`), and the
+    staging folder is removed on the way out.
+
+    A script wraps both its Hydra task (where Hydra would print an ``InputError``'s traceback)
+    and its whole ``__main__`` block (Ctrl-C while Hydra composes the configuration)::
+
+        @hydra.main(...)
+        def main(cfg):
+            with tasks.command_errors("identify"):
+                return tasks.identify(cfg)
+
+        if __name__ == "__main__":
+            with tasks.command_errors("identify"):
+                main()
+    """
+    try:
+        yield
+    except InputError as exc:
+        sys.exit(f"{command}: {exc}")
+    except KeyboardInterrupt:
+        _close_progress_bars()
+        sys.stdout.flush()
+        print(f"{command}: interrupted", file=sys.stderr)
+        sys.exit(INTERRUPTED)
+
+
+def _close_progress_bars() -> None:
+    """End the progress bars an interrupt left open (a bar's loop stopped in its body does not
+    close it), so that the line after them starts on a line of its own. A bar interrupted while
+    it drew itself in its constructor cannot close its line itself: it gets the line's end."""
+    from tqdm import tqdm
+
+    for bar in list(getattr(tqdm, "_instances", ())):
+        drawing = getattr(bar, "sp", None) is not None and not hasattr(bar, "last_print_t")
+        try:
+            bar.close()
+            if drawing:
+                bar.fp.write("\n")
+        except (OSError, ValueError):  # a closed stream: nothing to end
+            pass
+
+
 # group overrides Hydra cannot take as values (a bool where a group option is due), with what to
 # write instead
-_GROUP_VALUES = {("replay", "false"): "replay=off", ("replay", "true"): "replay=default"}
+_GROUP_VALUES = {("replay", "false"): "replay=off", ("replay", "true"): "replay=default",
+                 ("records", "false"): "records=off", ("records", "true"): "records=default"}
 
 
 def check_command_line(command: str, argv: list[str]) -> None:

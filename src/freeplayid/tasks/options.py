@@ -1,13 +1,15 @@
 """The option records of the library as Hydra config groups, and back.
 
-The groups ``extraction``, ``fit``, ``replay`` and ``linear_model`` are made from
+The groups ``extraction``, ``fit``, ``replay``, ``linear_model`` and ``records`` are made from
 :class:`freeplayid.signal.Extraction`, :class:`freeplayid.fit.FitOptions`,
-:class:`freeplayid.replay.Replay` and :class:`freeplayid.model.ModelOptions` themselves (their
-defaults, stored in Hydra's ConfigStore by :func:`register_option_groups`), so an option is one
-field of one dataclass and its default lives there only. The nodes are
+:class:`freeplayid.replay.Replay`, :class:`freeplayid.model.ModelOptions` and
+:class:`freeplayid.quality.RecordCheckOptions` themselves (their defaults, stored in Hydra's
+ConfigStore by :func:`register_option_groups`), so an option is one field of one dataclass and
+its default lives there only. The nodes are
 stored untyped: a wrong value (``fit.n_bootstrap=2.7``) reaches the record's own validation and
 ends as one line naming the field (``fit.n_bootstrap``), where OmegaConf's typed nodes would end
-in Hydra's five-line error. ``replay=off`` selects the plain fit.
+in Hydra's five-line error. ``replay=off`` selects the plain fit, ``records=off`` identifies
+from the records as they are (no record checks).
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ from omegaconf.errors import OmegaConfBaseException
 from ..errors import ConfigError
 from ..fit import FitOptions
 from ..model import ModelOptions
+from ..quality import RecordCheckOptions
 from ..replay import Replay
 from ..signal import Extraction
 
@@ -28,11 +31,13 @@ __all__ = ["OPTION_GROUPS", "register_option_groups", "options_from_config", "id
 
 # config group -> the option record it is made of
 OPTION_GROUPS = {"extraction": Extraction, "fit": FitOptions, "replay": Replay,
-                 "linear_model": ModelOptions}
+                 "linear_model": ModelOptions, "records": RecordCheckOptions}
 # config group -> the argument of freeplayid.identify it becomes
 IDENTIFY_ARGUMENTS = {"extraction": "extraction", "fit": "fit", "replay": "replay",
-                      "linear_model": "model"}
-# the replay group's switch (not a field of Replay): replay=off sets it false
+                      "linear_model": "model", "records": "records"}
+# the groups that can be switched off (the argument None): their switch is not a field of the
+# record; replay=off (records=off) sets it false
+SWITCHED = ("replay", "records")
 ENABLED = "enabled"
 
 
@@ -48,20 +53,21 @@ def _node(cls) -> dict:
 
 
 def register_option_groups() -> None:
-    """Store ``extraction/default``, ``fit/default``, ``replay/default`` and ``replay/off``."""
+    """Store each group's ``default`` (``extraction/default``, ...) and ``off`` for the groups
+    that can be switched off (``replay/off``, ``records/off``)."""
     from hydra.core.config_store import ConfigStore
 
     cs = ConfigStore.instance()
     for group, cls in OPTION_GROUPS.items():
         node = _node(cls)
-        if group == "replay":
+        if group in SWITCHED:
             cs.store(group=group, name="off", node={ENABLED: False}, provider="freeplayid")
             node = {ENABLED: True, **node}
         cs.store(group=group, name="default", node=node, provider="freeplayid")
 
 
 def options_from_config(cfg: DictConfig, group: str):
-    """The option record of config group ``group`` (None for ``replay=off``).
+    """The option record of config group ``group`` (None for ``replay=off``, ``records=off``).
 
     Raises
     ------
@@ -74,7 +80,7 @@ def options_from_config(cfg: DictConfig, group: str):
         values = OmegaConf.to_container(cfg[group], resolve=True)
     except OmegaConfBaseException as e:
         raise ConfigError(f"`{group}` cannot be resolved: {str(e).splitlines()[0]}") from None
-    if group == "replay" and not values.pop(ENABLED, True):
+    if group in SWITCHED and not values.pop(ENABLED, True):
         return None
     names = [f.name for f in dataclasses.fields(cls)]
     unknown = sorted(set(values) - set(names))
