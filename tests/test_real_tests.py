@@ -126,3 +126,18 @@ def test_update_needs_two_sealed_modes():
     w2, shapes = scipy.linalg.eigh(model.closed_stiffness(480.0), model.M)
     assert update_to_sealed_modes(model, 400.0, np.sqrt(w2[:1]) / (2 * np.pi), shapes[:, :1],
                                   list(model.dof_names)) is None
+
+
+def test_the_report_says_what_one_mode_can_tell_of_each_hinges_gap():
+    """The default fin's two hinges turn together in mode 1 (their rotations within 10 % of
+    each other, from a plain eigen-solve here): delta is their common (mean) half-gap."""
+    from freeplayid.identification.model_error import ModelError, hinge_ratio
+
+    model = default_fin()
+    w2, phi = scipy.linalg.eigh(model.closed_stiffness(480.0), model.M)
+    theta = np.abs(model.hinge_matrix().T @ phi[:, 0])
+    ratio = hinge_ratio(model, 480.0, 0)
+    assert ratio == pytest.approx(theta.min() / theta.max(), rel=1e-6)
+    text = ModelError(None, 0.005, 0.015, ratio).describe()
+    assert "cannot tell the hinges' gaps apart" in text and "mean" in text
+    assert "hinge" not in ModelError(None, 0.005, 0.015, None).describe()

@@ -14,11 +14,16 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 from ..estimate import PlainEstimate, refit
 from ..fit import FitOptions
-from ..model import ModelOptions, SealedUpdate, update_to_sealed_modes
+from ..model import ModelOptions, SealedUpdate, modal_analysis, update_to_sealed_modes
 
-__all__ = ["ModelError", "update_model", "model_error"]
+__all__ = ["ModelError", "update_model", "model_error", "hinge_ratio"]
+
+# [-] hinge rotation ratio in the identified mode above which the hinges count as turning together
+HINGES_TOGETHER = 0.9
 
 
 @dataclass(frozen=True)
@@ -34,11 +39,17 @@ class ModelError:
         interval (the option's, or the update's residual).
     kn_shift : float [-]
         kn's relative move for that frequency error.
+    hinge_ratio : float or None [-]
+        With two or more hinges: the smallest over the largest hinge rotation in the identified
+        mode of the closed model (1: the hinges turn together, and one mode's backbone cannot
+        tell their gaps apart; delta is then one half-gap for all, the hinges' mean when they
+        differ).
     """
 
     update: SealedUpdate | None
     frequency_uncertainty: float
     kn_shift: float
+    hinge_ratio: float | None = None
 
     def describe(self) -> str:
         if self.update is not None:
@@ -47,11 +58,25 @@ class ModelError:
             head = "kn is conditional on the linear model (no sealed-fin modes to update it to)"
         return (head + f"; a {100 * self.frequency_uncertainty:.2g} % error of the identified "
                 f"mode's frequency moves kn by {100 * self.kn_shift:.2g} %, included in kn's "
-                "interval")
+                "interval" + self.hinges())
+
+    def hinges(self) -> str:
+        """What the data can tell of each hinge's gap ('' with one hinge)."""
+        r = self.hinge_ratio
+        if r is None:
+            return ""
+        if r >= HINGES_TOGETHER:
+            return (f"; the hinges turn together in the identified mode (rotation ratio "
+                    f"{r:.2f}): delta is one half-gap for all of them, their mean if they "
+                    "differ, and these data cannot tell the hinges' gaps apart")
+        return (f"; the hinges turn unequally in the identified mode (rotation ratio {r:.2f}): "
+                "delta is one half-gap for all of them, weighted towards the hinge that turns "
+                "most if they differ")
 
     def to_dict(self) -> dict:
         return {"update": None if self.update is None else self.update.to_dict(),
-                "frequency_uncertainty": self.frequency_uncertainty, "kn_shift": self.kn_shift}
+                "frequency_uncertainty": self.frequency_uncertainty, "kn_shift": self.kn_shift,
+                "hinge_ratio": self.hinge_ratio}
 
 
 def update_model(dataset, system, est: PlainEstimate, fit: FitOptions,
@@ -73,11 +98,22 @@ def model_error(system, est: PlainEstimate, fit: FitOptions, options: ModelOptio
     """kn's relative move for the model's frequency uncertainty (module docstring)."""
     u = options.frequency_uncertainty if update is None else \
         max(update.residual, 1e-3)
+    ratio = hinge_ratio(system, est.kn, fit.mode)
     if u == 0:
-        return ModelError(update, 0.0, 0.0)
+        return ModelError(update, 0.0, 0.0, ratio)
     moved = system.replace(K=system.K * (1 + u) ** 2)
     kn_moved = refit(est, moved, fit).kn
-    return ModelError(update, float(u), abs(math.log(kn_moved / est.kn)))
+    return ModelError(update, float(u), abs(math.log(kn_moved / est.kn)), ratio)
+
+
+def hinge_ratio(system, kn: float, mode: int) -> float | None:
+    """The smallest over the largest hinge rotation |b_j^T phi| in mode ``mode`` of the closed
+    model at ``kn`` (None with one hinge)."""
+    if system.n_hinges < 2:
+        return None
+    phi = modal_analysis(system.M, system.closed_stiffness(kn)).shapes[:, mode]
+    theta = np.abs(system.hinge_matrix().T @ phi)
+    return float(theta.min() / theta.max()) if theta.max() > 0 else None
 
 
 def widen(ci: tuple, value: float, shift: float) -> tuple:
