@@ -33,7 +33,7 @@ from .manifest import (
     check_quantity_units,
     read_manifest,
 )
-from .readers import read_run
+from .readers import RunFile, read_run
 
 __all__ = ["Dataset", "DatasetError", "Run", "read_dataset", "write_dataset"]
 
@@ -46,9 +46,10 @@ def read_dataset(path: str | os.PathLike, *, check_model: bool = True) -> Datase
 
     A run file is read by the reader of its suffix (:data:`freeplayid.io.readers.READERS`):
     CSV (``.csv``, ``.csv.gz``), UFF dataset 58 (``.uff``, ``.unv``; channel names = the
-    records' ID line 1, see :func:`freeplayid.io.read_uff`), MATLAB (``.mat``; one vector
-    variable per column) and NI TDMS (``.tdms``; one channel per column). The checks below that
-    concern the time column and the samples are the same for every file type.
+    records' ID line 1, see :func:`freeplayid.io.read_uff`), MATLAB (``.mat``; a controller's
+    matrix with channel names and time increment, as declared by the manifest's ``mat:`` block,
+    or one vector variable per column) and NI TDMS (``.tdms``; one channel per column). The
+    checks below that concern the time column and the samples are the same for every file type.
 
     Parameters
     ----------
@@ -114,7 +115,7 @@ def _read_runs(manifest: Manifest) -> tuple[list[Run], list[str], float | None]:
     runs, errors = [], []
     for entry in manifest.runs:
         try:
-            cols = _read_run_file(entry.path, manifest.columns)
+            cols = _read_run_file(entry.path, manifest).columns
             fs = _check_time(cols["time"], fs, str(entry.path))
         except DatasetError as exc:
             errors.append(str(exc))
@@ -177,11 +178,11 @@ def _check_time(t: np.ndarray, fs: float | None, where: str) -> float:
     return fs if fs is not None else 1.0 / step
 
 
-def _read_run_file(f: Path, columns: Sequence[str]) -> dict:
+def _read_run_file(f: Path, manifest: Manifest) -> RunFile:
     """``read_run`` with any failure of the file itself as a one-line DatasetError naming it
     (a truncated ``.csv.gz``, a corrupt ``.mat``, a library's own exception)."""
     try:
-        return read_run(f, columns)
+        return read_run(f, manifest.columns, manifest.layouts)
     except DatasetError as exc:
         raise DatasetError(" ".join(str(exc).split())) from None
     except Exception as exc:  # noqa: BLE001 - a library's own error on a corrupt file (zlib,

@@ -13,6 +13,7 @@ base_channel: acc_base          # optional
 runs:
   - {file: sweep_0.60g.csv, level_g: 0.60, sweep: {start_hz: 30, stop_hz: 50, rate_hz_per_s: 0.1}}
   - {file: sweep_0.80g.csv, level_g: 0.80, sweep: {start_hz: 20, stop_hz: 80, octaves_per_min: 2}}
+mat: {data: TimeData, names: ChanName, units: Unit, increment: hDelta}   # optional: MAT layout
 ```
 
 A ``sweep`` hint gives a linear (``rate_hz_per_s``) or a logarithmic (``octaves_per_min``) law,
@@ -28,7 +29,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 
 import numpy as np
@@ -38,14 +39,15 @@ from ..errors import DatasetError, ModalTestError, SystemFileError
 from ..model.system import load_system
 from ..quantity import check_units
 from .modal import parse_modes
-from .readers import reader_for
+from .readers import Layouts, reader_for
 
 __all__ = ["Manifest", "RunEntry", "read_manifest", "check_quantity_units",
            "check_one_column_per_dof", "MANIFEST_KEYS", "RUN_KEYS", "SWEEP_KEYS",
            "SWEEP_RATE_KEYS"]
 
+LAYOUT_KEYS = tuple(f.name for f in fields(Layouts))  # the blocks that declare a file layout
 MANIFEST_KEYS = ("name", "model", "quantity", "units", "sample_rate", "channels",
-                 "base_channel", "truth", "runs", "reference_modes")
+                 "base_channel", "truth", "runs", "reference_modes", *LAYOUT_KEYS)
 RUN_KEYS = ("file", "level_g", "sweep")
 SWEEP_RATE_KEYS = ("rate_hz_per_s", "octaves_per_min")  # linear, logarithmic: exactly one
 SWEEP_KEYS = ("start_hz", "stop_hz", *SWEEP_RATE_KEYS)
@@ -94,6 +96,8 @@ class Manifest:
     reference_modes : dict or None
         ``{"frequencies_hz", "shapes", "dofs"}`` (see :class:`freeplayid.dataset.Dataset`).
     runs : tuple of RunEntry
+    layouts : Layouts
+        The run files' layout as declared by the ``mat:`` (...) blocks; defaults elsewhere.
     """
 
     path: Path
@@ -107,6 +111,7 @@ class Manifest:
     truth: dict | None
     reference_modes: dict | None
     runs: tuple
+    layouts: Layouts = field(default_factory=Layouts)
 
     @property
     def columns(self) -> list[str]:
@@ -182,6 +187,7 @@ def read_manifest(path: str | os.PathLike, *, check_model: bool = True) -> Manif
         truth=truth,
         reference_modes=reference_modes,
         runs=_run_entries(m["runs"], root, where),
+        layouts=_layouts(m, where),
     )
 
 
@@ -364,6 +370,27 @@ def _reference_modes(entry, where: str, root: Path, dofs) -> dict:
                            f"{list(dofs)}")
     return {"frequencies_hz": modes.frequencies_hz.tolist(), "shapes": modes.shapes.tolist(),
             "dofs": names}
+
+
+def _layouts(m: dict, where: str) -> Layouts:
+    """The layout blocks (``mat:``, ...) as a :class:`~freeplayid.io.readers.Layouts`: each a
+    mapping of its record's fields, checked by the record."""
+    given = {}
+    for f in fields(Layouts):
+        entry = m.get(f.name)
+        if entry is None:
+            continue
+        cls = type(f.default_factory())
+        names = [g.name for g in fields(cls)]
+        at = f"{where}`{f.name}`"
+        if not isinstance(entry, dict):
+            raise DatasetError(f"{at} must be a mapping of (some of) {names}, got {entry!r}")
+        _check_keys(entry, names, f"{at}: ")
+        try:
+            given[f.name] = cls(**entry)
+        except ValueError as exc:
+            raise DatasetError(f"{at}: {exc}") from None
+    return Layouts(**given)
 
 
 # --------------------------------------------------------------------------- the runs

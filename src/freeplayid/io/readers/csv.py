@@ -9,11 +9,12 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import DatasetError
+from .runfile import RunFile
 
 __all__ = ["read"]
 
 
-def read(path: Path, columns: Sequence[str]) -> dict[str, np.ndarray]:
+def read(path: Path, columns: Sequence[str], layouts=None) -> RunFile:
     """The 'time' column and ``columns`` of one CSV (or ``.csv.gz``) file as float arrays."""
     need = ["time", *columns]
     opener = gzip.open if path.suffix.lower() == ".gz" else open
@@ -36,4 +37,4 @@ def read(path: Path, columns: Sequence[str]) -> dict[str, np.ndarray]:
         table = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2, usecols=cols)
     except ValueError as exc:  # numpy names the row and column of the bad value
         raise DatasetError(f"{path}: non-numeric value ({exc}); columns: {list(need)}") from None
-    return {c: table[:, k] for k, c in enumerate(need)}
+    return RunFile(columns={c: table[:, k] for k, c in enumerate(need)})

@@ -16,11 +16,12 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import DatasetError
+from .runfile import RunFile
 
 __all__ = ["read"]
 
 
-def read(path: Path, columns: Sequence[str]) -> dict[str, np.ndarray]:
+def read(path: Path, columns: Sequence[str], layouts=None) -> RunFile:
     """The time and the channels named ``columns`` of one TDMS file as float vectors."""
     from nptdms import TdmsFile
 
@@ -49,7 +50,7 @@ def read(path: Path, columns: Sequence[str]) -> dict[str, np.ndarray]:
     out = {c: _vector(found[c][0][1], path, c) for c in need}
     if "time" not in out:
         out["time"] = _waveform_time(path, [found[c][0][1] for c in columns], columns)
-    return out
+    return RunFile(columns=out)
 
 
 def _vector(ch, path: Path, name: str) -> np.ndarray:

@@ -17,6 +17,7 @@ import numpy as np
 
 from ...atomic import atomic_path
 from ...errors import DatasetError
+from .runfile import RunFile
 
 __all__ = ["read", "read_uff", "write_uff"]
 
@@ -89,10 +90,10 @@ def read_uff(path: str | os.PathLike, *, columns: Sequence[str]) -> dict[str, np
     return out
 
 
-def read(path: Path, columns: Sequence[str]) -> dict[str, np.ndarray]:
+def read(path: Path, columns: Sequence[str], layouts=None) -> RunFile:
     """The reader of the registry: the time abscissa and the records named (ID line 1)
     ``columns`` of one UFF file (:func:`read_uff`)."""
-    return read_uff(path, columns=columns)
+    return RunFile(columns=read_uff(path, columns=columns))
 
 
 def write_uff(

@@ -1,0 +1,199 @@
+"""Run files as controllers export them: the MATLAB matrix layout (v5 and v7.3), read as the same
+run written as plain CSV. The files are written here with scipy.io / h5py as MATLAB lays them
+out, not by the code under test."""
+
+import numpy as np
+import pytest
+import scipy.io
+import yaml
+
+from freeplayid.io import DatasetError, Run, read_dataset, write_dataset
+from freeplayid.model import two_dof_system
+
+FS = 200.0  # [Hz]
+T = np.arange(400) / FS  # [s]
+COLS = {"a1": np.sin(2 * np.pi * 20 * T), "a2": 0.5 * np.cos(2 * np.pi * 20 * T),
+        "ab": 0.1 * np.sin(2 * np.pi * 20 * T + 0.3)}
+# the controller's channel order differs from the manifest's, and it records one channel more
+NAMES = ["ab", "a2", "spare", "a1"]
+MATRIX = np.column_stack([COLS["ab"], COLS["a2"], np.zeros_like(T), COLS["a1"]])  # (T, C)
+UNITS = ["m/s^2", "m/s^2", "V", "m/s^2"]
+
+
+def _csv_set(folder, units="m/s^2"):
+    run = Run(file="r0.csv", time=T, data=np.vstack([COLS["a1"], COLS["a2"]]), level_g=0.5,
+              base=COLS["ab"])
+    return write_dataset(folder, name="m", quantity="acceleration", units=units,
+                         sample_rate=FS, channels={"a1": "uz_in", "a2": "uz_out"}, runs=[run],
+                         system=two_dof_system(), base_channel="ab")
+
+
+def _edit_manifest(manifest, fn):
+    m = yaml.safe_load(manifest.read_text())
+    fn(m)
+    manifest.write_text(yaml.safe_dump(m, sort_keys=False))
+
+
+def _use(manifest, name, **blocks):
+    _edit_manifest(manifest, lambda m: (m["runs"][0].update(file=name), m.update(blocks)))
+
+
+def _assert_same_run(ds, ref):
+    a, b = ds.runs[0], ref.runs[0]
+    assert a.reason == b.reason == "" and ds.sample_rate == ref.sample_rate == FS
+    np.testing.assert_allclose(a.time, b.time, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(a.data, b.data, rtol=0, atol=1e-9)  # CSV keeps 10 digits
+    np.testing.assert_allclose(a.base, b.base, rtol=0, atol=1e-9)
+
+
+# ------------------------------------------------------------------------------------------------
+# MATLAB files as MATLAB writes them
+# ------------------------------------------------------------------------------------------------
+
+
+def _cell(strings):
+    """A 1xC MATLAB cell array of char rows, as scipy.io.savemat writes one."""
+    out = np.empty((1, len(strings)), dtype=object)
+    out[0, :] = [np.array([s]) for s in strings]
+    return out
+
+
+def _mat5(path, names=None, **variables):
+    names = names or {}
+    default = {"TimeData": MATRIX, "ChanName": _cell(NAMES), "Unit": _cell(UNITS),
+               "hDelta": 1 / FS, "Comment": "exported by a controller"}
+    out = {names.get(k, k): v for k, v in default.items()}
+    out.update({k: v for k, v in variables.items() if v is not None})
+    for k in [k for k, v in variables.items() if v is None]:
+        out.pop(names.get(k, k))
+    scipy.io.savemat(path, out, format="5")
+
+
+def _h5_chars(group, name, text):
+    """A MATLAB char row 1xL: uint16 code units, stored (L, 1) (column-major)."""
+    import h5py  # noqa: F401
+
+    d = group.create_dataset(name, data=np.array([ord(c) for c in text] or [0],
+                                                 dtype=np.uint16)[:, None])
+    d.attrs["MATLAB_class"] = np.bytes_("char")
+    d.attrs["MATLAB_int_decode"] = np.int32(2)
+    return d
+
+
+def _h5_cell(f, name, strings):
+    """A 1xC cell array: object references into '#refs#', stored (C, 1)."""
+    import h5py
+
+    refs = f.require_group("#refs#")
+    items = [_h5_chars(refs, f"{name}{k}", s).ref for k, s in enumerate(strings)]
+    d = f.create_dataset(name, data=np.array(items, dtype=h5py.ref_dtype)[:, None])
+    d.attrs["MATLAB_class"] = np.bytes_("cell")
+
+
+def _h5_double(f, name, value):
+    """A MATLAB double array, stored transposed (column-major)."""
+    d = f.create_dataset(name, data=np.atleast_2d(np.asarray(value, dtype=float)).T)
+    d.attrs["MATLAB_class"] = np.bytes_("double")
+
+
+def _mat73(path, *, char_matrix_names=False, matrix=MATRIX):
+    h5py = pytest.importorskip("h5py")
+    with h5py.File(path, "w", userblock_size=512) as f:
+        _h5_double(f, "TimeData", matrix)
+        if char_matrix_names:  # a C-row char matrix, padded with blanks: stored (L, C)
+            width = max(map(len, NAMES))
+            codes = np.array([[ord(c) for c in s.ljust(width)] for s in NAMES], dtype=np.uint16)
+            d = f.create_dataset("ChanName", data=codes.T)
+            d.attrs["MATLAB_class"] = np.bytes_("char")
+        else:
+            _h5_cell(f, "ChanName", NAMES)
+        _h5_cell(f, "Unit", UNITS)
+        _h5_double(f, "hDelta", 1 / FS)
+    text = b"MATLAB 7.3 MAT-file, Platform: GLNXA64, Created by: freeplayid tests HDF5 schema 1.00"
+    with open(path, "r+b") as fh:
+        fh.write(text.ljust(116) + bytes(8) + b"\x00\x02IM")
+
+
+@pytest.mark.parametrize("variant", ["v5", "v5-transposed", "v5-char-names", "v73",
+                                     "v73-transposed", "v73-char-names"])
+def test_mat_matrix_layout_reads_as_its_csv(tmp_path, variant):
+    ref = read_dataset(_csv_set(tmp_path / "ref"))
+    manifest = _csv_set(tmp_path / variant)
+    f = tmp_path / variant / "run.mat"
+    if variant == "v5":
+        _mat5(f)
+    elif variant == "v5-transposed":  # channels x time
+        _mat5(f, TimeData=MATRIX.T)
+    elif variant == "v5-char-names":  # a char matrix instead of a cell array
+        _mat5(f, ChanName=np.array(NAMES), Unit=np.array(UNITS))
+    else:
+        _mat73(f, char_matrix_names="char" in variant,
+               matrix=MATRIX.T if "transposed" in variant else MATRIX)
+    _use(manifest, "run.mat")
+    _assert_same_run(read_dataset(manifest), ref)
+
+
+def test_mat_variable_names_declared_in_the_manifest(tmp_path):
+    ref = read_dataset(_csv_set(tmp_path / "ref"))
+    manifest = _csv_set(tmp_path / "set")
+    names = {"TimeData": "Y", "ChanName": "Labels", "Unit": "EU", "hDelta": "dt"}
+    _mat5(tmp_path / "set" / "run.mat", names=names)
+    _use(manifest, "run.mat", mat={"data": "Y", "names": "Labels", "units": "EU",
+                                   "increment": "dt"})
+    _assert_same_run(read_dataset(manifest), ref)
+    # without the block the defaults do not fit: the message lists what the file has
+    _edit_manifest(manifest, lambda m: m.pop("mat"))
+    with pytest.raises(DatasetError, match=r"run.mat: variable\(s\) \['time', 'a1', 'a2', 'ab'\] "
+                                           r"not found; the file has \['Y', 'Labels', 'EU', 'dt', "
+                                           r"'Comment'\] \(a MAT run holds one vector per column"):
+        read_dataset(manifest)
+
+
+@pytest.mark.parametrize(
+    "variables, pattern",
+    [
+        ({"hDelta": None}, r"run.mat: matrix 'TimeData' found but not the variable\(s\) "
+                           r"\['hDelta'\] \(the channel names `mat.names` and the sample interval"),
+        ({"TimeData": MATRIX[:, :3]}, r"run.mat: variable 'TimeData' has shape \(400, 3\) but "
+                                      r"'ChanName' has 4 names; one axis of the matrix"),
+        ({"ChanName": _cell(["ab", "a2", "spare", "a9"])},
+         r"run.mat: channel\(s\) \['a1'\] not in 'ChanName'; it names \['ab', 'a2', 'spare', "
+         r"'a9'\]"),
+        ({"ChanName": _cell(["ab", "a2", "a1", "a1"])},
+         r"run.mat: channel name\(s\) \['a1'\] occur more than once in 'ChanName'"),
+        ({"ChanName": np.ones((1, 4))},
+         r"run.mat: variable 'ChanName' must be a cell array of strings or a char matrix, got "
+         r"MATLAB double"),
+        ({"Unit": _cell(["g", "g"])}, r"run.mat: variable 'Unit' has 2 units but 'ChanName' has 4"),
+        ({"hDelta": -0.005}, r"run.mat: variable 'hDelta' \(the sample interval \[s\]\) must be "
+                             r"one number > 0, got \[-0.005\]"),
+        ({"hDelta": np.array([0.005, 0.005])}, r"variable 'hDelta' .* must be one number > 0"),
+        ({"TimeData": np.ones((4, 4)), "ChanName": _cell(["a1", "a2", "ab", "x"])},
+         r"run.mat: variable 'TimeData' has shape \(4, 4\) and 'ChanName' 4 names: which axis"),
+        ({"TimeData": "text"}, r"run.mat: variable 'TimeData' must be numeric, got MATLAB char"),
+    ],
+)
+def test_mat_matrix_layout_errors_name_file_and_variable(tmp_path, variables, pattern):
+    manifest = _csv_set(tmp_path)
+    _mat5(tmp_path / "run.mat", **variables)
+    _use(manifest, "run.mat")
+    with pytest.raises(DatasetError, match=pattern):
+        read_dataset(manifest)
+
+
+@pytest.mark.parametrize(
+    "block, pattern",
+    [
+        ({"matrix": "Y"}, r"`mat`: unknown field\(s\) \['matrix'\]; allowed: \['data', 'names', "
+                          r"'units', 'increment'\]"),
+        ({"data": "2Y"}, r"`mat`: `data` must be a MATLAB variable name \(a letter, then letters, "
+                         r"digits or _\), got '2Y'"),
+        ("TimeData", r"`mat` must be a mapping of \(some of\) \['data', 'names', 'units', "
+                     r"'increment'\], got 'TimeData'"),
+    ],
+)
+def test_mat_block_errors_name_the_field(tmp_path, block, pattern):
+    manifest = _csv_set(tmp_path)
+    _edit_manifest(manifest, lambda m: m.update(mat=block))
+    with pytest.raises(DatasetError, match=r"manifest.yaml: " + pattern):
+        read_dataset(manifest)
