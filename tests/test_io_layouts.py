@@ -197,3 +197,130 @@ def test_mat_block_errors_name_the_field(tmp_path, block, pattern):
     _edit_manifest(manifest, lambda m: m.update(mat=block))
     with pytest.raises(DatasetError, match=r"manifest.yaml: " + pattern):
         read_dataset(manifest)
+
+
+# ------------------------------------------------------------------------------------------------
+# UFF 58 / 58b: channels by node and direction; the fix_58b retry
+# ------------------------------------------------------------------------------------------------
+
+# the records as a controller names them: one ID line for all, told apart by node and direction
+UFF_RECORDS = [("a1", 101, 3), ("a2", 102, -3), ("ab", 1, 3)]
+
+
+def _uff(path, *, binary=False, records=UFF_RECORDS, units="m/s^2"):
+    """Dataset-58 records written with pyuff itself, every ID line 1 "Time Response"."""
+    import pyuff
+
+    path.unlink(missing_ok=True)  # pyuff adds to an existing file
+    f = pyuff.UFF(str(path))
+    for col, node, direction in records:
+        f.write_sets(pyuff.prepare_58(
+            binary=int(binary), id1="Time Response", id2="ctrl", id3="", id4="", id5="",
+            func_type=1, rsp_node=node, rsp_dir=direction, ref_node=0, ref_dir=0,
+            data=COLS[col], x=T, abscissa_spacing=1, abscissa_min=0.0, abscissa_inc=1 / FS,
+            abscissa_spec_data_type=17, ordinate_spec_data_type=12, orddenom_spec_data_type=0,
+            z_axis_spec_data_type=0, ver_num=0, load_case_id=0, rsp_ent_name="fin",
+            ref_ent_name="none", abscissa_axis_units_lab="s", ordinate_axis_units_lab=units),
+            mode="add")
+
+
+def _uff_set(folder, manifest_channels):
+    """The CSV reference set, its run replaced by ``run.uff``; the manifest written by hand so
+    that NODE:DIR keys stay unquoted, as a user types them."""
+    manifest = _csv_set(folder)
+    _use(manifest, "run.uff")
+    text = "\n".join(ln for ln in manifest.read_text().splitlines()
+                     if not ln.startswith("base_channel")) + "\n"
+    start, end = text.index("channels:"), text.index("runs:")
+    manifest.write_text(text[:start] + manifest_channels + text[end:])
+    return manifest
+
+
+NODE_DIR_CHANNELS = "channels:\n  101:+Z: uz_in\n  102:-3: uz_out\nbase_channel: 1:3\n"
+
+
+@pytest.mark.parametrize("binary", [False, True])
+@pytest.mark.parametrize("channels", [
+    NODE_DIR_CHANNELS,
+    "channels:\n  101:3: uz_in\n  102:-Z: uz_out\nbase_channel: 1:+z\n",
+    "channels:\n  '101:+Z': uz_in\n  \"102:-Z\": uz_out\nbase_channel: '1:Z'\n",
+])
+def test_uff_channels_by_node_and_direction(tmp_path, binary, channels):
+    ref = read_dataset(_csv_set(tmp_path / "ref"))
+    manifest = _uff_set(tmp_path / "set", channels)
+    _uff(tmp_path / "set" / "run.uff", binary=binary)
+    ds = read_dataset(manifest)
+    assert list(ds.channels.values()) == ["uz_in", "uz_out"]
+    _assert_same_run(ds, ref)
+
+
+def test_uff_node_direction_errors(tmp_path):
+    # the sign is the record's: 102 is a -Z record, not +Z
+    manifest = _uff_set(tmp_path, NODE_DIR_CHANNELS.replace("102:-3", "102:+3"))
+    _uff(tmp_path / "run.uff")
+    with pytest.raises(DatasetError, match=(
+            r"run.uff: channel\(s\) \['102:\+3'\] not found; its dataset-58 records are \(ID line "
+            r"1 \(node:direction\)\) \['Time Response \(101:\+Z\)', 'Time Response \(102:-Z\)', "
+            r"'Time Response \(1:\+Z\)'\]; a column names a record by its ID line 1 or as "
+            r"NODE:DIR")):
+        read_dataset(manifest)
+    # the name every record has is ambiguous; so is a node:direction two records share
+    manifest = _uff_set(tmp_path, "channels:\n  Time Response: uz_in\n  102:-3: uz_out\n")
+    with pytest.raises(DatasetError, match=r"run.uff: 3 records match 'Time Response' by ID "):
+        read_dataset(manifest)
+    manifest = _uff_set(tmp_path, NODE_DIR_CHANNELS)
+    _uff(tmp_path / "run.uff", records=[*UFF_RECORDS, ("a1", 102, -3)])
+    with pytest.raises(DatasetError, match=r"run.uff: 2 records match '102:-3' by node:direction "
+                                           r"\(ID lines \['Time Response', 'Time Response'\], at "
+                                           r"\['102:-Z', '102:-Z'\]\); name one record"):
+        read_dataset(manifest)
+
+
+def _misplace_delimiters(path, before_delimiter):
+    """Insert bytes between each binary record's data and its closing '    -1' line, as some
+    exporters do (pyuff issue #61)."""
+    raw = path.read_bytes()
+    out, start = b"", 0
+    ends = [i for i in range(len(raw)) if raw.startswith(b"    -1\n", i)][1::2]  # closing ones
+    for i in ends:
+        out += raw[start:i] + before_delimiter
+        start = i
+    path.write_bytes(out + raw[start:])
+
+
+def test_uff_58b_retried_with_fix_58b(tmp_path):
+    ref = read_dataset(_csv_set(tmp_path / "ref"))
+    manifest = _uff_set(tmp_path / "set", NODE_DIR_CHANNELS)
+    f = tmp_path / "set" / "run.uff"
+    _uff(f, binary=True)
+    # the closing -1 on its own line, right-aligned in a 12-wide field: pyuff alone reads the
+    # blanks as one more sample (401 values for 400); fix_58b moves the delimiter back
+    _misplace_delimiters(f, b"\n" + b" " * 8)
+    broken = f.read_bytes()
+    _assert_same_run(read_dataset(manifest), ref)
+    assert f.read_bytes() == broken  # repaired on a copy; nothing written beside the file
+    assert sorted(p.name for p in f.parent.iterdir()) == ["manifest.yaml", "model.npz", "r0.csv",
+                                                          "run.uff"]
+
+
+def test_uff_58b_unreadable_after_fix_58b_says_what_to_try(tmp_path):
+    manifest = _uff_set(tmp_path, NODE_DIR_CHANNELS)
+    _uff(tmp_path / "run.uff", binary=True)
+    _misplace_delimiters(tmp_path / "run.uff", b"\n" * 9)  # nine line feeds: beyond repair
+    with pytest.raises(DatasetError) as info:
+        read_dataset(manifest)
+    msg = str(info.value)
+    assert "\n" not in msg
+    assert msg.startswith(str(tmp_path / "run.uff") + ": binary UFF 58b record(s) unreadable "
+                          "(record 'Time Response' holds 401 values but its header says 400), "
+                          "also after pyuff's fix_58b repair; export the run again as ASCII UFF "
+                          "58 (or as CSV or MAT), or check that the file is complete")
+
+
+def test_uff_ascii_unreadable(tmp_path):
+    manifest = _uff_set(tmp_path, NODE_DIR_CHANNELS)
+    _uff(tmp_path / "run.uff")
+    text = (tmp_path / "run.uff").read_text().splitlines()
+    (tmp_path / "run.uff").write_text("\n".join(text[:20]) + "\n    -1\n")  # cut in record 1
+    with pytest.raises(DatasetError, match=r"run.uff: (not a readable UFF file|record)"):
+        read_dataset(manifest)

@@ -45,10 +45,11 @@ def read_dataset(path: str | os.PathLike, *, check_model: bool = True) -> Datase
     """Read and validate a data set from its folder or ``manifest.yaml`` (docs/identify.md).
 
     A run file is read by the reader of its suffix (:data:`freeplayid.io.readers.READERS`):
-    CSV (``.csv``, ``.csv.gz``), UFF dataset 58 (``.uff``, ``.unv``; channel names = the
-    records' ID line 1, see :func:`freeplayid.io.read_uff`), MATLAB (``.mat``; a controller's
-    matrix with channel names and time increment, as declared by the manifest's ``mat:`` block,
-    or one vector variable per column) and NI TDMS (``.tdms``; one channel per column). The
+    CSV (``.csv``, ``.csv.gz``), UFF dataset 58 (``.uff``, ``.unv``; a channel is a record's
+    ID line 1 or its ``NODE:DIR`` such as ``101:+Z``, see :func:`freeplayid.io.read_uff`),
+    MATLAB (``.mat``; a controller's matrix with channel names and time increment, as declared
+    by the manifest's ``mat:`` block, or one vector variable per column) and NI TDMS
+    (``.tdms``; one channel per column). The
     checks below that concern the time column and the samples are the same for every file type.
 
     Parameters

@@ -28,6 +28,7 @@ values.
 from __future__ import annotations
 
 import os
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field, fields
 from pathlib import Path
@@ -210,6 +211,21 @@ def _manifest_path(path: Path) -> Path:
 class _ManifestLoader(yaml.SafeLoader):
     """yaml's SafeLoader, but a key given twice in one mapping is an error, not "last one wins"
     (``units: g`` ... ``units: m/s^2`` would otherwise silently keep the second)."""
+
+
+# YAML 1.1 reads 101:3 as the base-60 integer 6063 (and 1:30.5 as 90.5): a UFF channel
+# NODE:DIR written unquoted must stay a string, so the manifest's YAML has no base-60 numbers
+_NO_BASE_60 = {
+    "tag:yaml.org,2002:int": re.compile(
+        r"^(?:[-+]?0b[0-1_]+|[-+]?0[0-7_]+|[-+]?(?:0|[1-9][0-9_]*)|[-+]?0x[0-9a-fA-F_]+)$"),
+    "tag:yaml.org,2002:float": re.compile(
+        r"^(?:[-+]?(?:[0-9][0-9_]*)\.[0-9_]*(?:[eE][-+][0-9]+)?|\.[0-9][0-9_]*(?:[eE][-+][0-9]+)?"
+        r"|[-+]?\.(?:inf|Inf|INF)|\.(?:nan|NaN|NAN))$"),
+}
+_ManifestLoader.yaml_implicit_resolvers = {
+    first: [(tag, _NO_BASE_60.get(tag, regexp)) for tag, regexp in resolvers]
+    for first, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()
+}
 
 
 def _construct_unique_mapping(loader, node, deep=False):
