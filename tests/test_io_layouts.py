@@ -324,3 +324,97 @@ def test_uff_ascii_unreadable(tmp_path):
     (tmp_path / "run.uff").write_text("\n".join(text[:20]) + "\n    -1\n")  # cut in record 1
     with pytest.raises(DatasetError, match=r"run.uff: (not a readable UFF file|record)"):
         read_dataset(manifest)
+
+
+# ------------------------------------------------------------------------------------------------
+# CSV with a declared delimiter, decimal comma, units row and preamble
+# ------------------------------------------------------------------------------------------------
+
+
+def _csv_text(delimiter, decimal, *, units=None, preamble=(), quote=False, eol="\n",
+              trailing=""):
+    """The reference run as a controller's CSV, formatted here character by character."""
+    names = ["time", "ab", "a2", "a1"]  # another column order than the manifest's
+    q = '"' if quote else ""
+    lines = [*preamble, delimiter.join(f"{q}{n}{q}" for n in names) + trailing]
+    if units is not None:
+        lines.append(delimiter.join(units) + trailing)
+    for k in range(T.size):
+        row = [f"{T[k]:.6f}"] + [f"{COLS[c][k]:.12e}" for c in names[1:]]
+        lines.append(delimiter.join(v.replace(".", decimal) for v in row) + trailing)
+    return eol.join(lines) + eol
+
+
+@pytest.mark.parametrize("case", ["semicolon-comma", "tab", "gz", "plain"])
+def test_csv_layout_reads_as_plain_csv(tmp_path, case):
+    ref = read_dataset(_csv_set(tmp_path / "ref"))
+    manifest = _csv_set(tmp_path / case)
+    name = "run.csv"
+    if case == "semicolon-comma":  # a German-locale export: preamble, quotes, CRLF, trailing ;
+        text = _csv_text(";", ",", units=["[s]", "[m/s^2]", "[m/s^2]", "[m/s^2]"],
+                         preamble=["Controller export;v2.1", "Test;fin A, 0,5 g"], quote=True,
+                         eol="\r\n", trailing=";")
+        block = {"delimiter": ";", "decimal": ",", "units_row": True, "skip_rows": 2}
+    elif case == "tab":
+        text = _csv_text("\t", ".", units=["s", "m/s^2", "", "(m/s^2)"])
+        block = {"delimiter": "tab", "units_row": True}
+    elif case == "gz":
+        text, block, name = _csv_text(";", ","), {"delimiter": ";", "decimal": ","}, "run.csv.gz"
+    else:
+        text, block = _csv_text(",", "."), None
+    f = tmp_path / case / name
+    if name.endswith(".gz"):
+        import gzip
+
+        f.write_bytes(gzip.compress(text.encode("latin-1")))
+    else:
+        f.write_bytes(text.encode("latin-1"))
+    _use(manifest, name, **({"csv": block} if block else {}))
+    _assert_same_run(read_dataset(manifest), ref)
+
+
+def test_csv_undeclared_layouts_are_named(tmp_path):
+    manifest = _csv_set(tmp_path)
+    (tmp_path / "run.csv").write_text(_csv_text(";", ","))
+    _use(manifest, "run.csv")
+    with pytest.raises(DatasetError, match=r"run.csv: column\(s\) \['time', 'a1', 'a2', 'ab'\] not "
+                                           r"in the header; the header has \['time;ab;a2;a1'\] .*; "
+                                           r"the header looks ';'-delimited: declare it in the "
+                                           r"manifest \(csv: \{delimiter: ';'\}\)"):
+        read_dataset(manifest)
+    (tmp_path / "run.csv").write_text(_csv_text(",", ".", units=["s", "g", "g", "g"]))
+    with pytest.raises(DatasetError, match=r"run.csv: non-numeric value \(could not convert "
+                                           r"string 's' to float64 at row 0, column 1.\); .* \(a "
+                                           r"units row below the header\? declare it: csv: "
+                                           r"\{units_row: true\}\)"):
+        read_dataset(manifest)
+
+
+@pytest.mark.parametrize(
+    "block, pattern",
+    [
+        ({"delimiter": ":"},
+         r"`csv`: `delimiter` must be one of \[',', ';', 'tab', '\|'\], got ':'"),
+        ({"decimal": ","}, r"`csv`: `decimal` ',' cannot be the `delimiter` too; a decimal comma "
+                           r"needs another delimiter \(';' or tab\)"),
+        ({"delimiter": ";", "decimal": "'"}, r"`csv`: `decimal` must be one of \['.', ','\]"),
+        ({"units_row": "yes"}, r"`csv`: `units_row` must be true or false, got 'yes'"),
+        ({"skip_rows": -1}, r"`csv`: `skip_rows` must be an integer >= 0, got -1"),
+        ({"sep": ";"}, r"`csv`: unknown field\(s\) \['sep'\]; allowed: \['delimiter', 'decimal', "
+                       r"'units_row', 'skip_rows'\]"),
+    ],
+)
+def test_csv_block_errors_name_the_field(tmp_path, block, pattern):
+    manifest = _csv_set(tmp_path)
+    _edit_manifest(manifest, lambda m: m.update(csv=block))
+    with pytest.raises(DatasetError, match=r"manifest.yaml: " + pattern):
+        read_dataset(manifest)
+
+
+def test_csv_declared_rows_beyond_the_file(tmp_path):
+    manifest = _csv_set(tmp_path)
+    (tmp_path / "run.csv").write_text("time,a1,a2,ab\n")
+    _use(manifest, "run.csv", csv={"units_row": True, "skip_rows": 3})
+    with pytest.raises(DatasetError, match=r"run.csv: 1 line\(s\), fewer than the header rows the "
+                                           r"manifest's `csv:` layout declares \(5\)"):
+        read_dataset(manifest)

@@ -13,6 +13,7 @@ base_channel: acc_base          # optional
 runs:
   - {file: sweep_0.60g.csv, level_g: 0.60, sweep: {start_hz: 30, stop_hz: 50, rate_hz_per_s: 0.1}}
   - {file: sweep_0.80g.csv, level_g: 0.80, sweep: {start_hz: 20, stop_hz: 80, octaves_per_min: 2}}
+csv: {delimiter: ";", decimal: ",", units_row: true}   # optional: CSV layout (default plain)
 mat: {data: TimeData, names: ChanName, units: Unit, increment: hDelta}   # optional: MAT layout
 ```
 
@@ -98,7 +99,8 @@ class Manifest:
         ``{"frequencies_hz", "shapes", "dofs"}`` (see :class:`freeplayid.dataset.Dataset`).
     runs : tuple of RunEntry
     layouts : Layouts
-        The run files' layout as declared by the ``mat:`` (...) blocks; defaults elsewhere.
+        The run files' layout as declared by the ``csv:`` and ``mat:`` blocks (defaults
+        without them).
     """
 
     path: Path

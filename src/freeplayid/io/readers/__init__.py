@@ -6,10 +6,11 @@ Every reader has one signature::
 
 and returns a :class:`RunFile`: ``{"time": (T,) [s], column: (T,) [data-set units], ...}`` as
 float arrays for the requested ``columns`` (the manifest's channel columns and its base channel;
-never ``"time"``), with the units the file states for them. ``layouts`` holds what the manifest
-declares about the files' layout (:class:`Layouts`: its ``mat:`` block, ...); a reader uses its
-own part and its defaults without one. It raises :class:`~freeplayid.io.DatasetError` naming
-the file and the column (or variable, channel, record) that is missing or malformed.
+never ``"time"``), with the units the file states for them. ``layouts`` holds what the
+manifest declares about the files' layout (:class:`Layouts`: its ``csv:`` and ``mat:``
+blocks); a reader uses its own part and its defaults without one. It raises
+:class:`~freeplayid.io.DatasetError` naming the file and the column (or variable, channel,
+record) that is missing or malformed.
 Everything the file types share (the time column is finite, strictly increasing and uniform,
 agrees with ``sample_rate``; non-finite samples reject the run) is checked once, by
 :func:`freeplayid.io.read_dataset`, after the reader.
@@ -31,6 +32,7 @@ import numpy as np
 
 from ...errors import DatasetError
 from . import csv, mat, tdms, uff
+from .csv import CsvLayout
 from .mat import MatLayout
 from .runfile import RunFile
 
@@ -43,10 +45,13 @@ class Layouts:
 
     Attributes
     ----------
+    csv : CsvLayout
+        The ``csv:`` block: delimiter, decimal mark, units row, preamble.
     mat : MatLayout
         The ``mat:`` block: the variable names of the MATLAB matrix layout.
     """
 
+    csv: CsvLayout = field(default_factory=CsvLayout)
     mat: MatLayout = field(default_factory=MatLayout)
 
 
