@@ -418,3 +418,132 @@ def test_csv_declared_rows_beyond_the_file(tmp_path):
     with pytest.raises(DatasetError, match=r"run.csv: 1 line\(s\), fewer than the header rows the "
                                            r"manifest's `csv:` layout declares \(5\)"):
         read_dataset(manifest)
+
+
+# ------------------------------------------------------------------------------------------------
+# the files' own unit fields, checked against the manifest's quantity and units
+# ------------------------------------------------------------------------------------------------
+
+
+def _tdms(path, units):
+    from nptdms import ChannelObject, TdmsWriter
+
+    with TdmsWriter(str(path)) as w:
+        w.write_segment([ChannelObject("acc", c, COLS[c], properties={
+            "wf_increment": 1 / FS, "wf_start_offset": 0.0, "wf_xunit_string": "s",
+            **({"unit_string": units[c]} if units.get(c) is not None else {})}) for c in COLS])
+
+
+def _write_with_units(folder, kind, units):
+    """``run.<suffix>`` of the reference run whose unit fields say ``units`` (column -> unit)."""
+    if kind == "csv":
+        row = [units.get(c, "") for c in ("time", "ab", "a2", "a1")]
+        (folder / "run.csv").write_text(_csv_text(";", ",", units=row))
+        return "run.csv", {"csv": {"delimiter": ";", "decimal": ",", "units_row": True}}
+    if kind == "mat":
+        _mat5(folder / "run.mat", Unit=_cell([units.get(c, "") for c in NAMES]))
+        return "run.mat", {}
+    if kind == "tdms":
+        _tdms(folder / "run.tdms", units)
+        return "run.tdms", {}
+    import pyuff
+
+    f = folder / "run.uff"
+    f.unlink(missing_ok=True)
+    uff = pyuff.UFF(str(f))
+    for k, c in enumerate(COLS):
+        uff.write_sets(pyuff.prepare_58(
+            binary=0, id1=c, func_type=1, rsp_node=k + 1, rsp_dir=3, ref_node=0, ref_dir=0,
+            data=COLS[c], x=T, abscissa_spacing=1, abscissa_min=0.0, abscissa_inc=1 / FS,
+            abscissa_spec_data_type=17, ordinate_spec_data_type=12, orddenom_spec_data_type=0,
+            z_axis_spec_data_type=0, id2="", id3="", id4="", id5="", ver_num=0, load_case_id=0,
+            rsp_ent_name="fin", ref_ent_name="none",
+            abscissa_axis_units_lab=units.get("time") or "NONE",
+            ordinate_axis_units_lab=units.get(c) or "NONE"), mode="add")
+    return "run.uff", {}
+
+
+KINDS = ["csv", "mat", "tdms", "uff"]
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_unit_fields_that_agree_are_accepted(tmp_path, kind):
+    ref = read_dataset(_csv_set(tmp_path / "ref"))
+    manifest = _csv_set(tmp_path / kind)
+    # other spellings of m/s^2, a unit that is not checked (V) and an absent one
+    name, blocks = _write_with_units(tmp_path / kind, kind, {"a1": "m/s2", "a2": "V",
+                                                             "ab": "m/s²", "time": "s"})
+    _use(manifest, name, **blocks)
+    _assert_same_run(read_dataset(manifest), ref)
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_unit_field_against_the_manifest(tmp_path, kind):
+    """The issue's case: acceleration declared in g, the file says m/s^2 (or the reverse)."""
+    manifest = _csv_set(tmp_path, units="g")
+    name, blocks = _write_with_units(tmp_path, kind, {"a1": "m/s^2", "a2": "m/s^2"})
+    _use(manifest, name, **blocks)
+    with pytest.raises(DatasetError) as info:
+        read_dataset(manifest)
+    msg = str(info.value)
+    assert msg == (f"{tmp_path / name}: channel 'a1': the file says 'm/s^2', the manifest says "
+                   "'g' (acceleration); if the file is right, set `units: m/s^2` in the manifest")
+
+
+@pytest.mark.parametrize(
+    "units, manifest_units, pattern",
+    [
+        ({"a2": "mm/s"}, "m/s^2", r"channel 'a2': the file says 'mm/s', the manifest says "
+                                  r"'m/s\^2' \(acceleration\); a data set's velocity is in one of "
+                                  r"\('m/s',\): export the data in one of those"),
+        ({"ab": "G"}, "m/s^2", r"channel 'ab': the file says 'G', the manifest says 'm/s\^2' "
+                               r"\(acceleration\); if the file is right, set `units: g`"),
+        ({"a1": "mm/s^2"}, "m/s^2", r"channel 'a1': the file says 'mm/s\^2'"),
+        ({"time": "ms"}, "m/s^2", r"run.csv: column 'time' is in 'ms' by the file's unit field; "
+                                  r"the time must be in s \(seconds\)"),
+    ],
+)
+def test_unit_mismatches_name_file_channel_and_both_units(tmp_path, units, manifest_units,
+                                                           pattern):
+    manifest = _csv_set(tmp_path, units=manifest_units)
+    name, blocks = _write_with_units(tmp_path, "csv", units)
+    _use(manifest, name, **blocks)
+    with pytest.raises(DatasetError, match=pattern):
+        read_dataset(manifest)
+
+
+def test_another_quantity_names_it(tmp_path):
+    manifest = _csv_set(tmp_path)
+    _edit_manifest(manifest, lambda m: m.update(quantity="velocity", units="m/s"))
+    name, blocks = _write_with_units(tmp_path, "csv", {"a1": "g"})
+    _use(manifest, name, **blocks)
+    with pytest.raises(DatasetError, match=r"channel 'a1': the file says 'g', the manifest says "
+                                           r"'m/s' \(velocity\); if the file is right, set "
+                                           r"`units: g` and `quantity: acceleration`"):
+        read_dataset(manifest)
+
+
+def test_one_run_in_other_units_is_rejected_with_its_reason(tmp_path):
+    """A unit mismatch is the run file's problem: that run is rejected, the others are read."""
+    manifest = _csv_set(tmp_path)
+    name, _ = _write_with_units(tmp_path, "mat", {"a1": "g"})
+    _edit_manifest(manifest, lambda m: m["runs"].append({"file": name}))
+    ds = read_dataset(manifest)
+    assert ds.runs[0].reason == ""
+    assert ds.runs[1].reason == (f"{tmp_path / name}: channel 'a1': the file says 'g', the "
+                                 "manifest says 'm/s^2' (acceleration); if the file is right, "
+                                 "set `units: g` in the manifest")
+
+
+@pytest.mark.parametrize("text, quantity, factor", [
+    ("m/s^2", "acceleration", 1.0), ("m/s2", "acceleration", 1.0), ("m s^-2", "acceleration", 1.0),
+    ("m/sec²", "acceleration", 1.0), ("g", "acceleration", 9.80665), ("G", "acceleration", 9.80665),
+    ("in/s^2", "acceleration", 0.0254), ("mm/s", "velocity", 1e-3), ("ips", "velocity", 0.0254),
+    ("µm", "displacement", 1e-6), ("mil", "displacement", 2.54e-5), ("ms", "time", 1e-3),
+])
+def test_unit_spellings(text, quantity, factor):
+    from freeplayid.io.units import parse_unit
+
+    unit = parse_unit(text)
+    assert unit.quantity == quantity and unit.si_factor == pytest.approx(factor, rel=1e-12)
+    assert parse_unit("V") is None and parse_unit("NONE") is None and parse_unit("") is None

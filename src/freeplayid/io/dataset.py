@@ -34,6 +34,7 @@ from .manifest import (
     read_manifest,
 )
 from .readers import RunFile, read_run
+from .units import check_file_units
 
 __all__ = ["Dataset", "DatasetError", "Run", "read_dataset", "write_dataset"]
 
@@ -116,7 +117,9 @@ def _read_runs(manifest: Manifest) -> tuple[list[Run], list[str], float | None]:
     runs, errors = [], []
     for entry in manifest.runs:
         try:
-            cols = _read_run_file(entry.path, manifest).columns
+            found = _read_run_file(entry.path, manifest)
+            check_file_units(found.units, manifest.quantity, manifest.units, str(entry.path))
+            cols = found.columns
             fs = _check_time(cols["time"], fs, str(entry.path))
         except DatasetError as exc:
             errors.append(str(exc))

@@ -76,7 +76,7 @@ def read_uff(path: str | os.PathLike, *, columns: Sequence[str]) -> dict[str, np
 
 def read(path: Path, columns: Sequence[str], layouts=None) -> RunFile:
     """The reader of the registry: the time abscissa and the records ``columns`` (ID line 1 or
-    ``NODE:DIR``) of one UFF file, with their ordinate unit labels."""
+    ``NODE:DIR``) of one UFF file, with their unit labels (ordinate; abscissa for the time)."""
     picked = _pick(_records(path), columns, path)
     out, units = {}, {}
     time = None
@@ -97,11 +97,17 @@ def read(path: Path, columns: Sequence[str], layouts=None) -> RunFile:
             raise DatasetError(
                 f"{path}: record {c!r} has a different time axis than {columns[0]!r}")
         out[c] = data.astype(float)
-        unit = str(r.get("ordinate_axis_units_lab", "")).strip()
-        if unit and unit.upper() != "NONE":  # pyuff's and many exporters' "no label"
-            units[c] = unit
+        units[c] = _label(r, "ordinate_axis_units_lab")
     out["time"] = time
-    return RunFile(columns=out, units=units)
+    units["time"] = _label(next(iter(picked.values()), {}), "abscissa_axis_units_lab")
+    return RunFile(columns=out, units={c: u for c, u in units.items() if u})
+
+
+def _label(record: dict, key: str) -> str:
+    """A record's unit label; empty for none (``NONE`` is pyuff's and many exporters' "no
+    label")."""
+    label = str(record.get(key, "")).strip()
+    return "" if label.upper() == "NONE" else label
 
 
 # --------------------------------------------------------------------------- the file
