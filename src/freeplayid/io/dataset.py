@@ -22,17 +22,18 @@ import numpy as np
 import yaml
 
 from ..atomic import atomic_path, atomic_write_text
-from ..dataset import Dataset, Run
+from ..dataset import (
+    Dataset,
+    Run,
+    check_channels,
+    check_number,
+    check_quantity_units,
+    check_time,
+    run_reason,
+)
 from ..errors import DatasetError
 from ..model.system import save_system
-from ..sweep import Sweep
-from .manifest import (
-    Manifest,
-    RunEntry,
-    check_one_column_per_dof,
-    check_quantity_units,
-    read_manifest,
-)
+from .manifest import Manifest, RunEntry, read_manifest
 from .readers import RunFile, read_run
 from .units import check_file_units
 
@@ -120,7 +121,7 @@ def _read_runs(manifest: Manifest) -> tuple[list[Run], list[str], float | None]:
             found = _read_run_file(entry.path, manifest)
             check_file_units(found.units, manifest.quantity, manifest.units, str(entry.path))
             cols = found.columns
-            fs = _check_time(cols["time"], fs, str(entry.path))
+            fs = check_time(cols["time"], fs, str(entry.path))
         except DatasetError as exc:
             errors.append(str(exc))
             runs.append(_unreadable_run(entry, manifest, str(exc)))
@@ -143,43 +144,9 @@ def _run_of(entry: RunEntry, cols: dict, manifest: Manifest, fs: float) -> Run:
     t = cols["time"]
     data = np.stack([cols[c] for c in manifest.channels])
     base = cols[manifest.base_channel] if manifest.base_channel else None
-    reason = _nonfinite_reason({c: cols[c] for c in manifest.columns}, t)
-    if not reason and entry.sweep is not None:
-        reason = Sweep(**entry.sweep).record_mismatch(t.size, fs)
+    reason = run_reason({c: cols[c] for c in manifest.columns}, t, entry.sweep, fs)
     return Run(file=entry.name, time=t, data=data, level_g=entry.level_g, sweep=entry.sweep,
                base=base, reason=reason)
-
-
-def _check_time(t: np.ndarray, fs: float | None, where: str) -> float:
-    """Validate a time column [s]; return the sample rate [Hz] it implies (or ``fs``)."""
-    if t.size < 16:
-        raise DatasetError(f"{where}: {t.size} samples; a sweep run needs many more")
-    if not np.all(np.isfinite(t)):
-        k = int(np.flatnonzero(~np.isfinite(t))[0])
-        raise DatasetError(f"{where}: column 'time' has a non-finite value at data row {k + 1}")
-    steps = np.diff(t)
-    if np.any(steps <= 0):
-        k = int(np.flatnonzero(steps <= 0)[0])
-        raise DatasetError(
-            f"{where}: column 'time' must increase strictly; data rows {k + 1}-{k + 2} go "
-            f"{t[k]:.9g} -> {t[k + 1]:.9g} s"
-        )
-    # rate from a straight-line fit, robust to rounding of the printed times
-    k = np.arange(t.size)
-    step = float(np.polyfit(k, t, 1)[0])
-    dev = np.abs(t - (t[0] + k * step))
-    if dev.max() > 0.25 * step:
-        j = int(np.argmax(dev))
-        raise DatasetError(
-            f"{where}: column 'time' is not uniformly sampled (data row {j + 1} is off the "
-            f"{1 / step:.6g} Hz grid by {dev[j] / step:.2f} samples); resample the record"
-        )
-    if fs is not None and abs(1.0 / step - fs) > 1e-3 * fs:
-        raise DatasetError(
-            f"{where}: column 'time' implies {1 / step:.6g} Hz but the data set's sample rate "
-            f"is {fs:g} Hz (the manifest's `sample_rate`, else the first run's time column)"
-        )
-    return fs if fs is not None else 1.0 / step
 
 
 def _read_run_file(f: Path, manifest: Manifest) -> RunFile:
@@ -196,18 +163,6 @@ def _read_run_file(f: Path, manifest: Manifest) -> RunFile:
             kind = f"{type(exc).__module__}.{kind}"  # zlib.error, not "error"
         why = " ".join(str(exc).split())
         raise DatasetError(f"{f}: unreadable run file ({kind}: {why})") from None
-
-
-def _nonfinite_reason(columns: Mapping[str, np.ndarray], t: np.ndarray) -> str:
-    for name, x in columns.items():
-        bad = ~np.isfinite(x)
-        if np.any(bad):
-            k = int(np.flatnonzero(bad)[0])
-            return (
-                f"non-finite values (NaN/inf) in column {name!r}: {int(bad.sum())} samples, "
-                f"first at t = {t[k]:.6g} s"
-            )
-    return ""
 
 
 
@@ -284,16 +239,8 @@ def _check_columns(quantity: str, units: str, sample_rate: float, channels: Mapp
                    base_channel: str | None) -> list[str]:
     """The arguments of :func:`write_dataset` that describe the columns; the channel columns."""
     check_quantity_units(quantity, units, "")
-    if not (np.isfinite(sample_rate) and sample_rate > 0):
-        raise DatasetError(f"`sample_rate` must be > 0, got {sample_rate!r}")
-    cols = list(channels)
-    if not cols or "time" in cols or (base_channel is not None and base_channel in cols):
-        raise DatasetError(
-            f"`channels` must be non-empty and must not use the names 'time' or the base "
-            f"channel; got {cols} (base {base_channel!r})"
-        )
-    check_one_column_per_dof(channels, "")
-    return cols
+    check_number(sample_rate, "`sample_rate` [Hz]")
+    return list(check_channels(channels, base_channel, "")[0])
 
 
 def _write_run(folder: Path, k: int, run: Run, cols: list[str], base_channel: str | None,
