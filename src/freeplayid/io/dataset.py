@@ -51,8 +51,9 @@ def read_dataset(path: str | os.PathLike, *, check_model: bool = True) -> Datase
     ID line 1 or its ``NODE:DIR`` such as ``101:+Z``, see :func:`freeplayid.io.read_uff`),
     MATLAB (``.mat``; a controller's matrix with channel names and time increment, as declared
     by the manifest's ``mat:`` block, or one vector variable per column) and NI TDMS
-    (``.tdms``; one channel per column). The
-    checks below that concern the time column and the samples are the same for every file type.
+    (``.tdms``; one channel per column); CSV in the layout of the manifest's ``csv:`` block.
+    The checks below that concern the time column, the samples and the units a file states are
+    the same for every file type.
 
     Parameters
     ----------
@@ -67,7 +68,9 @@ def read_dataset(path: str | os.PathLike, *, check_model: bool = True) -> Datase
         Run data in the data set's units (:meth:`Dataset.to_si` converts). A run's own problem
         keeps the run with ``Run.reason`` saying why (a rejected run, not an error), so one
         broken record does not stop a campaign: its file cannot be read (truncated or corrupt,
-        any error of its reader: missing or non-numeric columns, variables, channels), its time
+        any error of its reader: missing or non-numeric columns, variables, channels), a unit
+        the file states is not the manifest's (:func:`freeplayid.io.units.check_file_units`:
+        the message names the file, the channel and both units), its time
         column is non-monotonic, non-uniform, shorter than 16 samples or off the data set's
         sample rate, NaN/inf samples, or its ``sweep`` hint does not fit the record
         (:meth:`freeplayid.sweep.Sweep.record_mismatch`: above Nyquist, a sample rate below

@@ -146,7 +146,9 @@ def read_manifest(path: str | os.PathLike, *, check_model: bool = True) -> Manif
         (with its line), unknown fields, bad quantity/units, two columns on one DOF, channels
         not in the model, bad reference modes, a run file that is missing, outside the data-set
         folder (absolute or ``..``) or of an unknown suffix (the message lists the valid ones),
-        no runs.
+        no runs, a ``csv:`` or ``mat:`` block with an unknown field or a value outside its
+        allowed set (:class:`~freeplayid.io.readers.csv.CsvLayout`,
+        :class:`~freeplayid.io.readers.mat.MatLayout`).
     """
     manifest_path = _manifest_path(Path(path))
     where = f"{manifest_path}: "
@@ -334,7 +336,7 @@ def _reference_modes(entry, where: str, root: Path, dofs) -> dict:
 
 
 def _layouts(m: dict, where: str) -> Layouts:
-    """The layout blocks (``mat:``, ...) as a :class:`~freeplayid.io.readers.Layouts`: each a
+    """The layout blocks (``csv:``, ``mat:``) as a :class:`~freeplayid.io.readers.Layouts`: each a
     mapping of its record's fields, checked by the record."""
     given = {}
     for f in fields(Layouts):
