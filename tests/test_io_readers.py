@@ -7,7 +7,7 @@ import scipy.io
 import yaml
 
 from freeplayid.io import DatasetError, Run, read_dataset, write_dataset, write_uff
-from freeplayid.io.readers import READERS, read_run, reader_for
+from freeplayid.io.readers import READERS, RunFile, read_run, reader_for
 from freeplayid.model import two_dof_system
 
 FS = 200.0  # [Hz]
@@ -206,14 +206,17 @@ def test_write_dataset_writes_csv_only(tmp_path):
 
 def test_read_run_checks_the_readers_contract(tmp_path, monkeypatch):
     _write_csv(tmp_path / "r.csv", T, COLS)
-    cols = read_run(tmp_path / "r.csv", ["a2", "time"])
+    cols = read_run(tmp_path / "r.csv", ["a2", "time"]).columns
     assert list(cols) == ["time", "a2"] and cols["a2"].dtype == np.float64
 
-    def bad_reader(path, columns):
-        return {"time": T, **{c: COLS[c][:-1] for c in columns}}
+    def bad_reader(path, columns, layouts=None):
+        return RunFile(columns={"time": T, **{c: COLS[c][:-1] for c in columns}})
 
     monkeypatch.setitem(READERS, ".csv", bad_reader)
     with pytest.raises(DatasetError, match=r"column 'a1' has 399 samples but 'time' has 400"):
+        read_run(tmp_path / "r.csv", ["a1"])
+    monkeypatch.setitem(READERS, ".csv", lambda path, columns, layouts=None: {"time": T})
+    with pytest.raises(DatasetError, match=r"r.csv: the reader returned a dict, not a RunFile"):
         read_run(tmp_path / "r.csv", ["a1"])
 
 

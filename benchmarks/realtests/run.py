@@ -1,6 +1,6 @@
 """Identify every realtests case (cases.py) with freeplayid and print the results table.
 
-    python benchmarks/realtests/run.py                          # all cases in outputs/realtests/data
+    python benchmarks/realtests/run.py                  # all cases in outputs/realtests/data
     python benchmarks/realtests/run.py --cases 'fin_level_*' --jobs 2
     python benchmarks/realtests/run.py --report outputs/realtests/results   # table from saved JSONL
 

@@ -22,18 +22,20 @@ import numpy as np
 import yaml
 
 from ..atomic import atomic_path, atomic_write_text
-from ..dataset import Dataset, Run
+from ..dataset import (
+    Dataset,
+    Run,
+    check_channels,
+    check_number,
+    check_quantity_units,
+    check_time,
+    run_reason,
+)
 from ..errors import DatasetError
 from ..model.system import save_system
-from ..sweep import Sweep
-from .manifest import (
-    Manifest,
-    RunEntry,
-    check_one_column_per_dof,
-    check_quantity_units,
-    read_manifest,
-)
-from .readers import read_run
+from .manifest import Manifest, RunEntry, read_manifest
+from .readers import RunFile, read_run
+from .units import check_file_units
 
 __all__ = ["Dataset", "DatasetError", "Run", "read_dataset", "write_dataset"]
 
@@ -45,10 +47,13 @@ def read_dataset(path: str | os.PathLike, *, check_model: bool = True) -> Datase
     """Read and validate a data set from its folder or ``manifest.yaml`` (docs/identify.md).
 
     A run file is read by the reader of its suffix (:data:`freeplayid.io.readers.READERS`):
-    CSV (``.csv``, ``.csv.gz``), UFF dataset 58 (``.uff``, ``.unv``; channel names = the
-    records' ID line 1, see :func:`freeplayid.io.read_uff`), MATLAB (``.mat``; one vector
-    variable per column) and NI TDMS (``.tdms``; one channel per column). The checks below that
-    concern the time column and the samples are the same for every file type.
+    CSV (``.csv``, ``.csv.gz``), UFF dataset 58 (``.uff``, ``.unv``; a channel is a record's
+    ID line 1 or its ``NODE:DIR`` such as ``101:+Z``, see :func:`freeplayid.io.read_uff`),
+    MATLAB (``.mat``; a controller's matrix with channel names and time increment, as declared
+    by the manifest's ``mat:`` block, or one vector variable per column) and NI TDMS
+    (``.tdms``; one channel per column); CSV in the layout of the manifest's ``csv:`` block.
+    The checks below that concern the time column, the samples and the units a file states are
+    the same for every file type.
 
     Parameters
     ----------
@@ -63,7 +68,9 @@ def read_dataset(path: str | os.PathLike, *, check_model: bool = True) -> Datase
         Run data in the data set's units (:meth:`Dataset.to_si` converts). A run's own problem
         keeps the run with ``Run.reason`` saying why (a rejected run, not an error), so one
         broken record does not stop a campaign: its file cannot be read (truncated or corrupt,
-        any error of its reader: missing or non-numeric columns, variables, channels), its time
+        any error of its reader: missing or non-numeric columns, variables, channels), a unit
+        the file states is not the manifest's (:func:`freeplayid.io.units.check_file_units`:
+        the message names the file, the channel and both units), its time
         column is non-monotonic, non-uniform, shorter than 16 samples or off the data set's
         sample rate, NaN/inf samples, or its ``sweep`` hint does not fit the record
         (:meth:`freeplayid.sweep.Sweep.record_mismatch`: above Nyquist, a sample rate below
@@ -114,8 +121,10 @@ def _read_runs(manifest: Manifest) -> tuple[list[Run], list[str], float | None]:
     runs, errors = [], []
     for entry in manifest.runs:
         try:
-            cols = _read_run_file(entry.path, manifest.columns)
-            fs = _check_time(cols["time"], fs, str(entry.path))
+            found = _read_run_file(entry.path, manifest)
+            check_file_units(found.units, manifest.quantity, manifest.units, str(entry.path))
+            cols = found.columns
+            fs = check_time(cols["time"], fs, str(entry.path))
         except DatasetError as exc:
             errors.append(str(exc))
             runs.append(_unreadable_run(entry, manifest, str(exc)))
@@ -138,50 +147,16 @@ def _run_of(entry: RunEntry, cols: dict, manifest: Manifest, fs: float) -> Run:
     t = cols["time"]
     data = np.stack([cols[c] for c in manifest.channels])
     base = cols[manifest.base_channel] if manifest.base_channel else None
-    reason = _nonfinite_reason({c: cols[c] for c in manifest.columns}, t)
-    if not reason and entry.sweep is not None:
-        reason = Sweep(**entry.sweep).record_mismatch(t.size, fs)
+    reason = run_reason({c: cols[c] for c in manifest.columns}, t, entry.sweep, fs)
     return Run(file=entry.name, time=t, data=data, level_g=entry.level_g, sweep=entry.sweep,
                base=base, reason=reason)
 
 
-def _check_time(t: np.ndarray, fs: float | None, where: str) -> float:
-    """Validate a time column [s]; return the sample rate [Hz] it implies (or ``fs``)."""
-    if t.size < 16:
-        raise DatasetError(f"{where}: {t.size} samples; a sweep run needs many more")
-    if not np.all(np.isfinite(t)):
-        k = int(np.flatnonzero(~np.isfinite(t))[0])
-        raise DatasetError(f"{where}: column 'time' has a non-finite value at data row {k + 1}")
-    steps = np.diff(t)
-    if np.any(steps <= 0):
-        k = int(np.flatnonzero(steps <= 0)[0])
-        raise DatasetError(
-            f"{where}: column 'time' must increase strictly; data rows {k + 1}-{k + 2} go "
-            f"{t[k]:.9g} -> {t[k + 1]:.9g} s"
-        )
-    # rate from a straight-line fit, robust to rounding of the printed times
-    k = np.arange(t.size)
-    step = float(np.polyfit(k, t, 1)[0])
-    dev = np.abs(t - (t[0] + k * step))
-    if dev.max() > 0.25 * step:
-        j = int(np.argmax(dev))
-        raise DatasetError(
-            f"{where}: column 'time' is not uniformly sampled (data row {j + 1} is off the "
-            f"{1 / step:.6g} Hz grid by {dev[j] / step:.2f} samples); resample the record"
-        )
-    if fs is not None and abs(1.0 / step - fs) > 1e-3 * fs:
-        raise DatasetError(
-            f"{where}: column 'time' implies {1 / step:.6g} Hz but the data set's sample rate "
-            f"is {fs:g} Hz (the manifest's `sample_rate`, else the first run's time column)"
-        )
-    return fs if fs is not None else 1.0 / step
-
-
-def _read_run_file(f: Path, columns: Sequence[str]) -> dict:
+def _read_run_file(f: Path, manifest: Manifest) -> RunFile:
     """``read_run`` with any failure of the file itself as a one-line DatasetError naming it
     (a truncated ``.csv.gz``, a corrupt ``.mat``, a library's own exception)."""
     try:
-        return read_run(f, columns)
+        return read_run(f, manifest.columns, manifest.layouts)
     except DatasetError as exc:
         raise DatasetError(" ".join(str(exc).split())) from None
     except Exception as exc:  # noqa: BLE001 - a library's own error on a corrupt file (zlib,
@@ -191,18 +166,6 @@ def _read_run_file(f: Path, columns: Sequence[str]) -> dict:
             kind = f"{type(exc).__module__}.{kind}"  # zlib.error, not "error"
         why = " ".join(str(exc).split())
         raise DatasetError(f"{f}: unreadable run file ({kind}: {why})") from None
-
-
-def _nonfinite_reason(columns: Mapping[str, np.ndarray], t: np.ndarray) -> str:
-    for name, x in columns.items():
-        bad = ~np.isfinite(x)
-        if np.any(bad):
-            k = int(np.flatnonzero(bad)[0])
-            return (
-                f"non-finite values (NaN/inf) in column {name!r}: {int(bad.sum())} samples, "
-                f"first at t = {t[k]:.6g} s"
-            )
-    return ""
 
 
 
@@ -279,16 +242,8 @@ def _check_columns(quantity: str, units: str, sample_rate: float, channels: Mapp
                    base_channel: str | None) -> list[str]:
     """The arguments of :func:`write_dataset` that describe the columns; the channel columns."""
     check_quantity_units(quantity, units, "")
-    if not (np.isfinite(sample_rate) and sample_rate > 0):
-        raise DatasetError(f"`sample_rate` must be > 0, got {sample_rate!r}")
-    cols = list(channels)
-    if not cols or "time" in cols or (base_channel is not None and base_channel in cols):
-        raise DatasetError(
-            f"`channels` must be non-empty and must not use the names 'time' or the base "
-            f"channel; got {cols} (base {base_channel!r})"
-        )
-    check_one_column_per_dof(channels, "")
-    return cols
+    check_number(sample_rate, "`sample_rate` [Hz]")
+    return list(check_channels(channels, base_channel, "")[0])
 
 
 def _write_run(folder: Path, k: int, run: Run, cols: list[str], base_channel: str | None,

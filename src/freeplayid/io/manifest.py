@@ -13,6 +13,8 @@ base_channel: acc_base          # optional
 runs:
   - {file: sweep_0.60g.csv, level_g: 0.60, sweep: {start_hz: 30, stop_hz: 50, rate_hz_per_s: 0.1}}
   - {file: sweep_0.80g.csv, level_g: 0.80, sweep: {start_hz: 20, stop_hz: 80, octaves_per_min: 2}}
+csv: {delimiter: ";", decimal: ",", units_row: true}   # optional: CSV layout (default plain)
+mat: {data: TimeData, names: ChanName, units: Unit, increment: hDelta}   # optional: MAT layout
 ```
 
 A ``sweep`` hint gives a linear (``rate_hz_per_s``) or a logarithmic (``octaves_per_min``) law,
@@ -21,34 +23,43 @@ not both (:class:`freeplayid.sweep.Sweep`).
 :func:`read_manifest` makes every check of the manifest itself, in a fixed order, before any run
 file is read (:func:`freeplayid.io.read_dataset` reads them afterwards): each problem is a
 one-line :class:`~freeplayid.errors.DatasetError` naming the file, the field and the allowed
-values.
+values. The rules a data set obeys whatever its source (quantity and units, the channel map,
+sweep hints, ...) are :mod:`freeplayid.dataset`'s, shared with :meth:`Dataset.from_arrays`.
 """
 
 from __future__ import annotations
 
 import os
-from collections.abc import Mapping
-from dataclasses import dataclass
+import re
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 
-import numpy as np
 import yaml
 
+from ..dataset import (
+    SWEEP_KEYS,
+    SWEEP_RATE_KEYS,
+    check_channel_dofs,
+    check_channels,
+    check_keys,
+    check_number,
+    check_one_column_per_dof,
+    check_quantity_units,
+    check_sweep_hint,
+)
 from ..errors import DatasetError, ModalTestError, SystemFileError
 from ..model.system import load_system
-from ..quantity import check_units
 from .modal_tests import parse_modes
-from .readers import reader_for
+from .readers import Layouts, reader_for
 
 __all__ = ["Manifest", "RunEntry", "read_manifest", "check_quantity_units",
            "check_one_column_per_dof", "MANIFEST_KEYS", "RUN_KEYS", "SWEEP_KEYS",
            "SWEEP_RATE_KEYS"]
 
+LAYOUT_KEYS = tuple(f.name for f in fields(Layouts))  # the blocks that declare a file layout
 MANIFEST_KEYS = ("name", "model", "quantity", "units", "sample_rate", "channels",
-                 "base_channel", "truth", "runs", "reference_modes")
+                 "base_channel", "truth", "runs", "reference_modes", *LAYOUT_KEYS)
 RUN_KEYS = ("file", "level_g", "sweep")
-SWEEP_RATE_KEYS = ("rate_hz_per_s", "octaves_per_min")  # linear, logarithmic: exactly one
-SWEEP_KEYS = ("start_hz", "stop_hz", *SWEEP_RATE_KEYS)
 
 
 @dataclass(frozen=True)
@@ -94,6 +105,9 @@ class Manifest:
     reference_modes : dict or None
         ``{"frequencies_hz", "shapes", "dofs"}`` (see :class:`freeplayid.dataset.Dataset`).
     runs : tuple of RunEntry
+    layouts : Layouts
+        The run files' layout as declared by the ``csv:`` and ``mat:`` blocks (defaults
+        without them).
     """
 
     path: Path
@@ -107,33 +121,12 @@ class Manifest:
     truth: dict | None
     reference_modes: dict | None
     runs: tuple
+    layouts: Layouts = field(default_factory=Layouts)
 
     @property
     def columns(self) -> list[str]:
         """The columns every run file must have besides 'time': the channels, then the base."""
         return [*self.channels] + ([self.base_channel] if self.base_channel else [])
-
-
-def check_quantity_units(quantity: str, units: str, where: str) -> None:
-    """:func:`freeplayid.quantity.check_units` as a DatasetError prefixed with ``where``."""
-    try:
-        check_units(quantity, units)
-    except ValueError as exc:
-        raise DatasetError(f"{where}{exc}") from None
-
-
-def check_one_column_per_dof(channels: Mapping[str, str], where: str) -> None:
-    """Two columns on one DOF would give two points of one curve, weighted twice in the fit
-    (or a mapping typo that silently drops a DOF): an error naming both columns and the DOF."""
-    by_dof = {}
-    for col, dof in channels.items():
-        by_dof.setdefault(dof, []).append(col)
-    for dof, cols in by_dof.items():
-        if len(cols) > 1:
-            raise DatasetError(
-                f"{where}`channels` map the columns {cols} to the same model DOF {dof!r}; each "
-                "DOF takes one column (drop one, or map it to its own DOF)"
-            )
 
 
 def read_manifest(path: str | os.PathLike, *, check_model: bool = True) -> Manifest:
@@ -153,16 +146,18 @@ def read_manifest(path: str | os.PathLike, *, check_model: bool = True) -> Manif
         (with its line), unknown fields, bad quantity/units, two columns on one DOF, channels
         not in the model, bad reference modes, a run file that is missing, outside the data-set
         folder (absolute or ``..``) or of an unknown suffix (the message lists the valid ones),
-        no runs.
+        no runs, a ``csv:`` or ``mat:`` block with an unknown field or a value outside its
+        allowed set (:class:`~freeplayid.io.readers.csv.CsvLayout`,
+        :class:`~freeplayid.io.readers.mat.MatLayout`).
     """
     manifest_path = _manifest_path(Path(path))
     where = f"{manifest_path}: "
     m = _load_manifest(manifest_path)
     _check_fields(m, where)
-    channels, base_channel = _channels(m, where)
+    channels, base_channel = check_channels(m["channels"], m.get("base_channel"), where)
     fs = m.get("sample_rate")
     if fs is not None:
-        fs = _number(fs, f"{where}`sample_rate` [Hz]")
+        fs = check_number(fs, f"{where}`sample_rate` [Hz]")
     truth = _truth(m.get("truth"), where)
     root = manifest_path.parent
     model_path, dofs = _model(m.get("model"), root, channels, where, check_model=check_model)
@@ -182,6 +177,7 @@ def read_manifest(path: str | os.PathLike, *, check_model: bool = True) -> Manif
         truth=truth,
         reference_modes=reference_modes,
         runs=_run_entries(m["runs"], root, where),
+        layouts=_layouts(m, where),
     )
 
 
@@ -204,6 +200,21 @@ def _manifest_path(path: Path) -> Path:
 class _ManifestLoader(yaml.SafeLoader):
     """yaml's SafeLoader, but a key given twice in one mapping is an error, not "last one wins"
     (``units: g`` ... ``units: m/s^2`` would otherwise silently keep the second)."""
+
+
+# YAML 1.1 reads 101:3 as the base-60 integer 6063 (and 1:30.5 as 90.5): a UFF channel
+# NODE:DIR written unquoted must stay a string, so the manifest's YAML has no base-60 numbers
+_NO_BASE_60 = {
+    "tag:yaml.org,2002:int": re.compile(
+        r"^(?:[-+]?0b[0-1_]+|[-+]?0[0-7_]+|[-+]?(?:0|[1-9][0-9_]*)|[-+]?0x[0-9a-fA-F_]+)$"),
+    "tag:yaml.org,2002:float": re.compile(
+        r"^(?:[-+]?(?:[0-9][0-9_]*)\.[0-9_]*(?:[eE][-+][0-9]+)?|\.[0-9][0-9_]*(?:[eE][-+][0-9]+)?"
+        r"|[-+]?\.(?:inf|Inf|INF)|\.(?:nan|NaN|NAN))$"),
+}
+_ManifestLoader.yaml_implicit_resolvers = {
+    first: [(tag, _NO_BASE_60.get(tag, regexp)) for tag, regexp in resolvers]
+    for first, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()
+}
 
 
 def _construct_unique_mapping(loader, node, deep=False):
@@ -253,53 +264,16 @@ def _load_manifest(manifest_path: Path):
 
 
 # --------------------------------------------------------------------------- the fields
-def _check_keys(entry, allowed, where: str) -> None:
-    unknown = sorted(set(entry) - set(allowed))
-    if unknown:
-        raise DatasetError(f"{where}unknown field(s) {unknown}; allowed: {list(allowed)}")
-
-
-def _number(value, where: str, *, positive: bool = True) -> float:
-    ok = isinstance(value, (int, float)) and not isinstance(value, bool)
-    if not ok or not np.isfinite(value) or (positive and value <= 0):
-        need = "a finite number > 0" if positive else "a finite number"
-        raise DatasetError(f"{where} must be {need}, got {value!r}")
-    return float(value)
-
-
 def _check_fields(m, where: str) -> None:
     """A mapping of known fields with the required ones, a valid quantity and its units."""
     if not isinstance(m, dict):
         raise DatasetError(f"{where}must be a YAML mapping of the fields {list(MANIFEST_KEYS)} "
                            "(give the data-set folder or its manifest.yaml)")
-    _check_keys(m, MANIFEST_KEYS, where)
+    check_keys(m, MANIFEST_KEYS, where)
     for key in ("quantity", "units", "channels", "runs"):
         if key not in m:
             raise DatasetError(f"{where}missing field `{key}`")
     check_quantity_units(m["quantity"], m["units"], where)
-
-
-def _channels(m: dict, where: str) -> tuple[dict, str | None]:
-    """``channels`` (column -> DOF, one column per DOF) and ``base_channel``, checked."""
-    channels = m["channels"]
-    if not isinstance(channels, dict) or not channels or not all(
-        isinstance(k, str) and isinstance(v, str) for k, v in channels.items()
-    ):
-        raise DatasetError(
-            f"{where}`channels` must map run-file column names to model DOF names, got "
-            f"{channels!r}"
-        )
-    check_one_column_per_dof(channels, where)
-    base_channel = m.get("base_channel")
-    if base_channel is not None and (not isinstance(base_channel, str) or base_channel in
-                                     channels or base_channel == "time"):
-        raise DatasetError(
-            f"{where}`base_channel` must be a column name other than 'time' and the channels "
-            f"{list(channels)}, got {base_channel!r}"
-        )
-    if "time" in channels:
-        raise DatasetError(f"{where}`channels` must not use the column name 'time'")
-    return channels, base_channel
 
 
 def _truth(truth, where: str) -> dict | None:
@@ -307,8 +281,8 @@ def _truth(truth, where: str) -> dict | None:
         return None
     if not isinstance(truth, dict):
         raise DatasetError(f"{where}`truth` must be a mapping {{kn, delta}}, got {truth!r}")
-    _check_keys(truth, ("kn", "delta"), f"{where}`truth`: ")
-    return {k: _number(v, f"{where}`truth.{k}`") for k, v in truth.items()}
+    check_keys(truth, ("kn", "delta"), f"{where}`truth`: ")
+    return {k: check_number(v, f"{where}`truth.{k}`") for k, v in truth.items()}
 
 
 def _model(model, root: Path, channels: dict, where: str, *,
@@ -328,12 +302,7 @@ def _model(model, root: Path, channels: dict, where: str, *,
         dofs = load_system(model_path).dof_names
     except SystemFileError as exc:
         raise DatasetError(f"{where}`model`: {exc}") from None
-    unknown = {c: d for c, d in channels.items() if d not in dofs}
-    if unknown:
-        raise DatasetError(
-            f"{where}`channels` map to DOF(s) the model {model!r} does not have: "
-            f"{unknown}; its DOFs are {list(dofs)}"
-        )
+    check_channel_dofs(channels, dofs, model, where)
     return model_path, dofs
 
 
@@ -366,6 +335,27 @@ def _reference_modes(entry, where: str, root: Path, dofs) -> dict:
             "dofs": names}
 
 
+def _layouts(m: dict, where: str) -> Layouts:
+    """The layout blocks (``csv:``, ``mat:``) as a :class:`~freeplayid.io.readers.Layouts`: each a
+    mapping of its record's fields, checked by the record."""
+    given = {}
+    for f in fields(Layouts):
+        entry = m.get(f.name)
+        if entry is None:
+            continue
+        cls = type(f.default_factory())
+        names = [g.name for g in fields(cls)]
+        at = f"{where}`{f.name}`"
+        if not isinstance(entry, dict):
+            raise DatasetError(f"{at} must be a mapping of (some of) {names}, got {entry!r}")
+        check_keys(entry, names, f"{at}: ")
+        try:
+            given[f.name] = cls(**entry)
+        except ValueError as exc:
+            raise DatasetError(f"{at}: {exc}") from None
+    return Layouts(**given)
+
+
 # --------------------------------------------------------------------------- the runs
 def _run_entries(entries, root: Path, where: str) -> tuple[RunEntry, ...]:
     """Every manifest check of every run, before any run file is read."""
@@ -377,7 +367,7 @@ def _run_entries(entries, root: Path, where: str) -> tuple[RunEntry, ...]:
         at = f"{where}`runs[{k}]`"
         if not isinstance(entry, dict) or "file" not in entry:
             raise DatasetError(f"{at} must be a mapping with a `file`, got {entry!r}")
-        _check_keys(entry, RUN_KEYS, f"{at}: ")
+        check_keys(entry, RUN_KEYS, f"{at}: ")
         name = entry["file"]
         if not isinstance(name, str) or not name or name in seen:
             raise DatasetError(f"{at}.file must be a file name used once, got {name!r}")
@@ -389,10 +379,10 @@ def _run_entries(entries, root: Path, where: str) -> tuple[RunEntry, ...]:
         reader_for(f)  # an unknown suffix is the manifest's error: it lists the valid ones
         level = entry.get("level_g")
         if level is not None:
-            level = _number(level, f"{at}.level_g [g]")
+            level = check_number(level, f"{at}.level_g [g]")
         sweep = entry.get("sweep")
         if sweep is not None:
-            sweep = _sweep_hint(sweep, at)
+            sweep = check_sweep_hint(sweep, f"{at}.sweep")
         out.append(RunEntry(name=name, path=f, level_g=level, sweep=sweep))
     return tuple(out)
 
@@ -405,25 +395,3 @@ def _check_inside(name: str, where: str) -> None:
             f"{where}.file {name!r} must be a path inside the data-set folder (relative, no "
             "'..' leaving it, no absolute path)"
         )
-
-
-def _sweep_hint(sweep, at: str) -> dict:
-    """A run's ``sweep`` hint: start, stop and one rate law, as floats."""
-    if not isinstance(sweep, dict):
-        raise DatasetError(f"{at}.sweep must be a mapping of {list(SWEEP_KEYS)}")
-    _check_keys(sweep, SWEEP_KEYS, f"{at}.sweep: ")
-    miss = [s_ for s_ in ("start_hz", "stop_hz") if s_ not in sweep]
-    rates = [s_ for s_ in SWEEP_RATE_KEYS if s_ in sweep]
-    if miss or not rates:
-        raise DatasetError(
-            f"{at}.sweep misses {miss + ([] if rates else [' or '.join(SWEEP_RATE_KEYS)])}"
-            "; it needs `start_hz`, `stop_hz` and `rate_hz_per_s` (linear) or "
-            "`octaves_per_min` (logarithmic)")
-    if len(rates) > 1:
-        raise DatasetError(f"{at}.sweep gives both `rate_hz_per_s` and "
-                           "`octaves_per_min`; give one (linear or logarithmic sweep)")
-    sweep = {s_: _number(sweep[s_], f"{at}.sweep.{s_}")
-             for s_ in ("start_hz", "stop_hz", *rates)}
-    if sweep["start_hz"] == sweep["stop_hz"]:
-        raise DatasetError(f"{at}.sweep: `start_hz` and `stop_hz` must differ")
-    return sweep

@@ -2,34 +2,60 @@
 
 Every reader has one signature::
 
-    read(path: Path, columns: Sequence[str]) -> dict[str, ndarray]
+    read(path: Path, columns: Sequence[str], layouts: Layouts | None = None) -> RunFile
 
-and returns ``{"time": (T,) [s], column: (T,) [data-set units], ...}`` as float arrays for the
-requested ``columns`` (the manifest's channel columns and its base channel; never ``"time"``).
-It raises :class:`~freeplayid.io.DatasetError` naming the file and the column (or variable,
-channel, record) that is missing or malformed. Everything the file types share (the time column
-is finite, strictly increasing and uniform, agrees with ``sample_rate``; non-finite samples
-reject the run) is checked once, by :func:`freeplayid.io.read_dataset`, after the reader.
+and returns a :class:`RunFile`: ``{"time": (T,) [s], column: (T,) [data-set units], ...}`` as
+float arrays for the requested ``columns`` (the manifest's channel columns and its base channel;
+never ``"time"``), with the units the file states for them. ``layouts`` holds what the
+manifest declares about the files' layout (:class:`Layouts`: its ``csv:`` and ``mat:``
+blocks); a reader uses its own part and its defaults without one. It raises
+:class:`~freeplayid.io.DatasetError` naming the file and the column (or variable, channel,
+record) that is missing or malformed.
+Everything the file types share (the time column is finite, strictly increasing and uniform,
+agrees with ``sample_rate``; non-finite samples reject the run) is checked once, by
+:func:`freeplayid.io.read_dataset`, after the reader.
 
 A reader imports its file type's library (pyuff, npTDMS, h5py) when it is called, so
 ``import freeplayid.io`` stays light and a missing optional library only matters for its files.
 
-Adding a file type is one module here with a ``read`` function and one line in ``READERS``.
+Adding a file type is one module here with a ``read`` function and one line in ``READERS``
+(and, if the manifest may declare its layout, one field of :class:`Layouts`).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from ...errors import DatasetError
 from . import csv, mat, tdms, uff
+from .csv import CsvLayout
+from .mat import MatLayout
+from .runfile import RunFile
 
-__all__ = ["READERS", "Reader", "read_run", "reader_for"]
+__all__ = ["READERS", "Layouts", "Reader", "RunFile", "read_run", "reader_for"]
 
-Reader = Callable[[Path, Sequence[str]], dict[str, np.ndarray]]
+
+@dataclass(frozen=True)
+class Layouts:
+    """What a manifest declares about its run files' layout, one field per manifest block.
+
+    Attributes
+    ----------
+    csv : CsvLayout
+        The ``csv:`` block: delimiter, decimal mark, units row, preamble.
+    mat : MatLayout
+        The ``mat:`` block: the variable names of the MATLAB matrix layout.
+    """
+
+    csv: CsvLayout = field(default_factory=CsvLayout)
+    mat: MatLayout = field(default_factory=MatLayout)
+
+
+Reader = Callable[[Path, Sequence[str], Layouts | None], RunFile]
 
 # suffix (lower case, with the dot; may be compound like ".csv.gz") -> reader
 READERS: dict[str, Reader] = {
@@ -59,7 +85,7 @@ def reader_for(path: str | Path) -> Reader:
     )
 
 
-def read_run(path: str | Path, columns: Sequence[str]) -> dict[str, np.ndarray]:
+def read_run(path: str | Path, columns: Sequence[str], layouts: Layouts | None = None) -> RunFile:
     """Read ``"time"`` and ``columns`` of one run file with the reader of its suffix.
 
     Parameters
@@ -67,11 +93,14 @@ def read_run(path: str | Path, columns: Sequence[str]) -> dict[str, np.ndarray]:
     path : path
     columns : sequence of str
         Column names other than ``"time"``.
+    layouts : Layouts, optional
+        The manifest's layout declarations (default: every reader's defaults).
 
     Returns
     -------
-    dict
-        ``{"time": ndarray (T,) [s], column: ndarray (T,), ...}``, float, all of one length.
+    RunFile
+        ``columns``: ``{"time": ndarray (T,) [s], column: ndarray (T,), ...}``, float, all of
+        one length; ``units``: the units the file states, for the requested columns only.
 
     Raises
     ------
@@ -81,7 +110,10 @@ def read_run(path: str | Path, columns: Sequence[str]) -> dict[str, np.ndarray]:
     """
     path = Path(path)
     columns = [c for c in columns if c != "time"]
-    cols = reader_for(path)(path, columns)
+    found = reader_for(path)(path, columns, layouts)
+    if not isinstance(found, RunFile):
+        raise DatasetError(f"{path}: the reader returned a {type(found).__name__}, not a RunFile")
+    cols = found.columns
     # the reader's contract, checked here once so no file type can slip past it
     out = {}
     for c in ["time", *columns]:
@@ -100,4 +132,5 @@ def read_run(path: str | Path, columns: Sequence[str]) -> dict[str, np.ndarray]:
             raise DatasetError(
                 f"{path}: column {c!r} has {out[c].size} samples but 'time' has {n}"
             )
-    return out
+    units = {c: str(found.units[c]).strip() for c in ["time", *columns] if found.units.get(c)}
+    return RunFile(columns=out, units=units)

@@ -5,7 +5,8 @@ name needed by the manifest that occurs in two groups is an error). The time [s]
 named ``time`` if the file has one (a timestamp channel counts from its first sample), else the
 waveform timing of the channels (``wf_start_offset + k * wf_increment``, npTDMS's relative
 ``time_track``), which must then be the same for every column. Values are the scaled data, in
-the manifest's ``units`` (the TDMS unit properties are not used, as for the other file types).
+the manifest's ``units``; a channel's ``unit_string`` property (and the waveform's
+``wf_xunit_string``) is returned for the unit check (:mod:`freeplayid.io.units`).
 """
 
 from __future__ import annotations
@@ -16,11 +17,12 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import DatasetError
+from .runfile import RunFile
 
 __all__ = ["read"]
 
 
-def read(path: Path, columns: Sequence[str]) -> dict[str, np.ndarray]:
+def read(path: Path, columns: Sequence[str], layouts=None) -> RunFile:
     """The time and the channels named ``columns`` of one TDMS file as float vectors."""
     from nptdms import TdmsFile
 
@@ -47,9 +49,12 @@ def read(path: Path, columns: Sequence[str]) -> dict[str, np.ndarray]:
                 "channel the manifest names must be unique across groups"
             )
     out = {c: _vector(found[c][0][1], path, c) for c in need}
+    units = {c: found[c][0][1].properties.get("unit_string") for c in need}
     if "time" not in out:
-        out["time"] = _waveform_time(path, [found[c][0][1] for c in columns], columns)
-    return out
+        channels = [found[c][0][1] for c in columns]
+        out["time"] = _waveform_time(path, channels, columns)
+        units["time"] = channels[0].properties.get("wf_xunit_string") if channels else None
+    return RunFile(columns=out, units={c: str(u) for c, u in units.items() if u})
 
 
 def _vector(ch, path: Path, name: str) -> np.ndarray:
