@@ -18,15 +18,11 @@ import io
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ...errors import DatasetError
 from .runfile import RunFile
-
-if TYPE_CHECKING:
-    from . import Layouts
 
 __all__ = ["CsvLayout", "DELIMITERS", "read"]
 
@@ -76,7 +72,7 @@ class CsvLayout:
             raise ValueError(f"`skip_rows` must be an integer >= 0, got {self.skip_rows!r}")
 
 
-def read(path: Path, columns: Sequence[str], layouts: Layouts | None = None) -> RunFile:
+def read(path: Path, columns: Sequence[str], layouts=None) -> RunFile:
     """The 'time' column and ``columns`` of one CSV (or ``.csv.gz``) file as float arrays, with
     the units of its units row (when the layout declares one).
 

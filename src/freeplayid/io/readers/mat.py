@@ -28,16 +28,12 @@ import re
 from collections.abc import Sequence
 from dataclasses import dataclass, fields
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ...errors import DatasetError
 from .matfile import MatFile, open_mat
 from .runfile import RunFile
-
-if TYPE_CHECKING:
-    from . import Layouts
 
 __all__ = ["MatLayout", "read"]
 
@@ -73,7 +69,7 @@ class MatLayout:
                                  f"letters, digits or _), got {value!r}")
 
 
-def read(path: Path, columns: Sequence[str], layouts: Layouts | None = None) -> RunFile:
+def read(path: Path, columns: Sequence[str], layouts=None) -> RunFile:
     """The time and the channels named ``columns`` of one MAT file (either layout).
 
     Parameters
