@@ -199,7 +199,8 @@ def _plain_result(dataset, system, est: PlainEstimate, mode: int, t0: float,
 def _corrected_intervals(rep) -> tuple[tuple, tuple, str]:
     """The corrected estimate's intervals: the Jacobian ones of the statistic's fit (the points
     the replays match, each run's points one observation) moved with the estimate (same
-    relative width); with the bootstrap by replay, the smallest interval holding both."""
+    relative width); with the bootstrap by replay, the smallest interval holding both; widened
+    by the answer's move for the levels' uncertainty where they came from ``level_g``."""
     (kn_ci, delta_ci) = rep.statistic_ci95
     sk, sd = rep.kn / rep.kn_statistic, rep.delta / rep.delta_statistic
     kn_ci = tuple(v * sk for v in kn_ci)
@@ -210,6 +211,12 @@ def _corrected_intervals(rep) -> tuple[tuple, tuple, str]:
         kn_ci = (min(kn_ci[0], boot.kn_ci95[0]), max(kn_ci[1], boot.kn_ci95[1]))
         delta_ci = (min(delta_ci[0], boot.delta_ci95[0]), max(delta_ci[1], boot.delta_ci95[1]))
         source = f"bootstrap by replay ({boot.n} copies) joined with the Jacobian interval"
+    level = getattr(rep, "level", None)
+    if level is not None:  # the levels taken from `level_g` are uncertain
+        kn_ci = widen(kn_ci, rep.kn, level.kn_shift)
+        delta_ci = widen(delta_ci, rep.delta, level.delta_shift)
+        source += (f", with the levels' {100 * level.uncertainty:g} % uncertainty (no base "
+                   "channel)")
     return kn_ci, delta_ci, source
 
 

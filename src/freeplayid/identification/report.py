@@ -141,6 +141,15 @@ def _replay(r) -> list[str]:
             + ")" for run, sw in rep.sweeps.items())]
     if rep.damping is not None:
         lines += ["", f"Damping of the replay: {rep.damping.describe()}."]
+    lines += ["", "Excitation of the replays: " + (
+        "each run's base channel as measured (its level profile, sweep law and direction)"
+        if getattr(rep, "excitation", "law") == "measured" else "each run's sweep law at one "
+        "level") + "."]
+    level = getattr(rep, "level", None)
+    if level is not None:
+        lines += [f"Levels from `level_g` ({', '.join(level.runs)}): a {100 * level.uncertainty:g} "
+                  f"% error of them moves kn by {100 * level.kn_shift:.2g} % and delta by "
+                  f"{100 * level.delta_shift:.2g} % (in the intervals)."]
     if rep.failure:
         lines += ["", f"**Replay failed:** {rep.failure}; the estimate above is the plain fit's."]
     lines += ["", f"95 % intervals: {r.interval_source}."]

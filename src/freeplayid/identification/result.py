@@ -189,6 +189,10 @@ class Identification:
             "delta_ci95_bootstrap": list(boot.delta_ci95) if ok else None,
             "n_bootstrap": boot.n if ok else 0,
             "noise": None if boot is None else boot.noise, "sweeps": r.sweeps,
+            "excitation": getattr(r, "excitation", None),
+            "resonance": {k: m.to_dict() for k, m in (getattr(r, "resonance", None) or {}).items()},
+            "cross_check": None if getattr(r, "cross", None) is None else r.cross.to_dict(),
+            "level": None if getattr(r, "level", None) is None else r.level.to_dict(),
         }
 
     def backbone_overlay(self) -> dict:

@@ -288,8 +288,9 @@ def model_checks(error) -> list[Check]:
     bad = upd is not None and abs(math.log(upd.scale)) > math.log(1 + LIMITS["model_scale"])
     msg = error.describe()
     if bad:
-        msg += (f": a stiffness scale of {upd.scale:.3g} is no small model error, the linear "
-                "model is not the tested structure")
+        msg = (f"the linear model needed its stiffness scaled by {upd.scale:.3g} to match the "
+               "sealed fin's modes: no small model error, the model file is not the tested "
+               f"structure (the answer is from the updated model; {msg})")
     return [Check("linear_model", not bad, msg, None if upd is None else upd.scale)]
 
 

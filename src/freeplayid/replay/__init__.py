@@ -68,7 +68,14 @@ solve), ``bootstrap`` (the bootstrap by replay), ``misfit`` (the self-check's cu
 """
 
 from .bootstrap import ReplayBootstrap
-from .corrected import PointOffset, ReplayIteration, ReplayResult, corrected_fit
+from .corrected import (
+    CrossCheck,
+    LevelSensitivity,
+    PointOffset,
+    ReplayIteration,
+    ReplayResult,
+    corrected_fit,
+)
 from .damping_estimate import ZETA_RTOL, ZETA_START, ReplayDamping, damped_system, initial_zeta
 from .misfit import curve_misfit
 from .options import Replay
@@ -76,6 +83,7 @@ from .runs import replay_dataset, replay_levels, replay_sweeps
 from .weights import WEIGHT_FLOOR, PointWeight, noise_levels, point_weights
 
 __all__ = ["Replay", "ReplayResult", "ReplayIteration", "PointOffset", "PointWeight",
-           "ReplayBootstrap", "ReplayDamping", "replay_sweeps", "replay_levels",
+           "ReplayBootstrap", "ReplayDamping", "CrossCheck", "LevelSensitivity", "replay_sweeps",
+           "replay_levels",
            "replay_dataset", "corrected_fit", "curve_misfit", "damped_system", "noise_levels",
            "initial_zeta", "point_weights", "WEIGHT_FLOOR", "ZETA_START", "ZETA_RTOL"]

@@ -116,6 +116,32 @@ class CrossCheck:
 
 
 @dataclass(frozen=True)
+class LevelSensitivity:
+    """How far an error of the levels taken from ``level_g`` moves the answer.
+
+    Attributes
+    ----------
+    uncertainty : float [-]
+        The levels' relative uncertainty (95 %, :attr:`Replay.level_uncertainty`).
+    kn_shift, delta_shift : float [-]
+        |log| move of the answer for those levels off by ``uncertainty``: the binding solved
+        again (at most ``Replay.max_iter`` replays from the answer, with the loop's Jacobian) at
+        the levels times (1 + uncertainty). Added to the intervals' log half-widths in
+        quadrature.
+    runs : tuple of str
+        The runs whose levels came from ``level_g``.
+    """
+
+    uncertainty: float
+    kn_shift: float
+    delta_shift: float
+    runs: tuple
+
+    def to_dict(self) -> dict:
+        return {**dataclasses.asdict(self), "runs": list(self.runs)}
+
+
+@dataclass(frozen=True)
 class ReplayResult:
     """The bias-corrected estimate and its iterations.
 
@@ -184,6 +210,7 @@ class ReplayResult:
     bootstrap: ReplayBootstrap | None = None
     weights: tuple | None = None
     resonance: dict = dataclasses.field(default_factory=dict)
+    level: LevelSensitivity | None = None
     cross: CrossCheck | None = None
     excitation: str = "law"
 
@@ -264,16 +291,19 @@ class _Binding:
     def hat(self) -> np.ndarray:
         return np.array([self.stat.kn, self.stat.delta])
 
-    def replay(self, theta, zeta):
-        """The plain estimate of the test replayed at theta = (kn, delta) with ``zeta``."""
+    def replay(self, theta, zeta, levels: dict | None = None):
+        """The plain estimate of the test replayed at theta = (kn, delta) with ``zeta`` (and
+        the test's levels, or ``levels``; then the loop's last replay is kept)."""
         t = self.test
         # a modal damping of the closed-hinge modes at the replayed kn (not the plain fit's)
         sys_k = self.system if self.source == "model" else \
             damped_system(self.system, zeta, float(theta[0]))
-        self.rep_ds = replay_dataset(t.dataset, sys_k, *theta, levels=t.levels, sweeps=t.sweeps,
-                                     excitations=t.excitations, engine=self.opts.engine)
-        return plain_estimate(self.rep_ds, self.system, init=tuple(theta),
-                              extraction=t.extraction, fit=t.fit, point_weights=self.weights)
+        ds = replay_dataset(t.dataset, sys_k, *theta, levels=levels or t.levels,
+                            sweeps=t.sweeps, excitations=t.excitations, engine=self.opts.engine)
+        if levels is None:
+            self.rep_ds = ds
+        return plain_estimate(ds, self.system, init=tuple(theta), extraction=t.extraction,
+                              fit=t.fit, point_weights=self.weights)
 
     def fix_weights(self, rep: PlainEstimate) -> PlainEstimate:
         """After the first replay (the clean reference of the measured noise): weight the
@@ -387,7 +417,7 @@ def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts
     """The :class:`ReplayResult` of a finished loop: offsets, curve misfits and the bootstrap
     at the last replay."""
     rep, stat = b.rep, b.stat
-    offsets, misfit, boot, resonance, cross = (), {}, None, {}, None
+    offsets, misfit, boot, resonance, cross, level = (), {}, None, {}, None, None
     if rep is not None:
         replayed = {(p.run, p.channel): p for p in rep.points.used()}
         offsets = tuple(PointOffset(p.run, p.channel, q.f_hz / p.f_hz - 1,
@@ -399,6 +429,7 @@ def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts
                                       rep.points.curves, _backbone_at(b, theta))
         if opts.cross_check and CROSS_RULE.get(rule) and not b.failure:
             cross = _cross_check(b, theta, CROSS_RULE[rule])
+        level = None if b.failure else _level_sensitivity(b, sol, opts.level_uncertainty)
         if opts.n_bootstrap > 0 and not b.failure:
             boot = bootstrap_by_replay(
                 b.rep_ds, system, noise_levels(b.test.dataset, b.rep_ds), theta=theta,
@@ -412,7 +443,7 @@ def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts
         closest_misfit_se=closest, levels=b.test.levels, offsets=offsets,
         curves=tuple(rep.points.curves) if rep is not None else (), misfit=misfit,
         damping=damping, failure=b.failure, bootstrap=boot, weights=b.weight_table or None,
-        resonance=resonance, cross=cross,
+        resonance=resonance, cross=cross, level=level,
         excitation="measured" if b.test.excitations else "law",
         sweeps={run: {"source": src, "law": sw.law, **sw.to_dict(),
                       **({} if res is None else {"residual_hz": float(res)})}
@@ -429,6 +460,30 @@ def _backbone_at(b: _Binding, theta):
         cidx = np.array([model.channels.index(dofs[point.channel])])
         return float(model.frequency(np.array([point.amplitude_m]), cidx, *theta)[0])
     return f
+
+
+def _level_sensitivity(b: _Binding, sol, u: float) -> LevelSensitivity | None:
+    """:class:`LevelSensitivity` of the runs whose levels came from ``level_g``: the binding
+    solved again with those levels times (1 + u), from the answer and with the loop's Jacobian
+    (a few replays; the binding can be flat in delta, so a linear estimate from one replay
+    undershoots); the answer's move. None without such runs, with u = 0 or with a measured
+    excitation."""
+    t = b.test
+    runs = tuple(r for r, (_, src) in t.levels.items() if not src.startswith("base"))
+    if not (runs and u > 0 and b.history) or t.excitations:
+        return None
+    levels = {r: ((lv * (1 + u), src) if r in runs else (lv, src))
+              for r, (lv, src) in t.levels.items()}
+    up = _Binding(dataclasses.replace(t, levels=levels), b.system, (b.source, b.zeta), b.opts,
+                  progress=False)
+    up.weights, up.weight_table, up.stat, up.stat_ci95 = b.weights, b.weight_table, b.stat, \
+        b.stat_ci95
+    tol = [np.log1p(b.opts.rtol)] * 2 + ([np.log1p(ZETA_RTOL)] if sol.u.size == 3 else [])
+    moved = solve_binding(up, sol.u, sol.jacobian, max_iter=b.opts.max_iter, tolerances=tol)
+    if up.failure:
+        return None
+    shift = np.abs(moved.u[:2] - sol.u[:2])
+    return LevelSensitivity(float(u), float(shift[0]), float(shift[1]), runs)
 
 
 def _cross_check(b: _Binding, theta, rule: str) -> CrossCheck | None:

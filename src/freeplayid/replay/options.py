@@ -58,6 +58,11 @@ class Replay:
         first harmonic as recorded (:func:`measured_sweep`: the level profile, the controller's
         notching, the sweep law and its direction, as they happened); "law" each run's sweep
         law at one level. Without a base channel: always the law at ``level_g``.
+    level_uncertainty : float [-]
+        The relative uncertainty (95 %) of a level the replay takes from the manifest's
+        ``level_g`` (a run replayed without its base channel's record): one more replay at those
+        levels times (1 + this) measures how far such an error moves the answer, which is added
+        to its intervals (:class:`LevelSensitivity`). 0: the levels are taken as exact.
     """
 
     damping: float | str | None = None
@@ -70,6 +75,7 @@ class Replay:
     engine: str | None = None
     excitation: str = "measured"
     cross_check: bool = True
+    level_uncertainty: float = 0.05
 
     def __post_init__(self):
         d = self.damping
@@ -88,6 +94,7 @@ class Replay:
         check_number("rtol", self.rtol, 0.0, 1.0, open_lo=True, open_hi=True)
         check_int("max_iter", self.max_iter, 1)
         check_choice("excitation", self.excitation, EXCITATIONS)
+        check_number("level_uncertainty", self.level_uncertainty, 0.0, 0.5)
         if self.engine is not None:
             # the engines' registry imports torch: only when an engine is named
             from ..simulate.engines import ENGINES
