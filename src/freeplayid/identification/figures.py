@@ -41,10 +41,16 @@ def run_labels(result) -> dict:
     """Each run's legend entry: its level ("0.8 g") where known, else its name; runs at one
     level are told apart by their names ("0.8 g (sweep_a.csv)")."""
     levels = result.levels
-    text = {run: f"{lv:.3g} g" for run, lv in levels.items() if lv is not None}
+    text = {run: f"{_level(lv)} g" for run, lv in levels.items() if lv is not None}
     seen = list(text.values())
     return {run: (text[run] if seen.count(text[run]) == 1 else f"{text[run]} ({run})")
             if run in text else run for run in levels}
+
+
+def _level(level_g: float) -> str:
+    """A level in 3 significant digits, a decimal point always: 0.8 -> "0.8", 1 -> "1.0"."""
+    text = f"{level_g:.3g}"
+    return text if "." in text or "e" in text else text + ".0"
 
 
 def plot_identification(result, kind: str = "backbone", ax=None, *, channel: str | None = None):

@@ -21,7 +21,7 @@ Linear model files (`.npz`) are read and written by :func:`freeplayid.model.load
 
 from ..atomic import atomic_path, atomic_write_text, staged_folder
 from ..errors import DatasetError
-from .dataset_files import Dataset, Run, read_dataset, write_dataset
+from .dataset_files import Dataset, Run, bundled_example, read_dataset, write_dataset
 from .modal_tests import ModalTestError, read_modal_test
 from .readers.uff import read_uff, write_uff
 from .result_file import (
@@ -32,7 +32,8 @@ from .result_file import (
 )
 
 __all__ = [
-    "Dataset", "DatasetError", "Run", "read_dataset", "write_dataset", "read_uff", "write_uff",
+    "Dataset", "DatasetError", "Run", "bundled_example", "read_dataset", "write_dataset",
+    "read_uff", "write_uff",
     "read_identification", "read_result_record", "write_identification", "ResultFileError",
     "atomic_path",
     "atomic_write_text", "staged_folder", "read_modal_test", "ModalTestError",

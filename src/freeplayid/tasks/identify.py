@@ -17,7 +17,7 @@ from ..atomic import atomic_write_text, staged_folder
 from ..errors import ConfigError
 from ..identification import Identification, SuspectResultError
 from ..identification import identify as identify_dataset
-from ..io import DatasetError, read_dataset
+from ..io import DatasetError, bundled_example, read_dataset
 from ..io.result_file import write_identification
 from .checks import IDENTIFY, check_config
 from .common import run_dir, write_metrics, writing_to
@@ -26,18 +26,13 @@ from .options import identify_options
 __all__ = ["identify", "bundled_example"]
 
 
-def bundled_example() -> Path:
-    """Manifest of the example data set shipped with the source tree (examples/fin_sweeps)."""
-    return Path(__file__).resolve().parents[3] / "examples" / "fin_sweeps" / "manifest.yaml"
-
-
 def _data_path(cfg: DictConfig) -> Path:
     if cfg.get("data") in (None, ""):
         path = bundled_example()
         if not path.is_file():
             raise DatasetError(
                 f"no `data=` given and the bundled example {path} is not there; "
-                "run `python scripts/identify.py data=PATH/manifest.yaml`"
+                "run `freeplayid-identify data=PATH/manifest.yaml`"
             )
         return path
     from hydra.utils import to_absolute_path
