@@ -37,11 +37,11 @@ def register_configs() -> None:
 
     The fin's numbers live once, in the package data ``freeplayid/model/fin/fin.yaml``
     (:func:`freeplayid.model.fin_config_path`, read by ``default_fin()`` in any install); the
-    ``model`` group of ``conf/`` holds the other options (``sdof``, ``npz``). The ConfigStore is on
-    every Hydra search path, so ``model=fin`` composes from every primary config, also from one
-    included by another (``compare`` includes ``train``, where a ``hydra.searchpath`` entry is
-    refused), with the file's keys and values (OmegaConf's YAML loader), so overrides such as
-    ``model.geometry.root_chord=0.25`` apply. Runs when :mod:`freeplayid.tasks` is imported (the
+    ``model`` group of ``freeplayid/conf/`` holds the other options (``sdof``, ``npz``). The
+    ConfigStore is on every Hydra search path, so ``model=fin`` composes from every primary config,
+    also from one included by another (``compare`` includes ``train``, where a ``hydra.searchpath``
+    entry is refused), with the file's keys and values (OmegaConf's YAML loader), so overrides such
+    as ``model.geometry.root_chord=0.25`` apply. Runs when :mod:`freeplayid.tasks` is imported (the
     scripts import it before ``@hydra.main`` composes; a compose elsewhere imports it first).
     """
     from hydra.core.config_store import ConfigStore
