@@ -478,6 +478,6 @@ def plot_replay_check(ax, measured, replayed, *, channel: str, misfit=None,
     ax.set_xlabel("frequency [Hz]")
     ax.set_ylabel(f"first-harmonic displacement [{amplitude_unit}]")
     ax.set_title(f"{channel}: measured (solid) and replayed (dashed)", fontsize=9)
-    ax.legend(fontsize=7, title_fontsize=7, title=(
+    ax.legend(fontsize=7, title_fontsize=7, alignment="left", title=(
         "misfit: median |replayed − measured|\n/ measured peak, in %" if misfit else None))
     return ax
