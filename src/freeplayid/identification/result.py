@@ -26,9 +26,14 @@ __all__ = ["Identification", "IdentificationError", "SuspectResultError"]
 class Identification:
     """Result of :func:`identify`: (kn, delta), their intervals and everything behind them.
 
+    Its ``repr`` is a few lines (kn, delta in mrad, the total play 2·delta in degrees, the
+    verdict); Jupyter shows :meth:`_repr_markdown_`'s table. :meth:`plot` draws the command's
+    figures, :meth:`points_table` / :meth:`to_dataframe` give the points, and
+    :func:`~freeplayid.identification.read_identification` reads one back from its file.
+
     Attributes
     ----------
-    kn : float [N m/rad]
+    kn : float [N·m/rad]
     delta : float [rad]
         The reported estimate: the corrected fit's with the replay, else the plain fit's.
     kn_ci95, delta_ci95 : (float, float)
