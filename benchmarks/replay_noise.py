@@ -6,11 +6,11 @@
     python benchmarks/replay_noise.py --cases 3 --jobs 1  # smoke run
     python benchmarks/replay_noise.py --from runs/noise/cases.jsonl   # the table again, no rerun
 
-Every case is drawn like a case of the compare studies (``conf/dataset/sim.yaml``): the default
-fin with its own damping, kn log-uniform in [300, 800] N m/rad, delta log-uniform in [1, 5]
+Every case is drawn like a case of the compare studies (``freeplayid/conf/dataset/sim.yaml``): the
+default fin with its own damping, kn log-uniform in [300, 800] N m/rad, delta log-uniform in [1, 5]
 mrad, 3-6 up-sweeps 30 -> 56 Hz at 0.1 Hz/s with level / delta log-uniform in [150, 700] g/rad,
-relative accelerations of the two measure points at 256 Hz, simulated by the RK4 engine in
-float32 (as the study banks), with white noise of 0.1, 0.2 or 0.3 g (cycling) on every channel.
+relative accelerations of the two measure points at 256 Hz, simulated by the RK4 engine in float32
+(as the study banks), with white noise of 0.1, 0.2 or 0.3 g (cycling) on every channel.
 The identification gets each run's ``level_g`` and sweep hint and the lock-in extraction (as
 the compare task's corrected rows) and starts its fit 5 % off the truth (as from the network).
 
@@ -36,7 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
-SWEEP = (30.0, 56.0, 0.1)  # start [Hz], stop [Hz], rate [Hz/s] (conf/dataset/sim.yaml)
+SWEEP = (30.0, 56.0, 0.1)  # start [Hz], stop [Hz], rate [Hz/s] (freeplayid/conf/dataset/sim.yaml)
 SAMPLE_RATE = 256.0  # [Hz]
 NOISE_G = (0.1, 0.2, 0.3)  # [g] white noise std (the noise study's nonzero levels)
 # variant -> (replay_jump_point, replay_weighted); "weighted_before": the weighted drop points

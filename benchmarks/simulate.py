@@ -45,7 +45,7 @@ def load_model():
 
         hinge = default_fin_parameters()
         KN, DELTA = hinge["kn"], hinge["delta"]
-        return default_fin(), f"default_fin() at kn = {KN:g} N m/rad, delta = {DELTA:g} rad"
+        return default_fin(), f"default_fin() at kn = {KN:g} N·m/rad, delta = {DELTA:g} rad"
     except ImportError:
         sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
         from conftest import standin_fin

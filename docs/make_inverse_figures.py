@@ -50,7 +50,7 @@ def main() -> None:
             ax.plot(kn[ok], err[ok], "o", ms=4, color=color, alpha=0.7,
                     label=f"{method} ({(~ok).sum()} off scale)" if (~ok).any() else method)
         ax.axhline(0, color="k", lw=0.8)
-        ax.set_xlabel("true kn [N m/rad]")
+        ax.set_xlabel("true kn [N·m/rad]")
         ax.set_ylabel(f"{name} error [%]")
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize=8)

@@ -125,7 +125,7 @@ def main() -> None:
     for name, f in rows:
         print(f"| {name} | " + " | ".join(f"{v:.2f}" for v in f) + " |")
 
-    print("\n### Hinge stiffness [N m/rad]\n")
+    print("\n### Hinge stiffness [N·m/rad]\n")
     k_own = own_stiffness(fin, kn)
     k_own_rigid = own_stiffness(fin, 1e6 * PAPER_KN)
     print(f"own stiffness seen by left/mid spring, other spring at kn: {k_own}")
@@ -219,7 +219,7 @@ def figure(fe, full_open, full_closed, fin, kn) -> None:
     fig.colorbar(cs, ax=axes[3], shrink=0.8, label="w / max|w|")
     ax = axes[4]
     r = np.linspace(1.0005, 12, 200)
-    ax.plot(r, backbone_hz(fin, kn, r), label=f"kn = {kn:g} N m/rad")
+    ax.plot(r, backbone_hz(fin, kn, r), label=f"kn = {kn:g} N·m/rad")
     ax.plot(r, backbone_hz(fin, PAPER_KN, r), "--", label="kn = 2.35e6 (paper)")
     ax.axhspan(30, 50, color="0.9", zorder=0)
     ax.set_xlabel("hinge amplitude Theta / delta", fontsize=8)

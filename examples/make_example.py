@@ -1,6 +1,7 @@
-"""Regenerate the bundled example data set ``examples/fin_sweeps/`` (about 2 min on one core).
+"""Regenerate the bundled example data set (about 2 min on one core): the package data
+``src/freeplayid/data/fin_sweeps/`` (``examples/fin_sweeps`` links to it).
 
-    PYTHONPATH=src python examples/make_example.py [--out examples/fin_sweeps]
+    PYTHONPATH=src python examples/make_example.py [--out src/freeplayid/data/fin_sweeps]
 
 Five up-sweeps of the default fin (freeplayid/model/fin/fin.yaml) at its own hinge values, absolute
 accelerations of the two measure points and of the base (control accelerometer) in g, with white
@@ -31,7 +32,8 @@ CHANNELS = {"acc_tl": "uz_top_left", "acc_lr": "uz_lower_right"}  # CSV column -
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", default=str(Path(__file__).parent / "fin_sweeps"))
+    ap.add_argument("--out", default=str(Path(__file__).resolve().parents[1] / "src" / "freeplayid"
+                                         / "data" / "fin_sweeps"))
     ap.add_argument("--noise", type=float, default=NOISE_STD_G, help="noise std [g]")
     ap.add_argument("--sweep", type=float, nargs=3, default=None, help="start stop rate")
     ap.add_argument("--levels", type=float, nargs="+", default=LEVELS_G, help="[g]")

@@ -3,23 +3,11 @@
     python scripts/compare.py +experiment=noise                     # trains first if needed
     python scripts/compare.py +experiment=clearance inverse.checkpoint=PATH/checkpoint.ckpt
     python scripts/compare.py -m +experiment=noise,clearance hydra/launcher=joblib
+
+The same command as the installed ``freeplayid-compare`` (:mod:`freeplayid.tasks.cli`).
 """
 
-import sys
-
-import hydra
-from omegaconf import DictConfig
-
-from freeplayid import tasks
-
-
-@hydra.main(version_base="1.3", config_path="../conf", config_name="compare")
-def main(cfg: DictConfig) -> dict:
-    with tasks.command_errors("compare"):  # an input problem or Ctrl-C: one line
-        return tasks.compare(cfg)
-
+from freeplayid.tasks.cli import compare
 
 if __name__ == "__main__":
-    with tasks.command_errors("compare"):  # Ctrl-C while Hydra composes: one line too
-        tasks.check_command_line("compare", sys.argv)  # before Hydra makes the folder
-        main()
+    compare()

@@ -18,7 +18,7 @@ from freeplayid.signal import Extraction
 from freeplayid.tasks.options import identify_options
 
 ROOT = Path(__file__).resolve().parents[1]
-CONF = ROOT / "conf"
+CONF = ROOT / "src" / "freeplayid" / "conf"  # package data: the commands of an install use it
 # the `model` group: conf/model (sdof, npz) and the ConfigStore (fin, from the package data)
 STORED_MODELS = sorted(name.removesuffix(".yaml") for name in ConfigStore.instance().list("model"))
 MODELS = sorted({p.stem for p in (CONF / "model").glob("*.yaml")} | set(STORED_MODELS))
@@ -129,8 +129,10 @@ def test_identify_defaults_to_the_bundled_example():
     with initialize_config_dir(config_dir=str(CONF), version_base="1.3"):
         cfg = compose(config_name="identify")
     assert cfg.data is None
-    assert bundled_example() == ROOT / "examples" / "fin_sweeps" / "manifest.yaml"
+    # package data (an installed wheel has it); the checkout's examples/fin_sweeps links to it
+    assert bundled_example() == ROOT / "src/freeplayid/data/fin_sweeps/manifest.yaml"
     assert bundled_example().is_file()
+    assert (ROOT / "examples" / "fin_sweeps").resolve() == bundled_example().parent
 
 
 PRIMARIES = sorted(p.stem for p in CONF.glob("*.yaml"))
@@ -138,11 +140,16 @@ EXPERIMENTS = sorted(p.stem for p in (CONF / "experiment").glob("*.yaml"))
 
 
 def test_every_script_has_a_primary_config_and_experiments_exist():
-    # each command goes by one name: scripts/<name>.py -> conf/<name>.yaml -> tasks.<name>
-    # (conf/model.yaml shares its name with the `model` group; Hydra keeps them apart)
+    # each command goes by one name: scripts/<name>.py and freeplayid-<name> -> conf/<name>.yaml
+    # -> tasks.<name> (conf/model.yaml shares its name with the `model` group; Hydra keeps them
+    # apart)
+    from freeplayid.tasks import cli
+
     scripts = sorted(p.stem for p in (ROOT / "scripts").glob("*.py"))
-    assert scripts == PRIMARIES == ["compare", "identify", "model", "simulate", "train"]
+    assert scripts == PRIMARIES == sorted(cli.COMMANDS) == [
+        "compare", "identify", "model", "simulate", "train"]
     assert all(callable(getattr(freeplayid.tasks, name)) for name in scripts)
+    assert Path(cli.CONFIG_PATH) == CONF
     assert {"noise", "clearance"} <= set(EXPERIMENTS)
     for name in PRIMARIES:  # experiments are selected with +experiment=, never by default
         assert "experiment" not in (CONF / f"{name}.yaml").read_text()

@@ -14,7 +14,7 @@ from freeplayid.model import sdof_system
 from freeplayid.simulate import G, Sweep, simulate_sweeps
 
 ROOT = Path(__file__).resolve().parents[1]
-KN, DELTA = 2.35e6, 1.2e-4  # SDOF truth: [N/m], [m] (conf/model/sdof.yaml)
+KN, DELTA = 2.35e6, 1.2e-4  # SDOF truth: [N/m], [m] (freeplayid/conf/model/sdof.yaml)
 LEVELS = (0.15, 0.4, 0.6, 0.8, 1.0)  # [g]; 0.15 g stays in the gap
 SWEEP = Sweep(30.0, 50.0, 1.0)  # [Hz], [Hz], [Hz/s]
 

@@ -20,7 +20,7 @@ from freeplayid.studies import (
 )
 from freeplayid.studies import cases as ds
 
-# SDOF freeplay oscillator (conf/model/sdof.yaml values): closed-gap frequency near 50 Hz.
+# SDOF freeplay oscillator (conf/model/sdof.yaml of the package): closed-gap frequency ~50 Hz.
 MASS, DAMPING = 23.8, 598.0  # [kg], [N s/m]
 SWEEP = Sweep(30.0, 62.0, 2.0)  # [Hz], [Hz], [Hz/s]: 16 s
 

@@ -214,7 +214,8 @@ def test_records_config_group():
     from freeplayid.tasks.options import identify_options
 
     def options(*overrides):
-        with initialize_config_dir(config_dir=str(ROOT / "conf"), version_base="1.3"):
+        conf = ROOT / "src" / "freeplayid" / "conf"
+        with initialize_config_dir(config_dir=str(conf), version_base="1.3"):
             return identify_options(compose(config_name="identify", overrides=list(overrides)))
 
     assert options()["records"] == RecordCheckOptions()

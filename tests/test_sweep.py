@@ -296,7 +296,7 @@ def test_simulate_config_takes_one_sweep_law(overrides, error):
     from freeplayid.errors import ConfigError
     from freeplayid.tasks.checks import SIMULATE, check_config
 
-    conf = Path(__file__).resolve().parents[1] / "conf"
+    conf = Path(__file__).resolve().parents[1] / "src" / "freeplayid" / "conf"
     with initialize_config_dir(config_dir=str(conf), version_base="1.3"):
         cfg = compose(config_name="simulate", overrides=overrides)
     if error is None:

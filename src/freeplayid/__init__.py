@@ -13,12 +13,14 @@ live in ``identification``.
 
 __version__ = "0.1.0"
 
-__all__ = ["identify", "Identification", "IdentificationError", "InputError", "__version__"]
+__all__ = ["identify", "Identification", "IdentificationError", "InputError",
+           "read_identification", "__version__"]
 
 _LAZY = {
     "identify": "identification",
     "Identification": "identification",
     "IdentificationError": "identification",
+    "read_identification": "identification",
     "InputError": "errors",
 }
 

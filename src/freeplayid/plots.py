@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = [
+    "backbone_in_band",
     "plot_backbone_comparison",
     "plot_compare_cost",
     "plot_compare_errors",
@@ -32,6 +33,7 @@ def plot_backbone_points(
     backbone=None,
     amplitude_unit: str = "mm",
     legend: bool = True,
+    labels=None,
 ):
     """First-harmonic displacement curves of all runs, with their peaks (fitting points) marked.
 
@@ -48,6 +50,8 @@ def plot_backbone_points(
         A backbone curve to overlay: frequency [Hz], shape (K,), and amplitude [m], shape (K,).
     amplitude_unit : {"m", "mm", "um"}
     legend : bool
+    labels : mapping of str to str, optional
+        Run -> its legend entry (e.g. its level, "0.8 g"); default the run's name.
 
     Returns
     -------
@@ -58,6 +62,7 @@ def plot_backbone_points(
         raise ValueError(
             f"`amplitude_unit` must be one of {sorted(_AMPLITUDE_SCALE)}, got {amplitude_unit!r}"
         )
+    labels = labels or {}
     channels = sorted({c.channel for c in points.curves})
     if channel is not None and channel not in channels:
         raise ValueError(f"`channel` must be one of {channels}, got {channel!r}")
@@ -67,7 +72,8 @@ def plot_backbone_points(
     for curve, p in zip(points.curves, points.points, strict=True):
         if channel is not None and curve.channel != channel:
             continue
-        label = f"{curve.run}, {curve.channel}" if multi else curve.run
+        run = labels.get(curve.run, curve.run)
+        label = f"{run}, {curve.channel}" if multi else run
         (line,) = ax.plot(curve.frequency, scale * curve.amplitude_m, lw=1.0, label=label)
         if p.used:
             ax.plot(
@@ -93,6 +99,35 @@ def plot_backbone_points(
     if legend:
         ax.legend(fontsize="small")
     return ax
+
+
+def backbone_in_band(backbone, curves, *, amplitude_factor: float = 1.3, below_hz: float = 3.0):
+    """The part of a backbone curve a figure of measured curves shows: amplitudes up to
+    ``amplitude_factor`` x the curves' highest, frequencies from ``below_hz`` under their lowest.
+
+    Parameters
+    ----------
+    backbone : (array_like, array_like)
+        Frequency [Hz], shape (K,), and amplitude [m], shape (K,).
+    curves : sequence of freeplayid.signal.AmplitudeCurve
+        The measured curves drawn with it (empty ones are passed over; none: the whole
+        backbone).
+    amplitude_factor : float [-]
+    below_hz : float [Hz]
+
+    Returns
+    -------
+    (ndarray, ndarray)
+        The backbone's frequency [Hz] and amplitude [m] inside that band, shape (k,).
+    """
+    f, x = (np.asarray(a, dtype=float) for a in backbone)
+    if f.shape != x.shape:
+        raise ValueError(f"`backbone` must be two arrays of one shape, got {f.shape} and {x.shape}")
+    drawn = [c for c in curves if np.asarray(c.amplitude_m).size]
+    top = max((np.nanmax(c.amplitude_m) for c in drawn), default=np.nanmax(x))
+    f_lo = min((np.nanmin(c.frequency) for c in drawn), default=np.nanmin(f))
+    keep = (x <= amplitude_factor * top) & (f >= f_lo - below_hz)
+    return f[keep], x[keep]
 
 
 def plot_fit_residuals(ax, f_hz, residuals, *, labels=None):
@@ -301,7 +336,7 @@ def plot_inverse_predictions(ax, truth, estimate, log_std, *, groups=None, group
     """
     truth, estimate, log_std = (np.asarray(a, dtype=float) for a in (truth, estimate, log_std))
     groups = np.zeros(truth.size) if groups is None else np.asarray(groups, dtype=float)
-    scale, unit = (1e3, "mrad") if quantity == "delta" else (1.0, "N m/rad")
+    scale, unit = (1e3, "mrad") if quantity == "delta" else (1.0, "N·m/rad")
     for g in np.unique(groups):
         m = groups == g
         lo = estimate[m] * (1 - np.exp(-2 * log_std[m]))
@@ -403,7 +438,7 @@ def plot_mode_pairs(ax, comparison, *, title=None):
 
 
 def plot_replay_check(ax, measured, replayed, *, channel: str, misfit=None,
-                      amplitude_unit: str = "mm"):
+                      amplitude_unit: str = "mm", labels=None):
     """Measured (solid) and replayed (dashed) first-harmonic displacement curves of one channel,
     run by run: the self-check of a replay (the paper's Fig. 7/11 with the model on top).
 
@@ -413,8 +448,17 @@ def plot_replay_check(ax, measured, replayed, *, channel: str, misfit=None,
     measured, replayed : sequence of freeplayid.signal.AmplitudeCurve
     channel : str
     misfit : dict of run -> float, optional
-        Per-run misfit (relative to the peak), shown in the labels.
+        Per-run misfit [-]: the median of |replayed - measured| over the measured band relative
+        to the measured peak (:func:`freeplayid.replay.curve_misfit`), shown in percent in the
+        labels; the legend's title says what the number is.
     amplitude_unit : {"m", "mm", "um"}
+    labels : mapping of str to str, optional
+        Run -> its legend entry (e.g. its level, "0.8 g"); default the run's name.
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+        ``ax``.
     """
     if amplitude_unit not in _AMPLITUDE_SCALE:
         raise ValueError(
@@ -427,11 +471,13 @@ def plot_replay_check(ax, measured, replayed, *, channel: str, misfit=None,
         if r is None or not c.amplitude_m.size:
             continue
         color = f"C{k % 10}"
-        label = c.run + (f" ({100 * misfit[c.run]:.2g} %)" if misfit and c.run in misfit else "")
+        label = (labels or {}).get(c.run, c.run) + (
+            f": {100 * misfit[c.run]:.2g} %" if misfit and c.run in misfit else "")
         ax.plot(c.frequency, c.amplitude_m * scale, color=color, lw=1.0, label=label)
         ax.plot(r.frequency, r.amplitude_m * scale, color=color, lw=1.0, ls="--")
     ax.set_xlabel("frequency [Hz]")
     ax.set_ylabel(f"first-harmonic displacement [{amplitude_unit}]")
     ax.set_title(f"{channel}: measured (solid) and replayed (dashed)", fontsize=9)
-    ax.legend(fontsize=7)
+    ax.legend(fontsize=7, title_fontsize=7, alignment="left", title=(
+        "misfit: median |replayed − measured|\n/ measured peak, in %" if misfit else None))
     return ax

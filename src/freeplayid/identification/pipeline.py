@@ -168,12 +168,14 @@ def _zero_clearance_check(dataset, system, kn: float):
 
 
 def _record(dataset) -> dict:
-    """What the report says of the data set."""
+    """What the report says of the data set (``levels``: each run's ``level_g`` [g] or None)."""
     return {"name": dataset.name, "path": str(dataset.path) if dataset.path else None,
             "model": str(dataset.model) if dataset.model else None,
             "quantity": dataset.quantity, "units": dataset.units,
             "sample_rate": float(dataset.sample_rate), "n_runs": len(dataset.runs),
-            "channels": dict(dataset.channels), "base_channel": dataset.base_channel}
+            "channels": dict(dataset.channels), "base_channel": dataset.base_channel,
+            "levels": {run.file: None if run.level_g is None else float(run.level_g)
+                       for run in dataset.runs}}
 
 
 def _plain_result(dataset, system, est: PlainEstimate, mode: int, t0: float,

@@ -5,7 +5,8 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
-__all__ = ["render_report", "validation_record", "format_ci"]
+__all__ = ["render_report", "render_summary", "validation_record", "format_ci", "format_sig",
+           "delta_text", "fit_kind", "play_deg"]
 
 
 def render_report(result, figures: Sequence[str] = ()) -> str:
@@ -21,9 +22,27 @@ def render_report(result, figures: Sequence[str] = ()) -> str:
     return "\n".join(lines) + "\n"
 
 
-def format_ci(v) -> str:
-    """An interval as text: [lo, hi] with 5 significant digits."""
-    return f"[{v[0]:.5g}, {v[1]:.5g}]"
+def format_ci(v, scale: float = 1.0) -> str:
+    """An interval as text: [lo, hi] with 5 significant digits (each end times ``scale``)."""
+    return f"[{scale * v[0]:.5g}, {scale * v[1]:.5g}]"
+
+
+def format_sig(v: float, digits: int = 5) -> str:
+    """``v`` with ``digits`` significant digits, trailing zeros kept: 0.0029996 -> "0.0029996",
+    0.003 -> "0.0030000", 480.0 -> "480.00" (a figure title never shows 0.0029996 as 0.003)."""
+    return f"{v:#.{digits}g}".rstrip(".")
+
+
+def play_deg(delta: float) -> float:
+    """The total play 2·delta of a half-gap ``delta`` [rad], in degrees [°]."""
+    return math.degrees(2.0 * delta)
+
+
+def delta_text(delta: float) -> str:
+    """A half-gap in the units an engineer reads: "0.0029996 rad = 2.9996 mrad, total play
+    2·delta = 0.34373°" (5 significant digits, trailing zeros kept)."""
+    return (f"{format_sig(delta)} rad = {format_sig(1e3 * delta)} mrad, total play "
+            f"2·delta = {format_sig(play_deg(delta))}°")
 
 
 def _header(r) -> list[str]:
@@ -43,19 +62,64 @@ def _header(r) -> list[str]:
                                                            else ""),
         "|---|---|---|" + ("---|" if boot else ""),
     ]
-    for name, unit, b in (("kn", "N·m/rad", r.kn_ci95_bootstrap),
-                          ("delta", "rad", r.delta_ci95_bootstrap)):
-        ci = format_ci(getattr(r, name + "_ci95"))
-        row = f"| {name} [{unit}] | {getattr(r, name):.5g} | {ci} |"
-        lines.append(row + (f" {format_ci(b)} |" if b else ""))
+    lines += _result_rows(r, boot)
     return lines + ["", f"Residual RMS (relative frequency): {r.residual_rms:.3e}"]
+
+
+def _result_rows(r, boot: bool) -> list[str]:
+    """The result table's rows: kn [N·m/rad], delta [rad] and [mrad], the total play 2·delta
+    [°], each with its intervals (the bootstrap's too when ``boot``)."""
+    deg = play_deg(1.0)  # 2·delta [°] per rad of delta
+    rows = []
+    for label, name, scale in (("kn [N·m/rad]", "kn", 1.0), ("delta [rad]", "delta", 1.0),
+                               ("delta [mrad]", "delta", 1e3),
+                               ("total play 2·delta [°]", "delta", deg)):
+        row = (f"| {label} | {scale * getattr(r, name):.5g} | "
+               f"{format_ci(getattr(r, name + '_ci95'), scale)} |")
+        b = getattr(r, name + "_ci95_bootstrap")
+        rows.append(row + (f" {format_ci(b, scale)} |" if boot and b else ""))
+    return rows
+
+
+def render_summary(result) -> str:
+    """The result as Jupyter shows it (``Identification._repr_markdown_``): the estimates with
+    their intervals in N·m/rad, rad, mrad and degrees of total play, and the verdict table."""
+    r = result
+    boot = r.kn_ci95_bootstrap is not None
+    lines = ["**Freeplay identification** "
+             f"({fit_kind(r)}, {len(r.used_points)} of {len(r.points.points)} points used, "
+             f"backbone {r.backbone})", "",
+             "| parameter | identified | 95 % CI |" + (" 95 % CI (bootstrap) |" if boot else ""),
+             "|---|---|---|" + ("---|" if boot else "")]
+    lines += _result_rows(r, boot)
+    err = r.truth_error
+    if err:
+        lines += ["", "Truth: " + ", ".join(f"{k} = {r.truth[k]:.5g} ({100 * e:+.2f} %)"
+                                           for k, e in err.items())]
+    if r.verdict is not None:
+        lines += ["", f"**Verdict: {r.verdict.status}**", ""] + _verdict_table(r.verdict)
+    return "\n".join(lines)
+
+
+def fit_kind(r) -> str:
+    """"plain fit", "corrected fit (replay)" or "plain fit (the replay failed)"."""
+    rep = r.replay
+    if rep is not None and rep.failure:
+        return "plain fit (the replay failed)"
+    if rep is not None or r.interval_source != "Jacobian":
+        return "corrected fit (replay)"
+    return "plain fit"
 
 
 def _verdict(verdict) -> list[str]:
     if verdict is None:
         return []
-    return (["", f"## Verdict: {verdict.status}", "", "| check | passed | finding |",
-             "|---|---|---|"]
+    return ["", f"## Verdict: {verdict.status}", ""] + _verdict_table(verdict)
+
+
+def _verdict_table(verdict) -> list[str]:
+    """Every check of the verdict: its name, passed or not, what it found."""
+    return (["| check | passed | finding |", "|---|---|---|"]
             + [f"| {c.name} | {'yes' if c.passed else '**no**'} | {c.message} |"
                for c in verdict.checks])
 
@@ -167,9 +231,8 @@ def _points(r) -> list[str]:
     lines = ["", "## Fitting points", "",
              "| run | channel | f [Hz] | amplitude [mm] | used | residual [%] | reason |",
              "|---|---|---|---|---|---|---|"]
-    res = iter(r.plain_fit.residuals)
     for p in r.point_records():
-        e = f"{100 * next(res):+.3f}" if p["used"] else ""
+        e = f"{100 * p['residual']:+.3f}" if p["residual"] is not None else ""
         f = "–" if p["f_hz"] is None else f"{p['f_hz']:.3f}"
         a = "–" if p["amplitude_m"] is None else f"{1e3 * p['amplitude_m']:.4f}"
         lines.append(f"| {p['run']} | {p['channel']} | {f} | {a} | "

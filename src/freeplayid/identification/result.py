@@ -7,19 +7,33 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 from ..errors import IdentificationError, SuspectResultError
+from .figures import plot_identification
 from .records import findings_text
-from .report import format_ci, render_report, validation_record
+from .report import (
+    fit_kind,
+    format_ci,
+    format_sig,
+    play_deg,
+    render_report,
+    render_summary,
+    validation_record,
+)
 
 __all__ = ["Identification", "IdentificationError", "SuspectResultError"]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, repr=False)
 class Identification:
     """Result of :func:`identify`: (kn, delta), their intervals and everything behind them.
 
+    Its ``repr`` is a few lines (kn, delta in mrad, the total play 2·delta in degrees, the
+    verdict); Jupyter shows :meth:`_repr_markdown_`'s table. :meth:`plot` draws the command's
+    figures, :meth:`points_table` / :meth:`to_dataframe` give the points, and
+    :func:`~freeplayid.identification.read_identification` reads one back from its file.
+
     Attributes
     ----------
-    kn : float [N m/rad]
+    kn : float [N·m/rad]
     delta : float [rad]
         The reported estimate: the corrected fit's with the replay, else the plain fit's.
     kn_ci95, delta_ci95 : (float, float)
@@ -85,6 +99,30 @@ class Identification:
     model_error: object | None = None
     records: object | None = None
 
+    def __repr__(self) -> str:
+        """A few lines: how the estimate was made, kn and delta with their 95 % intervals
+        (delta in mrad and as the total play in degrees), the verdict (the failed checks'
+        names when ``suspect``). The fields are the dataclass's; ``to_dict()`` lists them all."""
+        used, n = len(self.used_points), len(self.points.points)
+        lines = [f"<Identification: {fit_kind(self)}, {self.backbone} backbone, {used} of {n} "
+                 "points used>",
+                 f"  kn    = {format_sig(self.kn)} N·m/rad  (95 % CI {format_ci(self.kn_ci95)})",
+                 f"  delta = {format_sig(1e3 * self.delta)} mrad  "
+                 f"(95 % CI {format_ci(self.delta_ci95, 1e3)}), total play 2·delta = "
+                 f"{format_sig(play_deg(self.delta))}°"]
+        v = self.verdict
+        if v is not None:
+            failed = [c.name for c in v.checks if not c.passed]
+            lines.append(f"  verdict: {v.status}" + (
+                f" (failed: {', '.join(dict.fromkeys(failed))}; .verdict.reasons says why)"
+                if failed else ""))
+        return "\n".join(lines)
+
+    def _repr_markdown_(self) -> str:
+        """What Jupyter shows: the estimates in N·m/rad, rad, mrad and degrees of total play
+        with their intervals, the truth if known, and the verdict table."""
+        return render_summary(self)
+
     @property
     def residual_rms(self) -> float:
         """RMS relative frequency residual of the plain fit's points [-]."""
@@ -122,16 +160,59 @@ class Identification:
             return None
         return {k: getattr(self, k) / self.truth[k] - 1 for k in ("kn", "delta") if k in self.truth}
 
+    @property
+    def levels(self) -> dict:
+        """Each run's base level [g]: the data set's ``level_g``, else the level the replay
+        drove it at; None where neither is known. ``{run: level_g}``."""
+        known = dict(self.dataset.get("levels") or {})
+        replayed = {} if self.replay is None else self.replay.levels
+        runs = dict.fromkeys(p.run for p in self.points.points)
+        return {run: known.get(run) if known.get(run) is not None
+                else (replayed[run][0] if run in replayed else None) for run in runs}
+
+    def points_table(self) -> list[dict]:
+        """Every candidate point, used or not, one dict a row (no pandas needed).
+
+        Returns
+        -------
+        list of dict
+            Keys: ``run``, ``level_g`` [g] (None if unknown), ``channel``, ``dof``, ``f_hz``
+            [Hz], ``amplitude_m`` [m] (first-harmonic displacement), ``used``, ``reason``
+            (empty when used), ``residual`` [-] (the plain fit's (f_BC - f) / f of a used point,
+            NaN otherwise), ``snr_db`` [dB] and ``time_s`` [s] (NaN where not measured or not
+            in the result file).
+        """
+        residuals = iter(self.plain_fit.residuals)  # in the order of the used points
+        levels = self.levels
+        return [{"run": p.run, "level_g": levels.get(p.run), "channel": p.channel,
+                 "dof": self.dofs.get(p.channel), "f_hz": float(p.f_hz),
+                 "amplitude_m": float(p.amplitude_m), "used": bool(p.used), "reason": p.reason,
+                 "residual": float(next(residuals)) if p.used else math.nan,
+                 "snr_db": float(p.snr_db), "time_s": float(p.time_s)}
+                for p in self.points.points]
+
+    def to_dataframe(self):
+        """:meth:`points_table` as a pandas DataFrame, one row per point (needs pandas).
+
+        Raises
+        ------
+        ImportError
+            pandas is not installed.
+        """
+        try:
+            import pandas as pd
+        except ImportError:
+            raise ImportError("Identification.to_dataframe() needs pandas (pip install pandas); "
+                              "points_table() gives the same rows as dicts") from None
+        return pd.DataFrame(self.points_table())
+
     def point_records(self) -> list[dict]:
         """Every candidate point as a JSON-ready record (run, channel, dof, f_hz, amplitude_m,
-        used, reason), NaN as None."""
-        out = []
-        for rec in self.points.to_records():
-            rec = {k: (None if isinstance(v, float) and not math.isfinite(v) else v)
-                   for k, v in rec.items()}
-            rec["dof"] = self.dofs.get(rec["channel"])
-            out.append(rec)
-        return out
+        used, reason, residual: the plain fit's (f_BC - f) / f, None for a point not used),
+        NaN as None."""
+        keys = ("run", "channel", "dof", "f_hz", "amplitude_m", "used", "reason", "residual")
+        return [{k: (None if isinstance(row[k], float) and not math.isfinite(row[k]) else row[k])
+                 for k in keys} for row in self.points_table()]
 
     def to_dict(self) -> dict:
         """The ``identification.json`` record (see :mod:`freeplayid.io.result_file`)."""
@@ -146,6 +227,9 @@ class Identification:
             "backbone": self.backbone,
             "init": self.init,
             "runtime_s": self.runtime_s,
+            "mode": self.mode,
+            "n_evaluations": self.plain_fit.n_evaluations,
+            "dataset": dict(self.dataset),
         }
         if self.inverse_estimate is not None:
             out["inverse_estimate"] = dict(self.inverse_estimate)
@@ -199,17 +283,53 @@ class Identification:
         """The identified backbone per channel: ``{column: (f [Hz] (m,), amplitude [m] (m,))}``."""
         from ..backbone import backbone_curve
 
+        if self.system is None:
+            raise ValueError("the backbone needs the linear model (`system`), which a result "
+                             "read from identification.json does not hold")
+
         bc = backbone_curve(self.system, method=self.backbone, kn=self.kn, delta=self.delta,
                             mode=self.mode)
         f = bc.frequency_hz[0]
         names = self.system.dof_names
         return {col: (f, bc.amplitude[0][:, names.index(d)]) for col, d in self.dofs.items()}
 
+    def plot(self, kind: str = "backbone", ax=None, *, channel: str | None = None):
+        """A figure of the result, as ``scripts/identify.py`` writes it.
+
+        Parameters
+        ----------
+        kind : {"backbone", "residuals", "replay"}
+            ``backbone``: the runs' first-harmonic displacement curves, their points and the
+            identified backbone, one panel per channel (``backbone_fit.png``); ``residuals``:
+            the plain fit's residual of each used point (``residuals.png``); ``replay``:
+            measured against replayed curves, one panel per channel (``replay_check.png``).
+        ax : matplotlib.axes.Axes, optional
+            Draw one channel on it instead of on a new figure.
+        channel : str, optional
+            That channel (a data-set column); needed with ``ax`` when there are several.
+
+        Returns
+        -------
+        matplotlib.figure.Figure or matplotlib.axes.Axes
+            A new figure (not saved, not shown; ``fig.savefig(...)``), or ``ax``.
+
+        Raises
+        ------
+        ValueError
+            An unknown kind or channel, or a kind this result cannot draw (no replay; a result
+            read from ``identification.json`` holds no curves and no model: residuals only).
+        """
+        return plot_identification(self, kind, ax, channel=channel)
+
     def summary(self) -> str:
-        """The lines a command prints: the estimates, the truth if known, what the record checks
+        """The lines a command prints: the estimates (delta also in mrad and as the total play
+        2·delta in degrees), the truth if known, what the record checks
         found (one line, when they found something), the rejected runs, the verdict."""
         lines = [f"kn    = {self.kn:.5g} N·m/rad  (95 % CI {format_ci(self.kn_ci95)})",
-                 f"delta = {self.delta:.5g} rad  (95 % CI {format_ci(self.delta_ci95)})"]
+                 f"delta = {self.delta:.5g} rad = {1e3 * self.delta:.5g} mrad  "
+                 f"(95 % CI {format_ci(self.delta_ci95, 1e3)} mrad)",
+                 f"total play 2·delta = {play_deg(self.delta):.5g}°  "
+                 f"(95 % CI {format_ci(self.delta_ci95, play_deg(1.0))}°)"]
         err = self.truth_error
         if err:
             lines.append("truth: " + ", ".join(f"{k} = {self.truth[k]:.5g} ({100 * e:+.2f} %)"

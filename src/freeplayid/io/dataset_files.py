@@ -37,12 +37,19 @@ from .manifest import Manifest, RunEntry, read_manifest
 from .readers import RunFile, read_run
 from .units import check_file_units
 
-__all__ = ["Dataset", "DatasetError", "Run", "read_dataset", "write_dataset"]
+__all__ = ["Dataset", "DatasetError", "Run", "bundled_example", "read_dataset", "write_dataset"]
 
 CSV_SUFFIXES = (".csv", ".csv.gz")  # what write_dataset writes
 
 
 # --------------------------------------------------------------------------- reading
+def bundled_example() -> Path:
+    """The ``manifest.yaml`` of the bundled example data set (five simulated sweeps of the
+    default fin, examples/README.md), package data: ``freeplayid/data/fin_sweeps`` in any install
+    (``examples/fin_sweeps`` of a checkout links to it)."""
+    return Path(__file__).resolve().parents[1] / "data" / "fin_sweeps" / "manifest.yaml"
+
+
 def read_dataset(path: str | os.PathLike, *, check_model: bool = True) -> Dataset:
     """Read and validate a data set from its folder or ``manifest.yaml`` (docs/identify.md).
 

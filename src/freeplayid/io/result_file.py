@@ -3,12 +3,16 @@
 The file holds plain JSON: ``kn`` [N m/rad], ``delta`` [rad], their 95 % intervals ``kn_ci95`` and
 ``delta_ci95`` ([lo, hi]), the fitting ``points`` (run, channel, dof, f_hz, amplitude_m, used,
 reason), ``rejected_runs`` (run, reason), ``residual_rms``, ``backbone``, ``init`` and
-``runtime_s``; optional keys (bootstrap intervals, the inverse model's estimate, the truth of a
+``runtime_s``; optional keys (``mode``, ``n_evaluations``, the ``dataset`` identified from,
+each point's ``residual``, bootstrap intervals, the inverse model's estimate, the truth of a
 simulated data set, the verdict and its checks, the replay) may follow. ``records`` holds what
 the record checks found before the extraction (docs/record_checks.md): ``{"findings": [{check,
 run, channel, size, unit, action, message}], "skipped": {check: why}}``, ``null`` when they were
 off (a file written before they existed has no such key). Non-finite numbers are written as
 ``null``.
+
+:func:`read_result_record` reads the record as a dict (this layer knows no ``Identification``);
+``freeplayid.read_identification`` builds the :class:`freeplayid.Identification` from it.
 """
 
 from __future__ import annotations
@@ -22,7 +26,8 @@ from pathlib import Path
 from ..atomic import atomic_write_text
 from ..errors import ResultFileError
 
-__all__ = ["ResultFileError", "read_identification", "write_identification", "RESULT_FILE"]
+__all__ = ["ResultFileError", "read_result_record", "read_identification",
+           "write_identification", "RESULT_FILE"]
 
 RESULT_FILE = "identification.json"
 REQUIRED = ("kn", "delta", "kn_ci95", "delta_ci95", "points", "rejected_runs", "residual_rms",
@@ -79,13 +84,14 @@ def _positive(rec: Mapping, key: str, where: str) -> float:
     return float(v)
 
 
-def read_identification(path: str | os.PathLike) -> dict:
+def read_result_record(path: str | os.PathLike) -> dict:
     """Read and check an ``identification.json`` (a file or the run folder holding it).
 
     Returns
     -------
     dict
-        The record as written (``null`` numbers as None).
+        The record as written (``null`` numbers as None). ``freeplayid.read_identification``
+        gives the :class:`freeplayid.Identification` instead.
 
     Raises
     ------
@@ -119,6 +125,11 @@ def read_identification(path: str | os.PathLike) -> dict:
             raise ResultFileError(f"{where}`points[{i}]` misses the field(s) {miss}")
     _check_records(record.get("records"), where)
     return record
+
+
+# the name this reader had before ``freeplayid.read_identification`` (the Identification): the
+# dict, for the scripts written against it
+read_identification = read_result_record
 
 
 def _check_records(records, where: str) -> None:

@@ -25,7 +25,7 @@ if TYPE_CHECKING:
 
 __all__ = ["build_system", "register_configs", "study_specs", "study_data", "train_network",
            "run_dir", "write_metrics", "writing_to", "check_run_dir", "check_command_line",
-           "command_errors", "MODEL_KINDS", "INTERRUPTED"]
+           "command_errors", "MODEL_KINDS", "INTERRUPTED", "LAUNCHER_EXTRAS"]
 
 MODEL_KINDS = ("fin", "npz", "sdof")
 INTERRUPTED = 130  # exit status of a command stopped by Ctrl-C (128 + SIGINT, as a shell's)
@@ -37,11 +37,11 @@ def register_configs() -> None:
 
     The fin's numbers live once, in the package data ``freeplayid/model/fin/fin.yaml``
     (:func:`freeplayid.model.fin_config_path`, read by ``default_fin()`` in any install); the
-    ``model`` group of ``conf/`` holds the other options (``sdof``, ``npz``). The ConfigStore is on
-    every Hydra search path, so ``model=fin`` composes from every primary config, also from one
-    included by another (``compare`` includes ``train``, where a ``hydra.searchpath`` entry is
-    refused), with the file's keys and values (OmegaConf's YAML loader), so overrides such as
-    ``model.geometry.root_chord=0.25`` apply. Runs when :mod:`freeplayid.tasks` is imported (the
+    ``model`` group of ``freeplayid/conf/`` holds the other options (``sdof``, ``npz``). The
+    ConfigStore is on every Hydra search path, so ``model=fin`` composes from every primary config,
+    also from one included by another (``compare`` includes ``train``, where a ``hydra.searchpath``
+    entry is refused), with the file's keys and values (OmegaConf's YAML loader), so overrides such
+    as ``model.geometry.root_chord=0.25`` apply. Runs when :mod:`freeplayid.tasks` is imported (the
     scripts import it before ``@hydra.main`` composes; a compose elsewhere imports it first).
     """
     from hydra.core.config_store import ConfigStore
@@ -218,15 +218,40 @@ _GROUP_VALUES = {("replay", "false"): "replay=off", ("replay", "true"): "replay=
                  ("records", "false"): "records=off", ("records", "true"): "records=default"}
 
 
+# Hydra launchers of the optional extras: option -> (the plugin's module, the extra)
+LAUNCHER_EXTRAS = {
+    "joblib": ("hydra_plugins.hydra_joblib_launcher", "parallel"),
+    "submitit_slurm": ("hydra_plugins.hydra_submitit_launcher", "slurm"),
+    "submitit_local": ("hydra_plugins.hydra_submitit_launcher", "slurm"),
+}
+
+
 def check_command_line(command: str, argv: list[str]) -> None:
     """Exit with one line for an override Hydra would end in a traceback (``replay=false``:
-    the plain fit is ``replay=off``), then check the run folder (:func:`check_run_dir`)."""
+    the plain fit is ``replay=off``; a launcher whose plugin, an optional extra, is not
+    installed), then check the run folder (:func:`check_run_dir`)."""
     for arg in argv[1:]:
         key, _, value = arg.partition("=")
-        fix = _GROUP_VALUES.get((key.lstrip("+~"), value.strip().lower()))
+        key, value = key.lstrip("+~"), value.strip()
+        fix = _GROUP_VALUES.get((key, value.lower()))
         if fix:
             sys.exit(f"{command}: `{arg}` is not a choice of the `{key}` group; use {fix}")
+        if key == "hydra/launcher" and value in LAUNCHER_EXTRAS:
+            module, extra = LAUNCHER_EXTRAS[value]
+            if not _installed(module):
+                sys.exit(f"{command}: `{arg}` needs the launcher plugin of the `{extra}` extra "
+                         f"(pip install \"freeplayid[{extra}]\")")
     check_run_dir(command, argv)
+
+
+def _installed(module: str) -> bool:
+    """Whether ``module`` can be imported (without importing it)."""
+    import importlib.util
+
+    try:
+        return importlib.util.find_spec(module) is not None
+    except ModuleNotFoundError:  # its parent package is not there either
+        return False
 
 
 def check_run_dir(command: str, argv: list[str]) -> None:

@@ -17,7 +17,7 @@ from ..atomic import atomic_write_text, staged_folder
 from ..errors import ConfigError
 from ..identification import Identification, SuspectResultError
 from ..identification import identify as identify_dataset
-from ..io import DatasetError, read_dataset
+from ..io import DatasetError, bundled_example, read_dataset
 from ..io.result_file import write_identification
 from .checks import IDENTIFY, check_config
 from .common import run_dir, write_metrics, writing_to
@@ -26,18 +26,13 @@ from .options import identify_options
 __all__ = ["identify", "bundled_example"]
 
 
-def bundled_example() -> Path:
-    """Manifest of the example data set shipped with the source tree (examples/fin_sweeps)."""
-    return Path(__file__).resolve().parents[3] / "examples" / "fin_sweeps" / "manifest.yaml"
-
-
 def _data_path(cfg: DictConfig) -> Path:
     if cfg.get("data") in (None, ""):
         path = bundled_example()
         if not path.is_file():
             raise DatasetError(
                 f"no `data=` given and the bundled example {path} is not there; "
-                "run `python scripts/identify.py data=PATH/manifest.yaml`"
+                "run `freeplayid-identify data=PATH/manifest.yaml`"
             )
         return path
     from hydra.utils import to_absolute_path
@@ -57,47 +52,13 @@ def _load_inverse(cfg: DictConfig, system):
 
 
 def _figures(out: Path, result: Identification) -> list[str]:
-    import matplotlib
+    """Save the figures the result can draw (``Identification.plot``) in ``out``; their names."""
+    from ..identification.figures import FIGURES, figure_kinds
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from ..plots import plot_backbone_points, plot_fit_residuals
-
-    pts, overlay = result.points, result.backbone_overlay()
-    cols = list(overlay)
-    fig, axes = plt.subplots(1, len(cols), figsize=(5.5 * len(cols), 4.2), squeeze=False)
-    for ax, col in zip(axes[0], cols, strict=True):
-        f, x = overlay[col]
-        mine = [c for c in pts.curves if c.channel == col and c.amplitude_m.size]
-        top = max((np.nanmax(c.amplitude_m) for c in mine), default=np.nanmax(x))
-        f_lo = min((np.nanmin(c.frequency) for c in mine), default=np.nanmin(f))
-        keep = (x <= 1.3 * top) & (f >= f_lo - 3.0)  # the measured band, 3 Hz below it
-        plot_backbone_points(ax, pts, channel=col, backbone=(f[keep], x[keep]))
-        ax.set_title(f"{col}: kn = {result.kn:.4g} N m/rad, delta = {result.delta:.4g} rad",
-                     fontsize=9)
-    fig.tight_layout()
-    fig.savefig(out / "backbone_fit.png", dpi=110)
-    plt.close(fig)
-    fig, ax = plt.subplots(figsize=(6, 3.5))
-    used = result.used_points
-    plot_fit_residuals(ax, [p.f_hz for p in used], result.plain_fit.residuals,
-                       labels=[p.channel for p in used])
-    fig.tight_layout()
-    fig.savefig(out / "residuals.png", dpi=110)
-    plt.close(fig)
-    names = ["backbone_fit.png", "residuals.png"]
-    if result.replay is not None:
-        from ..plots import plot_replay_check
-
-        fig, axes = plt.subplots(1, len(cols), figsize=(5.5 * len(cols), 4.2), squeeze=False)
-        for ax, col in zip(axes[0], cols, strict=True):
-            plot_replay_check(ax, pts.curves, result.replay.curves, channel=col,
-                              misfit=result.replay.misfit)
-        fig.tight_layout()
-        fig.savefig(out / "replay_check.png", dpi=110)
-        plt.close(fig)
-        names.append("replay_check.png")
+    names = []
+    for kind in figure_kinds(result):
+        result.plot(kind).savefig(out / FIGURES[kind], dpi=110)
+        names.append(FIGURES[kind])
     return names
 
 

@@ -1,4 +1,4 @@
-"""The `model` task (scripts/model.py, conf/model.yaml): config ->
+"""The `model` task (freeplayid-model or scripts/model.py, freeplayid/conf/model.yaml): config ->
 :func:`freeplayid.model.model_from_modal_test` arguments, then write ``model.npz``, ``report.md``,
 ``modes.png`` and ``metrics.json``."""
 
