@@ -12,7 +12,8 @@ import pathlib
 SRC = pathlib.Path(__file__).resolve().parents[1] / "src" / "freeplayid"
 
 LAYERS = [
-    ("errors", "arguments", "atomic", "quantity", "sweep", "dataset", "plots"),  # ground floor
+    # ground floor
+    ("errors", "arguments", "atomic", "quantity", "sweep", "dataset", "plots", "progress"),
     ("model",),
     ("io",),
     ("simulate",),

@@ -14,7 +14,7 @@ live in ``identification``.
 __version__ = "0.1.0"
 
 __all__ = ["identify", "Identification", "IdentificationError", "InputError",
-           "read_identification", "__version__"]
+           "read_identification", "Dataset", "__version__"]
 
 _LAZY = {
     "identify": "identification",
@@ -22,6 +22,7 @@ _LAZY = {
     "IdentificationError": "identification",
     "read_identification": "identification",
     "InputError": "errors",
+    "Dataset": "dataset",  # Dataset.from_arrays: a data set from a notebook's arrays
 }
 
 

@@ -17,7 +17,6 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
-from tqdm.auto import tqdm
 
 from .errors import IdentificationError
 from .fit import (
@@ -28,6 +27,7 @@ from .fit import (
     fit_backbone,
     resolve_start,
 )
+from .progress import progress_bar
 from .signal import BackbonePoints, Extraction, estimate_sweep, extract_backbone_points
 from .sweep import Sweep
 
@@ -101,9 +101,10 @@ def run_sweep_law(dataset, run, *, use_hint: bool = True):
     return est.sweep, source, est.residual_hz
 
 
-def extract_points(dataset, *, extraction: Extraction,
-                   progress: bool = False) -> tuple[BackbonePoints, dict]:
-    """Points of every usable run (one run at a time) and the rejected runs {run: reason}.
+def extract_points(dataset, *, extraction: Extraction, progress: bool = False,
+                   desc: str = "extracting points") -> tuple[BackbonePoints, dict]:
+    """Points of every usable run (one run at a time) and the rejected runs {run: reason};
+    with ``progress``, a bar ``desc`` over the runs.
 
     A run without a hint (or with ``extraction.use_sweep_hint`` False) gets one law for all its
     channels,
@@ -112,8 +113,8 @@ def extract_points(dataset, *, extraction: Extraction,
     rejects the ones without a sweep, with the reason.
     """
     points, curves, rejected = [], [], {}
-    bar = tqdm(dataset.runs, desc="extracting points", unit="run",
-               disable=not progress or len(dataset.runs) < 2)
+    bar = progress_bar(dataset.runs, desc=desc, unit="run",
+                       show=progress and len(dataset.runs) > 1)
     for run in bar:
         if run.reason:
             rejected[run.file] = run.reason
@@ -171,7 +172,8 @@ def weights_of(points: FittingPoints, point_weights: Mapping | None):
 
 
 def plain_estimate(dataset, system, *, extraction: Extraction, fit: FitOptions, init=None,
-                   point_weights: Mapping | None = None, progress: bool = False) -> PlainEstimate:
+                   point_weights: Mapping | None = None, progress: bool = False,
+                   desc: str = "extracting points") -> PlainEstimate:
     """The plain estimate of ``dataset`` (module docstring).
 
     Parameters
@@ -186,7 +188,7 @@ def plain_estimate(dataset, system, *, extraction: Extraction, fit: FitOptions, 
     point_weights : mapping of (run, DOF name) -> float, optional
         Weights of the fit's points (the replay's weighted statistic; None: all equal).
     progress : bool
-        A progress bar over the runs.
+        Progress bars: over the runs (named ``desc``) and over the fit's starts.
 
     Raises
     ------
@@ -196,13 +198,14 @@ def plain_estimate(dataset, system, *, extraction: Extraction, fit: FitOptions, 
         The inverse model cannot take these points.
     """
     where = dataset.path or dataset.name or "data set"
-    pts, rejected = extract_points(dataset, extraction=extraction, progress=progress)
+    pts, rejected = extract_points(dataset, extraction=extraction, progress=progress, desc=desc)
     check_enough(pts, rejected, where)
     points = FittingPoints.from_extraction(pts, dofs=dataset.channels)
     start = resolve_start(init, points, multistart=fit.multistart)
     result = fit_backbone(points, system, init=start.points, init_label=start.label,
                           backbone=fit.backbone, mode=fit.mode, n_bootstrap=fit.n_bootstrap,
-                          seed=fit.seed, weights=weights_of(points, point_weights))
+                          seed=fit.seed, weights=weights_of(points, point_weights),
+                          progress=progress)
     return PlainEstimate(points=pts, rejected_runs=tuple(rejected.items()), fit=result,
                          dofs=dict(dataset.channels), inverse_estimate=start.inverse)
 

@@ -23,6 +23,7 @@ import scipy.optimize
 
 from ..backbone import amplitude_grid, backbone_method
 from ..model import FreeplaySystem
+from ..progress import progress_bar
 from ..signal import BackbonePoints
 from .fitting_points import FittingPoints
 from .objective import BackboneModel
@@ -110,7 +111,8 @@ class _Objective:
     def residual(self, model: BackboneModel, pick=slice(None)):
         def r(x):
             self.n += 1
-            kn, delta = np.exp(x)
+            with np.errstate(over="ignore"):  # a start running off: kn = inf, ValueError below
+                kn, delta = np.exp(x)
             f = self.f[pick]
             return self.w[pick] * (model.frequency(self.amp[pick], self.cidx[pick], kn, delta)
                                    - f) / f
@@ -129,7 +131,8 @@ def _weights(weights, p: int) -> np.ndarray:
     return w
 
 
-def _best_start(obj: _Objective, starts, system, ch, mode, dfa_model, points):
+def _best_start(obj: _Objective, starts, system, ch, mode, dfa_model, points,
+                progress: bool = False):
     """(cost, solution, start) of every start that converged, sorted by cost, and the winner.
 
     With several starts (and hinges) the starts run on the cheap equal-hinge DFA (one
@@ -141,7 +144,9 @@ def _best_start(obj: _Objective, starts, system, ch, mode, dfa_model, points):
         scout = BackboneModel(system, ch, backbone="dfa", mode=mode, equal_hinges=True,
                               s=amplitude_grid(200, s_min=1.0005, s_max=2000.0))
     runs = []
-    for k0, d0 in starts:
+    bar = progress_bar(starts, desc="fitting the backbone", unit="start",
+                       show=progress and len(starts) > 1, leave=False, delay=2.0)
+    for k0, d0 in bar:
         try:
             sol = obj.solve(scout, np.log([k0, d0]))
         except ValueError:  # a start that runs off to kn or delta = inf/0 is a lost start
@@ -167,6 +172,7 @@ def fit_backbone(
     n_bootstrap: int = 0,
     seed: int = 0,
     weights=None,
+    progress: bool = False,
 ) -> FitResult:
     """Identify (kn, delta) by fitting the backbone curve of ``system`` to resonance points.
 
@@ -197,6 +203,9 @@ def fit_backbone(
         Weight of each point's residual (weighted least squares: 1 / each residual's standard
         deviation, e.g. from the amplitude noise); default all 1. The intervals come from the
         weighted residuals; ``FitResult.residuals`` are the unweighted ones.
+    progress : bool
+        Progress bars over the starts and the bootstrap's resamples, shown when they last
+        over 2 s.
 
     Returns
     -------
@@ -227,16 +236,18 @@ def fit_backbone(
     start = resolve_start(init, points, label=init_label)
     dfa_model = BackboneModel(system, ch, backbone="dfa", mode=mode)
     obj = _Objective(points, np.array([dfa_model.channels.index(c) for c in ch]), w)
-    runs, sol, best = _best_start(obj, start.points, system, ch, mode, dfa_model, points)
+    runs, sol, best = _best_start(obj, start.points, system, ch, mode, dfa_model, points,
+                                  progress)
     active = dfa_model
     if backbone != "dfa":  # another method refines from the DFA optimum
         active = BackboneModel(system, ch, backbone=backbone, mode=mode)
         sol = obj.solve(active, sol.x)
-    return _result(obj, sol, points, active, start.label, best, runs, n_bootstrap, seed, t0)
+    return _result(obj, sol, points, active, start.label, best, runs, n_bootstrap, seed, t0,
+                   progress)
 
 
 def _result(obj: _Objective, sol, points, active, label, best, runs, n_bootstrap, seed,
-            t0) -> FitResult:
+            t0, progress: bool = False) -> FitResult:
     """The :class:`FitResult` at the optimum ``sol``: intervals (Jacobian, by run, bootstrap)."""
     res, w = sol.fun, obj.w
     kn_ci, delta_ci = jacobian_intervals(sol.x, res, sol.jac)
@@ -248,7 +259,7 @@ def _result(obj: _Objective, sol, points, active, label, best, runs, n_bootstrap
     if n_bootstrap > 0:
         boot_kn, boot_delta = bootstrap_intervals(
             lambda x, pick: obj.residual(active, pick)(x), sol.x, len(points),
-            n_bootstrap=n_bootstrap, seed=seed)
+            n_bootstrap=n_bootstrap, seed=seed, progress=progress)
     return FitResult(
         kn=float(kn), delta=float(delta), kn_ci95=kn_ci, delta_ci95=delta_ci,
         residuals=res / w, residual_rms=float(np.sqrt(np.mean((res / w) ** 2))),

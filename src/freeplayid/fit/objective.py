@@ -106,7 +106,8 @@ class BackboneModel:
         delta : float [rad]
         """
         freq, log_amp = self.curve(kn)
-        x = np.log(np.asarray(amplitude, dtype=float) / delta)
+        with np.errstate(divide="ignore", over="ignore"):  # delta -> 0 (a start running off)
+            x = np.log(np.asarray(amplitude, dtype=float) / delta)
         out = np.empty(x.shape)
         for c in range(len(self.channels)):
             sel = channel_index == c

@@ -27,6 +27,8 @@ import numpy as np
 import scipy.optimize
 import scipy.stats
 
+from ..progress import progress_bar
+
 __all__ = ["jacobian_intervals", "bootstrap_intervals"]
 
 Interval = tuple[float, float]
@@ -70,8 +72,9 @@ def jacobian_intervals(x, residuals, jacobian, groups=None) -> tuple[Interval, I
     except np.linalg.LinAlgError:
         half = np.array([np.inf, np.inf])
     kn, delta = np.exp(x)
-    kn_ci = (float(kn * np.exp(-half[0])), float(kn * np.exp(half[0])))
-    delta_ci = (float(delta * np.exp(-half[1])), float(delta * np.exp(half[1])))
+    with np.errstate(over="ignore"):  # an unbounded direction: the interval runs to inf
+        kn_ci = (float(kn * np.exp(-half[0])), float(kn * np.exp(half[0])))
+        delta_ci = (float(delta * np.exp(-half[1])), float(delta * np.exp(half[1])))
     return kn_ci, delta_ci
 
 
@@ -82,6 +85,7 @@ def bootstrap_intervals(
     *,
     n_bootstrap: int,
     seed: int = 0,
+    progress: bool = False,
 ) -> tuple[Interval, Interval]:
     """Percentile 95 % intervals of (kn, delta) from a bootstrap over the points.
 
@@ -97,6 +101,8 @@ def bootstrap_intervals(
         Resamples (> 0); a resample with fewer than 2 distinct points is skipped.
     seed : int
         Seed of the resampling.
+    progress : bool
+        A bar over the resamples, shown when they last over 2 s.
 
     Returns
     -------
@@ -108,7 +114,8 @@ def bootstrap_intervals(
     rng = np.random.default_rng(seed)
     p = n_points
     est = []
-    for _ in range(n_bootstrap):
+    for _ in progress_bar(range(n_bootstrap), desc="bootstrap over the points", unit="fit",
+                          show=progress, leave=False, delay=2.0):
         pick = rng.integers(0, p, p)
         if np.unique(pick).size < 2:
             continue

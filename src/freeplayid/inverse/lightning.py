@@ -13,16 +13,19 @@ dropped), with mu, s the predicted mean and log-variance.
 from __future__ import annotations
 
 import copy
+import logging
 import math
 import os
 import warnings
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
 import pytorch_lightning as pl
 import torch
 
+from ..progress import progress_bar, warnings_wanted
 from .network import InverseNet, Normalisation, collate_point_sets
 from .pointsets import PointSets
 
@@ -291,6 +294,60 @@ class _History(pl.Callback):
             self.history[k].append(float(m[k]) if k in m else math.nan)
 
 
+class _EpochBar(pl.Callback):
+    """One bar over the epochs with the losses as its postfix (``tqdm.auto``: a widget in a
+    notebook), in place of Lightning's bars per batch and per validation."""
+
+    def __init__(self):
+        self.bar = None
+
+    def on_train_start(self, trainer, pl_module):
+        total = trainer.max_epochs if trainer.max_epochs and trainer.max_epochs > 0 else None
+        self.bar = progress_bar(total=total, desc="training", unit="epoch")
+
+    def on_train_epoch_end(self, trainer, pl_module):
+        m = trainer.callback_metrics  # the epoch's validation has run by now
+        self.bar.set_postfix_str(", ".join(f"{k} {float(m[k]):.4g}" for k in
+                                           ("train_loss", "val_loss") if k in m), refresh=False)
+        self.bar.update(1)
+
+    def on_train_end(self, trainer, pl_module):
+        self.bar.close()
+
+    def on_exception(self, trainer, pl_module, exception):
+        if self.bar is not None:
+            self.bar.close()
+
+
+# Lightning's loggers: its banners ("GPU available: ...", "TPU available: ..."), its tips and
+# "`Trainer.fit` stopped: ..." are INFO lines on them
+LIGHTNING_LOGGERS = ("pytorch_lightning", "lightning.pytorch", "lightning_fabric",
+                     "lightning.fabric")
+
+
+@contextmanager
+def lightning_quiet() -> Iterator[None]:
+    """Lightning's INFO lines and the deprecation warnings Lightning and torch raise inside it
+    (e.g. torch's ``LeafSpec`` in Lightning's ``_pytree``), quiet in the block unless
+    ``FREEPLAYID_WARNINGS`` is set (:func:`freeplayid.progress.warnings_wanted`). Its progress
+    bar and its own warnings (a real problem of the training) stay."""
+    if warnings_wanted():
+        yield
+        return
+    loggers = [logging.getLogger(name) for name in LIGHTNING_LOGGERS]
+    levels = [lg.level for lg in loggers]
+    for lg in loggers:
+        lg.setLevel(logging.WARNING)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", DeprecationWarning)
+            warnings.simplefilter("ignore", FutureWarning)
+            yield
+    finally:
+        for lg, level in zip(loggers, levels):
+            lg.setLevel(level)
+
+
 def train_inverse_model(
     train: PointSets, val: PointSets, *, channels: Sequence[str], fingerprint: str,
     hidden: int = 64, depth: int = 3, activation: str = "silu", lr: float = 3e-3,
@@ -319,7 +376,10 @@ def train_inverse_model(
     accelerator : str
         ``pl.Trainer`` accelerator; "auto" takes one GPU when present. On CPU a run is
         reproducible for a given ``seed``.
-    enable_progress_bar, logger : bool
+    enable_progress_bar : bool
+        A bar over the epochs with the losses (not Lightning's bars per batch).
+    logger : bool
+        The CSV log in ``out_dir``.
     trainer_kwargs : dict, optional
         Further ``pl.Trainer`` arguments (override the above).
 
@@ -352,17 +412,19 @@ def train_inverse_model(
         ))
         if logger:
             loggers = pl.loggers.CSVLogger(out_dir, name="", version="")
+    if enable_progress_bar:
+        callbacks.append(_EpochBar())
     kw = dict(
         max_epochs=max_epochs, accelerator=accelerator, devices=1, logger=loggers,
         callbacks=callbacks, enable_checkpointing=out_dir is not None,
-        enable_progress_bar=enable_progress_bar, enable_model_summary=False,
+        enable_progress_bar=False, enable_model_summary=False,  # the bar: _EpochBar
         log_every_n_steps=1, default_root_dir=out_dir,
     )
     kw.update(trainer_kwargs or {})
-    trainer = pl.Trainer(**kw)
-    with warnings.catch_warnings():
+    with lightning_quiet(), warnings.catch_warnings():
         # num_workers=0 is deliberate (see PointSetDataModule)
         warnings.filterwarnings("ignore", message=r".*does not have many workers.*")
+        trainer = pl.Trainer(**kw)
         trainer.fit(module, datamodule=dm)
     if hist.best_state is not None:
         module.load_state_dict(hist.best_state)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import logging
 from dataclasses import dataclass
 
 import numpy as np
@@ -11,6 +12,7 @@ import scipy.stats
 from ..errors import IdentificationError
 from ..estimate import PlainEstimate, plain_estimate, refit
 from ..fit import BackboneModel, FitOptions
+from ..progress import progress_bar
 from ..signal import Extraction
 from .bootstrap import ReplayBootstrap, bootstrap_by_replay
 from .broyden import solve_binding
@@ -28,6 +30,12 @@ from .statistic import amplitude_ratios, by_run_intervals, median_se, misfit_in_
 from .weights import noise_levels, point_weights
 
 __all__ = ["ReplayResult", "ReplayIteration", "PointOffset", "CrossCheck", "corrected_fit"]
+
+log = logging.getLogger(__name__)
+
+# the replays' bar: "replay 2/8 |###    | 00:40<01:20, kn 481.59, delta 0.0030274, misfit 9.03e-03"
+# (at most Replay.max_iter replays: the ETA is the longest the loop can take)
+REPLAY_BAR = "{desc} {n_fmt}/{total_fmt} |{bar:12}| {elapsed}<{remaining}{postfix}"
 
 
 @dataclass(frozen=True)
@@ -230,7 +238,7 @@ class _Test:
 
 
 def _replayed_test(dataset, system, plain: PlainEstimate, rule: str, extraction: Extraction,
-                   fit: FitOptions, measured: bool) -> _Test | str:
+                   fit: FitOptions, measured: bool, progress: bool = False) -> _Test | str:
     """The test to replay (:class:`_Test`), or why it cannot be replayed.
 
     Only the runs whose points were fitted are replayed: a run rejected in the test (e.g. it
@@ -254,7 +262,8 @@ def _replayed_test(dataset, system, plain: PlainEstimate, rule: str, extraction:
         extraction = dataclasses.replace(extraction, jump_point=rule, use_sweep_hint=True)
         try:
             stat = plain_estimate(stat_ds, system, init=(plain.kn, plain.delta),
-                                  extraction=extraction, fit=fit)
+                                  extraction=extraction, fit=fit, progress=progress,
+                                  desc=f"the test's {rule} points")
         except IdentificationError as err:
             return f"the measured points taken with jump_point {rule!r} cannot be fitted: {err}"
     if {p.run for p in stat.points.used()} != used:  # the statistic fitted other runs
@@ -278,8 +287,9 @@ class _Binding:
     median log(X_rep / X)]. It keeps every replay (``history``), the last one, the point weights
     it fixed after the first, and why a replay failed."""
 
-    def __init__(self, test: _Test, system, damping: tuple, opts: Replay, progress: bool):
-        self.test, self.system, self.opts, self.progress = test, system, opts, progress
+    def __init__(self, test: _Test, system, damping: tuple, opts: Replay, bar=None,
+                 label: str = "replay"):
+        self.test, self.system, self.opts, self.bar, self.label = test, system, opts, bar, label
         self.source, self.zeta = damping
         self.history, self.rep, self.rep_ds, self.failure = [], None, None, ""
         self.weights, self.weight_table = None, None if opts.weighted else ()
@@ -346,11 +356,18 @@ class _Binding:
             float(theta[0]), float(theta[1]), float(rep.kn), float(rep.delta),
             int(rep.fit.n_evaluations), zeta=None if self.source == "model" else float(zeta),
             amplitude_log_ratio=ratio, misfit_se=se))
-        if self.progress:
-            print(f"replay {len(self.history)}: kn {theta[0]:.5g}, delta {theta[1]:.5g}"
-                  + (f", zeta {zeta:.4g}" if estimate else "")
-                  + f"; misfit of the statistics {np.abs(F).max():.2e}")
+        self._report(theta, zeta if estimate else None, float(np.abs(F).max()))
         return F
+
+    def _report(self, theta, zeta, misfit: float) -> None:
+        """The replay's numbers in the log (DEBUG) and on the bar (its postfix)."""
+        z = "" if zeta is None else f", zeta {zeta:.4g}"
+        log.debug("%s %d: kn %.5g, delta %.5g%s; misfit of the statistics %.2e", self.label,
+                  len(self.history), theta[0], theta[1], z, misfit)
+        if self.bar is not None:
+            self.bar.set_postfix_str(f"kn {theta[0]:.5g}, delta {theta[1]:.5g}{z}, "
+                                     f"misfit {misfit:.2e}", refresh=False)
+            self.bar.update(1)
 
 
 def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extraction,
@@ -378,7 +395,7 @@ def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extracti
     source, zeta = damping_mode(system, opts.damping)
     rule = opts.statistic(extraction.jump_point, bool(dataset.base_channel))
     test = _replayed_test(dataset, system, plain, rule, extraction, fit,
-                          measured=opts.excitation == "measured")
+                          measured=opts.excitation == "measured", progress=progress)
     if isinstance(test, str):
         return ReplayResult(kn=float(plain.kn), delta=float(plain.delta), jump_point=rule,
                             failure=test)
@@ -386,11 +403,14 @@ def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extracti
     if estimate:
         zeta = initial_zeta(system, test.statistic.points.used(), test.levels, float(plain.kn),
                             test.statistic.dofs, fit.mode)
-    binding = _Binding(test, system, (source, zeta), opts, progress)
+    binding = _Binding(test, system, (source, zeta), opts)
     u0 = np.log(np.append(binding.hat, zeta) if estimate else binding.hat)
     tol = [np.log1p(opts.rtol)] * 2 + ([np.log1p(ZETA_RTOL)] if estimate else [])
-    sol = solve_binding(binding, u0, np.diag([1.0, 1.0, -1.0][: u0.size]),
-                        max_iter=opts.max_iter, tolerances=tol)
+    with _replay_bar(opts.max_iter, "replay", progress) as binding.bar:
+        sol = solve_binding(binding, u0, np.diag([1.0, 1.0, -1.0][: u0.size]),
+                            max_iter=opts.max_iter, tolerances=tol)
+    log.debug("replay loop: %s after %d replays", "converged" if sol.converged else
+              "not converged", sol.n)
     closest = None if sol.closest is None else binding.history[sol.closest].misfit_se
     theta = np.exp(sol.u[:2]) if not binding.failure else np.array([plain.kn, plain.delta])
     if estimate:
@@ -398,6 +418,12 @@ def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extracti
     return _result(binding, theta, rule, sol, closest,
                    _damping_used(source, zeta, binding.ratios, sol.jacobian, estimate),
                    plain, system, opts, progress)
+
+
+def _replay_bar(total: int, desc: str, show: bool):
+    """The replays' bar (:data:`REPLAY_BAR`): one step per replay, at most ``total``."""
+    return progress_bar(total=total, desc=desc, unit="replay", show=show,
+                        bar_format=REPLAY_BAR)
 
 
 def _damping_used(source, zeta, ratios, J, estimate) -> ReplayDamping:
@@ -428,8 +454,9 @@ def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts
         resonance = resonance_misfits(stat.points.used(), rep.points.used(), stat.points.curves,
                                       rep.points.curves, _backbone_at(b, theta))
         if opts.cross_check and CROSS_RULE.get(rule) and not b.failure:
-            cross = _cross_check(b, theta, CROSS_RULE[rule])
-        level = None if b.failure else _level_sensitivity(b, sol, opts.level_uncertainty)
+            cross = _cross_check(b, theta, CROSS_RULE[rule], progress)
+        level = None if b.failure else _level_sensitivity(b, sol, opts.level_uncertainty,
+                                                          progress)
         if opts.n_bootstrap > 0 and not b.failure:
             boot = bootstrap_by_replay(
                 b.rep_ds, system, noise_levels(b.test.dataset, b.rep_ds), theta=theta,
@@ -462,7 +489,8 @@ def _backbone_at(b: _Binding, theta):
     return f
 
 
-def _level_sensitivity(b: _Binding, sol, u: float) -> LevelSensitivity | None:
+def _level_sensitivity(b: _Binding, sol, u: float,
+                       progress: bool = False) -> LevelSensitivity | None:
     """:class:`LevelSensitivity` of the runs whose levels came from ``level_g``: the binding
     solved again with those levels times (1 + u), from the answer and with the loop's Jacobian
     (a few replays; the binding can be flat in delta, so a linear estimate from one replay
@@ -474,28 +502,33 @@ def _level_sensitivity(b: _Binding, sol, u: float) -> LevelSensitivity | None:
         return None
     levels = {r: ((lv * (1 + u), src) if r in runs else (lv, src))
               for r, (lv, src) in t.levels.items()}
+    label = f"replay at levels x{1 + u:g}"
     up = _Binding(dataclasses.replace(t, levels=levels), b.system, (b.source, b.zeta), b.opts,
-                  progress=False)
+                  label=label)
     up.weights, up.weight_table, up.stat, up.stat_ci95 = b.weights, b.weight_table, b.stat, \
         b.stat_ci95
     tol = [np.log1p(b.opts.rtol)] * 2 + ([np.log1p(ZETA_RTOL)] if sol.u.size == 3 else [])
-    moved = solve_binding(up, sol.u, sol.jacobian, max_iter=b.opts.max_iter, tolerances=tol)
+    with _replay_bar(b.opts.max_iter, label, progress) as up.bar:
+        moved = solve_binding(up, sol.u, sol.jacobian, max_iter=b.opts.max_iter,
+                              tolerances=tol)
     if up.failure:
         return None
     shift = np.abs(moved.u[:2] - sol.u[:2])
     return LevelSensitivity(float(u), float(shift[0]), float(shift[1]), runs)
 
 
-def _cross_check(b: _Binding, theta, rule: str) -> CrossCheck | None:
+def _cross_check(b: _Binding, theta, rule: str, progress: bool = False) -> CrossCheck | None:
     """The test and its last replay (at the answer ``theta``) on a second statistic, ``rule``'s
     points fitted alike (unweighted): how far that statistic would move the answer."""
     t = b.test
     extraction = dataclasses.replace(t.extraction, jump_point=rule, use_sweep_hint=True)
     try:
         test = plain_estimate(t.dataset, b.system, init=tuple(theta), extraction=extraction,
-                              fit=t.fit)
+                              fit=t.fit, progress=progress, desc=f"cross-check: the test's "
+                              f"{rule} points")
         rep = plain_estimate(b.rep_ds, b.system, init=tuple(theta), extraction=extraction,
-                             fit=t.fit)
+                             fit=t.fit, progress=progress, desc=f"cross-check: the replay's "
+                             f"{rule} points")
     except IdentificationError:
         return None  # the second statistic's points cannot be fitted: nothing to compare
     shift = np.log(np.array([test.kn, test.delta]) / np.array([rep.kn, rep.delta]))

@@ -9,12 +9,10 @@ added per member at the end.
 
 from __future__ import annotations
 
-import sys
-
 import numpy as np
 import torch
-from tqdm.auto import tqdm
 
+from ..progress import progress_bar, watched
 from ..quantity import derivative_order
 from ..sweep import Sweep
 from .engines import Engine
@@ -25,6 +23,9 @@ __all__ = ["integrate_chunks", "CHUNK_ELEMENTS", "MAX_CHUNK_STEPS"]
 
 CHUNK_ELEMENTS = 1 << 24  # recorded values per chunk (memory bound of the chunked loop)
 MAX_CHUNK_STEPS = 1 << 16  # steps per chunk at most (sin/base arrays of a chunk stay small)
+LONG_RUN = 5e8  # member-steps of a run that shows its bar by default (a few seconds or more)
+# the bar counts simulated seconds: "sweeps x24 (numba):  23%|##   | 4.98/22.00 s [00:15<00:37]"
+SWEEP_BAR = "{desc}: {percentage:3.0f}%|{bar}| {n:.2f}/{total:.2f} s [{elapsed}<{remaining}]"
 
 
 def _base_signals(sweep: Sweep, t0_index: int, L: int, h: float, s_half: np.ndarray, state):
@@ -118,7 +119,8 @@ def integrate_chunks(eng: Engine, plan: StepPlan, *, sweep: Sweep, quantity: str
     dtype, device
         The simulation's (torch) dtype and device.
     progress : bool or None
-        tqdm bar (``desc``); None: on for long runs on an interactive terminal.
+        A bar over the simulated time (``desc``); None: on for long runs (:data:`LONG_RUN`)
+        that someone watches (a terminal or a notebook, :func:`freeplayid.progress.watched`).
 
     Returns
     -------
@@ -136,8 +138,10 @@ def integrate_chunks(eng: Engine, plan: StepPlan, *, sweep: Sweep, quantity: str
     chunk = max(m, min(CHUNK_ELEMENTS // max(1, batch * eng.record_width),
                        MAX_CHUNK_STEPS) // m * m)
     if progress is None:
-        progress = n_steps * batch > 5e8 and sys.stderr.isatty()
-    bar = tqdm(total=round(sweep.duration, 3), unit="s", desc=desc) if progress else None
+        progress = n_steps * batch > LONG_RUN and watched()
+    # leave=None: a bar under another (a bank's) goes when done, a bar of its own stays
+    bar = progress_bar(total=float(sweep.duration), desc=desc, unit="s", show=progress,
+                       leave=None, bar_format=SWEEP_BAR) if progress else None
     q = derivative_order(quantity)
     base_outs = []
     i0 = 0
@@ -150,7 +154,7 @@ def integrate_chunks(eng: Engine, plan: StepPlan, *, sweep: Sweep, quantity: str
         base_outs.append(dec_base.push(torch.from_numpy(rows)))
         i0 += L
         if bar is not None:
-            bar.update(round(min(i0 * h, sweep.duration) - bar.n, 3))
+            bar.update(min(i0 * h, sweep.duration) - bar.n)
     if bar is not None:
         bar.close()
     base = torch.cat(base_outs, dim=1)[:, :plan.n_out].numpy()

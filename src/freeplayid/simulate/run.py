@@ -173,7 +173,8 @@ def simulate_sweeps(
         engine and ``method="relative"`` only; not with ``cutoff_hz``.
     large_mass_ratio : float [-]
     progress : bool, optional
-        tqdm progress bar; default: on for long runs on an interactive terminal.
+        A progress bar over the simulated time; default: on for long runs (a few seconds or
+        more) watched on a terminal or in a notebook; False: none.
     cuda_graphs : bool, optional
         torch engine on CUDA: replay the step loop as CUDA graphs (default on CUDA).
 
@@ -249,7 +250,8 @@ def _members(kn, delta, level_g) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     dl_a = _as_batch("delta", delta, minimum=0.0)
     lv_a = _as_batch("level_g", level_g, minimum=None)
     try:
-        kn_a, dl_a, lv_a = (np.ascontiguousarray(x) for x in np.broadcast_arrays(kn_a, dl_a, lv_a))
+        # copies: broadcast views warn when numba reads their write flag (numpy >= 2.3)
+        kn_a, dl_a, lv_a = (np.array(x, order="C") for x in np.broadcast_arrays(kn_a, dl_a, lv_a))
     except ValueError:
         raise ValueError(
             f"`kn`, `delta`, `level_g` must broadcast to one batch, got shapes "

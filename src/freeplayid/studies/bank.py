@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import logging
 import math
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -23,9 +24,12 @@ import numpy as np
 
 from ..atomic import atomic_path
 from ..model.system import FreeplaySystem
+from ..progress import progress_bar
 from ..sweep import Sweep
 
 __all__ = ["BankSpec", "SweepBank", "DELTA_REF", "simulate_bank"]
+
+log = logging.getLogger(__name__)
 
 DELTA_REF = 1e-3  # [rad] gap of the stored bank records (levels s * DELTA_REF)
 # bump when the cached layout, the meaning of a spec field or the simulated numbers change
@@ -164,7 +168,8 @@ def simulate_bank(
 
     The bank is written to ``cache_dir/bank-<key>/`` one chunk of ``spec.chunk_sweeps`` sweeps
     at a time; a later call with the same spec and model loads the finished chunks and
-    simulates only the missing ones.
+    simulates only the missing ones. ``progress``: a bar over the sweeps to simulate (with two
+    chunks or more) and each chunk's simulation bar; False: none.
     """
     import torch
 
@@ -186,11 +191,14 @@ def simulate_bank(
     cuts = list(range(0, n, spec.chunk_sweeps))
     todo = [i for i, _ in enumerate(cuts) if not (folder / f"chunk-{i:04d}.npz").is_file()]
     dtype = torch.float32 if spec.dtype == "float32" else torch.float64
-    if todo and progress:
-        print(f"bank {key}: simulating {len(todo)} of {len(cuts)} chunks of "
-              f"{spec.chunk_sweeps} sweeps -> {folder}")
-    for i in todo:
-        sl = slice(cuts[i], min(cuts[i] + spec.chunk_sweeps, n))
+    if todo:
+        log.info("bank %s: simulating %d of %d chunks of %d sweeps -> %s", key, len(todo),
+                 len(cuts), spec.chunk_sweeps, folder)
+    sizes = [min(cuts[i] + spec.chunk_sweeps, n) - cuts[i] for i in todo]
+    bar = progress_bar(total=sum(sizes), desc=f"bank {key}", unit="sweep",
+                       show=progress and len(todo) > 1)
+    for i, size in zip(todo, sizes):
+        sl = slice(cuts[i], cuts[i] + size)
         res = simulate_sweeps(
             system, kn=flat_kn[sl], delta=DELTA_REF, level_g=flat_s[sl] * DELTA_REF,
             sweep=spec.sweep, channels=list(spec.channels), quantity="acceleration",
@@ -201,6 +209,8 @@ def simulate_bank(
         with atomic_path(folder / f"chunk-{i:04d}.npz") as tmp:
             np.savez(tmp, time=res.time, signals=res.signals.astype(np.float32),
                      diverged=res.diverged)
+        bar.update(size)
+    bar.close()
     parts = [np.load(folder / f"chunk-{i:04d}.npz") for i in range(len(cuts))]
     signals = np.concatenate([p["signals"] for p in parts])
     diverged = np.concatenate([p["diverged"] for p in parts])

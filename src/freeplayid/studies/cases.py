@@ -30,6 +30,7 @@ import numpy as np
 
 from ..atomic import atomic_path
 from ..inverse.pointsets import PointSets
+from ..progress import progress_bar
 from ..quantity import G
 from .bank import CACHE_FORMAT, DELTA_REF, SweepBank, check_pair, digest
 
@@ -226,7 +227,6 @@ def build_cases(
         was stored lack it).
     """
     from joblib import Parallel, delayed
-    from tqdm import tqdm
 
     key = spec.key(bank)
     folder = Path(cache_dir) / f"cases-{key}"
@@ -248,8 +248,8 @@ def build_cases(
         out = Parallel(n_jobs=spec.n_jobs, batch_size=16)(
             delayed(_extract)(bank.signals[k, r][None], fs, sweep, chans, spec.extraction,
                               [f"k{k}s{r}"])
-            for k, r in tqdm(need, desc="clean points", unit="sweep",
-                             disable=not progress or not need)
+            for k, r in progress_bar(need, desc="clean points", unit="sweep",
+                                     show=progress and bool(need))
         )
         clean = {kr: np.array(p, float).reshape(-1, 3) for kr, p in zip(need, out, strict=True)}
         with atomic_path(clean_path) as tmp:
@@ -258,7 +258,7 @@ def build_cases(
 
     chunk = 256
     parts = []
-    bar = tqdm(total=len(plan), desc=f"cases {key}", unit="case", disable=not progress)
+    bar = progress_bar(total=len(plan), desc=f"cases {key}", unit="case", show=progress)
     for c0 in range(0, len(plan), chunk):
         path = folder / f"part-{c0 // chunk:04d}.npz"
         block = plan[c0:c0 + chunk]

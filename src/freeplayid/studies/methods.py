@@ -26,6 +26,7 @@ share within bounds, calibration of its uncertainty).
 from __future__ import annotations
 
 import time
+import warnings
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
@@ -35,6 +36,7 @@ from ..fit import FitOptions
 from ..identification import identify
 from ..inverse.pointsets import PointSets
 from ..model.system import FreeplaySystem
+from ..progress import progress_bar, warnings_wanted
 from ..replay import Replay
 from ..signal import Extraction
 
@@ -73,7 +75,11 @@ def _fit_one(points, system, init, label, backbone):
 
     t0 = time.perf_counter()
     try:
-        r = fit_backbone(points, system, init=init, init_label=label, backbone=backbone)
+        with warnings.catch_warnings():
+            if not warnings_wanted():  # a case at one resonance: its row says how it went
+                warnings.filterwarnings("ignore", message=r"fit_backbone: the \d+ points lie at "
+                                        "one resonance")
+            r = fit_backbone(points, system, init=init, init_label=label, backbone=backbone)
     except ValueError:  # every start diverged: a failed case, not a failed study
         return np.nan, np.nan, 0, time.perf_counter() - t0, False
     return r.kn, r.delta, r.n_evaluations, time.perf_counter() - t0, r.success
@@ -104,7 +110,6 @@ def fit_cases(
         worker, so it stays comparable between methods.
     """
     from joblib import Parallel, delayed
-    from tqdm import tqdm
 
     jobs = []
     for i in range(ps.n_cases):
@@ -116,7 +121,7 @@ def fit_cases(
         jobs.append((i, "multi-start", rec, list(multistart), "multistart"))
     out = Parallel(n_jobs=n_jobs, batch_size=1)(
         delayed(_fit_one)(rec, system, init, label, backbone)
-        for _, _, rec, init, label in tqdm(jobs, desc="fits", unit="fit", disable=not progress)
+        for _, _, rec, init, label in progress_bar(jobs, desc="fits", unit="fit", show=progress)
     )
     return [_row(ps, i, m, *res) for (i, m, *_), res in zip(jobs, out, strict=True)]
 
@@ -190,7 +195,6 @@ def corrected_cases(
         ``ps`` has no ``meta["plan_index"]`` (:func:`freeplayid.studies.rebuild_case`).
     """
     from joblib import Parallel, delayed
-    from tqdm import tqdm
 
     from .cases import plan_cases, rebuild_case, require_plan_index
 
@@ -206,7 +210,8 @@ def corrected_cases(
     out = Parallel(n_jobs=n_jobs, batch_size=1)(
         delayed(_corrected_one)(rebuild_case(bank, spec, ps, i, plan=plan), system, init, fit,
                                 extraction)
-        for i, _, init in tqdm(jobs, desc="corrected fits", unit="fit", disable=not progress)
+        for i, _, init in progress_bar(jobs, desc="corrected fits", unit="fit",
+                                       show=progress)
     )
     rows = []
     for (i, m, _), (kn, delta, n_eval, wall, conv, n_rep, verdict, why) in zip(jobs, out,

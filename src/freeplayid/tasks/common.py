@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import logging
 import os
 import sys
 import time
@@ -25,7 +26,9 @@ if TYPE_CHECKING:
 
 __all__ = ["build_system", "register_configs", "study_specs", "study_data", "train_network",
            "run_dir", "write_metrics", "writing_to", "check_run_dir", "check_command_line",
-           "command_errors", "MODEL_KINDS", "INTERRUPTED", "LAUNCHER_EXTRAS"]
+           "command_errors", "debug_choice", "MODEL_KINDS", "INTERRUPTED", "LAUNCHER_EXTRAS"]
+
+log = logging.getLogger(__name__)
 
 MODEL_KINDS = ("fin", "npz", "sdof")
 INTERRUPTED = 130  # exit status of a command stopped by Ctrl-C (128 + SIGINT, as a shell's)
@@ -148,6 +151,16 @@ def run_dir() -> Path:
     return Path.cwd()
 
 
+def debug_choice() -> str | None:
+    """The ``debug`` option this run composed (``debug=fast``: "fast"), None without one or
+    outside a Hydra run."""
+    from hydra.core.hydra_config import HydraConfig
+
+    if not HydraConfig.initialized():
+        return None
+    return HydraConfig.get().runtime.choices.get("debug")
+
+
 def write_metrics(folder: Path, metrics: dict) -> Path:
     """Write ``metrics.json`` (atomically) and return its path."""
     return atomic_write_text(Path(folder) / "metrics.json",
@@ -188,10 +201,12 @@ def command_errors(command: str) -> Iterator[None]:
     try:
         yield
     except InputError as exc:
+        log.debug("%s: %s", command, exc)  # the log file's last line (the terminal: sys.exit's)
         sys.exit(f"{command}: {exc}")
     except KeyboardInterrupt:
         _close_progress_bars()
         sys.stdout.flush()
+        log.debug("%s: interrupted", command)
         print(f"{command}: interrupted", file=sys.stderr)
         sys.exit(INTERRUPTED)
 

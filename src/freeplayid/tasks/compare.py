@@ -13,6 +13,7 @@ every method on the corrected cases alone), ``compare_errors.png``, ``compare_co
 from __future__ import annotations
 
 import csv
+import logging
 import time
 from pathlib import Path
 
@@ -24,10 +25,20 @@ from ..errors import InputError
 from ..inverse import load_inverse_model
 from ..studies import compare_methods, pick_cases, simulate_bank
 from .checks import COMPARE, check_config
-from .common import run_dir, study_data, study_specs, train_network, write_metrics, writing_to
+from .common import (
+    debug_choice,
+    run_dir,
+    study_data,
+    study_specs,
+    train_network,
+    write_metrics,
+    writing_to,
+)
 from .options import options_from_config
 
 __all__ = ["compare"]
+
+log = logging.getLogger(__name__)
 
 
 def _figures(out: Path, rows: list[dict], summary: list[dict], axis: str) -> list[str]:
@@ -87,7 +98,7 @@ def _compare(cfg: DictConfig, fit, stage: Path, out: Path, ckpt: Path | None,
             "meta['plan_index'], which the corrected fits need to rebuild their records; delete "
             "that folder to rebuild it, or set compare.corrected_cases_per_value=0")
     if ckpt is None:
-        print("no inverse.checkpoint given: training one on the cached data set")
+        log.info("no inverse.checkpoint given: training one on the cached data set")
         model = load_inverse_model(train_network(cfg, data, stage), system=data.system)
         ckpt = out / "checkpoint.ckpt"  # where it will be once the run completes
     else:
@@ -96,7 +107,7 @@ def _compare(cfg: DictConfig, fit, stage: Path, out: Path, ckpt: Path | None,
     axis = str(cfg.dataset.cases.axis)
     bank = None
     if n_corrected:
-        _print_corrected(test, pick_cases(test, n_corrected), axis)
+        _log_corrected(test, pick_cases(test, n_corrected), axis)
         bank = simulate_bank(data.system, bank_spec, cache_dir=cache_dir, progress=False)
     result = compare_methods(
         test, data.system, network=model, axis=axis, single_start=_single_start(cfg), fit=fit,
@@ -107,9 +118,9 @@ def _compare(cfg: DictConfig, fit, stage: Path, out: Path, ckpt: Path | None,
     del bank
     for r in result.rows:
         if r.get("verdict") == "failed":
-            print(f"case {r['case']}, {r['method']}: failed: {r['failure']}")
+            log.info(f"case {r['case']}, {r['method']}: failed: {r['failure']}")
     table = result.markdown()
-    print(table)  # before anything is written
+    log.info(table)  # before anything is written
     with writing_to(out):
         _write_tables(stage, result)
         figures = _figures(stage, result.rows, result.summary, axis) if cfg.plot else []
@@ -117,8 +128,13 @@ def _compare(cfg: DictConfig, fit, stage: Path, out: Path, ckpt: Path | None,
                "runtime_s": time.perf_counter() - t0}
     with writing_to(out):
         write_metrics(stage, metrics)
-    _print_metrics(metrics, result.corrected.size)
-    print(f"{metrics['runtime_s']:.1f} s -> {out}")
+    debug = debug_choice()
+    if debug:
+        log.info(f"debug={debug}: a few short debug cases"
+                 + (", a barely trained debug network" if cfg.inverse.checkpoint is None
+                    else "") + "; the rates below say nothing of the method")
+    _log_metrics(metrics, result.corrected.size)
+    log.info(f"{metrics['runtime_s']:.1f} s -> {out}")
     return metrics
 
 
@@ -146,27 +162,27 @@ def _write_tables(stage: Path, result) -> None:
     (stage / "compare.md").write_text(f"# Comparison over {result.axis}\n\n" + result.markdown())
 
 
-def _print_metrics(metrics: dict, n_corrected: int) -> None:
-    print(f"network alone within bounds: {100 * metrics['network_within_bounds']:.1f} %; "
-          f"success network+fit {100 * metrics['success_network_fit']:.1f} % vs multi-start "
-          f"{100 * metrics['success_multistart']:.1f} % with "
-          f"{metrics['evaluation_ratio_multistart_to_network_fit']:.1f}x fewer evaluations")
+def _log_metrics(metrics: dict, n_corrected: int) -> None:
+    log.info(f"network alone within bounds: {100 * metrics['network_within_bounds']:.1f} %; "
+             f"success network+fit {100 * metrics['success_network_fit']:.1f} % vs multi-start "
+             f"{100 * metrics['success_multistart']:.1f} % with "
+             f"{metrics['evaluation_ratio_multistart_to_network_fit']:.1f}x fewer evaluations")
     if "corrected" in metrics:
         c = metrics["corrected"]
-        print(f"on the {n_corrected} corrected cases: success network+corrected "
-              f"{100 * c['success_network+corrected']:.1f} % "
-              f"({c['evaluations_network+corrected']:.0f} evaluations) vs multi-start+corrected "
-              f"{100 * c['success_multi-start+corrected']:.1f} % "
-              f"({c['evaluations_multi-start+corrected']:.0f}); plain network+fit "
-              f"{100 * c['success_network+fit']:.1f} %, multi-start "
-              f"{100 * c['success_multi-start']:.1f} %")
+        log.info(f"on the {n_corrected} corrected cases: success network+corrected "
+                 f"{100 * c['success_network+corrected']:.1f} % "
+                 f"({c['evaluations_network+corrected']:.0f} evaluations) vs multi-start+corrected "
+                 f"{100 * c['success_multi-start+corrected']:.1f} % "
+                 f"({c['evaluations_multi-start+corrected']:.0f}); plain network+fit "
+                 f"{100 * c['success_network+fit']:.1f} %, multi-start "
+                 f"{100 * c['success_multi-start']:.1f} %")
 
 
-def _print_corrected(test, picked: np.ndarray, axis: str) -> None:
+def _log_corrected(test, picked: np.ndarray, axis: str) -> None:
     """Which cases get the corrected fits (their index in compare.csv and their truth)."""
     unit, scale = ("g", 1.0) if axis == "noise_g" else ("mrad", 1e3)
-    print(f"corrected fits (replay) on {picked.size} cases: "
-          + "; ".join(f"case {i} ({axis.replace('_g', '')} "
-                      f"{scale * test.meta['axis_value'][i]:g} {unit}, kn "
-                      f"{test.kn[i]:.4g} N·m/rad, δ {1e3 * test.delta[i]:.4g} mrad)"
-                      for i in picked))
+    log.info(f"corrected fits (replay) on {picked.size} cases: "
+             + "; ".join(f"case {i} ({axis.replace('_g', '')} "
+                         f"{scale * test.meta['axis_value'][i]:g} {unit}, kn "
+                         f"{test.kn[i]:.4g} N·m/rad, δ {1e3 * test.delta[i]:.4g} mrad)"
+                         for i in picked))

@@ -7,6 +7,7 @@ configuration is checked before any work and the result printed before anything 
 
 from __future__ import annotations
 
+import logging
 import time
 from pathlib import Path
 
@@ -24,6 +25,8 @@ from .common import run_dir, write_metrics, writing_to
 from .options import identify_options
 
 __all__ = ["identify", "bundled_example"]
+
+log = logging.getLogger(__name__)
 
 
 def _data_path(cfg: DictConfig) -> Path:
@@ -95,6 +98,7 @@ def _identify(cfg: DictConfig, options: dict, stage: Path, t0: float) -> dict:
     from ..model import load_system
 
     ds = read_dataset(_data_path(cfg))
+    log.debug("data set %s: %d runs, model %s", ds.path, len(ds.runs), ds.model)
     if ds.model is None:
         raise DatasetError(f"{ds.path}: missing field `model` (the linear model file, .npz)")
     system = load_system(ds.model)
@@ -105,9 +109,10 @@ def _identify(cfg: DictConfig, options: dict, stage: Path, t0: float) -> dict:
     result = identify_dataset(ds, system=system, init=inverse_model, **options)
     est = result.inverse_estimate
     if est:
-        print(f"inverse model: kn = {est['kn']:.4g} N·m/rad (x/÷ {np.exp(est['log_kn_std']):.3f})"
-              f", delta = {est['delta']:.4g} rad (x/÷ {np.exp(est['log_delta_std']):.3f})")
-    print(result.summary())  # before anything is written: a failed write does not lose it
+        log.info(f"inverse model: kn = {est['kn']:.4g} N·m/rad "
+                 f"(x/÷ {np.exp(est['log_kn_std']):.3f}), delta = {est['delta']:.4g} rad "
+                 f"(x/÷ {np.exp(est['log_delta_std']):.3f})")
+    log.info(result.summary())  # before anything is written: a failed write does not lose it
     out = run_dir()
     with writing_to(out):
         figures = _figures(stage, result) if cfg.plot else []
@@ -128,8 +133,8 @@ def _identify(cfg: DictConfig, options: dict, stage: Path, t0: float) -> dict:
     metrics["verdict"] = result.verdict.status
     with writing_to(out):
         write_metrics(stage, metrics)
-    print(f"{len(used)} points, {len(result.rejected_runs)} rejected runs, "
-          f"{result.runtime_s:.1f} s -> {out}")
+    log.info(f"{len(used)} points, {len(result.rejected_runs)} rejected runs, "
+             f"{result.runtime_s:.1f} s -> {out}")
     if not result.verdict.ok and not cfg.allow_suspect:
         metrics["suspect_reasons"] = list(result.verdict.reasons)
     return metrics

@@ -4,6 +4,7 @@
 
 from __future__ import annotations
 
+import logging
 import warnings
 from pathlib import Path
 
@@ -18,6 +19,8 @@ from ..plots import plot_mode_pairs
 from .common import run_dir, write_metrics
 
 __all__ = ["model"]
+
+log = logging.getLogger(__name__)
 
 
 def _figure(out: Path, build) -> list[str]:
@@ -75,10 +78,10 @@ def model(cfg: DictConfig) -> dict:
     figures = _figure(out, build) if cfg.plot else []
     atomic_write_text(out / "report.md", build.report(figures))
     for w in build.warnings():
-        print(f"warning: {w}")
+        log.warning(w)
     for k, (a, b, s) in build.parameters.items():
-        print(f"{k}: {a:.6g} -> {b:.6g} (x {s:.5f})")
-    print(f"model.npz ({len(build.system.dof_names)} DOFs), report.md -> {out}")
+        log.info(f"{k}: {a:.6g} -> {b:.6g} (x {s:.5f})")
+    log.info(f"model.npz ({len(build.system.dof_names)} DOFs), report.md -> {out}")
     metrics = build.metrics()
     metrics["modal_test"] = None if test is None else test.source
     write_metrics(out, metrics)

@@ -7,6 +7,7 @@ data set, ``responses.png`` and ``metrics.json`` all or none (``staged_folder``)
 
 from __future__ import annotations
 
+import logging
 import time
 
 import numpy as np
@@ -21,6 +22,8 @@ from .checks import SIMULATE, check_config
 from .common import build_system, run_dir, write_metrics, writing_to
 
 __all__ = ["simulate"]
+
+log = logging.getLogger(__name__)
 
 def _channels(cfg: DictConfig, system) -> dict:
     """CSV column -> DOF name: ``channels``, else the model's ``channels``, else every uz_* DOF."""
@@ -54,7 +57,7 @@ def _check_cost(cfg: DictConfig, system, sweep: Sweep, channels: dict) -> int:
         raise ConfigError(f"{cost}, above `max_steps` = {cfg.max_steps:g}: check `kn` "
                           "(a stiff hinge shrinks the step as sqrt(kn)), or set cutoff_hz / "
                           "quasi_static_hz, or force=true to run anyway")
-    print(cost)
+    log.info(cost)
     return steps
 
 
@@ -133,8 +136,8 @@ def _simulate(cfg: DictConfig, stage, t0: float) -> dict:
         }
     with writing_to(out):
         write_metrics(stage, metrics)
-    print(f"{len(levels)} sweeps, {metrics['n_diverged']} diverged, "
-          f"{metrics['runtime_s']:.1f} s -> {out}")
+    log.info(f"{len(levels)} sweeps, {metrics['n_diverged']} diverged, "
+             f"{metrics['runtime_s']:.1f} s -> {out}")
     return metrics
 
 

@@ -11,6 +11,7 @@ the whole configuration.
 from __future__ import annotations
 
 import json
+import logging
 import time
 from pathlib import Path
 
@@ -19,9 +20,18 @@ from omegaconf import DictConfig, OmegaConf
 
 from ..atomic import staged_folder
 from .checks import TRAIN, check_config
-from .common import run_dir, study_data, train_network, write_metrics, writing_to
+from .common import (
+    debug_choice,
+    run_dir,
+    study_data,
+    train_network,
+    write_metrics,
+    writing_to,
+)
 
 __all__ = ["train"]
+
+log = logging.getLogger(__name__)
 
 
 def _figures(out: Path, history: dict, test, pred, axis_name: str) -> list[str]:
@@ -94,12 +104,17 @@ def _train(cfg: DictConfig, stage: Path, t0: float) -> dict:
     with writing_to(out):
         write_metrics(stage, metrics)
     net = metrics["network"]
-    print(f"test cases: {data.test.n_cases}; network alone within "
-          f"{100 * cfg.network_bounds.delta:g} % in delta and {100 * cfg.network_bounds.kn:g} % "
-          f"in kn: {100 * net['overall']['within_bounds']:.1f} % of cases")
+    debug = debug_choice()
+    if debug:
+        log.info(f"debug={debug}: a debug network, barely trained ({metrics['epochs']} epochs on "
+                 f"{data.train.n_cases} cases of a short sweep); its errors below say nothing "
+                 f"of the method (train without debug={debug} for a real one)")
+    log.info(f"test cases: {data.test.n_cases}; network alone within "
+             f"{100 * cfg.network_bounds.delta:g} % in delta and {100 * cfg.network_bounds.kn:g} % "
+             f"in kn: {100 * net['overall']['within_bounds']:.1f} % of cases")
     for v, b in net["per_value"].items():
-        print(f"  {axis} = {v}: median |err| delta {100 * b['delta_err_median']:.2f} %, "
-              f"kn {100 * b['kn_err_median']:.2f} %, "
-              f"within bounds {100 * b['within_bounds']:.0f} %")
-    print(f"{metrics['runtime_s']:.1f} s -> {out}")
+        log.info(f"  {axis} = {v}: median |err| delta {100 * b['delta_err_median']:.2f} %, "
+                 f"kn {100 * b['kn_err_median']:.2f} %, "
+                 f"within bounds {100 * b['within_bounds']:.0f} %")
+    log.info(f"{metrics['runtime_s']:.1f} s -> {out}")
     return metrics
