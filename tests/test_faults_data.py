@@ -402,4 +402,5 @@ def test_script_rejects_faulty_runs_and_identifies_the_rest(fin2, tmp_path):
     for key, truth in (("kn", 480.0), ("delta", 0.003)):
         assert res[key] == pytest.approx(ref[key], rel=1e-9)
         assert res[key] == pytest.approx(truth, rel=0.1)  # two runs, the debug=fast grid
-    assert "rejected run dead_base.csv: base channel acc_base is dead" in proc.stdout
+    assert "rejected run dead_base.csv: record checks: run dead_base.csv, channel acc_base" in \
+        proc.stdout
