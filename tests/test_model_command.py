@@ -195,7 +195,10 @@ def test_identify_reports_the_zero_clearance_check(tmp_path):
     (tmp_path / "manifest.yaml").write_text(yaml.safe_dump(man))
     ds = read_dataset(tmp_path)
     assert sorted(ds.reference_modes["dofs"]) == sorted(dofs)
-    result = identify(ds, progress=False, fit={"multistart": {"n": 3}}, replay=None)
+    # the model as it is (by default it is first updated to the sealed modes, which moves mode 2
+    # onto its reference: test_real_tests.py)
+    result = identify(ds, progress=False, fit={"multistart": {"n": 3}}, replay=None,
+                      model={"update": False})
     v = result.validation
     assert v.mac.min() > 0.999 and abs(v.error_hz[0]) < 1.0 and v.error_hz[1] < -4.0
     assert not v.passed  # mode 2 is 5 Hz off

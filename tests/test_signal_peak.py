@@ -122,7 +122,7 @@ def test_one_sided_amplitude_ignores_what_lies_beyond_its_edge(before):
 
 
 def test_jump_point_unknown_name():
-    valid = r"\['drop', 'drop_smoothed', 'smoothed', 'windowed'\]"
+    valid = r"\['drop', 'drop_smoothed', 'quadrature', 'smoothed', 'windowed'\]"
     with pytest.raises(ValueError, match=r"`jump_point` must be one of " + valid):
         extract_backbone_points(np.zeros((1, 1, 4096)) + 1.0, 256.0, quantity="displacement",
                                 jump_point="peak")
