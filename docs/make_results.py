@@ -78,7 +78,7 @@ def identify_sweeps(fin, result, run_names, *, members=None, noise=None, **kw):
     backbone fit (no replay) unless ``kw`` says otherwise: these tables measure it."""
     ds = sweep_dataset(result, columns={c: c for c in CHANNELS}, members=members,
                        run_names=run_names, noise=noise)
-    res = identify(ds, system=fin, progress=False, **{"replay": False, **kw})
+    res = identify(ds, system=fin, progress=False, **{"replay": None, **kw})
     return res.points, res.plain_fit
 
 

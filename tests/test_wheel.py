@@ -143,8 +143,8 @@ def test_identify_from_the_wheel(site, sdof_data):
     stdout = run_installed(site, f"""
         import json
         from freeplayid import identify
-        result = identify({str(sdof_data)!r}, multistart={MULTISTART!r}, progress=False,
-                          replay=False)
+        result = identify({str(sdof_data)!r}, fit={{"multistart": {MULTISTART!r}}},
+                          progress=False, replay=None)
         print(json.dumps({{"kn": result.kn, "delta": result.delta}}))
     """)
     found = json.loads(stdout.strip().splitlines()[-1])
