@@ -6,8 +6,8 @@ Methods compared on the same cases (``METHODS``):
 - ``network+fit``: one backbone fit started from the network's estimate;
 - ``single-start``: one fit started from a fixed guess (the centre of the priors);
 - ``multi-start``: the pure-fitting baseline, a grid of starts (the best optimum wins);
-- ``network+corrected``: the bias-corrected fit (``identify(...)`` with its default replay, docs/identify.md
-  section 3b) started from the network's estimate;
+- ``network+corrected``: the bias-corrected fit (``identify(...)`` with its default replay,
+  docs/identify.md section 3b) started from the network's estimate;
 - ``multi-start+corrected``: the bias-corrected fit started from the multi-start grid.
 
 The two corrected methods replay the test by simulation, so they need each case's records, not
