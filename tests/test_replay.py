@@ -283,7 +283,7 @@ def test_point_weights_follow_noise_over_amplitude_and_the_backbone_slope(measur
     expect = np.median(scale) / np.maximum(scale, WEIGHT_FLOOR * np.median(scale))
     got = np.array([weights[(r, "x")] for r in pts.run])
     np.testing.assert_allclose(got, expect, rtol=1e-2)  # the slope over a finite step
-    assert [t["weight"] for t in table] == pytest.approx(list(got))
+    assert [t.weight for t in table] == pytest.approx(list(got))
     assert got[0] < got[1] < got[2]  # the point near the gap: steep backbone, small amplitude
     # a point whose noise is tiny weighs at most 1 / WEIGHT_FLOOR times the median point
     noise["s1.0.csv"] = np.array([1e-6])
