@@ -188,6 +188,14 @@ class Records:
             out.append((self.base_name, rec.base, -1))
         return out
 
+    def each_signal(self, check) -> list:
+        """The findings of ``check(records, rec, name, x, row, unit)`` (a Finding, or None for
+        none) over every signal of every run, in order."""
+        unit = self.dataset.units
+        found = (check(self, rec, name, x, row, unit) for rec in self.runs
+                 for name, x, row in self.signals(rec))
+        return [f for f in found if f is not None]
+
     def replace_signal(self, rec: RunRecord, row: int, values) -> None:
         """Overwrite one signal of a run with its repaired samples."""
         if row < 0:

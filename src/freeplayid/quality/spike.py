@@ -162,11 +162,4 @@ def _channel(records, rec, name, x, row, unit) -> Finding | None:
 
 def check_spike(records) -> list[Finding]:
     """Spikes in every channel (module docstring); a few are repaired."""
-    out = []
-    unit = records.dataset.units
-    for rec in records.runs:
-        for name, x, row in records.signals(rec):
-            f = _channel(records, rec, name, x, row, unit)
-            if f is not None:
-                out.append(f)
-    return out
+    return records.each_signal(_channel)
