@@ -236,3 +236,51 @@ def test_the_replay_misfit_check_reads_each_runs_point_against_the_backbone(offs
     assert "run_a" not in check.message
     if passed and peak > LIMITS["peak_amplitude"]:
         assert "damping is not the test's" in check.message
+
+
+def _points_with_directions(directions: dict) -> BackbonePoints:
+    """One used point and one analysed curve per run, the curve sweeping as ``directions`` says
+    (+1 up, -1 down); a run named ``*_unused`` gets its point rejected."""
+    from freeplayid.signal import AmplitudeCurve
+
+    pts, curves = [], []
+    for run, d in directions.items():
+        f = np.linspace(30.0, 46.5, 50)[::d]
+        used = not run.endswith("_unused")
+        pts.append(BackbonePoint(run, "acc", 40.0, 1e-4, used, "" if used else "too noisy",
+                                 10.0, 30.0))
+        curves.append(AmplitudeCurve(run, "acc", f, np.ones_like(f)))
+    return BackbonePoints(tuple(pts), (), tuple(curves), "acceleration", "acmp")
+
+
+def test_a_down_sweep_fails_the_plain_fit_and_passes_the_replay():
+    """Down-sweep runs with used points (jump-ups: no backbone points) make the plain fit
+    `suspect` with a reason that says why; the replayed answer passes with a note; up-sweeps and
+    down-sweeps without a used point raise nothing."""
+    from freeplayid.identification.verdict import down_sweep_runs, sweep_direction_check
+
+    mixed = _points_with_directions({"up": 1, "down": -1, "down_unused": -1})
+    assert down_sweep_runs(mixed) == ("down",)
+    plain = sweep_direction_check(mixed, replayed=False)
+    assert not plain.passed and "run(s) down sweep down" in plain.message
+    assert "biased" in plain.message and "down_unused" not in plain.message
+    assert sweep_direction_check(mixed, replayed=True).passed
+    assert sweep_direction_check(_points_with_directions({"a": 1, "b": 1}), replayed=False) is None
+
+
+def test_the_replay_misfit_of_a_down_sweep_names_the_jump_up():
+    """A down-sweep run whose replayed jump up misses is named as a jump up, and the causes
+    start with the down-sweep's jump-up."""
+    from freeplayid.identification.replay_checks import replay_checks
+    from freeplayid.replay.misfit import RunMisfit
+
+    class Rep:
+        failure, misfit, sweeps, damping, converged = "", {}, {}, None, True
+        jump_point, excitation, cross = "quadrature", "measured", None
+        iterations = [ReplayIteration(480.0, 3e-3, 480.0, 3e-3, n_evaluations=10)]
+        resonance = {"run_d": RunMisfit("run_d", 2e-3, 42.0, 3e-3, 0.0, 0.02)}
+
+    check = {c.name: c for c in replay_checks(Rep(), down_runs=("run_d",))}["replay_misfit"]
+    assert not check.passed
+    assert "run run_d: its jump up (phase resonance)" in check.message
+    assert "a down-sweep's jump-up" in check.message

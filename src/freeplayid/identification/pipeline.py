@@ -23,9 +23,11 @@ from .verdict import (
     answer_checks,
     base_level_checks,
     channel_checks,
+    down_sweep_runs,
     fit_checks,
     make_verdict,
     model_checks,
+    sweep_direction_check,
     validation_checks,
 )
 
@@ -237,11 +239,13 @@ def _corrected_result(dataset, system, plain: PlainEstimate, rep, mode: int, t0:
     kn_ci, delta_ci, source = _corrected_intervals(rep)
     kn_ci = widen(kn_ci, rep.kn, error.kn_shift)
     validation = _zero_clearance_check(dataset, system, rep.kn)
+    direction = sweep_direction_check(plain.points, replayed=True)
     verdict = make_verdict(
         record_checks(records) + base_level_checks(dataset) + channel_checks(plain.points)
         + answer_checks(plain.fitting_points(), rep.kn, rep.delta, kn_ci, delta_ci, system,
-                        mode=mode)
-        + replay_checks(rep) + model_checks(error) + validation_checks(validation))
+                        mode=mode) + ([direction] if direction is not None else [])
+        + replay_checks(rep, down_runs=down_sweep_runs(plain.points))
+        + model_checks(error) + validation_checks(validation))
     return dataclasses.replace(
         result, kn=rep.kn, delta=rep.delta, verdict=verdict, kn_ci95=kn_ci, delta_ci95=delta_ci,
         runtime_s=time.perf_counter() - t0, replay=rep, interval_source=source,

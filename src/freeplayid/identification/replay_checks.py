@@ -27,25 +27,34 @@ from .verdict import LIMITS, Check
 __all__ = ["replay_checks"]
 
 
-def _causes(replay) -> str:
-    """What makes a replay miss a test it was fitted to, given what it already replays."""
+def _causes(replay, down: bool = False) -> str:
+    """What makes a replay miss a test it was fitted to, given what it already replays
+    (``down``: a run that sweeps down is among the ones missed)."""
     causes = ["damping of another form than the replay's", "a linear model that is not the "
               "tested structure", "unequal gaps"]
+    if down:
+        causes.insert(0, "a down-sweep's jump-up, which leaves the lower branch at a place "
+                      "that small differences move")
     if getattr(replay, "excitation", "law") != "measured":
         causes.append("a level profile or sweep law the replay does not know (no base channel "
                       "to replay)")
     return ", ".join(causes[:-1]) + " or " + causes[-1]
 
 
-def _resonance_check(replay) -> Check:
+def _resonance_check(replay, down_runs=()) -> Check:
     """``replay_misfit``: every run's statistic point against the backbone at the answer, with
-    its peak and upper branch for the record (module docstring)."""
+    its peak and upper branch for the record (module docstring); ``down_runs`` sweep down (their
+    statistic is the jump up)."""
     misfits = getattr(replay, "resonance", None) or {}
     if not misfits:
         return Check("replay_misfit", True, "no replayed point to compare")
     lim = LIMITS["backbone_offset"]
     what = "phase resonance" if replay.jump_point == "quadrature" else "jump"
-    bad = [f"run {run}: its {what} {100 * abs(m.backbone_offset):.2g} % "
+
+    def point(run):
+        return f"jump up ({what})" if run in down_runs else what
+
+    bad = [f"run {run}: its {point(run)} {100 * abs(m.backbone_offset):.2g} % "
            f"{'above' if m.backbone_offset > 0 else 'below'} the measured one's place against "
            f"the backbone ({m.f_offset * m.f_hz:+.2g} Hz, the peak {100 * m.peak_offset:+.2g} %)"
            for run, m in misfits.items()
@@ -64,10 +73,12 @@ def _resonance_check(replay) -> Check:
                      f"the replay at the answer puts every run's {what} where the test has it "
                      f"against the backbone (within {100 * worst * lim:.2g} %; limit "
                      f"{100 * lim:g} %)" + shape, worst)
+    down = any(run in down_runs for run, m in misfits.items()
+               if math.isfinite(m.backbone_offset) and abs(m.backbone_offset) > lim)
     return Check("replay_misfit", False,
                  f"the replay at the answer does not reproduce the test's {what} points: "
-                 + "; ".join(bad) + f" (limit {100 * lim:g} %){shape} ({_causes(replay)}?)",
-                 worst)
+                 + "; ".join(bad) + f" (limit {100 * lim:g} %){shape} "
+                 f"({_causes(replay, down)}?)", worst)
 
 
 def _consistency_check(replay) -> Check | None:
@@ -96,12 +107,12 @@ def _consistency_check(replay) -> Check | None:
                  + ", ".join(off) + f" ({_causes(replay)}?)", value)
 
 
-def replay_checks(replay) -> list[Check]:
-    """The replay's self-check (module docstring)."""
+def replay_checks(replay, *, down_runs=()) -> list[Check]:
+    """The replay's self-check (module docstring); ``down_runs``: the runs that sweep down."""
     if getattr(replay, "failure", ""):
         return [Check("replay_failed", False, replay.failure)]
     misfit = {r: m for r, m in (replay.misfit or {}).items() if math.isfinite(m)}
-    checks = [_resonance_check(replay), _consistency_check(replay),
+    checks = [_resonance_check(replay, tuple(down_runs)), _consistency_check(replay),
               _sweep_law_check(replay, misfit, LIMITS["replay_misfit"]),
               _binding_check(replay.iterations), _converged_check(replay)]
     damping = getattr(replay, "damping", None)

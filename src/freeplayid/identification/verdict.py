@@ -31,6 +31,11 @@ compares the result or the data with a physical limit, never with a value tuned 
   estimated from the response channels (no hint, no base channel) is a reason for caution, not
   for suspicion by itself: the check fails only when such a run's replayed curves miss the
   measured ones (its ``replay_misfit`` above the limit), which a wrong law shows.
+- ``sweep_direction``: runs that sweep down. A down-sweep stays on the lower branch and jumps up
+  where that branch ends, below the backbone by an amount set by the damping and the level: its
+  points are no backbone points, and a plain fit of them is biased (tens of % on the default
+  fin). The plain fit fails the check; the replay, which sweeps each run as it was swept,
+  matches those points as they are and passes it with a note.
 - ``base_level``: the base channel's amplitude against each run's ``level_g``: a factor 9.81,
   1/9.81 or 1000 is a units error, a ratio that varies as a power of the frequency is a quantity
   error (acceleration declared as displacement...).
@@ -49,7 +54,8 @@ from ..signal import window_amplitudes
 from ..sweep import Sweep
 
 __all__ = ["Check", "Verdict", "LIMITS", "base_level_checks", "answer_checks", "channel_checks",
-           "fit_checks", "interval_check", "make_verdict", "model_checks", "validation_checks"]
+           "down_sweep_runs", "fit_checks", "interval_check", "make_verdict", "model_checks",
+           "sweep_direction_check", "validation_checks"]
 
 LIMITS = {
     "delta_max_rad": 0.05,  # [rad] largest plausible half-gap
@@ -227,6 +233,35 @@ def _by_run(extraction) -> dict[str, list[float]]:
     return by_run
 
 
+def down_sweep_runs(extraction) -> tuple[str, ...]:
+    """The runs with a used point whose analysed curve sweeps down (frequency falling)."""
+    used = {p.run for p in extraction.used()}
+    down = []
+    for c in extraction.curves:
+        f = np.asarray(c.frequency, dtype=float)
+        f = f[np.isfinite(f)]
+        if c.run in used and c.run not in down and f.size > 1 and f[-1] < f[0]:
+            down.append(c.run)
+    return tuple(down)
+
+
+def sweep_direction_check(extraction, *, replayed: bool) -> Check | None:
+    """``sweep_direction`` (module docstring): None when every used run sweeps up."""
+    down = down_sweep_runs(extraction)
+    if not down:
+        return None
+    runs = ", ".join(down)
+    if replayed:
+        return Check("sweep_direction", True,
+                     f"run(s) {runs} sweep down: their jump-up points lie below the backbone; "
+                     "the replay sweeps them down too and matches them as they are",
+                     float(len(down)))
+    return Check("sweep_direction", False,
+                 f"run(s) {runs} sweep down: a down-sweep jumps up where the lower branch ends, "
+                 "below the backbone, so the plain fit of its points is biased (tens of %); "
+                 "use the replay (the default) or up-sweeps", float(len(down)))
+
+
 def channel_checks(extraction) -> list[Check]:
     """``channel_agreement``: the channels of one run see one resonance; a spread above 1 %
     means another mode or a channel problem. ``extraction``: every run's points."""
@@ -265,7 +300,8 @@ def fit_checks(points, fit, system, extraction, *, mode: int = 0) -> list[Check]
                             f" <= {limit:.2e}" if fit.residual_rms <= limit else
                             f" > {limit:.2e} (channel scatter {scatter:.1e}): the points do not "
                             "lie on one backbone of this model"), fit.residual_rms))
-    return checks
+    direction = sweep_direction_check(extraction, replayed=False)
+    return checks + ([direction] if direction is not None else [])
 
 
 def interval_check(kn: float, delta: float, kn_ci95, delta_ci95) -> Check:
