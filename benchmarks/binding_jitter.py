@@ -54,7 +54,7 @@ def fitted(dataset, system, theta, rule: str) -> np.ndarray:
     """log(kn, delta, point frequencies, point amplitudes) of the statistic's fit."""
     from freeplayid import identify
 
-    res = identify(dataset, system=system, init=tuple(theta), progress=False,
+    res = identify(dataset, system=system, fit={"init": tuple(theta)}, progress=False,
                    extraction={"jump_point": rule, "use_sweep_hint": True}, replay=None)
     pts = res.points.used()
     return np.log(np.array([res.kn, res.delta] + [p.f_hz for p in pts]

@@ -99,7 +99,7 @@ def run_case(case: dict, rules=RULES) -> dict:
     for rule in rules:
         jump_point, weighted = VARIANTS[rule]
         try:
-            res = identify(ds, system=fin, init=init, progress=False,
+            res = identify(ds, system=fin, fit={"init": init}, progress=False,
                            extraction={"method": "lockin", "use_sweep_hint": True},
                            replay={"jump_point": jump_point, "weighted": weighted})
         except ValueError as err:  # no usable points: a failed case for both rules

@@ -195,3 +195,32 @@ def test_multiruns_can_use_the_joblib_launcher():
                                                          "hydra/launcher=joblib"],
                       return_hydra_config=True)
     assert cfg.hydra.launcher._target_.endswith("JoblibLauncher")
+
+
+def test_identify_has_at_most_eight_parameters_and_the_fit_holds_its_start():
+    """identify's options are records (≤ 8 parameters); the fit's start is FitOptions.init: a
+    start pair or several are stored as float tuples, a bad one is refused naming `init`, and it
+    is no config key (the scripts pick it with `init=` / `inverse.checkpoint=`)."""
+    import inspect
+
+    from freeplayid import identify
+
+    assert len(inspect.signature(identify).parameters) <= 8
+    assert FitOptions(init=[480, 3e-3]).init == (480.0, 3e-3)
+    assert FitOptions(init=[[480, 3e-3], (500.0, 2e-3)]).init == ((480.0, 3e-3), (500.0, 2e-3))
+    for bad in ((480.0, -1.0), (1.0, 2.0, 3.0), "480"):
+        with pytest.raises(ValueError, match="`init`"):
+            FitOptions(init=bad)
+
+    class Net:  # an inverse model: anything with predict_points, kept as given
+        def predict_points(self, points):
+            return 480.0, 3e-3, 0.1, 0.1
+    net = Net()
+    assert FitOptions(init=net).init is net
+    with initialize_config_dir(config_dir=str(CONF), version_base="1.3"):
+        cfg = compose(config_name="identify")
+    assert "init" not in cfg.fit
+    with initialize_config_dir(config_dir=str(CONF), version_base="1.3"):
+        cfg = compose(config_name="identify", overrides=["+fit.init=[480,0.003]"])
+    with pytest.raises(ValueError, match="`fit.init` is not an option of `fit`"):
+        identify_options(cfg)

@@ -100,7 +100,7 @@ def test_the_replay_engine_can_be_chosen(measured, system):
     # moves (docs/signal.md, the drop point); an unknown engine fails with the valid names
     def points(engine):
         ds = replay_dataset(measured, system, WN * WN, ref.DELTA, engine=engine)
-        res = identify(ds, system=system, init=(WN * WN, ref.DELTA), progress=False,
+        res = identify(ds, system=system, fit={"init": (WN * WN, ref.DELTA)}, progress=False,
                        extraction={"jump_point": "drop"}, replay=None)
         return {(p.run, p.channel): p for p in res.points.used()}
 

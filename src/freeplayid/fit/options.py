@@ -72,6 +72,10 @@ class FitOptions:
     multistart : MultiStart
         The grid of starts used when nothing else starts the fit (a mapping of its fields is
         accepted).
+    init : InverseModel, (kn, delta), sequence of them, or None
+        The fit's start: a trained inverse model (:func:`freeplayid.inverse.load_inverse_model`;
+        one start at its estimate from the points), given start(s) [N m/rad, rad], or None for
+        the ``multistart`` grid. Not a config key (the scripts' ``init`` key picks it).
     """
 
     backbone: str = "dfa"
@@ -79,6 +83,7 @@ class FitOptions:
     n_bootstrap: int = 0
     seed: int = 0
     multistart: MultiStart = field(default_factory=MultiStart)
+    init: object = field(default=None, metadata={"config": False})
 
     def __post_init__(self):
         backbone_method(self.backbone, argument="backbone")
@@ -98,3 +103,21 @@ class FitOptions:
         if not isinstance(ms, MultiStart):
             raise ValueError(f"`multistart` must be a MultiStart, got {type(ms).__name__}")
         object.__setattr__(self, "multistart", ms)
+        object.__setattr__(self, "init", _checked_init(self.init))
+
+
+def _checked_init(init):
+    """``init`` as stored: an inverse model as given, starts as a tuple of (kn, delta) floats
+    (one start stays one pair); ValueError naming ``init`` unless every value is finite > 0."""
+    if init is None or hasattr(init, "predict_points"):
+        return init
+    try:
+        arr = np.asarray(init, dtype=float)
+    except (TypeError, ValueError):
+        arr = np.empty(0)
+    if arr.ndim not in (1, 2) or arr.shape[-1] != 2 or arr.size == 0:
+        raise ValueError("`init` must be an inverse model, one (kn, delta) or a sequence of "
+                         f"them, got {init!r}")
+    if not (np.all(np.isfinite(arr)) and np.all(arr > 0)):
+        raise ValueError(f"`init` values must be finite and > 0, got {init!r}")
+    return tuple(map(float, arr)) if arr.ndim == 1 else tuple(tuple(map(float, r)) for r in arr)

@@ -37,7 +37,7 @@ DEFAULT_REPLAY = Replay()  # identify corrects the plain fit by replaying the te
 DEFAULT_RECORDS = RecordCheckOptions()  # ... and checks the records first unless told not
 
 
-def identify(dataset, *, system: FreeplaySystem | None = None, init=None,
+def identify(dataset, *, system: FreeplaySystem | None = None,
              extraction: Extraction | Mapping | None = None,
              fit: FitOptions | Mapping | None = None,
              replay: Replay | Mapping | None = DEFAULT_REPLAY,
@@ -62,15 +62,14 @@ def identify(dataset, *, system: FreeplaySystem | None = None, init=None,
         folder or ``manifest.yaml``.
     system : FreeplaySystem, optional
         The linear model; default the data set's ``model`` file.
-    init : InverseModel, (kn, delta), sequence of them, or None
-        The fit's start: a trained inverse model (:func:`freeplayid.inverse.load_inverse_model`;
-        its estimate from the points), given start(s), or None for the multi-start grid.
     extraction : Extraction or mapping, optional
         How the points are taken (:class:`freeplayid.signal.Extraction`; a mapping of its
         fields is accepted); default ``Extraction()``.
     fit : FitOptions or mapping, optional
         How the backbone is fitted (:class:`freeplayid.fit.FitOptions`: backbone, mode,
-        bootstrap, the multi-start grid); default ``FitOptions()``.
+        bootstrap, the multi-start grid, and ``init``, the fit's start: a trained inverse model
+        (:func:`freeplayid.inverse.load_inverse_model`), given (kn, delta) start(s), or None for
+        the grid); default ``FitOptions()``.
     replay : Replay, mapping or None
         The bias correction by replaying the test (:class:`freeplayid.replay.Replay`: damping,
         statistic, weights, bootstrap by replay, convergence, engine). On by default (the plain
@@ -108,8 +107,8 @@ def identify(dataset, *, system: FreeplaySystem | None = None, init=None,
         dataset = read_dataset(dataset)
     system = _system(dataset, system)
     dataset, checked = checked_dataset(dataset, system, records)
-    est = _plain_estimate(dataset, system, checked, extraction=extraction, fit=fit, init=init,
-                          progress=progress)
+    est = _plain_estimate(dataset, system, checked, extraction=extraction, fit=fit,
+                          init=fit.init, progress=progress)
     system, est, update = update_model(dataset, system, est, fit, model)
     error = model_error(system, est, fit, model, update)
     if replay is None:

@@ -25,6 +25,7 @@ share within bounds, calibration of its uncertainty).
 
 from __future__ import annotations
 
+import dataclasses
 import time
 import warnings
 from collections.abc import Sequence
@@ -132,8 +133,8 @@ def _corrected_one(dataset, system, init, fit: FitOptions, extraction: Extractio
     "failed" and the reason."""
     t0 = time.perf_counter()
     try:
-        res = identify(dataset, system=system, init=init, extraction=extraction, fit=fit,
-                       replay=Replay(), progress=False)
+        res = identify(dataset, system=system, extraction=extraction,
+                       fit=dataclasses.replace(fit, init=init), replay=Replay(), progress=False)
     except ValueError as err:  # IdentificationError, or every start diverged: a failed case
         return np.nan, np.nan, 0, time.perf_counter() - t0, False, 0, "failed", str(err)
     rep = res.replay

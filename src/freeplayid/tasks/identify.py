@@ -7,6 +7,7 @@ configuration is checked before any work and the result printed before anything 
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import time
 from pathlib import Path
@@ -106,7 +107,9 @@ def _identify(cfg: DictConfig, options: dict, stage: Path, t0: float) -> dict:
         raise ConfigError(f"`fit.mode` must be an integer in [0, {system.n_dof - 1}] (the model "
                           f"{ds.model.name} has {system.n_dof} modes), got {cfg.fit.mode!r}")
     inverse_model = _load_inverse(cfg, system)  # a wrong checkpoint fails before the extraction
-    result = identify_dataset(ds, system=system, init=inverse_model, **options)
+    if inverse_model is not None:
+        options["fit"] = dataclasses.replace(options["fit"], init=inverse_model)
+    result = identify_dataset(ds, system=system, **options)
     est = result.inverse_estimate
     if est:
         log.info(f"inverse model: kn = {est['kn']:.4g} N·m/rad "

@@ -41,11 +41,17 @@ SWITCHED = ("replay", "records")
 ENABLED = "enabled"
 
 
+def _config_fields(cls) -> list[str]:
+    """The record's fields that are config keys (not those marked ``metadata={"config":
+    False}``, e.g. :attr:`freeplayid.fit.FitOptions.init`, an object the task passes)."""
+    return [f.name for f in dataclasses.fields(cls) if f.metadata.get("config", True)]
+
+
 def _node(cls) -> dict:
     """The record's defaults as a plain config node (tuples as lists)."""
     def plain(v):
         if dataclasses.is_dataclass(v):
-            return {k: plain(x) for k, x in dataclasses.asdict(v).items()}
+            return {k: plain(getattr(v, k)) for k in _config_fields(type(v))}
         if isinstance(v, dict):
             return {k: plain(x) for k, x in v.items()}
         return list(v) if isinstance(v, tuple) else v
@@ -82,7 +88,7 @@ def options_from_config(cfg: DictConfig, group: str):
         raise ConfigError(f"`{group}` cannot be resolved: {str(e).splitlines()[0]}") from None
     if group in SWITCHED and not values.pop(ENABLED, True):
         return None
-    names = [f.name for f in dataclasses.fields(cls)]
+    names = _config_fields(cls)
     unknown = sorted(set(values) - set(names))
     if unknown:
         raise ConfigError(f"`{group}.{unknown[0]}` is not an option of `{group}`; valid: {names}")
