@@ -284,3 +284,42 @@ def test_the_replay_misfit_of_a_down_sweep_names_the_jump_up():
     assert not check.passed
     assert "run run_d: its jump up (phase resonance)" in check.message
     assert "a down-sweep's jump-up" in check.message
+
+
+@pytest.mark.parametrize("se, passed", [(float("nan"), False), (5e-4, False), (2e-3, True)])
+def test_the_replay_misfit_limit_is_the_larger_of_the_accuracy_and_the_noise(se, passed):
+    """A run 0.3 % off the measured point's place against the backbone fails the 0.2 % limit
+    unless the data's noise puts 3 standard errors of that offset above it (0.6 % here)."""
+    from freeplayid.identification.replay_checks import replay_checks
+    from freeplayid.replay.misfit import RunMisfit
+
+    class Rep:
+        failure, misfit, sweeps, damping, converged = "", {}, {}, None, True
+        jump_point, excitation, cross = "quadrature", "measured", None
+        iterations = [ReplayIteration(480.0, 3e-3, 480.0, 3e-3, n_evaluations=10)]
+        resonance = {"run_a": RunMisfit("run_a", 1e-4, 40.0, 3e-3, 0.0, 0.01, se)}
+
+    check = {c.name: c for c in replay_checks(Rep())}["replay_misfit"]
+    assert check.passed is passed
+    assert ("standard errors" in check.message) is bool(np.isfinite(se))
+
+
+def test_the_offsets_standard_error_is_the_channels_scatter_pooled_over_the_runs():
+    """Two runs, two channels each, replayed offsets -/+0.1 % and -/+0.3 % about each run's
+    mean: the pooled variance is (2 x 1e-6 + 2 x 9e-6) / 2 and each run's mean offset has a
+    standard error of its root over root 2."""
+    from freeplayid.replay.misfit import resonance_misfits
+    from freeplayid.signal import AmplitudeCurve
+
+    f = np.linspace(35.0, 45.0, 50)
+    x = np.exp(-0.5 * ((f - 40.0) / 2.0) ** 2)
+    meas, rep, curves = [], [], []
+    for run, d in (("a", 1e-3), ("b", 3e-3)):
+        for ch, sign in (("c1", -1), ("c2", 1)):
+            meas.append(BackbonePoint(run, ch, 40.0, 1e-4, True, "", 1.0, 30.0))
+            rep.append(BackbonePoint(run, ch, 40.0 * (1 + sign * d), 1e-4, True, "", 1.0, 30.0))
+            curves.append(AmplitudeCurve(run, ch, f, x))
+    out = resonance_misfits(meas, rep, curves, curves, backbone_f=lambda p: 40.0)
+    se = np.sqrt((2 * 1e-6 + 2 * 9e-6) / 2 / 2)
+    assert out["a"].offset_se == pytest.approx(se, rel=1e-6)
+    assert out["b"].backbone_offset == pytest.approx(0.0, abs=1e-12)

@@ -4,10 +4,13 @@
 - ``replay_misfit``: each run's replay at the answer against the test where the fit takes its
   information: the statistic point's place against the backbone at the answer (its relative
   distance f / f_BC(X) - 1, replayed minus measured) within ``backbone_offset`` (0.2 %, about a
-  0.4 % move of kn). A point that only moves along the backbone (another damping puts the phase
-  resonance at another amplitude) does not move the answer and does not fail; the peaks and the
-  upper branches are reported beside it (a replay of the right model lands 0.01-0.03 % from
-  each run's jump and 0.1-0.5 % from its peak on the bundled example, 0.05 g noise).
+  0.4 % move of kn), or within ``offset_se`` (3) standard errors of that offset where the data's
+  noise makes that larger (the channels of a run see one resonance through independent noise:
+  their offsets' scatter, pooled over the runs). A point that only moves along the backbone
+  (another damping puts the phase resonance at another amplitude) does not move the answer and
+  does not fail; the peaks and the upper branches are reported beside it (a replay of the right
+  model lands 0.01-0.03 % from each run's jump and 0.1-0.5 % from its peak on the bundled
+  example, 0.05 g noise).
 - ``replay_consistency`` (the drop or maxima statistics): the answer's replay against the test
   on a second statistic it was not fitted to (:class:`freeplayid.replay.CrossCheck`); apart by
   more than ``cross_delta`` / ``cross_kn`` (half the accuracy bounds) and three standard errors.
@@ -48,19 +51,32 @@ def _resonance_check(replay, down_runs=()) -> Check:
     misfits = getattr(replay, "resonance", None) or {}
     if not misfits:
         return Check("replay_misfit", True, "no replayed point to compare")
-    lim = LIMITS["backbone_offset"]
     what = "phase resonance" if replay.jump_point == "quadrature" else "jump"
+
+    def limit(m):  # the accuracy that matters, or the data's noise where that is larger
+        se = getattr(m, "offset_se", math.nan)
+        noise = LIMITS["offset_se"] * se if math.isfinite(se) else 0.0
+        return max(LIMITS["backbone_offset"], noise)
 
     def point(run):
         return f"jump up ({what})" if run in down_runs else what
 
+    off = {run: m for run, m in misfits.items()
+           if math.isfinite(m.backbone_offset) and abs(m.backbone_offset) > limit(m)}
     bad = [f"run {run}: its {point(run)} {100 * abs(m.backbone_offset):.2g} % "
            f"{'above' if m.backbone_offset > 0 else 'below'} the measured one's place against "
-           f"the backbone ({m.f_offset * m.f_hz:+.2g} Hz, the peak {100 * m.peak_offset:+.2g} %)"
-           for run, m in misfits.items()
-           if math.isfinite(m.backbone_offset) and abs(m.backbone_offset) > lim]
-    worst = max((abs(m.backbone_offset) / lim for m in misfits.values()
-                 if math.isfinite(m.backbone_offset)), default=0.0)
+           f"the backbone ({m.f_offset * m.f_hz:+.2g} Hz, the peak {100 * m.peak_offset:+.2g} %;"
+           f" limit {100 * limit(m):.2g} %)" for run, m in off.items()]
+    ratios = [abs(m.backbone_offset) / limit(m) for m in misfits.values()
+              if math.isfinite(m.backbone_offset)]
+    worst = max(ratios, default=0.0)
+    largest = max((abs(m.backbone_offset) for m in misfits.values()
+                   if math.isfinite(m.backbone_offset)), default=0.0)
+    noise = [LIMITS["offset_se"] * m.offset_se for m in misfits.values()
+             if math.isfinite(getattr(m, "offset_se", math.nan))]
+    rule = (f"limit {100 * LIMITS['backbone_offset']:g} %, or {LIMITS['offset_se']:g} standard "
+            f"errors of the data's noise where larger (up to {100 * max(noise):.2g} %)"
+            if noise else f"limit {100 * LIMITS['backbone_offset']:g} %")
     peaks = max(abs(m.peak_offset) for m in misfits.values())
     branch = max((m.branch for m in misfits.values() if math.isfinite(m.branch)), default=0.0)
     shape = (f"; its peaks differ by up to {100 * peaks:.2g} % and its upper branches by "
@@ -71,14 +87,12 @@ def _resonance_check(replay, down_runs=()) -> Check:
     if not bad:
         return Check("replay_misfit", True,
                      f"the replay at the answer puts every run's {what} where the test has it "
-                     f"against the backbone (within {100 * worst * lim:.2g} %; limit "
-                     f"{100 * lim:g} %)" + shape, worst)
-    down = any(run in down_runs for run, m in misfits.items()
-               if math.isfinite(m.backbone_offset) and abs(m.backbone_offset) > lim)
+                     f"against the backbone (within {100 * largest:.2g} %; {rule})" + shape,
+                     worst)
+    down = any(run in down_runs for run in off)
     return Check("replay_misfit", False,
                  f"the replay at the answer does not reproduce the test's {what} points: "
-                 + "; ".join(bad) + f" (limit {100 * lim:g} %){shape} "
-                 f"({_causes(replay, down)}?)", worst)
+                 + "; ".join(bad) + f" ({rule}){shape} ({_causes(replay, down)}?)", worst)
 
 
 def _consistency_check(replay) -> Check | None:

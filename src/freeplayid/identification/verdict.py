@@ -74,7 +74,8 @@ LIMITS = {
     "binding_noise": 0.25,
     # the replay at the answer against the test (identification.replay_checks): the size of an
     # error that matters for the answer
-    "backbone_offset": 2e-3,  # [-] a run's point against the backbone, replayed - measured
+    "backbone_offset": 2e-3,  # [-] a run's point against the backbone, replayed - measured,
+    "offset_se": 3.0,  # [-] ... or this many of its standard errors (the data's noise), if more
     "peak_amplitude": 0.05,  # [-] a run's peak: beyond this the report says the damping differs
     "cross_delta": 5e-3,  # [-] a second statistic's move of delta (half the 1 % bound) ...
     "cross_kn": 1e-2,  # [-] ... and of kn (half the 2 % bound) ...

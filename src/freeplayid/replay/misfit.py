@@ -68,6 +68,11 @@ class RunMisfit:
     branch : float [-]
         Median |X_replayed - X_measured| over the measured curve's upper branch (from where it
         rises through half its peak to the point), relative to the peak.
+    offset_se : float [-]
+        The standard error of ``backbone_offset`` from the measurement's noise: the scatter of
+        the channels' offsets about their run's mean, pooled over the runs (the channels of one
+        run see one resonance through independent noise), over the root of the run's channel
+        count; NaN with one channel per run.
     """
 
     run: str
@@ -76,11 +81,12 @@ class RunMisfit:
     backbone_offset: float
     peak_offset: float
     branch: float
+    offset_se: float = float("nan")
 
     def to_dict(self) -> dict:
         return {"run": self.run, "f_offset": self.f_offset, "f_hz": self.f_hz,
                 "backbone_offset": self.backbone_offset, "peak_offset": self.peak_offset,
-                "branch": self.branch}
+                "branch": self.branch, "offset_se": self.offset_se}
 
 
 def _upper_branch(curve, f_point: float) -> np.ndarray:
@@ -128,11 +134,25 @@ def resonance_misfits(measured_points, replayed_points, measured_curves, replaye
         by_run.setdefault(p.run, []).append(
             (q.f_hz / p.f_hz - 1, p.f_hz, float(np.nanmax(r.amplitude_m)) / peak - 1, branch,
              peak, off))
+    pooled = _pooled_variance([[row[5] for row in rows] for rows in by_run.values()])
     out = {}
     for run, rows in by_run.items():
         strongest = max(rows, key=lambda row: row[4])
         out[run] = RunMisfit(run, float(np.median([row[0] for row in rows])),
                              float(np.median([row[1] for row in rows])),
                              float(np.median([row[5] for row in rows])), strongest[2],
-                             strongest[3])
+                             strongest[3], float(np.sqrt(pooled / len(rows))))
     return out
+
+
+def _pooled_variance(groups) -> float:
+    """The variance of the values about their group's mean, pooled over the groups (NaN
+    without a group of two finite values)."""
+    ss, dof = 0.0, 0
+    for g in groups:
+        g = np.asarray(g, float)
+        g = g[np.isfinite(g)]
+        if g.size > 1:
+            ss += float(np.sum((g - g.mean()) ** 2))
+            dof += g.size - 1
+    return ss / dof if dof else float("nan")
