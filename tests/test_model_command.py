@@ -48,7 +48,8 @@ def test_example_perturbation_is_recovered(tmp_path):
         assert np.abs(before).min() > 0.02  # the nominal model was off by 2.4-3.1 %
     assert m["separable"] and m["condition"] < 100 and min(m["outboard_free"]["mac"]) > 0.999
     report = (run / "report.md").read_text()
-    assert "Table 8 analogue" in report and "| outboard.E |" in report
+    assert "Table 8 analogue" in report and "| outboard.E | Pa |" in report
+    assert "| inboard.thickness | m |" in report
     assert (run / "modes.png").stat().st_size > 0
     # the measured damping ratio (2.5 %) is the reduced model's modal damping
     sys_ = load_system(run / "model.npz")

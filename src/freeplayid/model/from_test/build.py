@@ -46,6 +46,8 @@ __all__ = ["ModelBuild", "TestComparison", "model_from_modal_test", "part_modes"
 
 UPDATE_PARAMETERS = tuple(f"{p}.{q}" for p in PARTS for q in ("E", "rho", "thickness")) + (
     "clamp.k_theta",)
+# the unit of each kind of updated parameter (the report's table)
+PARAMETER_UNITS = {"E": "Pa", "rho": "kg/m³", "thickness": "m", "k_theta": "N·m/rad per m"}
 TEST_PART = {"outboard_free": ("outboard", False), "inboard_free": ("inboard", False),
              "inboard_clamped": ("inboard", True)}
 CONDITION_LIMIT = 1e4  # Jacobian condition number above which parameters are not separable
@@ -193,10 +195,10 @@ class ModelBuild:
         for name, c in self.comparisons.items():
             lines += [f"## {titles[name]}", "", c.table(), ""]
         if self.updated:
-            lines += ["## Updated parameters", "", "| parameter | initial | updated | scale |",
-                      "|---|---|---|---|"]
-            lines += [f"| {k} | {a:.6g} | {b:.6g} | {s:.5f} |"
-                      for k, (a, b, s) in self.parameters.items()]
+            lines += ["## Updated parameters", "",
+                      "| parameter | unit | initial | updated | scale |", "|---|---|---|---|---|"]
+            lines += [f"| {k} | {PARAMETER_UNITS.get(k.rsplit('.', 1)[-1], '')} | {a:.6g} | "
+                      f"{b:.6g} | {s:.5f} |" for k, (a, b, s) in self.parameters.items()]
             lines += ["", f"Jacobian condition number: {self.condition:.3g} ("
                       + ("separable" if self.separable else "NOT separable") + f"); "
                       f"{self.n_evaluations} model evaluations; {self.message}", ""]
