@@ -299,6 +299,7 @@ def test_run_too_short_for_extraction(fin2, tmp_path):
     assert re.search(r"run too short for the extraction: 257 samples \(1\.004 s at 256 Hz\) "
                      r"leave 0 after trimming `trim_s`=1 s at each end", reasons["short.csv"])
     assert "short.csv" in msg and "\n" not in msg
+    assert "record whole sweeps" in msg and "higher levels" not in msg
     _only(folder, "short.csv", fin2[1][:257])
     assert "lasts 1 s but the sweep hint" in read_dataset(folder).runs[0].reason
 

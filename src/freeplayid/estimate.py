@@ -28,7 +28,14 @@ from .fit import (
     resolve_start,
 )
 from .progress import progress_bar
-from .signal import BackbonePoints, Extraction, estimate_sweep, extract_backbone_points
+from .signal import (
+    REASON_EDGE,
+    REASON_NO_JUMP,
+    BackbonePoints,
+    Extraction,
+    estimate_sweep,
+    extract_backbone_points,
+)
 from .sweep import Sweep
 
 __all__ = ["PlainEstimate", "plain_estimate", "refit", "extract_points", "run_sweep_law",
@@ -148,9 +155,7 @@ def check_enough(points: BackbonePoints, rejected: dict, where) -> None:
         why = "; ".join(f"{r}: {w}" for r, w in rejected.items()) or "none rejected"
         raise IdentificationError(
             f"{where}: {len(used)} usable fitting point(s), at least 2 are needed "
-            f"(rejected runs: {why}); add runs at higher levels that resonate in the band",
-            points=points,
-        )
+            f"(rejected runs: {why}); {_advice(rejected)}", points=points)
     if count_resonances([p.f_hz for p in used]) < 2:
         raise IdentificationError(
             f"{where}: the {len(used)} usable points lie at one resonance (within 0.5 %: "
@@ -158,6 +163,17 @@ def check_enough(points: BackbonePoints, rejected: dict, where) -> None:
             "or more levels; add runs at other levels that resonate in the band",
             points=points,
         )
+
+
+def _advice(rejected: dict) -> str:
+    """What to do when too few runs give points, from why they were rejected."""
+    reasons = list(rejected.values())
+    if reasons and all("too short" in r for r in reasons):
+        return ("record whole sweeps: the runs are too short to extract (a `simulate.py "
+                "debug=fast` data set is a smoke test of the simulator, not identifiable)")
+    if reasons and all(REASON_NO_JUMP in r or REASON_EDGE in r for r in reasons):
+        return "add runs at higher levels that resonate in the band"
+    return "see each rejected run's reason; add runs at higher levels that resonate in the band"
 
 
 def weights_of(points: FittingPoints, point_weights: Mapping | None):
