@@ -323,3 +323,19 @@ def test_the_offsets_standard_error_is_the_channels_scatter_pooled_over_the_runs
     se = np.sqrt((2 * 1e-6 + 2 * 9e-6) / 2 / 2)
     assert out["a"].offset_se == pytest.approx(se, rel=1e-6)
     assert out["b"].backbone_offset == pytest.approx(0.0, abs=1e-12)
+
+
+def test_the_replayed_answer_judges_the_channels_spread_against_the_replays():
+    """Channels 3 % apart pass when the replay's are 2.6 % apart (absolute accelerations, no
+    base channel), fail when the replay's agree (a channel problem the replay does not have);
+    one channel per run leaves the plain check in place (None)."""
+    from freeplayid.identification.verdict import replayed_channel_check
+    from freeplayid.replay.misfit import RunMisfit
+
+    def res(measured, replayed):
+        return {"r": RunMisfit("r", 0.0, 40.0, 0.0, 0.0, 0.0, 1e-4, measured, replayed)}
+
+    assert replayed_channel_check(res(0.03, 0.026)).passed
+    bad = replayed_channel_check(res(0.03, 0.002))
+    assert not bad.passed and "replayed 0.2 %" in bad.message
+    assert replayed_channel_check(res(float("nan"), float("nan"))) is None

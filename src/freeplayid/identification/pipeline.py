@@ -27,6 +27,7 @@ from .verdict import (
     fit_checks,
     make_verdict,
     model_checks,
+    replayed_channel_check,
     sweep_direction_check,
     validation_checks,
 )
@@ -239,8 +240,10 @@ def _corrected_result(dataset, system, plain: PlainEstimate, rep, mode: int, t0:
     kn_ci = widen(kn_ci, rep.kn, error.kn_shift)
     validation = _zero_clearance_check(dataset, system, rep.kn)
     direction = sweep_direction_check(plain.points, replayed=True)
+    channels = replayed_channel_check(rep.resonance or {})
     verdict = make_verdict(
-        record_checks(records) + base_level_checks(dataset) + channel_checks(plain.points)
+        record_checks(records) + base_level_checks(dataset)
+        + (channel_checks(plain.points) if channels is None else [channels])
         + answer_checks(plain.fitting_points(), rep.kn, rep.delta, kn_ci, delta_ci, system,
                         mode=mode) + ([direction] if direction is not None else [])
         + replay_checks(rep, down_runs=down_sweep_runs(plain.points))

@@ -16,7 +16,9 @@ compares the result or the data with a physical limit, never with a value tuned 
 - ``residual``: the relative frequency residual against the frequency scatter between the
   channels of one run (the measurement's own noise level) and an absolute floor.
 - ``channel_agreement``: the channels of one run see one resonance; a spread above 1 % means
-  another mode or a channel problem.
+  another mode or a channel problem. With the replay, each run's spread is compared with the
+  replay's at the answer (absolute accelerations without a base channel spread by a few %
+  through the base motion, and the replay spreads alike): a difference above 1 % fails.
 - ``replay_misfit`` / ``replay_converged`` (with the replay): every run's measured and replayed
   amplitude-frequency curves within 5 % of the peak (median difference), and the corrected fit
   converged: its steps fell below 0.05 %, or its closest replay matches the test's statistics
@@ -55,7 +57,7 @@ from ..sweep import Sweep
 
 __all__ = ["Check", "Verdict", "LIMITS", "base_level_checks", "answer_checks", "channel_checks",
            "down_sweep_runs", "fit_checks", "interval_check", "make_verdict", "model_checks",
-           "sweep_direction_check", "validation_checks"]
+           "replayed_channel_check", "sweep_direction_check", "validation_checks"]
 
 LIMITS = {
     "delta_max_rad": 0.05,  # [rad] largest plausible half-gap
@@ -232,6 +234,31 @@ def _by_run(extraction) -> dict[str, list[float]]:
     for p in extraction.used():
         by_run.setdefault(p.run, []).append(p.f_hz)
     return by_run
+
+
+def replayed_channel_check(resonance: dict) -> Check | None:
+    """``channel_agreement`` of a replayed answer: each run's channel spread against the
+    replay's at the answer (its channels see the same model, frame and base motion), failed
+    beyond ``channel_spread``; None without spreads to compare (one channel per run)."""
+    pairs = {r: (m.channel_spread, m.channel_spread_replayed) for r, m in resonance.items()
+             if np.isfinite(getattr(m, "channel_spread", np.nan))
+             and np.isfinite(getattr(m, "channel_spread_replayed", np.nan))}
+    if not pairs:
+        return None
+    diff = {r: abs(a - b) for r, (a, b) in pairs.items()}
+    bad = {r: d for r, d in diff.items() if d > LIMITS["channel_spread"]}
+    widest = max(a for a, _ in pairs.values())
+    if not bad:
+        return Check("channel_agreement", True,
+                     f"the channels of each run spread as the replay's do (up to "
+                     f"{100 * widest:.2g} % apart, the replay's within "
+                     f"{100 * max(diff.values()):.2g} % of that)", max(diff.values()))
+    return Check("channel_agreement", False,
+                 "channels of one run disagree on the resonance frequency beyond what the replay "
+                 "of the same test shows: " + ", ".join(
+                     f"{r} ({100 * pairs[r][0]:.2g} %, replayed {100 * pairs[r][1]:.2g} %)"
+                     for r in bad) + " (another mode, a channel problem, a channel mapped to "
+                 "the wrong DOF)", max(diff.values()))
 
 
 def down_sweep_runs(extraction) -> tuple[str, ...]:

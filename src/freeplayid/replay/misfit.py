@@ -73,6 +73,10 @@ class RunMisfit:
         the channels' offsets about their run's mean, pooled over the runs (the channels of one
         run see one resonance through independent noise), over the root of the run's channel
         count; NaN with one channel per run.
+    channel_spread, channel_spread_replayed : float [-]
+        The spread of the run's channels' point frequencies, (max - min) / mean, measured and
+        replayed (absolute accelerations without a base channel spread by a few % through the
+        base motion each channel adds: the replay reproduces that, a faulty channel it does not).
     """
 
     run: str
@@ -82,11 +86,15 @@ class RunMisfit:
     peak_offset: float
     branch: float
     offset_se: float = float("nan")
+    channel_spread: float = float("nan")
+    channel_spread_replayed: float = float("nan")
 
     def to_dict(self) -> dict:
         return {"run": self.run, "f_offset": self.f_offset, "f_hz": self.f_hz,
                 "backbone_offset": self.backbone_offset, "peak_offset": self.peak_offset,
-                "branch": self.branch, "offset_se": self.offset_se}
+                "branch": self.branch, "offset_se": self.offset_se,
+                "channel_spread": self.channel_spread,
+                "channel_spread_replayed": self.channel_spread_replayed}
 
 
 def _upper_branch(curve, f_point: float) -> np.ndarray:
@@ -133,7 +141,7 @@ def resonance_misfits(measured_points, replayed_points, measured_curves, replaye
             q.f_hz / backbone_f(q) - p.f_hz / backbone_f(p)
         by_run.setdefault(p.run, []).append(
             (q.f_hz / p.f_hz - 1, p.f_hz, float(np.nanmax(r.amplitude_m)) / peak - 1, branch,
-             peak, off))
+             peak, off, q.f_hz))
     pooled = _pooled_variance([[row[5] for row in rows] for rows in by_run.values()])
     out = {}
     for run, rows in by_run.items():
@@ -141,8 +149,15 @@ def resonance_misfits(measured_points, replayed_points, measured_curves, replaye
         out[run] = RunMisfit(run, float(np.median([row[0] for row in rows])),
                              float(np.median([row[1] for row in rows])),
                              float(np.median([row[5] for row in rows])), strongest[2],
-                             strongest[3], float(np.sqrt(pooled / len(rows))))
+                             strongest[3], float(np.sqrt(pooled / len(rows))),
+                             _spread([row[1] for row in rows]), _spread([row[6] for row in rows]))
     return out
+
+
+def _spread(f) -> float:
+    """(max - min) / mean of one run's channel frequencies (NaN for one channel)."""
+    f = np.asarray(f, float)
+    return float((f.max() - f.min()) / f.mean()) if f.size > 1 else float("nan")
 
 
 def _pooled_variance(groups) -> float:
