@@ -321,6 +321,19 @@ def plot_learning_curves(ax, history: dict):
     ax.legend(fontsize=8)
 
 
+def _sparse_log_ticks(ax) -> None:
+    """Log axes labelled at 1, 2 and 5 per decade in plain numbers, minor ticks unlabelled: a
+    range under a decade otherwise labels every minor tick, one over the other."""
+    from matplotlib.ticker import LogLocator, NullFormatter, ScalarFormatter
+
+    for axis in (ax.xaxis, ax.yaxis):
+        axis.set_major_locator(LogLocator(base=10.0, subs=(1.0, 2.0, 5.0)))
+        fmt = ScalarFormatter()
+        fmt.set_scientific(False)
+        axis.set_major_formatter(fmt)
+        axis.set_minor_formatter(NullFormatter())
+
+
 def plot_inverse_predictions(ax, truth, estimate, log_std, *, groups=None, group_name="",
                              quantity="kn"):
     """Network estimate against truth (log-log) with +-2 sigma bars, one colour per group.
@@ -348,6 +361,7 @@ def plot_inverse_predictions(ax, truth, estimate, log_std, *, groups=None, group
     ax.plot(lim, lim, "k-", lw=0.8, label="exact")
     ax.set_xscale("log")
     ax.set_yscale("log")
+    _sparse_log_ticks(ax)
     name = "δ" if quantity == "delta" else "kn"
     ax.set_xlabel(f"true {name} [{unit}]")
     ax.set_ylabel(f"network {name} [{unit}]")
