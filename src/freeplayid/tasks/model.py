@@ -15,6 +15,7 @@ from ..atomic import atomic_path, atomic_write_text
 from ..errors import ModalTestError
 from ..io import read_modal_test
 from ..model import FinConfig, model_from_modal_test, save_system
+from ..model.from_test import TEST_TITLES
 from ..plots import plot_mode_pairs
 from .common import run_dir, write_metrics
 
@@ -33,8 +34,9 @@ def _figure(out: Path, build) -> list[str]:
 
     n = len(build.comparisons)
     fig, axes = plt.subplots(1, n, figsize=(4.6 * n, 3.8), squeeze=False)
-    for ax, c in zip(axes[0], build.comparisons.values(), strict=True):
-        plot_mode_pairs(ax, c)
+    for ax, (name, c) in zip(axes[0], build.comparisons.items(), strict=True):
+        kind = "mode shapes" if c.measured_shapes is not None else "frequencies"
+        plot_mode_pairs(ax, c, title=f"{TEST_TITLES.get(name, name)}: {kind}")
     fig.tight_layout()
     with atomic_path(out / "modes.png") as tmp:  # the name ends in .png: savefig's format
         fig.savefig(tmp, dpi=110)

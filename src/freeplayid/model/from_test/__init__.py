@@ -6,6 +6,7 @@ frequencies (``update.py``) and the zero-clearance check of an identified model
 
 from .build import (
     CONDITION_LIMIT,
+    TEST_TITLES,
     UPDATE_PARAMETERS,
     ModelBuild,
     TestComparison,
@@ -18,7 +19,7 @@ from .update import UpdateResult, mode_table, update_model
 from .zero_clearance import ModeValidation, validate_modes
 
 __all__ = [
-    "CONDITION_LIMIT", "UPDATE_PARAMETERS", "ModelBuild", "TestComparison",
+    "CONDITION_LIMIT", "TEST_TITLES", "UPDATE_PARAMETERS", "ModelBuild", "TestComparison",
     "model_from_modal_test", "part_modes",
     "CONFIG_POINTS", "TEST_NAMES", "MeasuredModes", "ModalTest", "ModalTestError",
     "UpdateResult", "mode_table", "update_model", "ModeValidation", "validate_modes",

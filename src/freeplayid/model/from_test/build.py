@@ -42,10 +42,13 @@ from .measured import CONFIG_POINTS, MeasuredModes, ModalTest, ModalTestError
 from .update import condition_number
 
 __all__ = ["ModelBuild", "TestComparison", "model_from_modal_test", "part_modes",
-           "UPDATE_PARAMETERS", "CONDITION_LIMIT"]
+           "UPDATE_PARAMETERS", "CONDITION_LIMIT", "TEST_TITLES"]
 
 UPDATE_PARAMETERS = tuple(f"{p}.{q}" for p in PARTS for q in ("E", "rho", "thickness")) + (
     "clamp.k_theta",)
+# each modal test's name in the report and the figure
+TEST_TITLES = {"outboard_free": "Outboard fin, free-free", "inboard_free": "Inboard fin, free-free",
+               "inboard_clamped": "Inboard fin, clamped root"}
 # the unit of each kind of updated parameter (the report's table)
 PARAMETER_UNITS = {"E": "Pa", "rho": "kg/m³", "thickness": "m", "k_theta": "N·m/rad per m"}
 TEST_PART = {"outboard_free": ("outboard", False), "inboard_free": ("inboard", False),
@@ -188,12 +191,10 @@ class ModelBuild:
             lines += ["No modal test: the model is the configuration's, not updated.", ""]
         for w in self.warnings():
             lines += [f"**Warning:** {w}", ""]
-        titles = {"outboard_free": "Outboard fin, free-free (Table 7 analogue)",
-                  "inboard_free": "Inboard fin, free-free (Table 7 analogue)",
-                  "inboard_clamped": "Inboard fin, clamped root (Table 8 analogue: the "
-                                     "fixed-boundary check)"}
+        notes = {"outboard_free": " (Table 7 analogue)", "inboard_free": " (Table 7 analogue)",
+                 "inboard_clamped": " (Table 8 analogue: the fixed-boundary check)"}
         for name, c in self.comparisons.items():
-            lines += [f"## {titles[name]}", "", c.table(), ""]
+            lines += [f"## {TEST_TITLES[name]}{notes[name]}", "", c.table(), ""]
         if self.updated:
             lines += ["## Updated parameters", "",
                       "| parameter | unit | initial | updated | scale |", "|---|---|---|---|---|"]
