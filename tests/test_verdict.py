@@ -304,25 +304,31 @@ def test_the_replay_misfit_limit_is_the_larger_of_the_accuracy_and_the_noise(se,
     assert ("standard errors" in check.message) is bool(np.isfinite(se))
 
 
-def test_the_offsets_standard_error_is_the_channels_scatter_pooled_over_the_runs():
-    """Two runs, two channels each, replayed offsets -/+0.1 % and -/+0.3 % about each run's
-    mean: the pooled variance is (2 x 1e-6 + 2 x 9e-6) / 2 and each run's mean offset has a
-    standard error of its root over root 2."""
+def test_the_offsets_standard_error_is_the_measured_scatter_beyond_the_replays():
+    """Three runs at measured distances +0.3, -0.3, 0 % from the backbone and replayed +0.1,
+    -0.1, 0 %: the noise is what the replay does not share, (18e-6 - 2e-6) / 3, times 3 / 1 for
+    the two fitted parameters: 0.4 %. A replay that scatters as much as the test (a model that
+    reproduces the pattern, or one that misses it by more) leaves no noise: 0."""
     from freeplayid.replay.misfit import resonance_misfits
     from freeplayid.signal import AmplitudeCurve
 
     f = np.linspace(35.0, 45.0, 50)
     x = np.exp(-0.5 * ((f - 40.0) / 2.0) ** 2)
-    meas, rep, curves = [], [], []
-    for run, d in (("a", 1e-3), ("b", 3e-3)):
-        for ch, sign in (("c1", -1), ("c2", 1)):
-            meas.append(BackbonePoint(run, ch, 40.0, 1e-4, True, "", 1.0, 30.0))
-            rep.append(BackbonePoint(run, ch, 40.0 * (1 + sign * d), 1e-4, True, "", 1.0, 30.0))
-            curves.append(AmplitudeCurve(run, ch, f, x))
-    out = resonance_misfits(meas, rep, curves, curves, backbone_f=lambda p: 40.0)
-    se = np.sqrt((2 * 1e-6 + 2 * 9e-6) / 2 / 2)
-    assert out["a"].offset_se == pytest.approx(se, rel=1e-6)
-    assert out["b"].backbone_offset == pytest.approx(0.0, abs=1e-12)
+
+    def misfits(measured, replayed):
+        meas, rep, curves = [], [], []
+        for k, (dm, dr) in enumerate(zip(measured, replayed, strict=True)):
+            run = f"r{k}"
+            meas.append(BackbonePoint(run, "c", 40.0 * (1 + dm), 1e-4, True, "", 1.0, 30.0))
+            rep.append(BackbonePoint(run, "c", 40.0 * (1 + dr), 1e-4, True, "", 1.0, 30.0))
+            curves.append(AmplitudeCurve(run, "c", f, x))
+        return resonance_misfits(meas, rep, curves, curves, backbone_f=lambda p: 40.0)
+
+    out = misfits([3e-3, -3e-3, 0.0], [1e-3, -1e-3, 0.0])
+    assert out["r0"].offset_se == pytest.approx(4e-3, rel=1e-6)
+    assert out["r0"].backbone_offset == pytest.approx(-2e-3, rel=1e-6)
+    assert misfits([1e-3, -1e-3, 0.0], [3e-3, -3e-3, 0.0])["r1"].offset_se == 0.0
+    assert np.isnan(misfits([1e-3, -1e-3], [0.0, 0.0])["r0"].offset_se)
 
 
 def test_the_replayed_answer_judges_the_channels_spread_against_the_replays():

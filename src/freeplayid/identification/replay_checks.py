@@ -5,8 +5,9 @@
   information: the statistic point's place against the backbone at the answer (its relative
   distance f / f_BC(X) - 1, replayed minus measured) within ``backbone_offset`` (0.2 %, about a
   0.4 % move of kn), or within ``offset_se`` (3) standard errors of that offset where the data's
-  noise makes that larger (the channels of a run see one resonance through independent noise:
-  their offsets' scatter, pooled over the runs). A point that only moves along the backbone
+  noise makes that larger (the measured points' scatter about the answer's backbone beyond the
+  noiseless replay's: :attr:`freeplayid.replay.RunMisfit.offset_se`; what the replay does not
+  reproduce does not count as noise). A point that only moves along the backbone
   (another damping puts the phase resonance at another amplitude) does not move the answer and
   does not fail; the peaks and the upper branches are reported beside it (a replay of the right
   model lands 0.01-0.03 % from each run's jump and 0.1-0.5 % from its peak on the bundled

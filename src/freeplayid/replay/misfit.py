@@ -69,10 +69,12 @@ class RunMisfit:
         Median |X_replayed - X_measured| over the measured curve's upper branch (from where it
         rises through half its peak to the point), relative to the peak.
     offset_se : float [-]
-        The standard error of ``backbone_offset`` from the measurement's noise: the scatter of
-        the channels' offsets about their run's mean, pooled over the runs (the channels of one
-        run see one resonance through independent noise), over the root of the run's channel
-        count; NaN with one channel per run.
+        The standard error of ``backbone_offset`` from the measurement's noise, one for all
+        runs: the measured points scatter about the answer's backbone by noise and by what the
+        model does not reproduce, the replayed (noiseless) points by the latter only, so
+        noise^2 = mean(measured distance^2) - mean(replayed distance^2) over the runs, times
+        runs / (runs - 2) for the two fitted parameters (0 when the replay scatters as much;
+        NaN with two runs or fewer).
     channel_spread, channel_spread_replayed : float [-]
         The spread of the run's channels' point frequencies, (max - min) / mean, measured and
         replayed (absolute accelerations without a base channel spread by a few % through the
@@ -137,19 +139,21 @@ def resonance_misfits(measured_points, replayed_points, measured_curves, replaye
             order = np.argsort(r.frequency)
             xr = np.interp(c.frequency[idx], r.frequency[order], r.amplitude_m[order])
             branch = float(np.median(np.abs(xr - c.amplitude_m[idx])) / peak)
-        off = float("nan") if backbone_f is None else \
-            q.f_hz / backbone_f(q) - p.f_hz / backbone_f(p)
+        dist_p = dist_q = float("nan")
+        if backbone_f is not None:
+            dist_p, dist_q = p.f_hz / backbone_f(p) - 1, q.f_hz / backbone_f(q) - 1
         by_run.setdefault(p.run, []).append(
             (q.f_hz / p.f_hz - 1, p.f_hz, float(np.nanmax(r.amplitude_m)) / peak - 1, branch,
-             peak, off, q.f_hz))
-    pooled = _pooled_variance([[row[5] for row in rows] for rows in by_run.values()])
+             peak, dist_q - dist_p, q.f_hz, dist_p, dist_q))
+    se = _offset_se([float(np.median([row[7] for row in rows])) for rows in by_run.values()],
+                    [float(np.median([row[8] for row in rows])) for rows in by_run.values()])
     out = {}
     for run, rows in by_run.items():
         strongest = max(rows, key=lambda row: row[4])
         out[run] = RunMisfit(run, float(np.median([row[0] for row in rows])),
                              float(np.median([row[1] for row in rows])),
                              float(np.median([row[5] for row in rows])), strongest[2],
-                             strongest[3], float(np.sqrt(pooled / len(rows))),
+                             strongest[3], se,
                              _spread([row[1] for row in rows]), _spread([row[6] for row in rows]))
     return out
 
@@ -160,14 +164,13 @@ def _spread(f) -> float:
     return float((f.max() - f.min()) / f.mean()) if f.size > 1 else float("nan")
 
 
-def _pooled_variance(groups) -> float:
-    """The variance of the values about their group's mean, pooled over the groups (NaN
-    without a group of two finite values)."""
-    ss, dof = 0.0, 0
-    for g in groups:
-        g = np.asarray(g, float)
-        g = g[np.isfinite(g)]
-        if g.size > 1:
-            ss += float(np.sum((g - g.mean()) ** 2))
-            dof += g.size - 1
-    return ss / dof if dof else float("nan")
+def _offset_se(measured, replayed) -> float:
+    """:attr:`RunMisfit.offset_se` from each run's measured and replayed distances from the
+    backbone (NaN with two runs or fewer)."""
+    m, r = np.asarray(measured, float), np.asarray(replayed, float)
+    ok = np.isfinite(m) & np.isfinite(r)
+    n = int(np.count_nonzero(ok))
+    if n <= 2:
+        return float("nan")
+    noise2 = max(0.0, float(np.mean(m[ok] ** 2) - np.mean(r[ok] ** 2)))
+    return float(np.sqrt(noise2 * n / (n - 2)))
