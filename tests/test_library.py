@@ -100,3 +100,15 @@ def test_input_errors_share_one_base():
 
     for cls in (DatasetError, SystemFileError, IdentificationError, ResultFileError):
         assert issubclass(cls, InputError) and issubclass(cls, ValueError)
+
+
+def test_the_commands_that_need_no_network_load_no_lightning():
+    """identify, simulate and model start without PyTorch Lightning (seconds per command):
+    importing the commands' module and those tasks leaves it out; compare loads it when run."""
+    code = ("import sys, freeplayid.tasks.cli, freeplayid.tasks.identify, "
+            "freeplayid.tasks.simulate, freeplayid.tasks.model, freeplayid.tasks.compare\n"
+            "print([m for m in ('pytorch_lightning', 'lightning_fabric') if m in sys.modules])")
+    env = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert out.stdout.strip() == "[]"

@@ -22,8 +22,6 @@ from omegaconf import DictConfig, OmegaConf
 
 from ..atomic import staged_folder
 from ..errors import InputError
-from ..inverse import load_inverse_model
-from ..studies import compare_methods, pick_cases, simulate_bank
 from .checks import COMPARE, check_config
 from .common import (
     debug_choice,
@@ -75,6 +73,10 @@ def compare(cfg: DictConfig) -> dict:
     """
     from hydra.utils import to_absolute_path
 
+    # PyTorch Lightning (the network) loads with the command that needs it: importing
+    # freeplayid.tasks, as every command does, stays light
+    from ..inverse import load_inverse_model
+
     t0 = time.perf_counter()
     check_config(cfg, COMPARE)  # every field, before any work
     fit = options_from_config(cfg, "fit")
@@ -89,6 +91,9 @@ def compare(cfg: DictConfig) -> dict:
 
 def _compare(cfg: DictConfig, fit, stage: Path, out: Path, ckpt: Path | None,
              t0: float) -> dict:
+    from ..inverse import load_inverse_model
+    from ..studies import compare_methods, pick_cases, simulate_bank
+
     data = study_data(cfg)
     n_corrected = int(cfg.compare.corrected_cases_per_value)
     bank_spec, case_spec, _, cache_dir = study_specs(cfg, data.system)
