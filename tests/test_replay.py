@@ -78,6 +78,7 @@ def test_corrected_fit_reports_its_iterations(measured, system):
                                                                     "s1.0.csv"}
     assert np.median([w.weight for w in r.weights]) == pytest.approx(1.0)
     assert res.to_dict()["replay"]["kn_fit"] == pytest.approx(res.plain_fit.kn)  # as reported
+    assert r.damping.source == "model" and not r.damping.note  # the model's C matches
     # each replay's refit counts its objective evaluations (one start: a few tens, not a grid)
     assert all(isinstance(it.n_evaluations, int) and 3 <= it.n_evaluations < 200
                for it in r.iterations)
@@ -141,6 +142,26 @@ def test_damping_is_estimated_when_the_model_has_none(measured):
     assert "damping_estimate" in {c.name for c in res.verdict.checks}
     assert res.to_dict()["replay"]["damping"]["source"] == "estimated"
     assert "estimated from the peak amplitudes" in res.report()
+
+
+def test_a_model_c_that_misses_the_amplitudes_is_replaced_by_an_estimate(measured):
+    """The model file's C at 60 % of the reference's damping: its replay at the answer puts the
+    phase-resonance amplitudes well above the test's (> DAMPING_MISMATCH), so the damping is
+    estimated from there and recovers the reference's zeta; the report says why. The given C
+    is kept when it matches (test_corrected_fit_reports_its_iterations: source "model")."""
+    from freeplayid.replay.corrected import DAMPING_MISMATCH
+
+    light = sdof_system(mass=1.0, damping=0.6 * 2 * ref.ZETA * WN)
+    res = identify(measured, system=light, progress=False, fit={"multistart": MULTISTART})
+    d = res.replay.damping
+    assert d.source == "estimated" and "the model file's C put the replayed amplitudes" in d.note
+    assert float(d.note.split("amplitudes ")[1].split(" %")[0]) / 100 > DAMPING_MISMATCH
+    assert d.zeta == pytest.approx(ref.ZETA, rel=0.05)
+    assert abs(res.truth_error["delta"]) < 0.02 and abs(res.truth_error["kn"]) < 0.01
+    assert d.note in res.report()
+    forced = identify(measured, system=light, progress=False, fit={"multistart": MULTISTART},
+                      replay={"damping": "model"})
+    assert forced.replay.damping.source == "model"
 
 
 def test_a_given_damping_ratio_overrides_the_model(measured, system):

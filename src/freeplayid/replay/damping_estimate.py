@@ -29,15 +29,20 @@ class ReplayDamping:
         Modal damping ratio of every closed-hinge mode (None with the model's C).
     zeta_ci95 : (float, float) or None
         95 % interval of an estimated zeta (from the per-point amplitude ratios).
+    note : str
+        Why it was estimated although the model file has C (its replay missed the test's
+        amplitudes), or "".
     """
 
     source: str
     zeta: float | None = None
     zeta_ci95: tuple | None = None
+    note: str = ""
 
     def to_dict(self) -> dict:
         return {"source": self.source, "zeta": self.zeta,
-                "zeta_ci95": None if self.zeta_ci95 is None else list(self.zeta_ci95)}
+                "zeta_ci95": None if self.zeta_ci95 is None else list(self.zeta_ci95),
+                "note": self.note}
 
     def describe(self) -> str:
         if self.source == "model":
@@ -47,7 +52,8 @@ class ReplayDamping:
             return text + " (given)"
         ci = "" if self.zeta_ci95 is None else \
             f", 95 % CI [{self.zeta_ci95[0]:.4g}, {self.zeta_ci95[1]:.4g}]"
-        return text + f" (estimated from the peak amplitudes{ci})"
+        note = f"; {self.note}" if self.note else ""
+        return text + f" (estimated from the peak amplitudes{ci}{note})"
 
 
 def damped_system(system, zeta: float, kn: float):

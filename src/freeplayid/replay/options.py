@@ -25,9 +25,11 @@ class Replay:
     Attributes
     ----------
     damping : None, "model", "estimate" or float
-        None: the model file's C when it has one, else one modal damping ratio estimated from
-        the peak amplitudes; "model" / "estimate" force either; a float in (0, 1) fixes the
-        modal damping ratio of every closed-hinge mode.
+        None: the model file's C when it has one and its replay at the answer reproduces the
+        test's amplitudes at the matched points (within ``DAMPING_MISMATCH``, 5 %), else one
+        modal damping ratio estimated from those amplitudes (solved again from the answer);
+        "model" / "estimate" force either; a float in (0, 1) fixes the modal damping ratio of
+        every closed-hinge mode.
     n_bootstrap : int
         Noisy copies of the final replay for bootstrap intervals that see the bias (0: none;
         the intervals are then the Jacobian ones, moved with the estimate).
