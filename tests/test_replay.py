@@ -353,3 +353,32 @@ def test_levels_from_level_g_widen_the_intervals_by_what_their_error_moves(measu
         # the whole identification also re-weights its points by the first replay's misfit,
         # which the level moves too: the binding's own move is the larger part of it
         assert 0.4 * moved <= shift <= 2.0 * moved
+
+
+def test_the_cross_check_reads_the_replay_with_the_tests_noise(measured, system, monkeypatch):
+    """Replays matched on the drop: the cross-check's windowed maxima (which noise biases up)
+    are read from CROSS_COPIES copies of the answer's replay with the measured noise added
+    (each at the noise level measured against the replay), and their standard errors are
+    finite; a noisy copy has the asked noise level."""
+    import freeplayid.replay.corrected as corrected
+    from freeplayid.replay.bootstrap import noisy_copy
+
+    copies = []
+
+    def counted(ds, noise, rng):
+        copies.append({k: np.asarray(v).copy() for k, v in noise.items()})
+        return noisy_copy(ds, noise, rng)
+
+    monkeypatch.setattr(corrected, "noisy_copy", counted)
+    res = identify(measured, system=system, progress=False, fit={"multistart": MULTISTART},
+                   replay={"jump_point": "drop"})
+    cross = res.replay.cross
+    assert cross is not None and cross.rule == "windowed"
+    assert math.isfinite(cross.delta_se) and math.isfinite(cross.kn_se)
+    assert len(copies) == corrected.CROSS_COPIES
+    assert {"s0.6.csv", "s0.8.csv", "s1.0.csv"} <= set(copies[0])  # the replayed runs
+    # a copy's noise: the asked level, white
+    sd = {r.file: np.array([0.5]) for r in measured.runs}
+    copy = noisy_copy(measured, sd, np.random.default_rng(0))
+    diff = copy.runs[1].data - measured.runs[1].data
+    assert np.std(diff) == pytest.approx(0.5, rel=0.02)

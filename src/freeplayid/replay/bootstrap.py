@@ -11,7 +11,7 @@ from tqdm.auto import tqdm
 from ..errors import IdentificationError
 from ..estimate import plain_estimate
 
-__all__ = ["ReplayBootstrap", "bootstrap_by_replay"]
+__all__ = ["ReplayBootstrap", "bootstrap_by_replay", "noisy_copy"]
 
 
 @dataclass(frozen=True)
@@ -51,15 +51,7 @@ def bootstrap_by_replay(replayed, system, noise: dict, *, theta, theta_rep, n: i
     rng = np.random.default_rng(seed)
     samples = []
     for _ in tqdm(range(n), desc="bootstrap by replay", disable=not progress, leave=False):
-        runs = []
-        for run in replayed.runs:
-            sd = noise.get(run.file)
-            if sd is None:
-                runs.append(run)
-                continue
-            noisy = run.data + sd[:, None] * rng.standard_normal(run.data.shape)
-            runs.append(dataclasses.replace(run, data=noisy))
-        copy = dataclasses.replace(replayed, runs=tuple(runs))
+        copy = noisy_copy(replayed, noise, rng)
         try:
             est = plain_estimate(copy, system, init=tuple(theta_rep), extraction=extraction,
                                  fit=fit, point_weights=point_weights)
@@ -72,3 +64,18 @@ def bootstrap_by_replay(replayed, system, noise: dict, *, theta, theta_rep, n: i
         kn_ci, delta_ci = (float(lo[0]), float(hi[0])), (float(lo[1]), float(hi[1]))
     return ReplayBootstrap(kn_ci95=kn_ci, delta_ci95=delta_ci, n=int(n), n_fitted=len(samples),
                            noise={k: [float(x) for x in v] for k, v in noise.items()})
+
+
+def noisy_copy(replayed, noise: dict, rng):
+    """``replayed`` (a Dataset) with fresh white noise of each channel's measured level added
+    to its responses (``noise``: per run, one level per channel, :func:`noise_levels`): a replay
+    as the test's sensors would have recorded it."""
+    runs = []
+    for run in replayed.runs:
+        sd = noise.get(run.file)
+        if sd is None:
+            runs.append(run)
+            continue
+        noisy = run.data + np.asarray(sd)[:, None] * rng.standard_normal(run.data.shape)
+        runs.append(dataclasses.replace(run, data=noisy))
+    return dataclasses.replace(replayed, runs=tuple(runs))

@@ -14,7 +14,7 @@ from ..estimate import PlainEstimate, plain_estimate, refit
 from ..fit import BackboneModel, FitOptions
 from ..progress import progress_bar
 from ..signal import Extraction
-from .bootstrap import ReplayBootstrap, bootstrap_by_replay
+from .bootstrap import ReplayBootstrap, bootstrap_by_replay, noisy_copy
 from .broyden import solve_binding
 from .damping_estimate import ZETA_RTOL, ReplayDamping, damped_system, damping_mode, initial_zeta
 from .misfit import resonance_misfits, run_misfits
@@ -110,7 +110,8 @@ class CrossCheck:
         order; 0 when the replay reproduces the test).
     kn_se, delta_se : float [-]
         Standard errors of those logs from the test's own scatter (each run one observation;
-        NaN with two runs or fewer).
+        NaN with two runs or fewer), with the replay's part (the mean of ``CROSS_COPIES`` noisy
+        copies) added.
     """
 
     rule: str
@@ -454,6 +455,9 @@ def _model_damping_mismatch(binding: _Binding) -> float:
     return float(np.expm1(np.median(ratios))) if ratios.size else 0.0
 
 
+# noisy copies of the answer's replay that the cross-check's second statistic is read from
+CROSS_COPIES = 3
+
 # [-] the model's C is replaced by an estimated damping (``Replay.damping`` None) when its replay
 # at the answer puts the matched points' amplitudes further than this from the test's: at the
 # phase resonance the amplitude is inversely proportional to the damping, and a replay of the
@@ -561,24 +565,32 @@ def _level_sensitivity(b: _Binding, sol, u: float,
 
 def _cross_check(b: _Binding, theta, rule: str, progress: bool = False) -> CrossCheck | None:
     """The test and its last replay (at the answer ``theta``) on a second statistic, ``rule``'s
-    points fitted alike (unweighted): how far that statistic would move the answer."""
+    points fitted alike (unweighted): how far that statistic would move the answer. The replay
+    is read as the test's sensors would have recorded it: ``CROSS_COPIES`` copies with the
+    measured noise added, their fits averaged in log (a maximum-based statistic is biased up by
+    noise, which a noiseless replay does not have)."""
     t = b.test
     extraction = dataclasses.replace(t.extraction, jump_point=rule, use_sweep_hint=True)
+    rng = np.random.default_rng(b.opts.seed)
+    noise = noise_levels(t.dataset, b.rep_ds)
     try:
         test = plain_estimate(t.dataset, b.system, init=tuple(theta), extraction=extraction,
                               fit=t.fit, progress=progress, desc=f"cross-check: the test's "
                               f"{rule} points")
-        rep = plain_estimate(b.rep_ds, b.system, init=tuple(theta), extraction=extraction,
-                             fit=t.fit, progress=progress, desc=f"cross-check: the replay's "
-                             f"{rule} points")
+        reps = [plain_estimate(noisy_copy(b.rep_ds, noise, rng), b.system, init=tuple(theta),
+                               extraction=extraction, fit=t.fit, progress=progress,
+                               desc=f"cross-check: the replay's {rule} points, copy {k + 1}")
+                for k in range(CROSS_COPIES)]
     except IdentificationError:
         return None  # the second statistic's points cannot be fitted: nothing to compare
-    shift = np.log(np.array([test.kn, test.delta]) / np.array([rep.kn, rep.delta]))
+    rep = np.mean([np.log([r.kn, r.delta]) for r in reps], axis=0)
+    shift = np.log(np.array([test.kn, test.delta])) - rep
     runs = len({p.run for p in test.points.used()})
     se = [float("nan"), float("nan")]
     if runs > 2:
         tq = float(scipy.stats.t.ppf(0.975, runs - 2))
-        se = [float(np.log(hi / lo) / (2 * tq)) if lo > 0 else float("inf")
+        inflate = np.sqrt(1.0 + 1.0 / CROSS_COPIES)  # the copies' mean has its own noise
+        se = [float(inflate * np.log(hi / lo) / (2 * tq)) if lo > 0 else float("inf")
               for lo, hi in by_run_intervals(test)]
     return CrossCheck(rule=rule, kn_shift=float(shift[0]), delta_shift=float(shift[1]),
                       kn_se=se[0], delta_se=se[1])
