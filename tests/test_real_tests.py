@@ -174,3 +174,22 @@ def test_a_noisy_base_is_followed_over_a_narrower_band():
     assert np.std(taken / truth - 1) < 0.7 * np.std(wide / truth - 1)
     assert taken[np.argmin(np.abs(f[inner] - 35.0))] == pytest.approx(0.7, abs=0.02)
     assert np.max(np.abs(envelope(clean) / truth - 1)) < 0.01  # noiseless: as recorded
+
+
+def test_the_frequency_uncertainty_moves_the_identified_mode_by_that_much():
+    """The model's frequency uncertainty u scales the structure's stiffness so that the closed
+    mode 1 of the default fin moves by u (a plain eigen-solve here), not by the third of it a
+    scale (1 + u)^2 of K gives with the hinge springs carrying two thirds of that mode."""
+    from freeplayid.identification.model_error import frequency_scale
+
+    model = default_fin()
+
+    def f1(K):
+        w2 = scipy.linalg.eigh(model.replace(K=K).closed_stiffness(480.0), model.M,
+                               eigvals_only=True)
+        return np.sqrt(w2[0])
+
+    for u in (0.005, 0.01):
+        s = frequency_scale(model, 480.0, u)
+        assert f1(model.K * s) / f1(model.K) - 1 == pytest.approx(u, rel=0.05)
+    assert f1(model.K * 1.005 ** 2) / f1(model.K) - 1 < 0.5 * 0.005

@@ -5,8 +5,11 @@ modes the model is updated to them before the identification
 (:func:`freeplayid.model.update_to_sealed_modes`); without, or for what the update could not
 explain, kn's interval takes in the move of kn that the model's frequency uncertainty makes:
 the plain fit's points refitted against the model with that mode's frequency moved by ``u``
-(the structure's stiffness times (1 + u)^2) give kn's relative move ``m``, and the interval's
-log half-width becomes sqrt(h^2 + m^2).
+give kn's relative move ``m``, and the interval's log half-width becomes sqrt(h^2 + m^2). The
+mode's frequency is moved by scaling the structure's stiffness (not the hinges'): its share of
+the closed mode's stiffness at the estimate, phi^T K phi / w^2 (0.35 on the default fin: the
+hinge springs carry the rest), sets the scale, 1 + ((1 + u)^2 - 1) / share, that moves the
+closed mode's frequency by ``u`` (:func:`frequency_scale`).
 """
 
 from __future__ import annotations
@@ -20,7 +23,7 @@ from ..estimate import PlainEstimate, refit
 from ..fit import FitOptions
 from ..model import ModelOptions, SealedUpdate, modal_analysis, update_to_sealed_modes
 
-__all__ = ["ModelError", "update_model", "model_error", "hinge_ratio"]
+__all__ = ["ModelError", "update_model", "model_error", "hinge_ratio", "frequency_scale"]
 
 # [-] hinge rotation ratio in the identified mode above which the hinges count as turning together
 HINGES_TOGETHER = 0.9
@@ -101,9 +104,19 @@ def model_error(system, est: PlainEstimate, fit: FitOptions, options: ModelOptio
     ratio = hinge_ratio(system, est.kn, fit.mode)
     if u == 0:
         return ModelError(update, 0.0, 0.0, ratio)
-    moved = system.replace(K=system.K * (1 + u) ** 2)
+    moved = system.replace(K=system.K * frequency_scale(system, est.kn, u, fit.mode))
     kn_moved = refit(est, moved, fit).kn
     return ModelError(update, float(u), abs(math.log(kn_moved / est.kn)), ratio)
+
+
+def frequency_scale(system, kn: float, u: float, mode: int = 0) -> float:
+    """The factor on the structure's stiffness K (the hinges' kn kept) that moves the closed
+    mode ``mode`` at ``kn`` by the relative frequency ``u`` to first order: 1 + ((1 + u)^2 - 1)
+    / share, share = phi^T K phi / w^2 of that mode (mass-normalised phi)."""
+    modes = modal_analysis(system.M, system.closed_stiffness(kn))
+    phi = modes.shapes[:, mode]
+    share = float(phi @ (system.K @ phi)) / float(modes.omega[mode]) ** 2
+    return 1.0 + ((1.0 + u) ** 2 - 1.0) / max(share, 1e-3)
 
 
 def hinge_ratio(system, kn: float, mode: int) -> float | None:
