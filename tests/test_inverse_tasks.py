@@ -80,7 +80,35 @@ def test_identify_refuses_a_checkpoint_of_another_model(trained, tmp_path):
 
 
 def test_compare_writes_tables_and_figures(trained):
-    """The compare task, with the corrected fits (replay) on one case per noise value."""
+    """The compare task without the corrected fits: every plain method's rows, the tables and
+    the figures (the corrected fits' rows: the slow test below)."""
+    import csv
+
+    tmp, run = trained
+    out = tmp / "compare_plain"
+    proc = _run("compare.py", ["debug=fast", "compare.cases_per_value=1", "compare.n_jobs=1",
+                               "compare.corrected_cases_per_value=0",
+                               f"dataset.cache_dir={tmp / 'datasets'}",
+                               f"inverse.checkpoint={run / 'checkpoint.ckpt'}",
+                               f"hydra.run.dir={out}"], tmp)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    m = json.loads((out / "metrics.json").read_text())
+    assert {r["method"] for r in m["summary"]} == {"network", "network+fit", "single-start",
+                                                   "multi-start"}
+    assert m["evaluation_ratio_multistart_to_network_fit"] > 1.0
+    rows = list(csv.DictReader(open(out / "compare.csv")))
+    assert len(rows) == 4 * m["n_cases"] and {r["noise_g"] for r in rows} == {
+        "0.0", "0.1", "0.2", "0.3"}
+    table = (out / "compare.md").read_text()
+    assert "multi-start" in table and "| noise [g] |" in table
+    for f in ("compare_errors.png", "compare_cost.png", "compare_summary.csv"):
+        assert (out / f).stat().st_size > 0
+
+
+@pytest.mark.slow
+def test_compare_adds_the_corrected_fits(trained):
+    """The compare task, with the corrected fits (replay) on one case per noise value (about
+    two minutes on 2 cores: deselected by default, `pytest -m slow`)."""
     import csv
     import math
 
