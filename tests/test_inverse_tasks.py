@@ -79,18 +79,25 @@ def test_identify_refuses_a_checkpoint_of_another_model(trained, tmp_path):
     assert not (tmp_path / "id" / "identification.json").exists()
 
 
+def _compare(trained, name: str, *, corrected: int):
+    """compare.py debug=fast on the trained run's cached data set and checkpoint, one case per
+    noise value, ``corrected`` of them with the corrected fits: (run folder, process)."""
+    tmp, run = trained
+    out = tmp / name
+    proc = _run("compare.py", ["debug=fast", "compare.cases_per_value=1", "compare.n_jobs=1",
+                               f"compare.corrected_cases_per_value={corrected}",
+                               f"dataset.cache_dir={tmp / 'datasets'}",
+                               f"inverse.checkpoint={run / 'checkpoint.ckpt'}",
+                               f"hydra.run.dir={out}"], tmp)
+    return out, proc
+
+
 def test_compare_writes_tables_and_figures(trained):
     """The compare task without the corrected fits: every plain method's rows, the tables and
     the figures (the corrected fits' rows: the slow test below)."""
     import csv
 
-    tmp, run = trained
-    out = tmp / "compare_plain"
-    proc = _run("compare.py", ["debug=fast", "compare.cases_per_value=1", "compare.n_jobs=1",
-                               "compare.corrected_cases_per_value=0",
-                               f"dataset.cache_dir={tmp / 'datasets'}",
-                               f"inverse.checkpoint={run / 'checkpoint.ckpt'}",
-                               f"hydra.run.dir={out}"], tmp)
+    out, proc = _compare(trained, "compare_plain", corrected=0)
     assert proc.returncode == 0, proc.stderr[-3000:]
     m = json.loads((out / "metrics.json").read_text())
     assert {r["method"] for r in m["summary"]} == {"network", "network+fit", "single-start",
@@ -112,13 +119,7 @@ def test_compare_adds_the_corrected_fits(trained):
     import csv
     import math
 
-    tmp, run = trained
-    out = tmp / "compare"
-    proc = _run("compare.py", ["debug=fast", "compare.cases_per_value=1", "compare.n_jobs=1",
-                               "compare.corrected_cases_per_value=1",
-                               f"dataset.cache_dir={tmp / 'datasets'}",
-                               f"inverse.checkpoint={run / 'checkpoint.ckpt'}",
-                               f"hydra.run.dir={out}"], tmp)
+    out, proc = _compare(trained, "compare", corrected=1)
     assert proc.returncode == 0, proc.stderr[-3000:]
     m = json.loads((out / "metrics.json").read_text())
     methods = {r["method"] for r in m["summary"]}
