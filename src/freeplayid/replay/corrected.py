@@ -298,6 +298,14 @@ class _Binding:
         self.stat = test.statistic
         self.stat_ci95 = by_run_intervals(self.stat)
 
+    def sibling(self, test: _Test, damping: tuple, label: str) -> _Binding:
+        """A binding of ``test`` with ``damping`` that matches this one's statistic: its
+        points, their weights (fixed after this loop's first replay) and its intervals."""
+        other = _Binding(test, self.system, damping, self.opts, label=label)
+        other.weights, other.weight_table = self.weights, self.weight_table
+        other.stat, other.stat_ci95 = self.stat, self.stat_ci95
+        return other
+
     @property
     def hat(self) -> np.ndarray:
         return np.array([self.stat.kn, self.stat.delta])
@@ -417,11 +425,8 @@ def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extracti
         theta = np.exp(sol.u[:2])
         zeta = initial_zeta(system, test.statistic.points.used(), test.levels, float(theta[0]),
                             test.statistic.dofs, fit.mode)
-        first, binding = binding, _Binding(test, system, (source, zeta), opts,
-                                           label="replay, damping estimated")
-        # the same statistic as the first loop's (its weights, fixed after its first replay)
-        binding.weights, binding.weight_table, binding.stat, binding.stat_ci95 = (
-            first.weights, first.weight_table, first.stat, first.stat_ci95)
+        first = binding
+        binding = first.sibling(test, (source, zeta), "replay, damping estimated")
         sol = _solve(binding, np.append(sol.u[:2], np.log(zeta)), progress,
                      "replay, damping estimated")
         note = (f"the model file's C put the replayed amplitudes {100 * mismatch:+.2g} % off "
@@ -549,10 +554,7 @@ def _level_sensitivity(b: _Binding, sol, u: float,
     levels = {r: ((lv * (1 + u), src) if r in runs else (lv, src))
               for r, (lv, src) in t.levels.items()}
     label = f"replay at levels x{1 + u:g}"
-    up = _Binding(dataclasses.replace(t, levels=levels), b.system, (b.source, b.zeta), b.opts,
-                  label=label)
-    up.weights, up.weight_table, up.stat, up.stat_ci95 = b.weights, b.weight_table, b.stat, \
-        b.stat_ci95
+    up = b.sibling(dataclasses.replace(t, levels=levels), (b.source, b.zeta), label)
     tol = [np.log1p(b.opts.rtol)] * 2 + ([np.log1p(ZETA_RTOL)] if sol.u.size == 3 else [])
     with _replay_bar(b.opts.max_iter, label, progress) as up.bar:
         moved = solve_binding(up, sol.u, sol.jacobian, max_iter=b.opts.max_iter,
