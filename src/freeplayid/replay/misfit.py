@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -139,23 +140,41 @@ def resonance_misfits(measured_points, replayed_points, measured_curves, replaye
             order = np.argsort(r.frequency)
             xr = np.interp(c.frequency[idx], r.frequency[order], r.amplitude_m[order])
             branch = float(np.median(np.abs(xr - c.amplitude_m[idx])) / peak)
-        dist_p = dist_q = float("nan")
+        dist, dist_rep = float("nan"), float("nan")
         if backbone_f is not None:
-            dist_p, dist_q = p.f_hz / backbone_f(p) - 1, q.f_hz / backbone_f(q) - 1
-        by_run.setdefault(p.run, []).append(
-            (q.f_hz / p.f_hz - 1, p.f_hz, float(np.nanmax(r.amplitude_m)) / peak - 1, branch,
-             peak, dist_q - dist_p, q.f_hz, dist_p, dist_q))
-    se = _offset_se([float(np.median([row[7] for row in rows])) for rows in by_run.values()],
-                    [float(np.median([row[8] for row in rows])) for rows in by_run.values()])
+            dist, dist_rep = p.f_hz / backbone_f(p) - 1, q.f_hz / backbone_f(q) - 1
+        by_run.setdefault(p.run, []).append(_Channel(
+            p.f_hz, q.f_hz, peak, float(np.nanmax(r.amplitude_m)) / peak - 1, branch, dist,
+            dist_rep))
+
+    def median(rows, value):
+        return float(np.median([value(ch) for ch in rows]))
+
+    se = _offset_se([median(rows, lambda ch: ch.dist) for rows in by_run.values()],
+                    [median(rows, lambda ch: ch.dist_rep) for rows in by_run.values()])
     out = {}
     for run, rows in by_run.items():
-        strongest = max(rows, key=lambda row: row[4])
-        out[run] = RunMisfit(run, float(np.median([row[0] for row in rows])),
-                             float(np.median([row[1] for row in rows])),
-                             float(np.median([row[5] for row in rows])), strongest[2],
-                             strongest[3], se,
-                             _spread([row[1] for row in rows]), _spread([row[6] for row in rows]))
+        strongest = max(rows, key=lambda ch: ch.peak)
+        out[run] = RunMisfit(
+            run, median(rows, lambda ch: ch.f_rep / ch.f - 1), median(rows, lambda ch: ch.f),
+            median(rows, lambda ch: ch.dist_rep - ch.dist), strongest.peak_offset,
+            strongest.branch, se, _spread([ch.f for ch in rows]),
+            _spread([ch.f_rep for ch in rows]))
     return out
+
+
+class _Channel(NamedTuple):
+    """One channel's measured (``f``, ``dist``) and replayed (``f_rep``, ``dist_rep``) point
+    frequency [Hz] and distance from the backbone [-], its measured peak [m], the replayed
+    peak's relative offset and the upper branch's misfit (:class:`RunMisfit`)."""
+
+    f: float
+    f_rep: float
+    peak: float
+    peak_offset: float
+    branch: float
+    dist: float
+    dist_rep: float
 
 
 def _spread(f) -> float:
