@@ -186,7 +186,7 @@ def fit_backbone(
         The linear model (M, K, hinges).
     init : (kn, delta), list of them, or an inverse model, optional
         Start(s) (:func:`.starts.resolve_start`). Default: the multi-start baseline
-        (:class:`MultiStart`: 25 starts spanning kn in [1e3, 1e8] N m/rad and delta in
+        (:class:`MultiStart`: 25 starts spanning kn in [1e2, 1e7] N m/rad and delta in
         [1e-4, 1e-2] rad); the best optimum wins. An object with
         ``predict_points(points) -> (kn, delta, ...)`` (a
         :class:`freeplayid.inverse.InverseModel`) gives one start from the points themselves.
