@@ -16,9 +16,9 @@ import sys
 import time
 from pathlib import Path
 
+from freeplayid.estimate import extract_points
 from freeplayid.fit import fit_backbone, multistart_grid
 from freeplayid.fit.fitting_points import FittingPoints
-from freeplayid.estimate import extract_points
 from freeplayid.io import read_dataset
 from freeplayid.model import default_fin, load_system
 from freeplayid.signal import Extraction, extract_backbone_points
