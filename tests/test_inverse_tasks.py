@@ -38,8 +38,15 @@ def test_train_writes_checkpoint_metrics_and_curves(trained):
     for key in ("within_bounds", "delta_within_2sigma", "kn_within_2sigma"):
         assert 0.0 <= overall[key] <= 1.0
     assert m["epochs"] == 5
-    for f in ("checkpoint.ckpt", "learning_curves.png", "predictions.png"):
+    for f in ("checkpoint.ckpt", "learning_curves.png", "predictions.png", "calibration.png"):
         assert (run / f).stat().st_size > 0
+    cal = m["calibration"]  # coverage at every level and SBC ranks on the test cases
+    assert cal["n_cases"] == m["n_test"] and len(cal["levels"]) == 19
+    for p in ("kn", "delta"):
+        assert len(cal[p]["coverage"]) == 19 and 0 <= cal[p]["max_gap"] <= 1
+        assert len(cal[p]["sbc"]["ranks"]) == m["n_test"] and 0 <= cal[p]["sbc"]["p_value"] <= 1
+        assert cal["std_scale"][p] > 0 and 0 <= cal["uncalibrated_max_gap"][p] <= 1
+    assert 0 <= cal["outside_domain"] <= m["n_test"]
     from freeplayid.inverse import load_inverse_model
     from freeplayid.model import default_fin
 

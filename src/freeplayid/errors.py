@@ -11,7 +11,7 @@ from __future__ import annotations
 
 __all__ = ["InputError", "ConfigError", "OutputError", "DatasetError", "SystemFileError",
            "ModalTestError", "ResultFileError", "IdentificationError", "InverseModelError",
-           "SuspectResultError"]
+           "SuspectResultError", "InverseDomainWarning"]
 
 
 class InputError(ValueError):
@@ -58,6 +58,11 @@ class IdentificationError(InputError):
 
 class InverseModelError(InputError):
     """An inverse-model checkpoint is missing, not ours, or made for another linear model."""
+
+
+class InverseDomainWarning(UserWarning):
+    """A case lies outside what the inverse model was trained on: its estimate is an
+    extrapolation (the network's points, point count or prior; :mod:`freeplayid.inverse`)."""
 
 
 class SuspectResultError(InputError):

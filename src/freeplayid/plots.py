@@ -369,6 +369,49 @@ def plot_inverse_predictions(ax, truth, estimate, log_std, *, groups=None, group
     ax.legend(fontsize=7, title=group_name or None, title_fontsize=7)
 
 
+def plot_coverage(ax, calibration: dict):
+    """Coverage of the network's central intervals against their credibility level, kn and
+    delta, on held-out cases (``calibration``: :func:`freeplayid.inverse.calibration_metrics`);
+    the diagonal is a calibrated posterior, the band +-5 points."""
+    lv = np.asarray(calibration["levels"])
+    ax.fill_between([0, 1], [-0.05, 0.95], [0.05, 1.05], color="0.85", label="±5 points")
+    ax.plot([0, 1], [0, 1], "k-", lw=0.8)
+    for p, name in (("kn", "kn"), ("delta", "δ")):
+        c = calibration[p]
+        ax.plot(lv, c["coverage"], "o-", ms=3, label=f"{name} (largest gap "
+                f"{100 * c['max_gap']:.1f} points)")
+    ax.set_xlim(0, 1)
+    ax.set_ylim(0, 1)
+    ax.set_xlabel("credibility level of the central interval")
+    ax.set_ylabel("share of test cases inside")
+    ax.set_title(f"coverage, {calibration['n_cases']} held-out cases", fontsize=9)
+    ax.legend(fontsize=7, loc="upper left")
+    ax.grid(True, alpha=0.3)
+
+
+def plot_sbc_ranks(ax, calibration: dict, quantity: str = "kn"):
+    """Histogram of the SBC ranks of ``quantity``'s truth among its posterior draws, with the
+    uniform expectation and its 99 % band (binomial), and the chi-square test's p-value."""
+    from scipy import stats
+
+    sbc = calibration[quantity]["sbc"]
+    counts = np.asarray(sbc["counts"])
+    n, bins = counts.sum(), counts.size
+    lo, hi = stats.binom.ppf([0.005, 0.995], n, 1 / bins)
+    ax.axhspan(lo, hi, color="0.85", label="uniform, 99 % band")
+    ax.bar(np.arange(bins), counts, width=0.9, color="C0")
+    ax.axhline(n / bins, color="k", lw=0.8)
+    name = "δ" if quantity == "delta" else "kn"
+    ax.set_xticks(np.arange(bins))
+    ax.set_xticklabels([f"{round(i * (sbc['n_draws'] + 1) / bins)}–"
+                        f"{round((i + 1) * (sbc['n_draws'] + 1) / bins) - 1}"
+                        for i in range(bins)], fontsize=7)
+    ax.set_xlabel(f"rank of the true {name} among {sbc['n_draws']} posterior draws")
+    ax.set_ylabel("test cases")
+    ax.set_title(f"SBC ranks of {name}: chi-square p = {sbc['p_value']:.2g}", fontsize=9)
+    ax.legend(fontsize=7)
+
+
 def plot_compare_errors(ax, rows, *, quantity="delta", axis_name=""):
     """Absolute relative error of each method per axis value (box plots, log scale).
 

@@ -3,11 +3,12 @@ which of the multi-start's optima wins."""
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import InverseModelError
+from ..errors import InverseDomainWarning, InverseModelError
 from .objective import MIN_GAP_RATIO, gap_ratios
 from .options import MultiStart
 
@@ -35,13 +36,24 @@ class Start:
 
 
 def _inverse_estimate(model, points) -> dict:
-    """The inverse model's estimate of (kn, delta) from the fitting points."""
+    """The inverse model's estimate of (kn, delta) from the fitting points; ``outside``: the
+    model's warning when the points lie outside its training domain (warned again here, before
+    the estimate starts the fit), else ''."""
     try:
-        kn, delta, s_kn, s_delta = model.predict_points(points)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", InverseDomainWarning)
+            kn, delta, s_kn, s_delta = model.predict_points(points)
     except ValueError as exc:  # e.g. a channel the network was not trained on
         raise InverseModelError(f"{getattr(model, 'path', 'inverse model')}: {exc}") from None
+    outside = [str(w.message) for w in caught if issubclass(w.category, InverseDomainWarning)]
+    for w in caught:  # the start is used anyway (the fit corrects it): say so
+        domain = issubclass(w.category, InverseDomainWarning)
+        warnings.warn_explicit(str(w.message) + ("; the fit starts from it all the same"
+                                                 if domain else ""),
+                               w.category, w.filename, w.lineno)
     return {"kn": float(kn), "delta": float(delta), "log_kn_std": float(s_kn),
-            "log_delta_std": float(s_delta), "checkpoint": str(getattr(model, "path", ""))}
+            "log_delta_std": float(s_delta), "checkpoint": str(getattr(model, "path", "")),
+            "outside": "; ".join(outside)}
 
 
 def resolve_start(init, points, *, label: str | None = None,

@@ -139,7 +139,9 @@ def _inverse(r) -> list[str]:
     return ["", f"Start from the inverse model (`{est['checkpoint']}`): kn = "
             f"{est['kn']:.5g} N·m/rad (×/÷ {math.exp(est['log_kn_std']):.3f}), delta = "
             f"{est['delta']:.5g} rad (×/÷ {math.exp(est['log_delta_std']):.3f}); the fit "
-            f"took {r.plain_fit.n_evaluations} objective evaluations."]
+            f"took {r.plain_fit.n_evaluations} objective evaluations."] + (
+        [f"**Outside the network's training domain:** {est['outside']}."]
+        if est.get("outside") else [])
 
 
 def _truth(r) -> list[str]:

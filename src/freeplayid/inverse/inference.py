@@ -2,12 +2,17 @@
 
 The checkpoint (``best.ckpt`` of :func:`~.lightning.train_inverse_model`) carries the channels, the
 fingerprint of the linear model the training cases came from, the normalisation and free metadata;
-a checkpoint made for another linear model is refused.
+a checkpoint made for another linear model is refused. A checkpoint calibrated by
+:func:`calibrate_checkpoint` (``train.py`` does it) also carries the spread's scale and the
+training domain (:mod:`.calibration`): predictions then have calibrated spreads, and a case
+outside the domain is named in :attr:`InversePrediction.outside` and warned of
+(:class:`InverseDomainWarning`) before its estimate is used.
 """
 
 from __future__ import annotations
 
 import os
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -15,13 +20,18 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from ..errors import InverseModelError
+from ..atomic import atomic_path
+from ..errors import InverseDomainWarning, InverseModelError
 from ..fit import FittingPoints
+from .calibration import Calibration
 from .lightning import _CKPT_KEY, _CKPT_VERSION, _STRUCTURE_KEY, InverseModule
 from .network import Normalisation, collate_point_sets
 from .pointsets import PointSets, point_sets_from_records
 
-__all__ = ["InverseModelError", "InversePrediction", "InverseModel", "load_inverse_model"]
+__all__ = ["InverseModelError", "InverseDomainWarning", "InversePrediction", "InverseModel",
+           "load_inverse_model", "calibrate_checkpoint"]
+
+_CALIBRATION_KEY = "freeplayid_calibration"  # the checkpoint's Calibration.to_dict()
 
 
 @dataclass(frozen=True)
@@ -35,23 +45,30 @@ class InversePrediction:
     delta : ndarray, shape (N,) [rad]
         Likewise for delta.
     log_kn_std, log_delta_std : ndarray, shape (N,) [-]
-        Predicted standard deviation of log kn, log delta (natural log).
+        Predicted standard deviation of log kn, log delta (natural log); calibrated when the
+        checkpoint is.
+    outside : tuple of str
+        Per case, why it lies outside the training domain ('' inside; all '' without a
+        calibrated checkpoint, which records no domain).
     """
 
     kn: np.ndarray
     delta: np.ndarray
     log_kn_std: np.ndarray
     log_delta_std: np.ndarray
+    outside: tuple = ()
 
 
 class InverseModel:
     """Inference wrapper of a trained :class:`InverseModule` (see :func:`load_inverse_model`)."""
 
-    def __init__(self, module: InverseModule, *, path: str | os.PathLike | None = None):
+    def __init__(self, module: InverseModule, *, path: str | os.PathLike | None = None,
+                 calibration: Calibration | None = None):
         if not isinstance(module, InverseModule):
             raise TypeError(f"`module` must be an InverseModule, got {type(module).__name__}")
         self.module = module
         self.path = None if path is None else Path(path)
+        self.calibration = calibration
 
     @property
     def channels(self) -> tuple[str, ...]:
@@ -69,8 +86,12 @@ class InverseModel:
     def norm(self) -> Normalisation:
         return self.module.norm
 
-    def predict(self, ps: PointSets, *, batch_size: int = 4096) -> InversePrediction:
-        """Estimates of every case of ``ps``.
+    def predict(self, ps: PointSets, *, batch_size: int = 4096,
+                calibrated: bool = True) -> InversePrediction:
+        """Estimates of every case of ``ps``; with a calibrated checkpoint (and ``calibrated``)
+        the calibrated posterior's median and 68 % half-width (:mod:`.calibration`), and the
+        cases outside the training domain named in ``outside`` and warned of (one
+        :class:`InverseDomainWarning` for all of them).
 
         Raises
         ------
@@ -103,8 +124,26 @@ class InverseModel:
         log_var = np.concatenate(log_vars) if log_vars else np.zeros((0, 2))
         log_mean = self.norm.target_mean + mean * self.norm.target_std
         log_std = np.exp(0.5 * log_var) * self.norm.target_std
-        return InversePrediction(kn=np.exp(log_mean[:, 0]), delta=np.exp(log_mean[:, 1]),
-                                 log_kn_std=log_std[:, 0], log_delta_std=log_std[:, 1])
+        kn, delta = np.exp(log_mean[:, 0]), np.exp(log_mean[:, 1])
+        cal = self.calibration if calibrated else None
+        if cal is None:
+            return InversePrediction(kn=kn, delta=delta, log_kn_std=log_std[:, 0],
+                                     log_delta_std=log_std[:, 1], outside=("",) * ps.n_cases)
+        outside = tuple(cal.domain.outside(ps, {"kn": kn, "delta": delta,
+                                                "log_kn_std": log_std[:, 0],
+                                                "log_delta_std": log_std[:, 1]}))
+        bad = [i for i, w in enumerate(outside) if w]
+        if bad:
+            warnings.warn(f"inverse model {self.path or ''}: {len(bad)} of {ps.n_cases} cases lie "
+                          f"outside what the network was trained on, its estimate there is an "
+                          f"extrapolation (case {bad[0]}: {outside[bad[0]]})",
+                          InverseDomainWarning, stacklevel=2)
+        # the calibrated posterior's median and 68 % half-width (calibration module)
+        shift = [float(np.median(cal.z[p])) for p in ("kn", "delta")]
+        return InversePrediction(kn=kn * np.exp(log_std[:, 0] * shift[0]),
+                                 delta=delta * np.exp(log_std[:, 1] * shift[1]),
+                                 log_kn_std=log_std[:, 0] * cal.std_scale[0],
+                                 log_delta_std=log_std[:, 1] * cal.std_scale[1], outside=outside)
 
     def predict_points(self, points: FittingPoints) -> tuple[float, float, float, float]:
         """One case from its fitting points (the start of ``fit_backbone(..., init=model)``).
@@ -204,4 +243,24 @@ def load_inverse_model(path: str | os.PathLike, *, system=None, rtol: float = 1e
         raise InverseModelError(f"{str(path)!r} holds an inverse model this freeplayid cannot "
                                 f"rebuild ({type(e).__name__}: {e})") from e
     module.to(map_location).eval()
-    return InverseModel(module, path=path)
+    try:
+        cal = Calibration.from_dict(ckpt[_CALIBRATION_KEY]) if _CALIBRATION_KEY in ckpt else None
+    except (KeyError, TypeError, ValueError) as e:
+        raise InverseModelError(f"{str(path)!r} has a calibration record this freeplayid cannot "
+                                f"read ({type(e).__name__}: {e})") from e
+    return InverseModel(module, path=path, calibration=cal)
+
+
+def calibrate_checkpoint(path: str | os.PathLike, train: PointSets,
+                         val: PointSets) -> Calibration:
+    """Store in the checkpoint at ``path`` the :class:`~.calibration.Calibration` of its network:
+    the domain of ``train`` and the spreads' scales fitted on the validation cases ``val`` (the
+    cases the best epoch was chosen on, never the test cases). The file is replaced atomically.
+    """
+    model = load_inverse_model(path)
+    cal = Calibration.fit(train, val, model.predict(val, calibrated=False))
+    ckpt = torch.load(Path(path), map_location="cpu", weights_only=True)
+    ckpt[_CALIBRATION_KEY] = cal.to_dict()
+    with atomic_path(Path(path)) as tmp:
+        torch.save(ckpt, tmp)
+    return cal

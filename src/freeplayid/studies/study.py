@@ -106,7 +106,8 @@ def train_study_network(
     extra: Mapping | None = None,
     **training,
 ) -> Path:
-    """Train the set network on ``data``; the best checkpoint goes to ``out_dir/checkpoint.ckpt``.
+    """Train the set network on ``data``; the best checkpoint goes to ``out_dir/checkpoint.ckpt``,
+    calibrated on ``data.val`` (:func:`freeplayid.inverse.calibrate_checkpoint`).
 
     Parameters
     ----------
@@ -127,7 +128,7 @@ def train_study_network(
     Path
         ``out_dir/checkpoint.ckpt``.
     """
-    from ..inverse import train_inverse_model
+    from ..inverse import calibrate_checkpoint, train_inverse_model
 
     out = Path(out_dir)
     extra = {**(extra or {}), "bank": data.bank_key, "cases": data.cases_key}
@@ -141,5 +142,6 @@ def train_study_network(
         raise RuntimeError(f"training wrote no checkpoint under {out / 'lightning'}")
     target = out / "checkpoint.ckpt"
     shutil.copyfile(best, target)
+    calibrate_checkpoint(target, data.train, data.val)
     (out / "history.json").write_text(json.dumps(history, indent=1))
     return target

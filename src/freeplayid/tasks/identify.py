@@ -10,13 +10,14 @@ from __future__ import annotations
 import dataclasses
 import logging
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
 from omegaconf import DictConfig
 
 from ..atomic import atomic_write_text, staged_folder
-from ..errors import ConfigError
+from ..errors import ConfigError, InverseDomainWarning
 from ..identification import Identification, SuspectResultError
 from ..identification import identify as identify_dataset
 from ..io import DatasetError, bundled_example, read_dataset
@@ -109,12 +110,16 @@ def _identify(cfg: DictConfig, options: dict, stage: Path, t0: float) -> dict:
     inverse_model = _load_inverse(cfg, system)  # a wrong checkpoint fails before the extraction
     if inverse_model is not None:
         options["fit"] = dataclasses.replace(options["fit"], init=inverse_model)
-    result = identify_dataset(ds, system=system, **options)
+    with warnings.catch_warnings():  # the log line below says it
+        warnings.simplefilter("ignore", InverseDomainWarning)
+        result = identify_dataset(ds, system=system, **options)
     est = result.inverse_estimate
     if est:
         log.info(f"inverse model: kn = {est['kn']:.4g} N·m/rad "
                  f"(x/÷ {np.exp(est['log_kn_std']):.3f}), delta = {est['delta']:.4g} rad "
                  f"(x/÷ {np.exp(est['log_delta_std']):.3f})")
+        if est.get("outside"):
+            log.warning(f"inverse model: {est['outside']}")
     log.info(result.summary())  # before anything is written: a failed write does not lose it
     out = run_dir()
     with writing_to(out):

@@ -3,9 +3,10 @@
 Steps: build the model, simulate (or load) the sweep bank and the cases (cached under
 ``dataset.cache_dir``), split them by kn into train / validation / test, train the set network
 (Lightning, the best validation epoch kept), evaluate the network alone on the test cases per
-value of the ablation axis, and write ``checkpoint.ckpt``, ``metrics.json``,
-``learning_curves.png`` and ``predictions.png``, all or none (``staged_folder``), after checking
-the whole configuration.
+value of the ablation axis, with its calibration (coverage at every credibility level, SBC ranks:
+:func:`freeplayid.inverse.calibration_metrics`), and write ``checkpoint.ckpt`` (calibrated on
+the validation cases), ``metrics.json``, ``learning_curves.png``, ``predictions.png`` and
+``calibration.png``, all or none (``staged_folder``), after checking the whole configuration.
 """
 
 from __future__ import annotations
@@ -13,12 +14,14 @@ from __future__ import annotations
 import json
 import logging
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
 from omegaconf import DictConfig, OmegaConf
 
 from ..atomic import staged_folder
+from ..errors import InverseDomainWarning
 from .checks import TRAIN, check_config
 from .common import (
     debug_choice,
@@ -34,13 +37,19 @@ __all__ = ["train"]
 log = logging.getLogger(__name__)
 
 
-def _figures(out: Path, history: dict, test, pred, axis_name: str) -> list[str]:
+def _figures(out: Path, history: dict, test, pred, axis_name: str,
+             calibration: dict) -> list[str]:
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from ..plots import plot_inverse_predictions, plot_learning_curves
+    from ..plots import (
+        plot_coverage,
+        plot_inverse_predictions,
+        plot_learning_curves,
+        plot_sbc_ranks,
+    )
 
     fig, ax = plt.subplots(figsize=(6, 4))
     plot_learning_curves(ax, history)
@@ -56,7 +65,14 @@ def _figures(out: Path, history: dict, test, pred, axis_name: str) -> list[str]:
     fig.tight_layout()
     fig.savefig(out / "predictions.png", dpi=110)
     plt.close(fig)
-    return ["learning_curves.png", "predictions.png"]
+    fig, axes = plt.subplots(1, 3, figsize=(14, 4.2))
+    plot_coverage(axes[0], calibration)
+    plot_sbc_ranks(axes[1], calibration, "kn")
+    plot_sbc_ranks(axes[2], calibration, "delta")
+    fig.tight_layout()
+    fig.savefig(out / "calibration.png", dpi=110)
+    plt.close(fig)
+    return ["learning_curves.png", "predictions.png", "calibration.png"]
 
 
 def train(cfg: DictConfig) -> dict:
@@ -75,14 +91,23 @@ def train(cfg: DictConfig) -> dict:
 
 
 def _train(cfg: DictConfig, stage: Path, t0: float) -> dict:
-    from ..inverse import load_inverse_model
+    from ..inverse import calibration_metrics, load_inverse_model
     from ..studies import network_metrics
 
     out = run_dir()
     data = study_data(cfg)
     ckpt = train_network(cfg, data, stage)
     model = load_inverse_model(ckpt, system=data.system)
-    pred = model.predict(data.test)
+    with warnings.catch_warnings():  # metrics.json counts the test cases outside the domain
+        warnings.simplefilter("ignore", InverseDomainWarning)
+        pred = model.predict(data.test)
+    raw = model.predict(data.test, calibrated=False)
+    calibration = model.calibration.metrics(data.test, raw)
+    before = calibration_metrics(data.test, raw)
+    calibration.update(
+        std_scale=dict(zip(("kn", "delta"), model.calibration.std_scale, strict=True)),
+        uncalibrated_max_gap={p: before[p]["max_gap"] for p in ("kn", "delta")},
+        outside_domain=sum(bool(w) for w in pred.outside))
     history = json.loads((stage / "history.json").read_text())
     axis = str(cfg.dataset.cases.axis)
     metrics = {
@@ -96,10 +121,11 @@ def _train(cfg: DictConfig, stage: Path, t0: float) -> dict:
         else None,
         "network": network_metrics(data.test, pred,
                                    bounds=OmegaConf.to_container(cfg.network_bounds)),
+        "calibration": calibration,
     }
     if cfg.plot:
         with writing_to(out):
-            metrics["figures"] = _figures(stage, history, data.test, pred, axis)
+            metrics["figures"] = _figures(stage, history, data.test, pred, axis, calibration)
     metrics["runtime_s"] = time.perf_counter() - t0
     with writing_to(out):
         write_metrics(stage, metrics)
@@ -112,6 +138,17 @@ def _train(cfg: DictConfig, stage: Path, t0: float) -> dict:
     log.info(f"test cases: {data.test.n_cases}; network alone within "
              f"{100 * cfg.network_bounds.delta:g} % in delta and {100 * cfg.network_bounds.kn:g} % "
              f"in kn: {100 * net['overall']['within_bounds']:.1f} % of cases")
+    cal = model.calibration
+    how = (f"recalibrated on {cal.n_val} validation cases" if cal.recalibrated else
+           f"not recalibrated: {cal.n_val} validation cases are too few")
+    log.info(f"calibration on the test cases ({how}; spreads x " +
+             ", ".join(f"{p} {calibration['std_scale'][p]:.3g}" for p in ("kn", "delta")) +
+             "): largest coverage gap " + ", ".join(
+                 f"{p} {100 * calibration[p]['max_gap']:.1f} points (uncalibrated "
+                 f"{100 * calibration['uncalibrated_max_gap'][p]:.1f})" for p in ("kn", "delta")) +
+        "; SBC ranks' chi-square p " + ", ".join(
+        f"{p} {calibration[p]['sbc']['p_value']:.2g}" for p in ("kn", "delta")) +
+        f"; {calibration['outside_domain']} cases outside the training domain")
     for v, b in net["per_value"].items():
         log.info(f"  {axis} = {v}: median |err| delta {100 * b['delta_err_median']:.2f} %, "
                  f"kn {100 * b['kn_err_median']:.2f} %, "

@@ -1,0 +1,276 @@
+"""The network's calibration and the domain it was trained on.
+
+Three things a user of the network's posterior needs (:class:`Calibration`, stored in the
+checkpoint by :func:`calibrate_checkpoint`, applied by :class:`~.inference.InverseModel`):
+
+- **The domain** (:class:`TrainingDomain`): per channel, the range of the training points'
+  frequencies and log amplitudes (their 0.1-99.9 percentiles widened by 5 % of the range), the
+  number of points of a training case and the prior of kn and delta (the training cases' truth,
+  widened by 5 % of its log range).
+  A case whose points leave that box, or whose estimate leaves the prior, is outside what the
+  network has seen: its estimate is an extrapolation (:meth:`TrainingDomain.outside`).
+- **The posterior's calibration**: the Gaussian head (trained by its negative log-likelihood)
+  gives an estimate and a spread per case; on the validation cases (never the test cases) the
+  standardised errors z = (log truth - log estimate) / spread are kept, and the calibrated
+  posterior is estimate * exp(spread * Z) with Z distributed as they were: a recalibration of
+  the predictive distribution's quantiles (Kuleshov et al. 2018), which corrects the spread's
+  scale, a shift and the tails that one scale factor cannot (:class:`Calibration`). Its 68 %
+  half-width is the spread reported (:attr:`Calibration.std_scale`).
+- **The checks** as sbi and BayesFlow users read them, on held-out cases: the coverage of the
+  central intervals at every level (:func:`coverage_curve`, diagonal = calibrated) and the ranks
+  of the truth among posterior draws (simulation-based calibration, :func:`sbc_ranks`; uniform
+  for a calibrated posterior, tested by :func:`rank_uniformity`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import stats
+
+__all__ = ["TrainingDomain", "Calibration", "calibration_metrics", "coverage_curve",
+           "fit_std_scale", "sbc_ranks", "rank_uniformity", "LEVELS"]
+
+LEVELS = np.round(np.arange(0.05, 0.951, 0.05), 2)  # credibility levels of the coverage curve
+_Q = 0.001  # [-] the points' range: their 0.1 and 99.9 percentiles ...
+_MARGIN = 0.05  # [-] ... widened by this share of the range on each side
+PARAMETERS = ("kn", "delta")
+MIN_CASES = 30  # validation cases below which the Gaussian head is kept as it is
+
+
+def _z(truth, mean, std) -> np.ndarray:
+    """Standardised errors of the log parameters (N,)."""
+    return (np.log(np.asarray(truth, float)) - np.log(np.asarray(mean, float))) / \
+        np.asarray(std, float)
+
+
+def _bounds(levels, z_sorted=None) -> tuple[np.ndarray, np.ndarray]:
+    """The standardised bounds (lo, hi) of the central interval of each level: of the standard
+    normal, or of the empirical distribution ``z_sorted`` (sorted standardised errors)."""
+    lo_p, hi_p = 0.5 - np.asarray(levels) / 2, 0.5 + np.asarray(levels) / 2
+    if z_sorted is None:
+        return stats.norm.ppf(lo_p), stats.norm.ppf(hi_p)
+    return _quantile(z_sorted, lo_p), _quantile(z_sorted, hi_p)
+
+
+def _quantile(z_sorted, p) -> np.ndarray:
+    """The empirical quantile function of ``z_sorted`` (Hazen plotting positions, linear)."""
+    z = np.asarray(z_sorted, float)
+    pos = (np.arange(z.size) + 0.5) / z.size
+    return np.interp(p, pos, z)
+
+
+def coverage_curve(truth, mean, std, levels=LEVELS, z_sorted=None) -> np.ndarray:
+    """Share of cases whose truth lies inside the central interval of each credibility level,
+    shape (L,): of the log-normal posterior (median ``mean``, log standard deviation ``std``),
+    or with ``z_sorted`` of the posterior mean * exp(std * Z), Z distributed as ``z_sorted``."""
+    z = _z(truth, mean, std)
+    lo, hi = _bounds(levels, z_sorted)
+    return np.array([float(np.mean((z >= a) & (z <= b))) for a, b in zip(lo, hi, strict=True)])
+
+
+def fit_std_scale(truth, mean, std, levels=LEVELS) -> float:
+    """The factor on ``std`` that makes the Gaussian coverage curve of these cases closest to
+    the diagonal (smallest largest gap; a log grid 0.1-30 refined once)."""
+    def gap(s):
+        return float(np.max(np.abs(coverage_curve(truth, mean, s * std, levels) - levels)))
+
+    grid = np.geomspace(0.1, 30.0, 121)
+    best = min(grid, key=gap)
+    fine = best * np.geomspace(0.95, 1.05, 41)
+    return float(min(fine, key=gap))
+
+
+def sbc_ranks(truth, mean, std, *, n_draws: int = 99, seed: int = 0,
+              z_sorted=None) -> np.ndarray:
+    """Rank of each case's truth among ``n_draws`` draws of its posterior (log-normal, or
+    mean * exp(std * Z) with Z drawn from ``z_sorted``), in [0, n_draws]: uniform for a
+    calibrated posterior (Talts et al. 2018)."""
+    rng = np.random.default_rng(seed)
+    truth, mean, std = (np.asarray(a, float) for a in (truth, mean, std))
+    shape = (truth.size, n_draws)
+    z = rng.standard_normal(shape) if z_sorted is None else \
+        _quantile(z_sorted, rng.uniform(size=shape))
+    draws = np.log(mean)[:, None] + std[:, None] * z
+    return np.sum(draws < np.log(truth)[:, None], axis=1)
+
+
+def rank_uniformity(ranks, n_draws: int, *, bins: int = 10) -> dict:
+    """Pearson's chi-square test of the ranks' uniformity over ``bins`` equal bins: the
+    statistic, its p-value and the bin counts (a p-value below 0.01 rejects uniformity)."""
+    counts, _ = np.histogram(np.asarray(ranks), bins=bins, range=(-0.5, n_draws + 0.5))
+    chi2, p = stats.chisquare(counts)
+    return {"chi2": float(chi2), "p_value": float(p), "counts": counts.tolist()}
+
+
+@dataclass(frozen=True)
+class TrainingDomain:
+    """What the network was trained on (module docstring).
+
+    Attributes
+    ----------
+    channels : tuple of str
+    frequency : tuple of (lo, hi) per channel [Hz]
+    log_amplitude : tuple of (lo, hi) per channel [ln m]
+    n_points : (int, int)
+        Fewest and most points of a training case.
+    kn, delta : (lo, hi) [N m/rad], [rad]
+        The training cases' truth.
+    """
+
+    channels: tuple
+    frequency: tuple
+    log_amplitude: tuple
+    n_points: tuple
+    kn: tuple
+    delta: tuple
+
+    @classmethod
+    def from_point_sets(cls, ps) -> TrainingDomain:
+        def box(x):
+            if x.size == 0:
+                return (float("nan"), float("nan"))
+            lo, hi = np.quantile(x, [_Q, 1 - _Q])
+            pad = _MARGIN * (hi - lo)
+            return (float(lo - pad), float(hi + pad))
+
+        def prior(x):  # the truth's range, widened by the margin in log
+            lo, hi = np.log(np.nanmin(x)), np.log(np.nanmax(x))
+            pad = _MARGIN * (hi - lo)
+            return (float(np.exp(lo - pad)), float(np.exp(hi + pad)))
+
+        per = [ps.channel == i for i in range(len(ps.channels))]
+        counts = np.bincount(ps.case, minlength=ps.n_cases)
+        return cls(channels=tuple(ps.channels),
+                   frequency=tuple(box(ps.frequency[m]) for m in per),
+                   log_amplitude=tuple(box(np.log(ps.amplitude[m])) for m in per),
+                   n_points=(int(counts.min()), int(counts.max())),
+                   kn=prior(ps.kn), delta=prior(ps.delta))
+
+    def to_dict(self) -> dict:
+        return {"channels": list(self.channels), "frequency": [list(r) for r in self.frequency],
+                "log_amplitude": [list(r) for r in self.log_amplitude],
+                "n_points": list(self.n_points), "kn": list(self.kn), "delta": list(self.delta)}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> TrainingDomain:
+        return cls(channels=tuple(d["channels"]),
+                   frequency=tuple(tuple(r) for r in d["frequency"]),
+                   log_amplitude=tuple(tuple(r) for r in d["log_amplitude"]),
+                   n_points=tuple(d["n_points"]), kn=tuple(d["kn"]), delta=tuple(d["delta"]))
+
+    def outside(self, ps, estimate=None) -> list[str]:
+        """Per case of ``ps``: why it lies outside the domain ('' inside): its points beyond
+        the training points' range, more points than any training case, or an estimate outside
+        the training prior by more than twice its spread (``estimate``, optional: a dict of
+        "kn", "delta", "log_kn_std", "log_delta_std" arrays)."""
+        out = []
+        for c in range(ps.n_cases):
+            sel = ps.case == c
+            why = self._points(ps, sel)
+            if sel.sum() > self.n_points[1]:
+                why.append(f"{int(sel.sum())} points, training cases had {self.n_points[1]} "
+                           "at most")
+            for name, (lo, hi), unit in (("kn", self.kn, "N·m/rad"),
+                                         ("delta", self.delta, "rad")):
+                if estimate is None:
+                    continue
+                v, s = estimate[name][c], 2 * estimate[f"log_{name}_std"][c]
+                if not lo * np.exp(-s) <= v <= hi * np.exp(s):
+                    why.append(f"estimated {name} {v:.4g} {unit} outside the training "
+                               f"prior [{lo:.4g}, {hi:.4g}] by more than twice its spread")
+            out.append("; ".join(why))
+        return out
+
+    def _points(self, ps, sel) -> list[str]:
+        why = []
+        for i, ch in enumerate(ps.channels):
+            m = sel & (ps.channel == i)
+            if not m.any() or ch not in self.channels:
+                continue
+            j = self.channels.index(ch)
+            for label, x, (lo, hi), unit in (
+                    ("frequency", ps.frequency[m], self.frequency[j], "Hz"),
+                    ("amplitude", ps.amplitude[m], np.exp(self.log_amplitude[j]), "m")):
+                if x.max() > hi or x.min() < lo:
+                    far = x.max() if x.max() > hi else x.min()
+                    why.append(f"{ch} {label} {far:.4g} {unit} outside the training points' "
+                               f"[{lo:.4g}, {hi:.4g}]")
+        return why
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """The checkpoint's calibration record (module docstring).
+
+    Attributes
+    ----------
+    z : dict of str -> tuple of float
+        Per parameter ("kn", "delta"): the validation cases' standardised errors of the log
+        parameter, (log truth - log estimate) / predicted std, sorted: the calibrated posterior
+        is estimate * exp(std * Z) with Z distributed as these (a shift and a shape the Gaussian
+        head missed included).
+    domain : TrainingDomain
+    """
+
+    z: dict
+    domain: TrainingDomain
+    n_val: int = 0
+
+    @property
+    def recalibrated(self) -> bool:
+        """Whether the validation cases were enough (:data:`MIN_CASES`) to recalibrate."""
+        return self.n_val >= MIN_CASES
+
+    @property
+    def std_scale(self) -> tuple[float, float]:
+        """Per parameter, the factor on the predicted std that gives the calibrated posterior's
+        68 % half-width (its 16-84 % quantiles' half distance)."""
+        return tuple(float(np.diff(_quantile(self.z[p], [0.158655, 0.841345]))[0] / 2)
+                     for p in PARAMETERS)
+
+    def metrics(self, test, raw, *, n_draws: int = 99, seed: int = 0) -> dict:
+        """:func:`calibration_metrics` of the calibrated posterior, from the uncalibrated
+        predictions ``raw`` (``predict(..., calibrated=False)``) of ``test``."""
+        return calibration_metrics(test, raw, n_draws=n_draws, seed=seed, z=self.z)
+
+    def to_dict(self) -> dict:
+        return {"z": {p: list(v) for p, v in self.z.items()}, "domain": self.domain.to_dict(),
+                "n_val": self.n_val}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> Calibration:
+        return cls(z={p: tuple(float(v) for v in d["z"][p]) for p in PARAMETERS},
+                   domain=TrainingDomain.from_dict(d["domain"]), n_val=int(d.get("n_val", 0)))
+
+    @classmethod
+    def fit(cls, train, val, raw_val) -> Calibration:
+        """From the training cases (the domain) and the uncalibrated predictions ``raw_val`` of
+        the validation cases (the standardised errors; with fewer than :data:`MIN_CASES` of
+        them, the standard normal's quantiles: no recalibration)."""
+        if val.n_cases < MIN_CASES:  # too few to recalibrate by: the Gaussian head as it is
+            gauss = tuple(stats.norm.ppf((np.arange(99) + 0.5) / 99).tolist())
+            return cls(z=dict.fromkeys(PARAMETERS, gauss),
+                       domain=TrainingDomain.from_point_sets(train), n_val=int(val.n_cases))
+        z = {p: tuple(np.sort(_z(getattr(val, p), getattr(raw_val, p),
+                                 getattr(raw_val, f"log_{p}_std"))).tolist())
+             for p in PARAMETERS}
+        return cls(z=z, domain=TrainingDomain.from_point_sets(train), n_val=int(val.n_cases))
+
+
+def calibration_metrics(test, pred, *, n_draws: int = 99, seed: int = 0, z=None) -> dict:
+    """The coverage curve and the SBC ranks' uniformity of ``pred`` on the held-out ``test``
+    cases, per parameter: ``levels``, ``coverage``, ``max_gap`` (the largest coverage gap),
+    ``sbc`` (``n_draws``, ranks, chi2, p_value, counts). ``pred``'s log-normal posterior, or
+    with ``z`` (:attr:`Calibration.z`) the calibrated one of the uncalibrated ``pred``."""
+    out = {"levels": LEVELS.tolist(), "n_cases": int(test.n_cases)}
+    for p in PARAMETERS:
+        truth, mean, std = getattr(test, p), getattr(pred, p), getattr(pred, f"log_{p}_std")
+        zs = None if z is None else z[p]
+        cov = coverage_curve(truth, mean, std, z_sorted=zs)
+        ranks = sbc_ranks(truth, mean, std, n_draws=n_draws, seed=seed, z_sorted=zs)
+        out[p] = {"coverage": cov.tolist(), "max_gap": float(np.max(np.abs(cov - LEVELS))),
+                  "sbc": {"n_draws": n_draws, "ranks": ranks.tolist(),
+                          **rank_uniformity(ranks, n_draws)}}
+    return out

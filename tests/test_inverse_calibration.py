@@ -1,0 +1,172 @@
+"""The network's calibration: coverage, SBC ranks, the spreads' scale and the training domain.
+
+References are drawn here with numpy (a posterior that is calibrated by construction, or one
+whose spread is wrong by a known factor), never produced by the code under test.
+"""
+
+from __future__ import annotations
+
+import logging
+import warnings
+
+import numpy as np
+import pytest
+
+from freeplayid.errors import InverseDomainWarning
+from freeplayid.fit import FittingPoints, resolve_start
+from freeplayid.inverse import (
+    PointSets,
+    TrainingDomain,
+    calibrate_checkpoint,
+    calibration_metrics,
+    load_inverse_model,
+    train_inverse_model,
+)
+from freeplayid.inverse.calibration import (
+    LEVELS,
+    coverage_curve,
+    fit_std_scale,
+    rank_uniformity,
+    sbc_ranks,
+)
+
+CHANNELS = ("uz_top_left", "uz_root")
+
+
+@pytest.fixture(autouse=True)
+def _quiet_lightning(caplog):
+    caplog.set_level(logging.WARNING, logger="pytorch_lightning")
+    caplog.set_level(logging.WARNING, logger="lightning_fabric")
+
+
+def _posterior(n, *, seed, spread_error=1.0):
+    """Truth drawn from each case's log-normal posterior: (truth, median, stated log std), the
+    stated std ``spread_error`` times the true one."""
+    rng = np.random.default_rng(seed)
+    mean = np.exp(rng.uniform(np.log(300), np.log(800), n))
+    std = rng.uniform(0.02, 0.2, n)
+    truth = mean * np.exp(std * rng.standard_normal(n))
+    return truth, mean, std * spread_error
+
+
+def test_coverage_follows_the_level_for_a_calibrated_posterior_and_not_otherwise():
+    truth, mean, std = _posterior(20000, seed=1)
+    assert np.max(np.abs(coverage_curve(truth, mean, std) - LEVELS)) < 0.015
+    # over-confident by 2: the 95 % interval is really a 68 % one
+    cov = coverage_curve(truth, mean, std / 2)
+    assert cov[-1] == pytest.approx(0.68, abs=0.02)
+
+
+@pytest.mark.parametrize("factor", [0.4, 2.5])
+def test_the_recalibration_undoes_a_known_miscalibration(factor):
+    truth, mean, std = _posterior(4000, seed=2)
+    s = fit_std_scale(truth, mean, std * factor)
+    assert s * factor == pytest.approx(1.0, rel=0.06)
+    # the empirical recalibration, fitted on other cases, also undoes a shift
+    t2, m2, s2 = _posterior(4000, seed=7)
+    shifted = mean * np.exp(0.5 * std)  # biased by half a std
+    z = np.sort((np.log(t2) - np.log(m2 * np.exp(0.5 * s2))) / (s2 * factor))
+    cov = coverage_curve(truth, shifted, std * factor, z_sorted=z)
+    assert np.max(np.abs(cov - LEVELS)) < 0.03
+    assert np.max(np.abs(coverage_curve(truth, shifted, std * factor) - LEVELS)) > 0.1
+
+
+def test_sbc_ranks_are_uniform_for_a_calibrated_posterior_and_rejected_when_overconfident():
+    truth, mean, std = _posterior(2000, seed=3)
+    ok = rank_uniformity(sbc_ranks(truth, mean, std, n_draws=99, seed=5), 99)
+    assert ok["p_value"] > 0.01 and sum(ok["counts"]) == 2000
+    bad = rank_uniformity(sbc_ranks(truth, mean, std / 2, n_draws=99, seed=5), 99)
+    assert bad["p_value"] < 1e-6
+    # over-confident: the truth falls at the ends of the draws (U-shaped histogram)
+    assert bad["counts"][0] + bad["counts"][-1] > 2 * (2000 / 10) * 2 * 0.8
+
+
+def _cases(n, *, seed, kn_range=(240.0, 960.0)):
+    """Cases whose points follow a softening backbone, f = 40 Hz sqrt(kn / 480) sqrt(1 - 1/r)
+    at r = A / delta in [1.5, 6], 2-6 points (the law of tests/test_inverse_network.py)."""
+    rng = np.random.default_rng(seed)
+    kn = np.exp(rng.uniform(*np.log(kn_range), n))
+    delta = np.exp(rng.uniform(np.log(3e-4), np.log(3e-3), n))
+    case = np.repeat(np.arange(n), rng.integers(2, 7, n))
+    r = rng.uniform(1.5, 6.0, case.size)
+    channel = rng.integers(0, 2, case.size)
+    f = 40.0 * np.sqrt(kn[case] / 480.0) * np.sqrt(1.0 - 1.0 / r)
+    amplitude = r * delta[case] * np.where(channel == 1, 0.6, 1.0)
+    return PointSets(channels=CHANNELS, case=case, channel=channel, amplitude=amplitude,
+                     frequency=f, kn=kn, delta=delta)
+
+
+def test_domain_names_what_lies_outside():
+    dom = TrainingDomain.from_point_sets(_cases(300, seed=0))
+    inside = _cases(20, seed=1)
+    assert dom.outside(inside) == [""] * 20
+    stiff = _cases(3, seed=2, kn_range=(1900.0, 2100.0))  # f ~ 80 Hz, trained up to ~56 Hz
+    why = dom.outside(stiff)
+    assert all("frequency" in w and "outside the training points'" in w for w in why)
+    # an estimate beyond the training prior is named too
+    est = {"kn": np.full(20, 3000.0), "delta": inside.delta, "log_kn_std": np.full(20, 0.05),
+           "log_delta_std": np.full(20, 0.05)}
+    w = dom.outside(inside, est)[0]
+    assert "estimated kn 3000" in w and "training prior" in w
+    est["log_kn_std"] = np.full(20, 1.0)  # within twice a wide spread of the prior: inside
+    assert dom.outside(inside, est)[0] == ""
+    assert TrainingDomain.from_dict(dom.to_dict()) == dom
+
+
+@pytest.fixture(scope="module")
+def calibrated(tmp_path_factory):
+    out = tmp_path_factory.mktemp("calibrated")
+    ps = _cases(1000, seed=4)  # 400 validation cases: the recalibration's quantiles to ~2.5 %
+    train, val = ps.subset(np.arange(600)), ps.subset(np.arange(600, 1000))
+    train_inverse_model(train, val, channels=CHANNELS, fingerprint="synthetic", hidden=32,
+                        depth=2, lr=1e-2, batch_size=64, max_epochs=8, seed=0, out_dir=out,
+                        enable_progress_bar=False, logger=False)
+    path = out / "best.ckpt"
+    cal = calibrate_checkpoint(path, train, val)
+    return path, cal
+
+
+def test_a_calibrated_checkpoint_has_calibrated_spreads_on_new_cases(calibrated):
+    path, cal = calibrated
+    model = load_inverse_model(path)
+    assert model.calibration == cal and all(s > 0 for s in cal.std_scale)
+    test = _cases(1500, seed=9)  # held out: neither trained nor calibrated on
+    raw_pred = model.predict(test, calibrated=False)
+    m = cal.metrics(test, raw_pred)
+    raw = calibration_metrics(test, raw_pred)
+    for p in ("kn", "delta"):
+        assert m[p]["max_gap"] < 0.05, (p, m[p]["max_gap"], raw[p]["max_gap"])
+        assert m[p]["sbc"]["p_value"] > 0.001, (p, m[p]["sbc"])
+    # the calibrated prediction: the posterior's median and 68 % half-width
+    pred = model.predict(test)
+    inside68 = np.abs(np.log(test.kn / pred.kn)) <= pred.log_kn_std
+    assert np.mean(inside68) == pytest.approx(0.68, abs=0.05)
+
+
+def test_out_of_domain_warning_fires_outside_the_prior_and_stays_quiet_inside(calibrated):
+    path, _ = calibrated
+    model = load_inverse_model(path)
+    inside = _cases(10, seed=11)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", InverseDomainWarning)
+        pred = model.predict(inside)
+    assert pred.outside == ("",) * 10
+    stiff = _cases(1, seed=12, kn_range=(2000.0, 2000.0))  # kn 2000: outside 240-960
+    with pytest.warns(InverseDomainWarning, match="outside what the network was trained on"):
+        pred = model.predict(stiff)
+    assert "frequency" in pred.outside[0]
+    # the fit's start from the network records it and warns before the estimate is used
+    pts = _points(stiff)
+    with pytest.warns(InverseDomainWarning, match="the fit starts from it all the same"):
+        start = resolve_start(model, pts)
+    assert "frequency" in start.inverse["outside"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", InverseDomainWarning)
+        assert resolve_start(model, _points(inside.subset([0]))).inverse["outside"] == ""
+
+
+def _points(ps):
+    """The first case of ``ps`` as the fit's points (two at least)."""
+    sel = ps.case == 0
+    return FittingPoints(channel=tuple(CHANNELS[c] for c in ps.channel[sel]),
+                         amplitude_m=ps.amplitude[sel], f_hz=ps.frequency[sel])
