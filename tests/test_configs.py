@@ -182,7 +182,7 @@ def test_every_primary_composes_with_every_experiment(primary, experiment, debug
     assert len(cfg.dataset.split) == 3 and abs(sum(cfg.dataset.split) - 1) < 1e-12
     if debug:  # seconds: a few short sweeps, a few epochs
         assert bank_spec.n_kn * bank_spec.n_ratios <= 24 and bank_spec.sweep.duration <= 30
-        assert cfg.training.max_epochs <= 5
+        assert cfg.trainer.max_epochs <= 5
     if primary == "compare":
         assert cfg.fit.multistart.n >= 1 and cfg.inverse.checkpoint is None
         # the studies' documented numbers were measured on the [1e3, 1e8] grid: their

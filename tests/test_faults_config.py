@@ -19,6 +19,12 @@ ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ("identification.json", "dataset/manifest.yaml", "checkpoint.ckpt", "metrics.json")
 
 SIM = ["model=sdof", "debug=fast"]
+try:
+    import tensorboard  # noqa: F401
+
+    _NO_TENSORBOARD = False
+except ImportError:
+    _NO_TENSORBOARD = True
 # (script, overrides, the field the one line must name)
 FAULTS = [
     ("identify", ["fit.backbone=nonsense"], "`fit.backbone`"),
@@ -50,7 +56,11 @@ FAULTS = [
     ("simulate", SIM + ["plot=maybe"], "`plot`"),
     ("simulate", SIM + ["channels={acc_x: nowhere}"], "`channels`"),
     ("simulate", ["model=npz"], "`model.path`"),
-    ("train", ["debug=fast", "training.max_epochs=0"], "`training.max_epochs`"),
+    ("train", ["debug=fast", "trainer.max_epochs=0"], "`trainer.max_epochs`"),
+    ("train", ["debug=fast", "logger=tensorboard"] if _NO_TENSORBOARD else ["debug=fast", "logger.kind=wandb"],
+     "tensorboard" if _NO_TENSORBOARD else "`logger.kind`"),
+    ("train", ["debug=fast", "callbacks=early_stopping", "callbacks.early_stopping.patience=0"],
+     "`callbacks.early_stopping.patience`"),
     ("train", ["debug=fast", "dataset.split=[0.5,0.5,0.5]"], "`dataset.split`"),
     ("train", ["debug=fast", "dataset.cases.axis=level"], "`dataset.cases.axis`"),
     ("compare", ["debug=fast", "compare.cases_per_value=0"], "`compare.cases_per_value`"),

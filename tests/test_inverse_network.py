@@ -175,6 +175,29 @@ def test_checkpoint_round_trip(trained):
     assert s_kn > 0 and s_delta > 0
 
 
+def test_early_stopping_stops_and_keeps_the_best_epoch():
+    ps = synthetic_point_sets(60, seed=1)
+    train, val = ps.subset(np.arange(48)), ps.subset(np.arange(48, 60))
+    # no improvement can reach min_delta: it stops after `patience` epochs past the first
+    module, _, hist = train_inverse_model(
+        train, val, channels=CHANNELS, fingerprint="x", hidden=8, depth=1, max_epochs=20,
+        early_stopping={"patience": 2, "min_delta": 1e9}, **QUIET)
+    assert len(hist["val_loss"]) == 3
+
+
+def test_logger_kinds_are_checked():
+    from freeplayid.inverse.lightning import make_logger
+
+    with pytest.raises(ValueError, match="`logger` must be one of"):
+        make_logger("wandb", ".")
+    assert make_logger("none", ".") is False and make_logger(True, None) is False
+    try:
+        import tensorboard  # noqa: F401
+    except ImportError:
+        with pytest.raises(ValueError, match="pip install tensorboard"):
+            make_logger("tensorboard", ".")
+
+
 def test_training_is_reproducible_on_cpu():
     ps = synthetic_point_sets(80, seed=5)
     runs = [train_inverse_model(ps.subset(np.arange(64)), ps.subset(np.arange(64, 80)),

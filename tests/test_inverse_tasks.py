@@ -40,6 +40,10 @@ def test_train_writes_checkpoint_metrics_and_curves(trained):
     assert m["epochs"] == 5
     for f in ("checkpoint.ckpt", "learning_curves.png", "predictions.png", "calibration.png"):
         assert (run / f).stat().st_size > 0
+    # one checkpoint and one per-epoch record (logger=csv), nothing of Lightning's own
+    assert [p.name for p in run.rglob("*.ckpt")] == ["checkpoint.ckpt"]
+    assert (run / "metrics.csv").is_file() and not (run / "history.json").exists()
+    assert not [p for p in run.iterdir() if p.name.startswith(".checkpoints-")]
     cal = m["calibration"]  # coverage at every level and SBC ranks on the test cases
     assert cal["n_cases"] == m["n_test"] and len(cal["levels"]) == 19
     for p in ("kn", "delta"):

@@ -29,7 +29,8 @@ from ..progress import progress_bar, warnings_wanted
 from .network import InverseNet, Normalisation, collate_point_sets
 from .pointsets import PointSets
 
-__all__ = ["InverseModule", "PointSetDataModule", "train_inverse_model", "gaussian_nll"]
+__all__ = ["InverseModule", "PointSetDataModule", "train_inverse_model", "gaussian_nll",
+           "make_logger", "LOGGERS"]
 
 _CKPT_KEY = "freeplayid_inverse"  # marks our checkpoints; the value is the format version
 _CKPT_VERSION = 1
@@ -348,6 +349,35 @@ def lightning_quiet() -> Iterator[None]:
             lg.setLevel(level)
 
 
+LOGGERS = ("csv", "tensorboard", "none")
+
+
+def make_logger(kind: bool | str, folder: str | os.PathLike | None):
+    """The Lightning logger of ``kind`` (:data:`LOGGERS`; True is "csv", False "none") writing
+    to ``folder`` (no logger without one).
+
+    Raises
+    ------
+    ValueError
+        An unknown kind, or "tensorboard" without the ``tensorboard`` package (one line that
+        says how to install it).
+    """
+    kind = {True: "csv", False: "none"}.get(kind, kind)
+    if kind not in LOGGERS:
+        raise ValueError(f"`logger` must be one of {list(LOGGERS)}, got {kind!r}")
+    if folder is None or kind == "none":
+        return False
+    if kind == "csv":
+        return pl.loggers.CSVLogger(folder, name="", version="")
+    try:
+        import tensorboard  # noqa: F401
+    except ImportError:
+        raise ValueError("`logger` tensorboard needs the tensorboard package: "
+                         "pip install tensorboard (or use logger=csv)") from None
+    return pl.loggers.TensorBoardLogger(folder, name="tensorboard", version="",
+                                        default_hp_metric=False)
+
+
 def train_inverse_model(
     train: PointSets, val: PointSets, *, channels: Sequence[str], fingerprint: str,
     hidden: int = 64, depth: int = 3, activation: str = "silu", lr: float = 3e-3,
@@ -355,7 +385,8 @@ def train_inverse_model(
     max_epochs: int = 100, seed: int = 0, out_dir: str | os.PathLike | None = None,
     extra: Mapping | None = None, structure: Mapping | None = None,
     accelerator: str = "auto", enable_progress_bar: bool = True,
-    logger: bool = True, trainer_kwargs: Mapping | None = None,
+    logger: bool | str = True, log_dir: str | os.PathLike | None = None,
+    early_stopping: Mapping | None = None, trainer_kwargs: Mapping | None = None,
 ) -> tuple[InverseModule, pl.Trainer, dict[str, list]]:
     """Seeded training of an :class:`InverseModule` on ``train``, validated on ``val``.
 
@@ -371,15 +402,23 @@ def train_inverse_model(
         See :class:`InverseModule`.
     batch_size, max_epochs, seed : int
     out_dir : path-like, optional
-        Where ``best.ckpt`` (lowest ``val_loss``) and, with ``logger``, the CSV log
-        (``metrics.csv``, ``hparams.yaml``) go. Without it nothing is written.
+        Where ``best.ckpt`` (lowest ``val_loss``) goes, and the log unless ``log_dir`` is
+        given. Without either nothing is written.
     accelerator : str
         ``pl.Trainer`` accelerator; "auto" takes one GPU when present. On CPU a run is
         reproducible for a given ``seed``.
     enable_progress_bar : bool
         A bar over the epochs with the losses (not Lightning's bars per batch).
-    logger : bool
-        The CSV log in ``out_dir``.
+    logger : bool or {"csv", "tensorboard", "none"}
+        The per-epoch log: "csv" (True) ``metrics.csv`` and ``hparams.yaml``, "tensorboard"
+        event files under ``tensorboard/`` (needs the ``tensorboard`` package), "none" (False).
+    log_dir : path-like, optional
+        The log's folder (default ``out_dir``).
+    early_stopping : dict, optional
+        Stop when ``val_loss`` has not fallen by ``min_delta`` (default 0) for ``patience``
+        epochs (Lightning's ``EarlyStopping``); the best epoch is kept either way. With the
+        "onecycle" schedule the learning rate falls to its end only at ``max_epochs``, where
+        the best epochs usually are: stopping early then costs accuracy.
     trainer_kwargs : dict, optional
         Further ``pl.Trainer`` arguments (override the above).
 
@@ -403,15 +442,17 @@ def train_inverse_model(
                            structure=structure)
     hist = _History()
     callbacks: list[pl.Callback] = [hist]
-    loggers = False
     if out_dir is not None:
         out_dir = Path(out_dir)
         callbacks.append(pl.callbacks.ModelCheckpoint(
             dirpath=out_dir, filename="best", monitor="val_loss", mode="min", save_top_k=1,
             auto_insert_metric_name=False, enable_version_counter=False,
         ))
-        if logger:
-            loggers = pl.loggers.CSVLogger(out_dir, name="", version="")
+    loggers = make_logger(logger, log_dir if log_dir is not None else out_dir)
+    if early_stopping is not None:
+        callbacks.append(pl.callbacks.EarlyStopping(
+            monitor="val_loss", mode="min", patience=int(early_stopping["patience"]),
+            min_delta=float(early_stopping.get("min_delta", 0.0))))
     if enable_progress_bar:
         callbacks.append(_EpochBar())
     kw = dict(

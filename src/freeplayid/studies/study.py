@@ -8,8 +8,8 @@ cases of a model and splits them by kn into train / validation / test (:class:`S
 
 from __future__ import annotations
 
-import json
 import shutil
+import tempfile
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -105,7 +105,7 @@ def train_study_network(
     *,
     extra: Mapping | None = None,
     **training,
-) -> Path:
+) -> tuple[Path, dict]:
     """Train the set network on ``data``; the best checkpoint goes to ``out_dir/checkpoint.ckpt``,
     calibrated on ``data.val`` (:func:`freeplayid.inverse.calibrate_checkpoint`).
 
@@ -114,34 +114,36 @@ def train_study_network(
     data : StudyData
         Trained on ``data.train``, the best epoch chosen on ``data.val``.
     out_dir : path-like
-        Gets ``lightning/`` (the trainer's files), ``checkpoint.ckpt`` and ``history.json``
-        (the per-epoch losses of :func:`freeplayid.inverse.train_inverse_model`).
+        Gets ``checkpoint.ckpt`` (the one checkpoint: Lightning's own go to a temporary folder)
+        and the per-epoch log of ``logger`` (``metrics.csv`` by default).
     extra : dict, optional
         Stored in the checkpoint, with the data's ``bank`` and ``cases`` keys added.
     **training
         Further arguments of :func:`freeplayid.inverse.train_inverse_model` (``hidden``,
         ``depth``, ``lr``, ``weight_decay``, ``batch_size``, ``max_epochs``, ``seed``,
-        ``accelerator``, ...).
+        ``accelerator``, ``logger``, ``early_stopping``, ``trainer_kwargs``...).
 
     Returns
     -------
-    Path
+    checkpoint : Path
         ``out_dir/checkpoint.ckpt``.
+    history : dict of str -> list
+        The per-epoch losses (:func:`freeplayid.inverse.train_inverse_model`).
     """
     from ..inverse import calibrate_checkpoint, train_inverse_model
 
     out = Path(out_dir)
     extra = {**(extra or {}), "bank": data.bank_key, "cases": data.cases_key}
-    _, trainer, history = train_inverse_model(
-        data.train, data.val, channels=data.channels, fingerprint=data.system.fingerprint(),
-        structure=data.system.structure(),
-        out_dir=out / "lightning", extra=extra, **training,
-    )
-    best = Path(trainer.checkpoint_callback.best_model_path or "")
-    if not best.is_file():
-        raise RuntimeError(f"training wrote no checkpoint under {out / 'lightning'}")
-    target = out / "checkpoint.ckpt"
-    shutil.copyfile(best, target)
+    with tempfile.TemporaryDirectory(prefix=".checkpoints-", dir=out) as tmp:
+        _, trainer, history = train_inverse_model(
+            data.train, data.val, channels=data.channels, fingerprint=data.system.fingerprint(),
+            structure=data.system.structure(), out_dir=tmp, log_dir=out, extra=extra,
+            **training,
+        )
+        best = Path(trainer.checkpoint_callback.best_model_path or "")
+        if not best.is_file():
+            raise RuntimeError("training wrote no checkpoint")
+        target = out / "checkpoint.ckpt"
+        shutil.copyfile(best, target)
     calibrate_checkpoint(target, data.train, data.val)
-    (out / "history.json").write_text(json.dumps(history, indent=1))
-    return target
+    return target, history

@@ -236,9 +236,12 @@ def _train() -> dict[str, Rule]:
         "dataset.cases.seed": integer(0), "dataset.cases.n_jobs": integer(),
         "dataset.split": numbers(number(0.0, 1.0, open_lo=True), length=3),
         "network.hidden": integer(1), "network.depth": integer(1),
-        "training.max_epochs": integer(1), "training.batch_size": integer(1),
+        "trainer.max_epochs": integer(1), "trainer.accelerator": text(),
+        "training.batch_size": integer(1),
         "training.lr": positive(), "training.weight_decay": number(0.0),
-        "training.accelerator": text(), "success.delta": positive(), "success.kn": positive(),
+        "logger.kind": choice("csv", "tensorboard", "none"),
+        "callbacks.early_stopping": optional(_mapping()),
+        "success.delta": positive(), "success.kn": positive(),
         "network_bounds.delta": positive(), "network_bounds.kn": positive(), "plot": boolean(),
     }
 
@@ -271,8 +274,25 @@ def check_config(cfg: DictConfig, command: str) -> None:
     check_fields(cfg, _TABLES[command]())
     if command in (TRAIN, COMPARE):
         _check_cases(cfg)
+        _check_training(cfg)
     if command == SIMULATE:
         _check_simulate(cfg)
+
+
+def _mapping() -> Rule:
+    return lambda v: None if isinstance(v, dict) else "a mapping (patience: N, min_delta: X)"
+
+
+def _check_training(cfg: DictConfig) -> None:
+    if cfg.callbacks.early_stopping is not None:
+        check_fields(cfg, {"callbacks.early_stopping.patience": integer(1)})
+        check_fields(cfg, {"callbacks.early_stopping.min_delta": number(0.0)}, required=False)
+    if cfg.logger.kind == "tensorboard":
+        try:
+            import tensorboard  # noqa: F401
+        except ImportError:
+            raise ConfigError("`logger=tensorboard` needs the tensorboard package: pip install "
+                              "tensorboard (or logger=csv)") from None
 
 
 def _check_cases(cfg: DictConfig) -> None:

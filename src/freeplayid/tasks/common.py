@@ -126,19 +126,27 @@ def study_data(cfg: DictConfig, *, progress: bool = True) -> StudyData:
     return dataclasses.replace(data, build_s=time.perf_counter() - t0)
 
 
-def train_network(cfg: DictConfig, data: StudyData, out: Path) -> Path:
-    """:func:`freeplayid.studies.train_study_network` with ``cfg.network`` and ``cfg.training``.
+def train_network(cfg: DictConfig, data: StudyData, out: Path) -> tuple[Path, dict]:
+    """:func:`freeplayid.studies.train_study_network` with ``cfg.network``, ``cfg.training``
+    (the optimiser and the batches), ``cfg.trainer`` (``pl.Trainer`` arguments: ``max_epochs``,
+    ``accelerator`` and any other given), ``cfg.logger`` and ``cfg.callbacks``: (checkpoint,
+    per-epoch history).
 
     The checkpoint records ``cfg.dataset`` (its ``extra["dataset"]``).
     """
     from ..studies import train_study_network
 
     t = cfg.training
+    trainer = OmegaConf.to_container(cfg.trainer, resolve=True)
+    max_epochs, accelerator = int(trainer.pop("max_epochs")), str(trainer.pop("accelerator"))
+    stop = cfg.callbacks.early_stopping
     return train_study_network(
         data, out, extra={"dataset": OmegaConf.to_container(cfg.dataset, resolve=True)},
         hidden=int(cfg.network.hidden), depth=int(cfg.network.depth), lr=float(t.lr),
         weight_decay=float(t.weight_decay), batch_size=int(t.batch_size),
-        max_epochs=int(t.max_epochs), seed=int(cfg.seed), accelerator=str(t.accelerator),
+        max_epochs=max_epochs, seed=int(cfg.seed), accelerator=accelerator,
+        logger=str(cfg.logger.kind), trainer_kwargs=trainer,
+        early_stopping=None if stop is None else OmegaConf.to_container(stop, resolve=True),
     )
 
 

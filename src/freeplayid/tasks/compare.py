@@ -104,7 +104,7 @@ def _compare(cfg: DictConfig, fit, stage: Path, out: Path, ckpt: Path | None,
             "that folder to rebuild it, or set compare.corrected_cases_per_value=0")
     if ckpt is None:
         log.info("no inverse.checkpoint given: training one on the cached data set")
-        model = load_inverse_model(train_network(cfg, data, stage), system=data.system)
+        model = load_inverse_model(train_network(cfg, data, stage)[0], system=data.system)
         ckpt = out / "checkpoint.ckpt"  # where it will be once the run completes
     else:
         model = load_inverse_model(ckpt, system=data.system)

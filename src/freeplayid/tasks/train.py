@@ -11,7 +11,6 @@ the validation cases), ``metrics.json``, ``learning_curves.png``, ``predictions.
 
 from __future__ import annotations
 
-import json
 import logging
 import time
 import warnings
@@ -96,7 +95,7 @@ def _train(cfg: DictConfig, stage: Path, t0: float) -> dict:
 
     out = run_dir()
     data = study_data(cfg)
-    ckpt = train_network(cfg, data, stage)
+    ckpt, history = train_network(cfg, data, stage)
     model = load_inverse_model(ckpt, system=data.system)
     with warnings.catch_warnings():  # metrics.json counts the test cases outside the domain
         warnings.simplefilter("ignore", InverseDomainWarning)
@@ -108,7 +107,6 @@ def _train(cfg: DictConfig, stage: Path, t0: float) -> dict:
         std_scale=dict(zip(("kn", "delta"), model.calibration.std_scale, strict=True)),
         uncalibrated_max_gap={p: before[p]["max_gap"] for p in ("kn", "delta")},
         outside_domain=sum(bool(w) for w in pred.outside))
-    history = json.loads((stage / "history.json").read_text())
     axis = str(cfg.dataset.cases.axis)
     metrics = {
         "checkpoint": str(out / ckpt.name),  # where it is once the run completes
