@@ -203,6 +203,29 @@ def test_noise_levels_recover_a_known_noise(measured, system):
         assert got[run.file][0] == pytest.approx(sd, rel=0.05)
 
 
+def test_record_noise_sees_the_noise_through_a_replay_that_is_a_little_off(measured, system):
+    """A replay 2 % off in stiffness and one sample late (a sweep law whose phase is a little
+    off): its waveform is out of phase with the test's, which the plain difference
+    (noise_levels) counts as noise; the per-window regression on the replay and its quadrature
+    (record_noise) recovers the noise added here."""
+    import dataclasses
+
+    from freeplayid.replay.weights import noise_levels, record_noise
+
+    rep = replay_dataset(measured, system, 1.02 * WN * WN, ref.DELTA)
+    rep = dataclasses.replace(rep, runs=tuple(
+        dataclasses.replace(r, data=np.roll(r.data, 1, axis=-1)) for r in rep.runs))
+    rng = np.random.default_rng(6)
+    sd = 2.0  # [m/s^2]; the peaks are 70-120 m/s^2
+    noisy = dataclasses.replace(measured, runs=tuple(
+        dataclasses.replace(r, data=r.data + sd * rng.standard_normal(r.data.shape))
+        for r in measured.runs))
+    plain, regressed = noise_levels(noisy, rep), record_noise(noisy, rep)
+    for run in measured.runs[1:]:
+        assert plain[run.file][0] > 1.4 * sd  # the phase misfit taken for noise
+        assert regressed[run.file][0] == pytest.approx(sd, rel=0.2)
+
+
 def test_the_replay_statistic_can_be_the_plain_points(measured, system):
     # replay_jump_point=None without weights: the replays match the plain fit itself, so the
     # loop starts at the plain fit; both statistics land on the truth of this clean reference

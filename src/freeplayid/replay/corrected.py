@@ -27,7 +27,7 @@ from .runs import (
     with_sweep_hints,
 )
 from .statistic import amplitude_ratios, by_run_intervals, median_se, misfit_in_se
-from .weights import noise_levels, point_weights
+from .weights import noise_levels, point_weights, record_noise
 
 __all__ = ["ReplayResult", "ReplayIteration", "PointOffset", "CrossCheck", "corrected_fit"]
 
@@ -574,7 +574,7 @@ def _cross_check(b: _Binding, theta, rule: str, progress: bool = False) -> Cross
     t = b.test
     extraction = dataclasses.replace(t.extraction, jump_point=rule, use_sweep_hint=True)
     rng = np.random.default_rng(b.opts.seed)
-    noise = noise_levels(t.dataset, b.rep_ds)
+    noise = record_noise(t.dataset, b.rep_ds)  # the noise itself, not the replay's misfit
     try:
         test = plain_estimate(t.dataset, b.system, init=tuple(theta), extraction=extraction,
                               fit=t.fit, progress=progress, desc=f"cross-check: the test's "
