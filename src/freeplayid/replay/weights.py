@@ -49,19 +49,26 @@ def noise_levels(measured, replayed, *, window: int = 256) -> dict:
     but only in a few windows; elsewhere it is the noise plus the model's misfit (so the level
     errs on the large side: wider intervals, not narrower).
     """
-    rep = {r.file: r for r in replayed.runs}
     out = {}
+    for file, x, y in _pairs(measured, replayed):
+        d = x - y
+        w = max(8, min(int(window), d.shape[-1]))
+        k = d.shape[-1] // w
+        blocks = d[..., : k * w].reshape(d.shape[0], k, w)
+        out[file] = np.median(np.sqrt(np.mean(blocks * blocks, axis=-1)), axis=-1)
+    return out
+
+
+def _pairs(measured, replayed):
+    """(file, measured record, replayed record) of every usable run both have, cut to the
+    shorter length, as float arrays (channels, samples)."""
+    rep = {r.file: r for r in replayed.runs}
     for run in measured.runs:
         r = rep.get(run.file)
         if r is None or run.reason:
             continue
         n = min(run.data.shape[-1], r.data.shape[-1])
-        d = np.asarray(run.data[..., :n], float) - np.asarray(r.data[..., :n], float)
-        w = max(8, min(int(window), n))
-        k = n // w
-        blocks = d[..., : k * w].reshape(d.shape[0], k, w)
-        out[run.file] = np.median(np.sqrt(np.mean(blocks * blocks, axis=-1)), axis=-1)
-    return out
+        yield run.file, np.asarray(run.data[..., :n], float), np.asarray(r.data[..., :n], float)
 
 
 def record_noise(measured, replayed, *, window: int = 128) -> dict:
@@ -79,17 +86,12 @@ def record_noise(measured, replayed, *, window: int = 128) -> dict:
     """
     from scipy.signal import hilbert
 
-    rep = {r.file: r for r in replayed.runs}
     out = {}
-    for run in measured.runs:
-        r = rep.get(run.file)
-        if r is None or run.reason:
-            continue
-        n = min(run.data.shape[-1], r.data.shape[-1])
+    for file, x, y in _pairs(measured, replayed):
+        n = x.shape[-1]
         w = max(16, min(int(window), n))
         k = n // w
-        x = np.asarray(run.data[..., : k * w], float).reshape(-1, k, w)
-        y = np.asarray(r.data[..., :n], float)
+        x = x[..., : k * w].reshape(-1, k, w)
         q = np.imag(hilbert(y, axis=-1))
         # the regressors: the replay, its quadrature (a phase rotation) and their slopes (a
         # small time shift, which moves every harmonic by its own phase)
@@ -102,7 +104,7 @@ def record_noise(measured, replayed, *, window: int = 128) -> dict:
                 coef, *_ = np.linalg.lstsq(basis[c, j], x[c, j], rcond=None)
                 res = x[c, j] - basis[c, j] @ coef
                 rms[c, j] = np.sqrt(np.sum(res * res) / (w - basis.shape[-1]))
-        out[run.file] = np.median(rms, axis=-1)
+        out[file] = np.median(rms, axis=-1)
     return out
 
 
