@@ -113,6 +113,27 @@ def test_domain_names_what_lies_outside():
     assert TrainingDomain.from_dict(dom.to_dict()) == dom
 
 
+def test_only_a_miscalibrated_parameter_is_recalibrated():
+    """A head calibrated for kn and over-confident (half the spread) for delta, on validation
+    cases drawn here: kn is kept as the network gives it, delta recalibrated to its errors."""
+    from types import SimpleNamespace
+
+    from freeplayid.inverse import Calibration
+
+    val = _cases(600, seed=21)
+    rng = np.random.default_rng(22)
+    s_kn, s_d = np.full(600, 0.05), np.full(600, 0.1)
+    raw = SimpleNamespace(kn=val.kn * np.exp(-s_kn * rng.standard_normal(600)),
+                          delta=val.delta * np.exp(-s_d * rng.standard_normal(600)),
+                          log_kn_std=s_kn, log_delta_std=s_d / 2)
+    cal = Calibration.fit(val, val, raw)
+    assert cal.z["kn"] is None and cal.val_p_value["kn"] > 0.01
+    assert cal.z["delta"] is not None and cal.val_p_value["delta"] < 1e-6
+    assert cal.std_scale[0] == 1.0 and cal.std_scale[1] == pytest.approx(2.0, rel=0.1)
+    assert "kn as the network gives it" in cal.describe() and "delta recalibrated" in cal.describe()
+    assert Calibration.from_dict(cal.to_dict()) == cal
+
+
 @pytest.fixture(scope="module")
 def calibrated(tmp_path_factory):
     out = tmp_path_factory.mktemp("calibrated")
@@ -130,6 +151,7 @@ def test_a_calibrated_checkpoint_has_calibrated_spreads_on_new_cases(calibrated)
     path, cal = calibrated
     model = load_inverse_model(path)
     assert model.calibration == cal and all(s > 0 for s in cal.std_scale)
+    assert cal.z["kn"] is not None  # this small network's kn spread is off on its validation
     test = _cases(1500, seed=9)  # held out: neither trained nor calibrated on
     raw_pred = model.predict(test, calibrated=False)
     m = cal.metrics(test, raw_pred)

@@ -139,7 +139,7 @@ class InverseModel:
                           f"extrapolation (case {bad[0]}: {outside[bad[0]]})",
                           InverseDomainWarning, stacklevel=2)
         # the calibrated posterior's median and 68 % half-width (calibration module)
-        shift = [float(np.median(cal.z[p])) for p in ("kn", "delta")]
+        shift = [cal.shift(p) for p in ("kn", "delta")]
         return InversePrediction(kn=kn * np.exp(log_std[:, 0] * shift[0]),
                                  delta=delta * np.exp(log_std[:, 1] * shift[1]),
                                  log_kn_std=log_std[:, 0] * cal.std_scale[0],

@@ -106,6 +106,8 @@ def _train(cfg: DictConfig, stage: Path, t0: float) -> dict:
     calibration.update(
         std_scale=dict(zip(("kn", "delta"), model.calibration.std_scale, strict=True)),
         uncalibrated_max_gap={p: before[p]["max_gap"] for p in ("kn", "delta")},
+        recalibrated={p: model.calibration.z[p] is not None for p in ("kn", "delta")},
+        validation_sbc_p=model.calibration.val_p_value,
         outside_domain=sum(bool(w) for w in pred.outside))
     axis = str(cfg.dataset.cases.axis)
     metrics = {
@@ -136,10 +138,7 @@ def _train(cfg: DictConfig, stage: Path, t0: float) -> dict:
     log.info(f"test cases: {data.test.n_cases}; network alone within "
              f"{100 * cfg.network_bounds.delta:g} % in delta and {100 * cfg.network_bounds.kn:g} % "
              f"in kn: {100 * net['overall']['within_bounds']:.1f} % of cases")
-    cal = model.calibration
-    how = (f"recalibrated on {cal.n_val} validation cases" if cal.recalibrated else
-           f"not recalibrated: {cal.n_val} validation cases are too few")
-    log.info(f"calibration on the test cases ({how}; spreads x " +
+    log.info(f"calibration on the test cases ({model.calibration.describe()}; spreads x " +
              ", ".join(f"{p} {calibration['std_scale'][p]:.3g}" for p in ("kn", "delta")) +
              "): largest coverage gap " + ", ".join(
                  f"{p} {100 * calibration[p]['max_gap']:.1f} points (uncalibrated "
