@@ -63,12 +63,13 @@ class InverseModel:
     """Inference wrapper of a trained :class:`InverseModule` (see :func:`load_inverse_model`)."""
 
     def __init__(self, module: InverseModule, *, path: str | os.PathLike | None = None,
-                 calibration: Calibration | None = None):
+                 calibration: Calibration | None = None, system=None):
         if not isinstance(module, InverseModule):
             raise TypeError(f"`module` must be an InverseModule, got {type(module).__name__}")
         self.module = module
         self.path = None if path is None else Path(path)
         self.calibration = calibration
+        self.system = system  # the linear model, when given: the domain's backbone check
 
     @property
     def channels(self) -> tuple[str, ...]:
@@ -131,13 +132,14 @@ class InverseModel:
                                      log_delta_std=log_std[:, 1], outside=("",) * ps.n_cases)
         outside = tuple(cal.domain.outside(ps, {"kn": kn, "delta": delta,
                                                 "log_kn_std": log_std[:, 0],
-                                                "log_delta_std": log_std[:, 1]}))
+                                                "log_delta_std": log_std[:, 1]},
+                                           system=self.system))
         bad = [i for i, w in enumerate(outside) if w]
         if bad:
             warnings.warn(f"inverse model {self.path or ''}: {len(bad)} of {ps.n_cases} cases lie "
-                          f"outside what the network was trained on, its estimate there is an "
-                          f"extrapolation (case {bad[0]}: {outside[bad[0]]})",
-                          InverseDomainWarning, stacklevel=2)
+                          f"outside what the network was trained on or are not explained by its "
+                          f"estimate, which is not to be trusted there (case {bad[0]}: "
+                          f"{outside[bad[0]]})", InverseDomainWarning, stacklevel=2)
         # the calibrated posterior's median and 68 % half-width (calibration module)
         shift = [cal.shift(p) for p in ("kn", "delta")]
         return InversePrediction(kn=kn * np.exp(log_std[:, 0] * shift[0]),
@@ -248,17 +250,21 @@ def load_inverse_model(path: str | os.PathLike, *, system=None, rtol: float = 1e
     except (KeyError, TypeError, ValueError) as e:
         raise InverseModelError(f"{str(path)!r} has a calibration record this freeplayid cannot "
                                 f"read ({type(e).__name__}: {e})") from e
-    return InverseModel(module, path=path, calibration=cal)
+    return InverseModel(module, path=path, calibration=cal, system=system)
 
 
-def calibrate_checkpoint(path: str | os.PathLike, train: PointSets,
-                         val: PointSets) -> Calibration:
+def calibrate_checkpoint(path: str | os.PathLike, train: PointSets, val: PointSets, *,
+                         system=None) -> Calibration:
     """Store in the checkpoint at ``path`` the :class:`~.calibration.Calibration` of its network:
-    the domain of ``train`` and the spreads' scales fitted on the validation cases ``val`` (the
-    cases the best epoch was chosen on, never the test cases). The file is replaced atomically.
+    the domain of ``train`` (with ``system``, the linear model the cases came from, also the
+    backbone misfit that bounds it), and the recalibration fitted on the validation cases
+    ``val`` (the cases the best epoch was chosen on, never the test cases). The file is
+    replaced atomically.
     """
     model = load_inverse_model(path)
-    cal = Calibration.fit(train, val, model.predict(val, calibrated=False))
+    raw_train = model.predict(train, calibrated=False) if system is not None else None
+    cal = Calibration.fit(train, val, model.predict(val, calibrated=False), system=system,
+                          raw_train=raw_train)
     ckpt = torch.load(Path(path), map_location="cpu", weights_only=True)
     ckpt[_CALIBRATION_KEY] = cal.to_dict()
     with atomic_path(Path(path)) as tmp:

@@ -145,5 +145,5 @@ def train_study_network(
             raise RuntimeError("training wrote no checkpoint")
         target = out / "checkpoint.ckpt"
         shutil.copyfile(best, target)
-    calibrate_checkpoint(target, data.train, data.val)
+    calibrate_checkpoint(target, data.train, data.val, system=data.system)
     return target, history
