@@ -260,6 +260,9 @@ def _result(obj: _Objective, sol, points, active, label, best, runs, n_bootstrap
         boot_kn, boot_delta = bootstrap_intervals(
             lambda x, pick: obj.residual(active, pick)(x), sol.x, len(points),
             n_bootstrap=n_bootstrap, seed=seed, progress=progress)
+    with np.errstate(over="ignore"):  # a start that ran off to ln kn > 709 is recorded as inf
+        tried = [{"start": s_, "kn": float(np.exp(r.x[0])), "delta": float(np.exp(r.x[1])),
+                  "cost": c} for c, r, s_ in runs]
     return FitResult(
         kn=float(kn), delta=float(delta), kn_ci95=kn_ci, delta_ci95=delta_ci,
         residuals=res / w, residual_rms=float(np.sqrt(np.mean((res / w) ** 2))),
@@ -268,6 +271,5 @@ def _result(obj: _Objective, sol, points, active, label, best, runs, n_bootstrap
         runtime_s=time.perf_counter() - t0, success=bool(sol.success), message=str(sol.message),
         kn_ci95_bootstrap=boot_kn, delta_ci95_bootstrap=boot_delta,
         kn_ci95_by_run=kn_ci_run, delta_ci95_by_run=delta_ci_run,
-        starts=[{"start": s_, "kn": float(np.exp(r.x[0])), "delta": float(np.exp(r.x[1])),
-                 "cost": c} for c, r, s_ in runs],
+        starts=tried,
     )
