@@ -314,19 +314,17 @@ class Calibration:
         to 6.8 / 6.2 points (kn / delta)."""
         limit = None
         if system is not None and raw_train is not None and train.n_cases:
-            pick = np.random.default_rng(0).permutation(train.n_cases)[:MISFIT_CASES]
-            sub = train.subset(np.sort(pick))
-            est = {p: getattr(raw_train, p)[np.sort(pick)] for p in PARAMETERS}
-            m = backbone_misfit(sub, system, est["kn"], est["delta"])
+            pick = np.sort(np.random.default_rng(0).permutation(train.n_cases)[:MISFIT_CASES])
+            m = backbone_misfit(train.subset(pick), system, raw_train.kn[pick],
+                                raw_train.delta[pick])
             limit = float(np.nanquantile(m, MISFIT_QUANTILE))
         domain = TrainingDomain.from_point_sets(train, misfit_limit=limit)
+        checks = calibration_metrics(val, raw_val) if val.n_cases else None
         z, pv = {}, {}
         for p in PARAMETERS:
-            e = _z(getattr(val, p), getattr(raw_val, p), getattr(raw_val, f"log_{p}_std"))
-            ranks = sbc_ranks(getattr(val, p), getattr(raw_val, p),
-                              getattr(raw_val, f"log_{p}_std"))
-            pv[p] = rank_uniformity(ranks, 99)["p_value"] if val.n_cases else float("nan")
+            pv[p] = checks[p]["sbc"]["p_value"] if checks else float("nan")
             bad = val.n_cases >= MIN_CASES and pv[p] < RECALIBRATE_P
+            e = _z(getattr(val, p), getattr(raw_val, p), getattr(raw_val, f"log_{p}_std"))
             z[p] = tuple(np.sort(e).tolist()) if bad else None
         return cls(z=z, domain=domain, n_val=int(val.n_cases), val_p_value=pv)
 
