@@ -4,6 +4,8 @@ exponential engine (``expo``; small batches of a replay and large ones, same run
     python benchmarks/simulate.py            # full table (a few minutes on 2 cores)
     python benchmarks/simulate.py --quick    # smoke run (short segments, noisier numbers)
     python benchmarks/simulate.py --only-small   # the replay's small batches and the beam only
+    python benchmarks/simulate.py --device cuda  # the torch engine on the GPU, batch 1e3 - 1e5,
+                                                 # beside numba on that machine's CPU
 
 Model: ``freeplayid.model.default_fin()`` if this checkout has it, else the 12-DOF stand-in of
 ``tests/conftest.py`` (printed). Sweep: the paper's 30 -> 50 Hz at 0.1 Hz/s (200 s), kn = 2.35e6
@@ -131,6 +133,42 @@ def beam_rows(quick: bool) -> list[tuple[str, float, float]]:
     return out
 
 
+def cuda_table(system, quick: bool) -> None:
+    """``--device cuda``: full sweeps per second of the torch engine on the GPU at batch 1e3, 1e4
+    and 1e5 (CUDA graphs; float32 and float64), with CUDA eager at 1e4 and the numba kernel on
+    this machine's CPU (batch 1024) timed in the same run for comparison."""
+    name = torch.cuda.get_device_name()
+    print(f"GPU: {name}, torch {torch.__version__}, CUDA {torch.version.cuda}")
+    seg = 0.02 if quick else 0.2
+    rows = [("scipy solve_ivp RK45 (rtol 1e-6), 1 sweep", "float64", 1, seg / 4,
+             time_scipy(system, seg / 4), None)]
+    try:
+        import numba  # noqa: F401
+
+        for dt in (torch.float32, torch.float64):
+            rate, r = time_sim(system, 1024, seg, engine="numba", dtype=dt)
+            rows.append((f"numba kernel on the CPU ({os.cpu_count()} cores), batch 1024",
+                         str(dt)[6:], 1024, seg, rate, r))
+    except ImportError:
+        print("numba not installed: no CPU reference row")
+    for dt in (torch.float32, torch.float64):
+        for b in (1_000, 10_000, 100_000):
+            rate, r = time_sim(system, b, seg, engine="torch", dtype=dt, device="cuda")
+            rows.append((f"torch CUDA graphs, batch {b}", str(dt)[6:], b, seg, rate, r))
+    rate, r = time_sim(system, 10_000, seg, engine="torch", dtype=torch.float32, device="cuda",
+                       cuda_graphs=False)
+    rows.append(("torch CUDA eager (no graphs), batch 10000", "float32", 10_000, seg, rate, r))
+    scipy_rate = rows[0][4]
+    head = (f"{'engine':<52} {'dtype':<8} {'dt [us]':>8} {'seg [s]':>7} {'sweeps/s':>10} "
+            f"{'x scipy':>9} {'us/step':>8}")
+    print(f"\nsweep: the paper's 200 s (30 -> 50 Hz at 0.1 Hz/s), each row timed on a segment "
+          f"at 40 Hz and scaled\n{head}\n{'-' * len(head)}")
+    for label, dt, b, sg, rate, r in rows:
+        step = "" if r is None else f"{1e6 * b * r.dt / (rate * FULL):.1f}"  # wall per step
+        print(f"{label:<52} {dt:<8} {'adaptive' if r is None else f'{r.dt * 1e6:.2f}':>8} "
+              f"{sg:>7.3g} {rate:>10.4g} {rate / scipy_rate:>9.3g} {step:>8}")
+
+
 def flops_per_step(form, n_channels, m) -> float:
     N, h = form.D.shape
     stage = 2 * N * h + 4 * h + 2 * N + (2 * N if form.c_diagonal else 2 * N * N) + 2 * N * h
@@ -161,7 +199,11 @@ def main() -> None:
                    help="numba rows only (full model and its quasi-static/truncation variants)")
     p.add_argument("--only-small", action="store_true",
                    help="only the small-batch (replay) rows and the beam model")
+    p.add_argument("--device", choices=("cpu", "cuda"), default="cpu",
+                   help="cuda: the GPU table (torch engine, batch 1e3 - 1e5) instead")
     args = p.parse_args()
+    if args.device == "cuda" and not torch.cuda.is_available():
+        p.error("--device cuda: torch sees no CUDA device on this machine")
     q = args.quick
     torch.set_num_threads(os.cpu_count() or 1)
     system, what = load_model()
@@ -171,6 +213,9 @@ def main() -> None:
           f"damping {'diagonal' if form.c_diagonal else 'dense'} in the modal basis")
     print(f"threads: torch {torch.get_num_threads()}, cpu_count {os.cpu_count()}; "
           f"{'QUICK run: short segments' if q else 'full run'}")
+    if args.device == "cuda":
+        cuda_table(system, q)
+        return
     rows = []
     seg = 0.05 if q else 0.5
     rows.append(("scipy solve_ivp RK45 (rtol 1e-6), 1 sweep", "float64", 1, seg,
