@@ -142,15 +142,6 @@ def cuda_table(system, quick: bool) -> None:
     seg = 0.02 if quick else 0.2
     rows = [("scipy solve_ivp RK45 (rtol 1e-6), 1 sweep", "float64", 1, seg / 4,
              time_scipy(system, seg / 4), None)]
-    try:
-        import numba  # noqa: F401
-
-        for dt in (torch.float32, torch.float64):
-            rate, r = time_sim(system, 1024, seg, engine="numba", dtype=dt)
-            rows.append((f"numba kernel on the CPU ({os.cpu_count()} cores), batch 1024",
-                         str(dt)[6:], 1024, seg, rate, r))
-    except ImportError:
-        print("numba not installed: no CPU reference row")
     for dt in (torch.float32, torch.float64):
         for b in (1_000, 10_000, 100_000):
             rate, r = time_sim(system, b, seg, engine="torch", dtype=dt, device="cuda")
@@ -158,6 +149,13 @@ def cuda_table(system, quick: bool) -> None:
     rate, r = time_sim(system, 10_000, seg, engine="torch", dtype=torch.float32, device="cuda",
                        cuda_graphs=False)
     rows.append(("torch CUDA eager (no graphs), batch 10000", "float32", 10_000, seg, rate, r))
+    try:  # the CPU reference: a failure here (numba missing or broken) keeps the GPU rows
+        for dt in (torch.float32, torch.float64):
+            rate, r = time_sim(system, 1024, seg, engine="numba", dtype=dt)
+            rows.append((f"numba kernel on the CPU ({os.cpu_count()} cores), batch 1024",
+                         str(dt)[6:], 1024, seg, rate, r))
+    except Exception as e:  # noqa: BLE001
+        print(f"no numba CPU reference row: {type(e).__name__}: {e}")
     scipy_rate = rows[0][4]
     head = (f"{'engine':<52} {'dtype':<8} {'dt [us]':>8} {'seg [s]':>7} {'sweeps/s':>10} "
             f"{'x scipy':>9} {'us/step':>8}")
