@@ -151,7 +151,7 @@ def cuda_table(system, quick: bool) -> None:
     rows.append(("torch CUDA eager (no graphs), batch 10000", "float32", 10_000, seg, rate, r))
     try:  # the CPU reference: a failure here (numba missing or broken) keeps the GPU rows
         for dt in (torch.float32, torch.float64):
-            rate, r = time_sim(system, 1024, seg, engine="numba", dtype=dt)
+            rate, r = time_sim(system, 1024, seg, engine="numba", dtype=dt, device="cpu")
             rows.append((f"numba kernel on the CPU ({os.cpu_count()} cores), batch 1024",
                          str(dt)[6:], 1024, seg, rate, r))
     except Exception as e:  # noqa: BLE001

@@ -334,11 +334,19 @@ def test_cuda_matches_cpu(fin):
               channels=CH, dtype=torch.float64, engine="torch")
     m = simulate_sweeps(fin, **{**kw, "kn": KN_PAPER}, device="cpu").steps_per_sample
     a = simulate_sweeps(fin, **kw, device="cpu", steps_per_sample=m)
+    # the devices round differently (other summation orders), and near a hinge switch the sweep
+    # amplifies a rounding-size difference: measured here on the CPU by moving kn by 1e-14
+    # (~45 ulp; on an H200 the devices differed like a 3e-15 move). The devices must agree to
+    # within that, which is still far below any wrong term (checked: < 1e-6 of the signal)
+    moved = simulate_sweeps(fin, **{**kw, "kn": [k * (1 + 1e-14) for k in kw["kn"]]},
+                            device="cpu", steps_per_sample=m)
+    scale = np.abs(a.signals[0]).max()
+    tol = max(np.abs(moved.signals[0] - a.signals[0]).max(), 1e-12 * scale)
+    assert tol < 1e-6 * scale
     for graphs in (False, True):
         b = simulate_sweeps(fin, **kw, device="cuda", cuda_graphs=graphs, steps_per_sample=m)
         assert b.diverged.tolist() == a.diverged.tolist() == [False, True]
-        np.testing.assert_allclose(b.signals[0], a.signals[0], rtol=0,
-                                   atol=1e-9 * np.abs(a.signals[0]).max())
+        np.testing.assert_allclose(b.signals[0], a.signals[0], rtol=0, atol=tol)
 
 
 # ----------------------------------------------------------------------------- quasi-static
