@@ -104,6 +104,29 @@ def test_capabilities_decide_device_and_quasi_static():
         resolve_engine("torch", device=CPU, quasi_static=True)
 
 
+def test_no_device_on_a_gpu_machine_keeps_a_cpu_engine_on_the_cpu(monkeypatch):
+    # found on an H200: the replay names engine="expo" and no device, and the default device
+    # (CUDA when present) made every identify with the replay fail there
+    monkeypatch.setattr(torch.cuda, "is_available", lambda: True)
+    chosen = {}
+
+    class Chosen(Exception):
+        pass
+
+    def spy(name, *, device, quasi_static=False):
+        chosen[name, quasi_static] = device.type
+        raise Chosen
+
+    monkeypatch.setattr("freeplayid.simulate.run.resolve_engine", spy)
+    for engine in ("numba", "expo", "torch", "auto"):
+        with pytest.raises(Chosen):
+            _run(engine, device=None)
+    with pytest.raises(Chosen):
+        _run("auto", device=None, quasi_static_hz=1000.0)
+    assert chosen == {("numba", False): "cpu", ("expo", False): "cpu", ("torch", False): "cuda",
+                      ("auto", False): "cuda", ("auto", True): "cpu"}
+
+
 @pytest.mark.parametrize("fake", [_Records, _InPlace])
 def test_a_registered_engine_runs_without_editing_simulate_sweeps(monkeypatch, fake):
     # both output paths (records decimated by the caller, outputs written in place) with an

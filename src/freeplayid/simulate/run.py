@@ -16,7 +16,7 @@ from ..model.system import FreeplaySystem
 from ..quantity import G, si_unit
 from ..sweep import MeasuredSweep, Sweep
 from .chunks import integrate_chunks
-from .engines import EngineSetup, resolve_engine
+from .engines import ENGINES, EngineSetup, resolve_engine
 from .formulation import METHODS, ModalTruncation
 from .plan import DEFAULT_OMEGA_DT, StepPlan, step_plan
 from .quasistatic import QuasiStatic
@@ -150,7 +150,8 @@ def simulate_sweeps(
         Base excitation in relative coordinates or by a seismic mass ``large_mass_ratio`` times
         the structure's mass driven by the force M_L a_g (the paper's method).
     device : str or torch.device, optional
-        Default: CUDA if available, else CPU; the CPU with ``quasi_static_hz`` (numba only).
+        Default: CUDA if available and the engine runs there, else CPU (so ``engine="expo"`` or
+        ``"numba"``, and ``quasi_static_hz``, run on the CPU of a machine with a GPU).
     dtype : torch.float32 or torch.float64
     engine : {"auto", "torch", "numba", "expo"} or another key of ``engines.ENGINES``
         "auto": the compiled numba RK4 kernel on CPU when numba is installed, else torch.
@@ -183,8 +184,10 @@ def simulate_sweeps(
     SweepResult
     """
     _check_types(system, sweep, dtype)
-    if device is None:
-        use_cuda = torch.cuda.is_available() and quasi_static_hz is None
+    if device is None:  # CUDA when present, for an engine that runs there
+        named = ENGINES.get(engine) if engine != "auto" else None
+        use_cuda = (torch.cuda.is_available() and quasi_static_hz is None
+                    and (named is None or named.devices is None or "cuda" in named.devices))
         device = "cuda" if use_cuda else "cpu"
     device = torch.device(device)
     # the engine's name (unknown: the valid ones listed), and whether it does device and options
