@@ -142,6 +142,7 @@ def run_case(args) -> dict:
         n_points=len(res.points.used()),
         theta_ratio_min=_min_ratio(res),
         closest_misfit_se=r.closest_misfit_se,
+        cross=None if r.cross is None else r.cross.to_dict(),  # the second statistic's check
         # every replay of the loop (parameters, replayed fit, misfit in standard errors), so
         # another convergence rule or verdict can be judged on these cases without a rerun
         iterations=[it.to_dict() for it in r.iterations],

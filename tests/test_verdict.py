@@ -6,6 +6,7 @@ example with its manifest altered; one run of `scripts/identify.py` shows the co
 """
 
 import dataclasses
+import math
 import os
 import shutil
 import subprocess
@@ -14,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import scipy.stats
 import yaml
 
 from freeplayid.backbone import dfa_backbone
@@ -302,6 +304,64 @@ def test_the_replay_misfit_limit_is_the_larger_of_the_accuracy_and_the_noise(se,
     check = {c.name: c for c in replay_checks(Rep())}["replay_misfit"]
     assert check.passed is passed
     assert ("standard errors" in check.message) is bool(np.isfinite(se))
+
+
+@pytest.mark.parametrize("shift, se, dof, passed", [
+    (0.0063, 0.0017, 4.0, True),       # 3.7 se: chance 2 % of the time with 4 dof (t: 6.6)
+    (0.0063, 0.0017, math.inf, False),  # the same se known exactly: 3.7 normal se fails
+    (0.0130, 0.0017, 4.0, False),      # 7.6 se fails at 4 dof too
+    (0.0045, 1e-4, 4.0, True),         # inside half the 1 % bound whatever the se
+])
+def test_the_cross_check_reads_its_standard_errors_with_their_degrees_of_freedom(
+        shift, se, dof, passed):
+    """Found on held-out cases: a shift of 3.1-3.8 standard errors estimated from 4 runs made
+    3 of 32 accurate answers `suspect`; with 2-4 degrees of freedom that many happens by chance
+    4-10 % of the time. The limit is t at the normal 3-se tail (0.27 %, two-sided)."""
+    from freeplayid.identification.replay_checks import replay_checks
+    from freeplayid.replay.corrected import CrossCheck
+
+    class Rep:
+        failure, misfit, sweeps, damping, converged, resonance = "", {}, {}, None, True, {}
+        jump_point, excitation = "drop", "law"
+        iterations = [ReplayIteration(480.0, 3e-3, 480.0, 3e-3, n_evaluations=10)]
+        cross = CrossCheck("windowed", kn_shift=0.0, delta_shift=shift, kn_se=se,
+                           delta_se=se, dof=dof)
+
+    check = {c.name: c for c in replay_checks(Rep())}["replay_consistency"]
+    assert check.passed is passed, check.message
+    k = scipy.stats.t.isf(0.00135, dof) if math.isfinite(dof) else 3.0
+    assert abs(k - (6.62 if math.isfinite(dof) else 3.0)) < 0.01
+    assert ("limit" in check.message) is not passed
+
+
+def test_the_cross_checks_standard_error_pools_the_runs_and_the_copies():
+    """The test's by-run scatter (2 dof) and the copies' spread (2 dof), pooled by their
+    degrees of freedom, then the copies' mean added: computed by hand."""
+    from freeplayid.replay.corrected import _cross_se
+
+    class Fit:  # by-run intervals of a fit with 4 runs
+        kn_ci95_by_run, delta_ci95_by_run = (90.0, 110.0), (0.9e-3, 1.1e-3)
+        kn_ci95, delta_ci95 = (95.0, 105.0), (0.95e-3, 1.05e-3)
+
+    class Pt:
+        def __init__(self, run):
+            self.run = run
+
+    class Points:
+        def used(self):
+            return [Pt(r) for r in "abcd"]
+
+    class Est:
+        fit, points = Fit(), Points()
+
+    copies = np.log([[100.0, 1.00e-3], [101.0, 1.01e-3], [99.5, 0.99e-3]])
+    se, dof = _cross_se(Est(), copies)
+    tq = scipy.stats.t.ppf(0.975, 2)
+    runs_var = (np.log(110 / 90) / (2 * tq)) ** 2, (np.log(1.1 / 0.9) / (2 * tq)) ** 2
+    copy_var = copies.var(axis=0, ddof=1)
+    want = np.sqrt((1 + 1 / 3) * (2 * np.array(runs_var) + 2 * copy_var) / 4)
+    assert dof == 4.0
+    np.testing.assert_allclose(se, want, rtol=1e-12)
 
 
 def test_the_offsets_standard_error_is_the_measured_scatter_beyond_the_replays():

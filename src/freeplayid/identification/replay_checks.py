@@ -14,7 +14,9 @@
   example, 0.05 g noise).
 - ``replay_consistency`` (the drop or maxima statistics): the answer's replay against the test
   on a second statistic it was not fitted to (:class:`freeplayid.replay.CrossCheck`); apart by
-  more than ``cross_delta`` / ``cross_kn`` (half the accuracy bounds) and three standard errors.
+  more than ``cross_delta`` / ``cross_kn`` (half the accuracy bounds) and as many standard errors
+  as a two-sided ``cross_p`` (3 normal standard errors' 0.27 %) allows at their degrees of
+  freedom (Student's t: 6.6 with four).
 - ``sweep_law``, ``replay_binding``, ``replay_converged``, ``damping_estimate``: where the laws
   came from, a replayed fit that jumps, convergence and an estimated damping the amplitudes pin
   down (:mod:`freeplayid.identification.verdict`).
@@ -25,6 +27,8 @@ Each reason names what it measured and the causes that produce it.
 from __future__ import annotations
 
 import math
+
+import scipy.stats
 
 from .verdict import LIMITS, Check
 
@@ -101,7 +105,9 @@ def _consistency_check(replay) -> Check | None:
     cross = getattr(replay, "cross", None)
     if cross is None:
         return None
-    k = LIMITS["cross_se"]
+    dof = getattr(cross, "dof", math.inf)
+    k = float(scipy.stats.norm.isf(LIMITS["cross_p"] / 2) if not math.isfinite(dof)
+              else scipy.stats.t.isf(LIMITS["cross_p"] / 2, dof))
     off = []
     for name, shift, se, tol in (("delta", cross.delta_shift, cross.delta_se,
                                   LIMITS["cross_delta"]),

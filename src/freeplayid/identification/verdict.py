@@ -81,7 +81,9 @@ LIMITS = {
     "peak_amplitude": 0.05,  # [-] a run's peak: beyond this the report says the damping differs
     "cross_delta": 5e-3,  # [-] a second statistic's move of delta (half the 1 % bound) ...
     "cross_kn": 1e-2,  # [-] ... and of kn (half the 2 % bound) ...
-    "cross_se": 3.0,  # [-] ... or this many of its standard errors, whichever is larger
+    # [-] ... or, whichever is larger, its standard error times Student's t at this two-sided
+    # tail probability (that of 3 normal standard errors) and the error's degrees of freedom
+    "cross_p": 0.0027,
     "model_scale": 0.2,  # [-] an update to sealed modes scaling the stiffness by more is no fix
 }
 
