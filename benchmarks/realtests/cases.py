@@ -413,6 +413,8 @@ CONDITIONS: dict[str, Callable[..., CaseSpec]] = {
     "fin_no_base_level_off": lambda **kw: fin_no_base(declared_scale=1.05,
                                                       name="fin_no_base_level_off", **kw),
     "fin_dip_no_base": lambda **kw: fin_no_base(name="fin_dip_no_base", src="fin_level_dip", **kw),
+    "beam_rayleigh_no_base": lambda **kw: fin_no_base(name="beam_rayleigh_no_base",
+                                                      src="beam_rayleigh", **kw),
 }
 
 
