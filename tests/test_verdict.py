@@ -334,6 +334,18 @@ def test_the_cross_check_reads_its_standard_errors_with_their_degrees_of_freedom
     assert ("limit" in check.message) is not passed
 
 
+@pytest.mark.parametrize("runs", [3, 4, 5, 8, 20, 50])
+def test_the_cross_checks_new_limit_is_never_below_the_old_one(runs):
+    """The pooled error is at least sqrt((runs - 2) / dof) of the by-run one (the copies' spread
+    may be 0), and t at dof times that stays above the 3 by-run errors of the earlier rule: no
+    answer `ok` under that rule turns `suspect`."""
+    from freeplayid.identification.verdict import LIMITS
+
+    dof = runs - 2 + 2
+    worst = scipy.stats.t.isf(LIMITS["cross_p"] / 2, dof) * np.sqrt((runs - 2) / dof)
+    assert worst > 3.0
+
+
 def test_the_cross_checks_standard_error_pools_the_runs_and_the_copies():
     """The test's by-run scatter (2 dof) and the copies' spread (2 dof), pooled by their
     degrees of freedom, then the copies' mean added: computed by hand."""
