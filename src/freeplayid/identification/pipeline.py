@@ -20,6 +20,7 @@ from .records import checked_dataset, record_checks, record_options
 from .replay_checks import replay_checks
 from .result import Identification
 from .verdict import (
+    Check,
     answer_checks,
     base_level_checks,
     channel_checks,
@@ -116,7 +117,45 @@ def identify(dataset, *, system: FreeplaySystem | None = None,
         return _plain_result(dataset, system, est, fit.mode, t0, error, checked)
     rep = corrected_fit(dataset, system, est, extraction=extraction, fit=fit, replay=replay,
                         progress=progress)
-    return _corrected_result(dataset, system, est, rep, fit.mode, t0, error, checked)
+    result = _corrected_result(dataset, system, est, rep, fit.mode, t0, error, checked)
+    if _statistics_disagree(result, replay):
+        result = _on_the_other_statistic(result, dataset, system, est, extraction, fit, replay,
+                                         error, checked, t0, progress)
+    return result
+
+
+def _statistics_disagree(result: Identification, replay: Replay) -> bool:
+    """Whether the replays matched the rule ``auto`` chose (the drop points, without a base
+    channel) and the cross-check found the other statistic putting the answer elsewhere."""
+    failed = {c.name for c in result.verdict.checks if not c.passed}
+    rep = result.replay
+    return (replay.jump_point == "auto" and rep is not None and not rep.failure
+            and rep.cross is not None and "replay_consistency" in failed)
+
+
+def _on_the_other_statistic(first: Identification, dataset, system, est, extraction, fit,
+                            replay, error, checked, t0, progress) -> Identification:
+    """The answer of replays matching the cross-check's statistic (the windowed maxima, which
+    damping of another form than the replay's moves less than the drop: a Rayleigh-damped beam
+    without base channel, docs/results.md), judged as any answer, with a failed check that says
+    what the first statistic gave. ``first`` when that statistic's replays cannot be fitted."""
+    rule = first.replay.cross.rule
+    other = dataclasses.replace(replay, jump_point=rule)
+    rep = corrected_fit(dataset, system, est, extraction=extraction, fit=fit, replay=other,
+                        progress=progress)
+    if rep.failure:
+        return first
+    second = _corrected_result(dataset, system, est, rep, fit.mode, t0, error, checked)
+    cross = first.replay.cross
+    note = Check("replay_statistic", False,
+                 f"the replays matching the `{first.replay.jump_point}` points gave kn = "
+                 f"{first.kn:.5g} N·m/rad, delta = {first.delta:.5g} rad, which the `{rule}` "
+                 f"points put elsewhere (delta {100 * cross.delta_shift:+.2g} %, kn "
+                 f"{100 * cross.kn_shift:+.2g} %); reported: the replays matching the `{rule}` "
+                 "points, which damping of another form than the replay's moves less; the two "
+                 "statistics disagree, so neither answer is confirmed")
+    return dataclasses.replace(second, verdict=make_verdict((note, *second.verdict.checks)),
+                               runtime_s=time.perf_counter() - t0)
 
 
 def _plain_estimate(dataset, system, checked, **options) -> PlainEstimate:
