@@ -417,3 +417,60 @@ def test_the_replayed_answer_judges_the_channels_spread_against_the_replays():
     bad = replayed_channel_check(res(0.03, 0.002))
     assert not bad.passed and "replayed 0.2 %" in bad.message
     assert replayed_channel_check(res(float("nan"), float("nan"))) is None
+
+
+def test_a_failed_cross_check_reports_the_other_statistics_answer(monkeypatch):
+    """Without a base channel the replays match the drop points; when the windowed points put
+    that answer elsewhere (a Rayleigh-damped beam: drop answer delta -17 %), identify replays
+    the windowed points and reports that answer, `suspect`, saying what the drop points gave.
+    A replay of that statistic that fails keeps the first answer."""
+    from freeplayid.identification import pipeline
+    from freeplayid.identification.verdict import Check, make_verdict
+    from freeplayid.replay import Replay
+    from freeplayid.replay.corrected import CrossCheck
+
+    @dataclasses.dataclass(frozen=True)
+    class Answer:
+        kn: float
+        delta: float
+        verdict: object
+        replay: object
+        runtime_s: float = 0.0
+
+    @dataclasses.dataclass(frozen=True)
+    class Rep:
+        jump_point: str
+        cross: object = None
+        failure: str = ""
+
+    cross = CrossCheck("windowed", kn_shift=0.20, delta_shift=0.26, kn_se=0.006, delta_se=0.006,
+                       dof=4.0)
+    failed = make_verdict([Check("replay_consistency", False, "...: delta +26 % (limit 4 %)")])
+    first = Answer(4274.4, 2.078e-3, failed, Rep("drop", cross))
+    asked = []
+
+    def fake_fit(dataset, system, est, *, extraction, fit, replay, progress):
+        asked.append(replay.jump_point)
+        return Rep(replay.jump_point, failure=fake_fit.failure)
+
+    fake_fit.failure = ""
+    second = Answer(5010.0, 2.49e-3, make_verdict([Check("residual", True, "fine")]),
+                    Rep("windowed"))
+    monkeypatch.setattr(pipeline, "corrected_fit", fake_fit)
+    monkeypatch.setattr(pipeline, "_corrected_result", lambda *a, **k: second)
+    assert pipeline._statistics_disagree(first, Replay())
+    assert not pipeline._statistics_disagree(first, Replay(jump_point="drop"))  # asked for
+    ok = dataclasses.replace(first, verdict=make_verdict([Check("replay_consistency", True, "")]))
+    assert not pipeline._statistics_disagree(ok, Replay())
+    from freeplayid.fit import FitOptions
+
+    args = (None, None, None, None, FitOptions(), Replay(), None, None, 0.0, False)
+    got = pipeline._on_the_other_statistic(first, *args)
+    assert asked == ["windowed"] and (got.kn, got.delta) == (5010.0, 2.49e-3)
+    assert got.verdict.status == "suspect"
+    note = got.verdict.checks[0]
+    assert note.name == "replay_statistic" and not note.passed
+    assert "`drop` points gave kn = 4274.4" in note.message and "delta +26 %" in note.message
+    assert got.verdict.checks[1].name == "residual"
+    fake_fit.failure = "the replay could not be fitted"
+    assert pipeline._on_the_other_statistic(first, *args) is first
