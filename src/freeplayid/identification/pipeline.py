@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import logging
 import os
 import time
 from collections.abc import Mapping
@@ -34,6 +35,8 @@ from .verdict import (
 )
 
 __all__ = ["identify"]
+
+log = logging.getLogger(__name__)
 
 DEFAULT_REPLAY = Replay()  # identify corrects the plain fit by replaying the test unless told not
 DEFAULT_RECORDS = RecordCheckOptions()  # ... and checks the records first unless told not
@@ -140,6 +143,9 @@ def _on_the_other_statistic(first: Identification, dataset, system, est, extract
     without base channel, docs/results.md), judged as any answer, with a failed check that says
     what the first statistic gave. ``first`` when that statistic's replays cannot be fitted."""
     rule = first.replay.cross.rule
+    log.info("the `%s` points put the answer of the replays matching the `%s` points elsewhere "
+             "(delta %+.2g %%): replaying the `%s` points", rule, first.replay.jump_point,
+             100 * first.replay.cross.delta_shift, rule)
     other = dataclasses.replace(replay, jump_point=rule)
     rep = corrected_fit(dataset, system, est, extraction=extraction, fit=fit, replay=other,
                         progress=progress)
