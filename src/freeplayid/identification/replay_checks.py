@@ -105,9 +105,7 @@ def _consistency_check(replay) -> Check | None:
     cross = getattr(replay, "cross", None)
     if cross is None:
         return None
-    dof = getattr(cross, "dof", math.inf)
-    k = float(scipy.stats.norm.isf(LIMITS["cross_p"] / 2) if not math.isfinite(dof)
-              else scipy.stats.t.isf(LIMITS["cross_p"] / 2, dof))
+    k = float(scipy.stats.t.isf(LIMITS["cross_p"] / 2, cross.dof))  # dof inf: the normal's 3
     off = []
     for name, shift, se, tol in (("delta", cross.delta_shift, cross.delta_se,
                                   LIMITS["cross_delta"]),

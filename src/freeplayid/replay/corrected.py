@@ -607,17 +607,13 @@ def _cross_se(test: PlainEstimate, copies: np.ndarray) -> tuple[list, float]:
     freedom; the shift's error adds the copies' mean: sqrt(1 + 1/c) of one fit's. With four
     runs and three copies that is 4 degrees of freedom, where 3 standard errors are exceeded by
     chance 4 % of the time (normal: 0.27 %): the check reads them with Student's t."""
-    c = copies.shape[0]
-    parts = []  # (dof, variance of one fit's log (kn, delta))
-    if c > 1:
-        parts.append((c - 1, copies.var(axis=0, ddof=1)))
+    c = copies.shape[0]  # CROSS_COPIES >= 2
+    parts = [(c - 1, copies.var(axis=0, ddof=1))]  # (dof, variance of one fit's log (kn, delta))
     runs = len({p.run for p in test.points.used()})
     if runs > 2:
         tq = float(scipy.stats.t.ppf(0.975, runs - 2))
         sd = [np.log(hi / lo) / (2 * tq) if lo > 0 else np.inf for lo, hi in by_run_intervals(test)]
         parts.append((runs - 2, np.square(sd)))
-    if not parts:
-        return [float("nan"), float("nan")], math.inf
     dof = sum(d for d, _ in parts)
     var = sum(d * v for d, v in parts) / dof
     se = np.sqrt((1.0 + 1.0 / c) * var)
