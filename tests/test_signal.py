@@ -5,6 +5,7 @@ systems, and a self-contained RK4 of the SDOF freeplay oscillator under a base s
 backbone is known (docs/backbone.md): w(A) = w_n / (1 + 2 delta / (pi (A - delta))).
 """
 
+import importlib
 import math
 
 import numpy as np
@@ -86,6 +87,55 @@ def test_smoothing_matches_dense_and_passes_lines():
     )
     line = 3.0 + 0.2 * np.arange(n)
     np.testing.assert_allclose(smooth_second_difference(line, 1e-6), line, rtol=1e-8)
+
+
+def test_smoothing_factor_kept_per_length_and_weight():
+    # the kept factor is keyed by (N, beta): other weights and lengths after it stay exact
+    rng = np.random.default_rng(2)
+    for n, beta in ((30, 0.01), (30, 0.2), (31, 0.01), (30, 0.01)):
+        z = rng.normal(size=n)
+        d = _dense_d(n)
+        np.testing.assert_allclose(smooth_second_difference(z, beta),
+                                   np.linalg.solve(d.T @ d / beta + np.eye(n), z), rtol=1e-10)
+
+
+def test_acmp_pursuit_kept_for_identical_inputs(monkeypatch):
+    acmp_module = importlib.import_module("freeplayid.signal.acmp")
+
+    monkeypatch.setattr(acmp_module, "_PURSUITS", acmp_module._Pursuits())
+    calls = []
+    pursue = acmp_module._pursue
+    monkeypatch.setattr(acmp_module, "_pursue", lambda *a, **k: calls.append(1) or pursue(*a, **k))
+    fs = 400.0
+    t = np.arange(int(20 * fs)) / fs
+    x = np.sin(2 * np.pi * (20 * t + 0.25 * t * t)) + 0.1 * np.random.default_rng(3).normal(
+        size=t.size)
+    first = acmp_module.acmp(x, fs, init_freq=20 + 0.5 * t)
+    again = acmp_module.acmp(x.copy(), fs, init_freq=20 + 0.5 * t)
+    assert len(calls) == 1
+    for name in ("amplitude", "frequency", "phase", "mode"):
+        np.testing.assert_array_equal(getattr(first, name), getattr(again, name))
+    first.frequency[:] = 0.0  # the caller's arrays are its own: the kept ones do not change
+    np.testing.assert_array_equal(again.frequency, acmp_module.acmp(
+        x, fs, init_freq=20 + 0.5 * t).frequency)
+    x2 = x.copy()
+    x2[1000] += 1e-9  # another record, another pursuit
+    acmp_module.acmp(x2, fs, init_freq=20 + 0.5 * t)
+    acmp_module.acmp(x, fs, init_freq=20 + 0.6 * t)  # another initial frequency
+    acmp_module.acmp(x, fs, init_freq=20 + 0.5 * t, bandwidth_hz=1.0)  # another option
+    assert len(calls) == 4
+
+
+def test_acmp_pursuits_kept_within_their_memory_bound(monkeypatch):
+    acmp_module = importlib.import_module("freeplayid.signal.acmp")
+
+    kept = acmp_module._Pursuits(max_bytes=1)  # room for the newest entry only
+    monkeypatch.setattr(acmp_module, "_PURSUITS", kept)
+    fs = 400.0
+    t = np.arange(int(10 * fs)) / fs
+    for f0 in (20.0, 21.0, 22.0):
+        acmp_module.acmp(np.sin(2 * np.pi * f0 * t), fs, init_freq=f0)
+    assert len(kept.entries) == 1
 
 
 # --- synthetic chirp, SNR 20 dB -----------------------------------------------------------------

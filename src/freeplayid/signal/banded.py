@@ -7,12 +7,18 @@ Its Gram matrix P = D^T D is symmetric pentadiagonal with
 
 (N >= 4; the short cases are built from the definition). Both ACMP solves are therefore banded
 and cost O(N): LAPACK ``pbsv`` (banded Cholesky) through :func:`scipy.linalg.solveh_banded`.
+The smoothing's matrix ``P / beta + I`` depends only on (N, beta), which every iteration of an
+ACMP call, and every call on a record of the same length, share: its Cholesky factor is kept
+(LAPACK ``pbtrf`` once, ``pbtrs`` per solve: the same arithmetic as ``pbsv``, a third of its
+time; ``python benchmarks/identify_time.py``).
 """
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
-from scipy.linalg import solveh_banded
+from scipy.linalg import cho_solve_banded, cholesky_banded, solveh_banded
 
 __all__ = ["second_difference_gram", "demodulate", "smooth_second_difference"]
 
@@ -80,11 +86,19 @@ def smooth_second_difference(z: np.ndarray, beta: float) -> np.ndarray:
     z : ndarray, shape (N,) [any]
     beta : float [-], > 0
     """
-    n = z.shape[0]
+    factor = _smoothing_factor(z.shape[0], float(beta))
+    return cho_solve_banded((factor, False), z, check_finite=False)
+
+
+@functools.lru_cache(maxsize=16)
+def _smoothing_factor(n: int, beta: float) -> np.ndarray:
+    """Upper banded Cholesky factor of ``P / beta + I`` (read-only; 3 x n floats)."""
     p0, p1, p2 = second_difference_gram(n)
     inv = 1.0 / beta
     ab = np.zeros((3, n))
     ab[2] = 1.0 + inv * p0
     ab[1, 1:] = inv * p1
     ab[0, 2:] = inv * p2
-    return solveh_banded(ab, z, overwrite_ab=True, check_finite=False)
+    factor = cholesky_banded(ab, overwrite_ab=True, check_finite=False)
+    factor.setflags(write=False)
+    return factor

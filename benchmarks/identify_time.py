@@ -1,0 +1,140 @@
+"""Wall time of ``identify`` on the bundled example: the corrected fit beside the plain fit.
+
+    python benchmarks/identify_time.py              # after pip install -e . (or PYTHONPATH=src)
+    python benchmarks/identify_time.py --repeat 2   # best of 2 per row
+
+One process, warm: a first identify (not timed) loads the compiled replay kernel and the modules,
+as a notebook's second call or ``scripts/identify.py`` after its first run would find them. Then,
+in the same run, per row:
+
+- ``plain fit``: ``replay=None`` (the points and the backbone fit, no bias correction);
+- ``corrected``: the default (the plain fit, then the replays of the test);
+- ``corrected, nothing kept``: the default with every extraction solved afresh, as before the
+  extraction kept its results: no pursuit reused (ACMP's iterations on a record it has already
+  run on with the same inputs) and the smoothing's Cholesky factor computed at every iteration.
+
+Kept results are dropped before each row, so each row is a first identify of the data. The
+stages: the plain estimate (the test's points and their fit), the replays' simulation, and the
+extraction and fit of the replays (with the test's points for the replays' statistic). Prints a
+Markdown table: wall time (best of ``--repeat``), stages, the answer and the verdict, which do not
+depend on what is kept (checked: the table says if they differ).
+"""
+
+from __future__ import annotations
+
+import argparse
+import functools
+import importlib
+import logging
+import time
+from contextlib import contextmanager
+
+import numpy as np
+
+from freeplayid import identify
+from freeplayid.io import bundled_example, read_dataset
+
+STAGES = {  # (module, function) -> stage name; a call's time counts once (outermost)
+    ("freeplayid.identification.pipeline", "plain_estimate"): "plain estimate",
+    ("freeplayid.replay.corrected", "replay_dataset"): "replays: simulate",
+    ("freeplayid.replay.corrected", "plain_estimate"): "replays: extract + fit",
+}
+
+
+@contextmanager
+def timed_stages(totals: dict):
+    """Adds each stage's wall time to ``totals`` while the block runs."""
+    saved = []
+    for (mod_name, fn_name), stage in STAGES.items():
+        mod = importlib.import_module(mod_name)
+        fn = getattr(mod, fn_name)
+        saved.append((mod, fn_name, fn))
+
+        def wrapper(*a, _fn=fn, _stage=stage, **k):
+            t0 = time.perf_counter()
+            try:
+                return _fn(*a, **k)
+            finally:
+                totals[_stage] = totals.get(_stage, 0.0) + time.perf_counter() - t0
+
+        setattr(mod, fn_name, wrapper)
+    try:
+        yield
+    finally:
+        for mod, fn_name, fn in saved:
+            setattr(mod, fn_name, fn)
+
+
+@contextmanager
+def nothing_kept():
+    """Every pursuit run afresh and the smoothing factor computed per solve (the code before)."""
+    acmp = importlib.import_module("freeplayid.signal.acmp")
+    banded = importlib.import_module("freeplayid.signal.banded")
+    kept, factor = acmp._PURSUITS, banded._smoothing_factor
+    acmp._PURSUITS = acmp._Pursuits(max_bytes=0)
+    acmp._PURSUITS.get_or_run = functools.partial(_afresh, acmp)
+    banded._smoothing_factor = functools.lru_cache(maxsize=0)(factor.__wrapped__)
+    try:
+        yield
+    finally:
+        acmp._PURSUITS, banded._smoothing_factor = kept, factor
+
+
+def _afresh(acmp, x, f, fsd, **options):
+    f, alpha, it, converged = acmp._pursue(x, f, fsd, **options)
+    u, v = acmp.demodulate(x, acmp._phase(f, fsd), alpha)
+    return u, v, f, alpha, it, converged
+
+
+def drop_kept() -> None:
+    acmp = importlib.import_module("freeplayid.signal.acmp")
+    acmp._PURSUITS.entries.clear()
+    importlib.import_module("freeplayid.signal.banded")._smoothing_factor.cache_clear()
+
+
+def run_row(dataset, replay: bool, repeat: int, afresh: bool = False) -> dict:
+    best = None
+    for _ in range(repeat):
+        drop_kept()
+        totals: dict = {}
+        with timed_stages(totals), (nothing_kept() if afresh else _no_op()):
+            t0 = time.perf_counter()
+            res = identify(dataset, progress=False, **({} if replay else {"replay": None}))
+            wall = time.perf_counter() - t0
+        if best is None or wall < best["wall"]:
+            best = {"wall": wall, "stages": totals, "kn": res.kn, "delta": res.delta,
+                    "verdict": res.verdict.status}
+    return best
+
+
+@contextmanager
+def _no_op():
+    yield
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeat", type=int, default=1, help="best of this many per row")
+    args = ap.parse_args()
+    logging.getLogger("freeplayid").setLevel(logging.WARNING)
+    dataset = read_dataset(bundled_example())
+    t0 = time.perf_counter()
+    identify(dataset, progress=False)  # warm-up: the replay kernel loads (compiles if cold)
+    print(f"warm-up identify (not timed in the table): {time.perf_counter() - t0:.1f} s\n")
+    rows = [("plain fit (replay=None)", run_row(dataset, False, args.repeat)),
+            ("corrected (default)", run_row(dataset, True, args.repeat)),
+            ("corrected, nothing kept", run_row(dataset, True, args.repeat, afresh=True))]
+    names = list(dict.fromkeys(STAGES.values()))
+    print("| identify | wall [s] | " + " | ".join(f"{n} [s]" for n in names)
+          + " | kn [N·m/rad] | delta [mrad] | verdict |")
+    print("|---" * (len(names) + 5) + "|")
+    for label, r in rows:
+        stages = " | ".join(f"{r['stages'].get(n, 0.0):.1f}" for n in names)
+        print(f"| {label} | {r['wall']:.1f} | {stages} | {r['kn']:.5g} | "
+              f"{1e3 * r['delta']:.5g} | {r['verdict']} |")
+    same = all(np.isclose(rows[1][1][k], rows[2][1][k], rtol=0, atol=0) for k in ("kn", "delta"))
+    print(f"\ncorrected answer the same with and without kept results: {same}")
+
+
+if __name__ == "__main__":
+    main()
