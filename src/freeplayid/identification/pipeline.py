@@ -249,7 +249,8 @@ def _corrected_intervals(rep) -> tuple[tuple, tuple, str]:
     """The corrected estimate's intervals: the Jacobian ones of the statistic's fit (the points
     the replays match, each run's points one observation) moved with the estimate (same
     relative width); with the bootstrap by replay, the smallest interval holding both; widened
-    by the answer's move for the levels' uncertainty where they came from ``level_g``."""
+    by the answer's move for the levels' uncertainty where they came from ``level_g``, and for an
+    estimated damping's."""
     (kn_ci, delta_ci) = rep.statistic_ci95
     sk, sd = rep.kn / rep.kn_statistic, rep.delta / rep.delta_statistic
     kn_ci = tuple(v * sk for v in kn_ci)
@@ -266,6 +267,11 @@ def _corrected_intervals(rep) -> tuple[tuple, tuple, str]:
         delta_ci = widen(delta_ci, rep.delta, level.delta_shift)
         source += (f", with the levels' {100 * level.uncertainty:g} % uncertainty (no base "
                    "channel)")
+    damping = rep.damping
+    if damping is not None and damping.kn_shift is not None:  # an estimated zeta is uncertain
+        kn_ci = widen(kn_ci, rep.kn, damping.kn_shift)
+        delta_ci = widen(delta_ci, rep.delta, damping.delta_shift)
+        source += ", with the estimated damping's uncertainty"
     return kn_ci, delta_ci, source
 
 

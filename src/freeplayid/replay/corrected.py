@@ -300,6 +300,7 @@ class _Binding:
         self.history, self.rep, self.rep_ds, self.failure = [], None, None, ""
         self.weights, self.weight_table = None, None if opts.weighted else ()
         self.ratios = np.array([])
+        self.ratio_target = 0.0  # the median log amplitude ratio the loop drives F to
         self.stat = test.statistic
         self.stat_ci95 = by_run_intervals(self.stat)
 
@@ -363,7 +364,7 @@ class _Binding:
         if estimate:
             self.ratios = amplitude_ratios(self.stat.points.used(), rep.points.used())
             ratio = float(np.median(self.ratios)) if self.ratios.size else 0.0
-            F = np.append(F, ratio)
+            F = np.append(F, ratio - self.ratio_target)
         se = misfit_in_se(F, self.stat_ci95, self.stat.points.used(),
                           self.ratios if estimate else None)
         self.history.append(ReplayIteration(
@@ -513,6 +514,8 @@ def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts
             cross = _cross_check(b, theta, CROSS_RULE[rule], progress)
         level = None if b.failure else _level_sensitivity(b, sol, opts.level_uncertainty,
                                                           progress)
+        if not b.failure:
+            damping = _damping_sensitivity(b, sol, damping, progress)
         if opts.n_bootstrap > 0 and not b.failure:
             boot = bootstrap_by_replay(
                 b.rep_ds, system, noise_levels(b.test.dataset, b.rep_ds), theta=theta,
@@ -568,6 +571,29 @@ def _level_sensitivity(b: _Binding, sol, u: float,
         return None
     shift = np.abs(moved.u[:2] - sol.u[:2])
     return LevelSensitivity(float(u), float(shift[0]), float(shift[1]), runs)
+
+
+def _damping_sensitivity(b: _Binding, sol, damping: ReplayDamping,
+                         progress: bool = False) -> ReplayDamping:
+    """``damping`` with the answer's move for an estimated damping at its 95 % bound: the
+    binding solved again, from the answer and with the loop's Jacobian, with its amplitude
+    statistic (the median log ratio of the replayed to the measured amplitudes, which fixes
+    zeta) driven to 1.96 of its standard errors instead of 0; kn and delta move with zeta along
+    the binding. ``damping`` itself when zeta was not estimated or that solve fails."""
+    if sol.u.size != 3 or b.ratios.size < 2 or not b.history:
+        return damping
+    half = 1.96 * median_se(b.ratios)
+    label = "replay at the damping's bound"
+    up = b.sibling(b.test, (b.source, b.zeta), label)
+    up.ratio_target = half
+    tol = [np.log1p(b.opts.rtol)] * 2 + [np.log1p(ZETA_RTOL)]
+    with _replay_bar(b.opts.max_iter, label, progress) as up.bar:
+        moved = solve_binding(up, sol.u, sol.jacobian, max_iter=b.opts.max_iter,
+                              tolerances=tol)
+    if up.failure:
+        return damping
+    shift = np.abs(moved.u[:2] - sol.u[:2])
+    return dataclasses.replace(damping, kn_shift=float(shift[0]), delta_shift=float(shift[1]))
 
 
 def _cross_check(b: _Binding, theta, rule: str, progress: bool = False) -> CrossCheck | None:

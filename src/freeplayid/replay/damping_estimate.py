@@ -32,17 +32,23 @@ class ReplayDamping:
     note : str
         Why it was estimated although the model file has C (its replay missed the test's
         amplitudes), or "".
+    kn_shift, delta_shift : float or None [-]
+        |log| move of the answer for an estimated zeta at its 95 % bound (the binding solved
+        again with the amplitude statistic 1.96 standard errors off); added to the intervals'
+        log half-widths in quadrature. None when zeta was not estimated.
     """
 
     source: str
     zeta: float | None = None
     zeta_ci95: tuple | None = None
     note: str = ""
+    kn_shift: float | None = None
+    delta_shift: float | None = None
 
     def to_dict(self) -> dict:
         return {"source": self.source, "zeta": self.zeta,
                 "zeta_ci95": None if self.zeta_ci95 is None else list(self.zeta_ci95),
-                "note": self.note}
+                "note": self.note, "kn_shift": self.kn_shift, "delta_shift": self.delta_shift}
 
     def describe(self) -> str:
         if self.source == "model":
@@ -52,6 +58,9 @@ class ReplayDamping:
             return text + " (given)"
         ci = "" if self.zeta_ci95 is None else \
             f", 95 % CI [{self.zeta_ci95[0]:.4g}, {self.zeta_ci95[1]:.4g}]"
+        if self.kn_shift is not None:
+            ci += (f", which moves the answer by kn {100 * self.kn_shift:.2g} %, delta "
+                   f"{100 * self.delta_shift:.2g} % (in the intervals)")
         note = f"; {self.note}" if self.note else ""
         return text + f" (estimated from the peak amplitudes{ci}{note})"
 
