@@ -469,6 +469,11 @@ def _model_damping_mismatch(binding: _Binding) -> float:
 # noisy copies of the answer's replay that the cross-check's second statistic is read from
 CROSS_COPIES = 3
 
+# replays at most for the answer's move at the estimated damping's bound: a widening of the
+# intervals needs the move to a fraction of itself, which the loop's Jacobian and one or two
+# updates give (a converged solve would cost as much as the loop again on a jittery binding)
+SENSITIVITY_REPLAYS = 3
+
 # [-] the model's C is replaced by an estimated damping (``Replay.damping`` None) when its replay
 # at the answer puts the matched points' amplitudes further than this from the test's: at the
 # phase resonance the amplitude is inversely proportional to the damping, and a replay of the
@@ -576,10 +581,11 @@ def _level_sensitivity(b: _Binding, sol, u: float,
 def _damping_sensitivity(b: _Binding, sol, damping: ReplayDamping,
                          progress: bool = False) -> ReplayDamping:
     """``damping`` with the answer's move for an estimated damping at its 95 % bound: the
-    binding solved again, from the answer and with the loop's Jacobian, with its amplitude
-    statistic (the median log ratio of the replayed to the measured amplitudes, which fixes
-    zeta) driven to 1.96 of its standard errors instead of 0; kn and delta move with zeta along
-    the binding. ``damping`` itself when zeta was not estimated or that solve fails."""
+    binding solved again (at most :data:`SENSITIVITY_REPLAYS` replays), from the answer and with
+    the loop's Jacobian, with its amplitude statistic (the median log ratio of the replayed to
+    the measured amplitudes, which fixes zeta) driven to 1.96 of its standard errors instead of
+    0; kn and delta move with zeta along the binding. ``damping`` itself when zeta was not
+    estimated or that solve fails."""
     if sol.u.size != 3 or b.ratios.size < 2 or not b.history:
         return damping
     half = 1.96 * median_se(b.ratios)
@@ -587,9 +593,9 @@ def _damping_sensitivity(b: _Binding, sol, damping: ReplayDamping,
     up = b.sibling(b.test, (b.source, b.zeta), label)
     up.ratio_target = half
     tol = [np.log1p(b.opts.rtol)] * 2 + [np.log1p(ZETA_RTOL)]
-    with _replay_bar(b.opts.max_iter, label, progress) as up.bar:
-        moved = solve_binding(up, sol.u, sol.jacobian, max_iter=b.opts.max_iter,
-                              tolerances=tol)
+    n = min(b.opts.max_iter, SENSITIVITY_REPLAYS)
+    with _replay_bar(n, label, progress) as up.bar:
+        moved = solve_binding(up, sol.u, sol.jacobian, max_iter=n, tolerances=tol)
     if up.failure:
         return damping
     shift = np.abs(moved.u[:2] - sol.u[:2])
