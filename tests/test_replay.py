@@ -153,40 +153,35 @@ def test_damping_is_estimated_when_the_model_has_none(measured):
 
 
 def test_damping_sensitivity_follows_the_bindings_slope():
-    """On a linear binding F(u) = A (u - u*) - (0, 0, target), whose answer for a target t is
-    u* + A^-1 (0, 0, t) by hand, the answer's move for the amplitude statistic at 1.96 standard
-    errors is |A^-1 (0, 0, 1.96 se)| in (log kn, log delta); without an estimated zeta (two
-    unknowns) the damping is returned as it was."""
-    from freeplayid.replay import Replay
-    from freeplayid.replay.broyden import BindingSolve
+    """On a linear binding F(u) = A (u - u*) whose Jacobian the loop knows, the answer's move for
+    the amplitude statistic at 1.96 of its standard errors is the move of the solution when that
+    statistic's target is moved so: solved here by Broyden on the moved binding, not by the
+    formula. Without an estimated zeta (two unknowns) the damping is returned as it was."""
+    from freeplayid.replay.broyden import BindingSolve, solve_binding
     from freeplayid.replay.corrected import _damping_sensitivity
     from freeplayid.replay.damping_estimate import ReplayDamping
 
     a = np.array([[1.0, 0.2, 0.3], [0.1, 0.8, -0.5], [0.0, 0.1, -0.9]])
     u_star = np.log([500.0, 3e-3, 0.03])
     ratios = np.array([0.01, -0.02, 0.015, 0.0, 0.03])
+    se = 1.2533 * np.std(ratios, ddof=1) / np.sqrt(ratios.size)  # the median's, by hand
+    target = np.array([0.0, 0.0, 1.96 * se])
+    moved = solve_binding(lambda u: a @ (u - u_star) - target, u_star, np.eye(3),
+                          max_iter=50, tolerances=[1e-12] * 3)
+    assert moved.converged
 
-    class Linear:
-        def __init__(self):
-            self.ratios, self.history, self.opts = ratios, [object()], Replay()
-            self.test, self.source, self.zeta, self.failure = None, "estimated", 0.03, ""
-            self.ratio_target, self.bar = 0.0, None
+    class Loop:  # what _damping_sensitivity reads of the loop
+        pass
 
-        def sibling(self, test, damping, label):
-            return Linear()
-
-        def __call__(self, u):
-            return a @ (u - u_star) - np.array([0.0, 0.0, self.ratio_target])
-
+    b = Loop()
+    b.ratios = ratios
     d = ReplayDamping("estimated", 0.03, (0.025, 0.035))
-    out = _damping_sensitivity(Linear(), BindingSolve(u_star, True, a, None, 3), d)
-    se = 1.2533 * np.std(ratios, ddof=1) / np.sqrt(ratios.size)  # the median's
-    expected = np.abs(np.linalg.solve(a, [0.0, 0.0, 1.96 * se]))[:2]
-    assert out.kn_shift == pytest.approx(expected[0], rel=1e-6)
-    assert out.delta_shift == pytest.approx(expected[1], rel=1e-6)
+    out = _damping_sensitivity(b, BindingSolve(u_star, True, a, None, 3), d)
+    assert out.kn_shift == pytest.approx(abs(moved.u[0] - u_star[0]), rel=1e-6)
+    assert out.delta_shift == pytest.approx(abs(moved.u[1] - u_star[1]), rel=1e-6)
     assert (out.zeta, out.zeta_ci95) == (d.zeta, d.zeta_ci95)
     two = BindingSolve(u_star[:2], True, a[:2, :2], None, 3)
-    assert _damping_sensitivity(Linear(), two, d) is d
+    assert _damping_sensitivity(b, two, d) is d
 
 
 def test_a_model_c_that_misses_the_amplitudes_is_replaced_by_an_estimate(measured):

@@ -33,9 +33,9 @@ class ReplayDamping:
         Why it was estimated although the model file has C (its replay missed the test's
         amplitudes), or "".
     kn_shift, delta_shift : float or None [-]
-        |log| move of the answer for an estimated zeta at its 95 % bound (the binding solved
-        again with the amplitude statistic 1.96 standard errors off); added to the intervals'
-        log half-widths in quadrature. None when zeta was not estimated.
+        |log| move of the answer for an estimated zeta at its 95 % bound (the amplitude
+        statistic 1.96 standard errors off, through the replay loop's Jacobian); added to the
+        intervals' log half-widths in quadrature. None when zeta was not estimated.
     """
 
     source: str
