@@ -43,7 +43,9 @@ def bootstrap_by_replay(replayed, system, noise: dict, *, theta, theta_rep, n: i
     replayed test ``replayed`` (a Dataset): a :class:`ReplayBootstrap`.
 
     Each copy gets fresh white noise of each channel's measured level (``noise``: per run, one
-    level per channel, :func:`freeplayid.replay.noise_levels`) and passes through the plain
+    level per channel; ``corrected_fit`` passes :func:`freeplayid.replay.weights.record_noise`,
+    the record less what the replay explains of it, not the plain difference, which counts a
+    replayed phase a little off as noise) and passes through the plain
     estimate with the statistic's options; its fit theta_b maps to a corrected estimate by the
     binding function's local factor theta / theta_rep (the factor varies much less than the
     noise, so it is not solved again per copy).

@@ -517,7 +517,7 @@ def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts
             damping = _damping_sensitivity(b, sol, damping)
         if opts.n_bootstrap > 0 and not b.failure:
             boot = bootstrap_by_replay(
-                b.rep_ds, system, noise_levels(b.test.dataset, b.rep_ds), theta=theta,
+                b.rep_ds, system, record_noise(b.test.dataset, b.rep_ds), theta=theta,
                 theta_rep=np.array([rep.kn, rep.delta]), n=opts.n_bootstrap, seed=opts.seed,
                 extraction=b.test.extraction, fit=b.test.fit, point_weights=b.weights,
                 progress=progress)
