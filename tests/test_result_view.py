@@ -115,6 +115,14 @@ def test_summary_and_report_give_delta_in_mrad_and_the_play_in_degrees(chosen):
                          "total play 2·delta = 0.34373°  (95 % CI [0.33628, 0.35136]°)"]
     report = chosen.report(["backbone_fit.png"])
     assert "| delta [mrad] | 2.9996 | [2.9346, 3.0662] |" in report
+    # a plain fit says what its verdict did not judge: the sweep's bias (a replay's does not)
+    from freeplayid.identification.report import PLAIN_FIT_NOTE
+
+    assert lines[-1] == PLAIN_FIT_NOTE and "its bias from the sweep is not measured" in report
+    assert "sweep is not measured" in chosen._repr_markdown_()
+    replayed = dataclasses.replace(chosen, replay=_fake_replay(chosen, misfit=0.01))
+    assert PLAIN_FIT_NOTE not in replayed.summary()
+    assert "sweep is not measured" not in replayed.report()
     assert "| total play 2·delta [°] | 0.34373 | [0.33628, 0.35136] |" in report
     assert "N m/rad" not in report and "| kn [N·m/rad] | 480.07 |" in report
 

@@ -10,6 +10,7 @@ from ..errors import IdentificationError, SuspectResultError
 from .figures import plot_identification
 from .records import findings_text
 from .report import (
+    PLAIN_FIT_NOTE,
     fit_kind,
     format_ci,
     format_sig,
@@ -340,6 +341,8 @@ class Identification:
         if self.verdict is not None:
             lines.append(f"verdict: {self.verdict.status}" + "".join(
                 f"\n  - {why}" for why in self.verdict.reasons))
+            if fit_kind(self) == "plain fit":
+                lines.append(PLAIN_FIT_NOTE)
         return "\n".join(lines)
 
     def report(self, figures: Sequence[str] = ()) -> str:
