@@ -139,6 +139,8 @@ def run_case(args) -> dict:
         kn_cover=ok(case["kn"], res.kn_ci95), delta_cover=ok(case["delta"], res.delta_ci95),
         replays=len(r.iterations), converged=r.converged, failure=r.failure,
         zeta_est=r.damping.zeta if r.damping else math.nan,
+        kn_ci95=list(res.kn_ci95), delta_ci95=list(res.delta_ci95),
+        damping=None if r.damping is None else r.damping.to_dict(),  # zeta's CI, its move
         n_points=len(res.points.used()),
         theta_ratio_min=_min_ratio(res),
         closest_misfit_se=r.closest_misfit_se,
