@@ -71,19 +71,20 @@ def nothing_kept():
     acmp = importlib.import_module("freeplayid.signal.acmp")
     banded = importlib.import_module("freeplayid.signal.banded")
     kept, factor = acmp._PURSUITS, banded._smoothing_factor
-    acmp._PURSUITS = acmp._Pursuits(max_bytes=0)
-    acmp._PURSUITS.get_or_run = functools.partial(_afresh, acmp)
+    fresh = acmp._Pursuits()
+    run = fresh.get_or_run
+
+    def afresh(*args, **options):  # the kept results dropped before every call
+        fresh.entries.clear()
+        return run(*args, **options)
+
+    fresh.get_or_run = afresh
+    acmp._PURSUITS = fresh
     banded._smoothing_factor = functools.lru_cache(maxsize=0)(factor.__wrapped__)
     try:
         yield
     finally:
         acmp._PURSUITS, banded._smoothing_factor = kept, factor
-
-
-def _afresh(acmp, x, f, fsd, **options):
-    f, alpha, it, converged = acmp._pursue(x, f, fsd, **options)
-    u, v = acmp.demodulate(x, acmp._phase(f, fsd), alpha)
-    return u, v, f, alpha, it, converged
 
 
 def drop_kept() -> None:

@@ -156,10 +156,9 @@ def test_damping_sensitivity_follows_the_bindings_slope():
     """On a linear binding F(u) = A (u - u*) whose Jacobian the loop knows, the answer's move for
     the amplitude statistic at 1.96 of its standard errors is the move of the solution when that
     statistic's target is moved so: solved here by Broyden on the moved binding, not by the
-    formula. Without an estimated zeta (two unknowns) the damping is returned as it was."""
-    from freeplayid.replay.broyden import BindingSolve, solve_binding
-    from freeplayid.replay.corrected import _damping_sensitivity
-    from freeplayid.replay.damping_estimate import ReplayDamping
+    formula. Without an estimated zeta (two unknowns), or after a failed loop, no move."""
+    from freeplayid.replay.broyden import solve_binding
+    from freeplayid.replay.corrected import _damping_used
 
     a = np.array([[1.0, 0.2, 0.3], [0.1, 0.8, -0.5], [0.0, 0.1, -0.9]])
     u_star = np.log([500.0, 3e-3, 0.03])
@@ -170,18 +169,14 @@ def test_damping_sensitivity_follows_the_bindings_slope():
                           max_iter=50, tolerances=[1e-12] * 3)
     assert moved.converged
 
-    class Loop:  # what _damping_sensitivity reads of the loop
-        pass
-
-    b = Loop()
-    b.ratios = ratios
-    d = ReplayDamping("estimated", 0.03, (0.025, 0.035))
-    out = _damping_sensitivity(b, BindingSolve(u_star, True, a, None, 3), d)
+    out = _damping_used("estimated", 0.03, ratios, a, True)
     assert out.kn_shift == pytest.approx(abs(moved.u[0] - u_star[0]), rel=1e-6)
     assert out.delta_shift == pytest.approx(abs(moved.u[1] - u_star[1]), rel=1e-6)
-    assert (out.zeta, out.zeta_ci95) == (d.zeta, d.zeta_ci95)
-    two = BindingSolve(u_star[:2], True, a[:2, :2], None, 3)
-    assert _damping_sensitivity(b, two, d) is d
+    assert out.zeta == 0.03 and out.zeta_ci95[0] < 0.03 < out.zeta_ci95[1]
+    given = _damping_used("model", None, ratios, a[:2, :2], False)
+    assert given.kn_shift is None and given.delta_shift is None
+    failed = _damping_used("estimated", 0.03, ratios, a, True, failed=True)
+    assert failed.kn_shift is None and failed.zeta_ci95 == out.zeta_ci95
 
 
 def test_a_model_c_that_misses_the_amplitudes_is_replaced_by_an_estimate(measured):

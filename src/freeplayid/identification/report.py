@@ -13,9 +13,7 @@ def render_report(result, figures: Sequence[str] = ()) -> str:
     """The whole report: the data set, the result, the verdict, the record checks, the inverse
     model's start, the truth, the replay, the fitting points, the rejected runs, the
     zero-clearance check and the figures."""
-    plain = (["", PLAIN_FIT_NOTE[0].upper() + PLAIN_FIT_NOTE[1:] + "."]
-             if result.verdict is not None and fit_kind(result) == "plain fit" else [])
-    lines = (_header(result) + _verdict(result.verdict) + plain + _records(result)
+    lines = (_header(result) + _verdict(result.verdict) + _plain_note(result) + _records(result)
              + _inverse(result) + _truth(result)
              + _model(result) + _replay(result) + _points(result)
              + _rejected(result.rejected_runs)
@@ -100,15 +98,20 @@ def render_summary(result) -> str:
                                            for k, e in err.items())]
     if r.verdict is not None:
         lines += ["", f"**Verdict: {r.verdict.status}**", ""] + _verdict_table(r.verdict)
-        if fit_kind(r) == "plain fit":
-            lines += ["", PLAIN_FIT_NOTE[0].upper() + PLAIN_FIT_NOTE[1:] + "."]
-    return "\n".join(lines)
+    return "\n".join(lines + _plain_note(r))
 
 
 # what a plain fit's verdict did not judge (the command's summary and report.md say it)
 PLAIN_FIT_NOTE = ("plain fit (replay off): judged on its own checks; its bias from the sweep is "
                   "not measured (2-7 % in delta on held-out swept, damped tests); the default "
                   "replay measures and removes it")
+
+
+def _plain_note(r) -> list[str]:
+    """Under a plain fit's verdict: what that verdict did not judge (Markdown lines)."""
+    if r.verdict is None or fit_kind(r) != "plain fit":
+        return []
+    return ["", PLAIN_FIT_NOTE[0].upper() + PLAIN_FIT_NOTE[1:] + "."]
 
 
 def fit_kind(r) -> str:

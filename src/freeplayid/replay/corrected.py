@@ -444,7 +444,8 @@ def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extracti
     if estimate:
         zeta = float(np.exp(sol.u[2]))
     return _result(binding, theta, rule, sol, closest,
-                   _damping_used(source, zeta, binding.ratios, sol.jacobian, estimate, note),
+                   _damping_used(source, zeta, binding.ratios, sol.jacobian, estimate, note,
+                                 failed=bool(binding.failure)),
                    plain, system, opts, progress)
 
 
@@ -482,16 +483,36 @@ def _replay_bar(total: int, desc: str, show: bool):
                         bar_format=REPLAY_BAR)
 
 
-def _damping_used(source, zeta, ratios, J, estimate, note: str = "") -> ReplayDamping:
-    """The replays' damping; an estimated zeta's interval from the spread of the per-point log
-    ratios (standard error of their median) through the amplitude's sensitivity to log zeta
-    (the Jacobian's last diagonal entry)."""
-    zeta_ci = None
+def _damping_used(source, zeta, ratios, J, estimate, note: str = "",
+                  failed: bool = False) -> ReplayDamping:
+    """The replays' damping. An estimated zeta's interval comes from the spread of the per-point
+    log ratios (1.96 standard errors of their median, ``se``) through the amplitude's
+    sensitivity to log zeta (the Jacobian's last diagonal entry); its move of the answer, unless
+    the loop ``failed``, is the move of (log kn, log delta) that drives the amplitude statistic
+    to 1.96 se instead of 0 through the loop's Jacobian (whose zeta column the loop learnt as
+    zeta moved), ``J^-1 (0, 0, 1.96 se)``. No replay: on the real-tests fins it is 2.5-3.4 times
+    the move of three replays solving for that target (docs/identify.md §3c), so it errs on the
+    wide side."""
+    zeta_ci = shift = None
     if estimate and ratios.size >= 2:
-        half = 1.96 * median_se(ratios) / max(abs(float(J[2, 2])), 0.1)
-        zeta_ci = (float(zeta * np.exp(-half)), float(zeta * np.exp(half)))
+        half = 1.96 * median_se(ratios)
+        z = half / max(abs(float(J[2, 2])), 0.1)
+        zeta_ci = (float(zeta * np.exp(-z)), float(zeta * np.exp(z)))
+        if not failed:
+            shift = _answer_move(J, half)
     return ReplayDamping(source=source, zeta=None if zeta is None else float(zeta),
-                         zeta_ci95=zeta_ci, note=note)
+                         zeta_ci95=zeta_ci, note=note,
+                         kn_shift=None if shift is None else float(shift[0]),
+                         delta_shift=None if shift is None else float(shift[1]))
+
+
+def _answer_move(J, half: float) -> np.ndarray | None:
+    """|J^-1 (0, 0, half)| in (log kn, log delta), or None where J cannot give it."""
+    try:
+        shift = np.abs(np.linalg.solve(J, np.array([0.0, 0.0, half]))[:2])
+    except np.linalg.LinAlgError:
+        return None
+    return shift if np.all(np.isfinite(shift)) else None
 
 
 def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts,
@@ -513,8 +534,6 @@ def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts
             cross = _cross_check(b, theta, CROSS_RULE[rule], progress)
         level = None if b.failure else _level_sensitivity(b, sol, opts.level_uncertainty,
                                                           progress)
-        if not b.failure:
-            damping = _damping_sensitivity(b, sol, damping)
         if opts.n_bootstrap > 0 and not b.failure:
             boot = bootstrap_by_replay(
                 b.rep_ds, system, record_noise(b.test.dataset, b.rep_ds), theta=theta,
@@ -570,26 +589,6 @@ def _level_sensitivity(b: _Binding, sol, u: float,
         return None
     shift = np.abs(moved.u[:2] - sol.u[:2])
     return LevelSensitivity(float(u), float(shift[0]), float(shift[1]), runs)
-
-
-def _damping_sensitivity(b: _Binding, sol, damping: ReplayDamping) -> ReplayDamping:
-    """``damping`` with the answer's move for an estimated damping at its 95 % bound: the move
-    of (log kn, log delta) that drives the binding's amplitude statistic (the median log ratio
-    of the replayed to the measured amplitudes, which fixes zeta) to 1.96 of its standard errors
-    instead of 0, through the loop's Jacobian (whose zeta column the loop learnt as zeta moved),
-    ``J^-1 (0, 0, 1.96 se)``. No replay: on the real-tests fins it is 2.5-3.4 times the move of
-    three replays solving for that target (docs/identify.md §3c), so it errs on the wide side.
-    ``damping`` itself when zeta was not estimated."""
-    if sol.u.size != 3 or b.ratios.size < 2:
-        return damping
-    half = 1.96 * median_se(b.ratios)
-    try:
-        shift = np.abs(np.linalg.solve(sol.jacobian, np.array([0.0, 0.0, half]))[:2])
-    except np.linalg.LinAlgError:
-        return damping
-    if not np.all(np.isfinite(shift)):
-        return damping
-    return dataclasses.replace(damping, kn_shift=float(shift[0]), delta_shift=float(shift[1]))
 
 
 def _cross_check(b: _Binding, theta, rule: str, progress: bool = False) -> CrossCheck | None:
