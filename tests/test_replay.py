@@ -272,6 +272,32 @@ def test_the_replay_statistic_can_be_the_plain_points(measured, system):
     assert abs(res.truth_error["delta"]) < 0.02 and abs(res.truth_error["kn"]) < 0.01
 
 
+def test_the_replays_can_start_from_the_networks_estimate(measured, system):
+    # replay.start="network": the first replay at the given start (the network's estimate, here
+    # the plain fit's given start, 1 % off the truth), the same equations solved: the same
+    # answer as from the statistic's fit, within the loop's tolerance
+    start = (1.01 * WN * WN, 0.99 * ref.DELTA)
+    fit = {"multistart": MULTISTART, "init": start}
+    base = identify(measured, system=system, progress=False, fit=fit)
+    net = identify(measured, system=system, progress=False, fit=fit,
+                   replay={"start": "network"})
+    assert base.replay.start == "statistic" and net.replay.start == "network"
+    first = net.replay.iterations[0]
+    assert (first.kn, first.delta) == pytest.approx(start, rel=1e-12)
+    assert base.replay.iterations[0].kn == pytest.approx(base.replay.kn_statistic, rel=0.01)
+    assert net.replay.converged and base.replay.converged
+    assert net.kn == pytest.approx(base.kn, rel=3e-3)
+    assert net.delta == pytest.approx(base.delta, rel=3e-3)
+    assert net.to_dict()["replay"]["start"] == "network"
+    assert "network's estimate" in net.report()
+    # without a start of its own (the multi-start grid) "network" falls back to the statistic
+    grid = identify(measured, system=system, progress=False, fit={"multistart": MULTISTART},
+                    replay={"start": "network"})
+    assert grid.replay.start == "statistic"
+    with pytest.raises(ValueError, match="`start` must be one of"):
+        identify(measured, system=system, replay={"start": "truth"})
+
+
 def test_an_unknown_replay_jump_point_fails_before_any_work(measured, system):
     with pytest.raises(ValueError, match=r"`jump_point` must be one of \[.auto., .drop., "):
         identify(measured, system=system, replay={"jump_point": "peak"})

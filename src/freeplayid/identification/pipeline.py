@@ -8,6 +8,8 @@ import os
 import time
 from collections.abc import Mapping
 
+import numpy as np
+
 from ..errors import DatasetError, IdentificationError
 from ..estimate import PlainEstimate, plain_estimate
 from ..fit import FitOptions
@@ -119,12 +121,25 @@ def identify(dataset, *, system: FreeplaySystem | None = None,
     if replay is None:
         return _plain_result(dataset, system, est, fit.mode, t0, error, checked)
     rep = corrected_fit(dataset, system, est, extraction=extraction, fit=fit, replay=replay,
-                        progress=progress)
+                        start=_network_start(est, fit), progress=progress)
     result = _corrected_result(dataset, system, est, rep, fit.mode, t0, error, checked)
     if _statistics_disagree(result, replay):
         result = _on_the_other_statistic(result, dataset, system, est, extraction, fit, replay,
                                          error, checked, t0, progress)
     return result
+
+
+def _network_start(est, fit: FitOptions) -> tuple[float, float] | None:
+    """The network's estimate that started the plain fit (``inverse.checkpoint``), else the
+    fit's given start, else None: where ``replay.start="network"`` starts the replays."""
+    inv = est.inverse_estimate
+    if inv is not None:
+        return float(inv["kn"]), float(inv["delta"])
+    try:  # one given (kn, delta); a model or several starts are not one start
+        pair = np.asarray(fit.init, dtype=float)
+    except (TypeError, ValueError):
+        return None
+    return (float(pair[0]), float(pair[1])) if pair.shape == (2,) else None
 
 
 def _statistics_disagree(result: Identification, replay: Replay) -> bool:
@@ -148,7 +163,7 @@ def _on_the_other_statistic(first: Identification, dataset, system, est, extract
              100 * first.replay.cross.delta_shift, rule)
     other = dataclasses.replace(replay, jump_point=rule)
     rep = corrected_fit(dataset, system, est, extraction=extraction, fit=fit, replay=other,
-                        progress=progress)
+                        start=_network_start(est, fit), progress=progress)
     if rep.failure:
         return first
     second = _corrected_result(dataset, system, est, rep, fit.mode, t0, error, checked)

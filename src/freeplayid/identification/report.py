@@ -211,6 +211,8 @@ def _replay(r) -> list[str]:
              "|---|---|---|---|---|"]
     lines += [f"| {k + 1} | {it.kn:.5g} | {it.delta:.5g} | {it.kn_rep:.5g} | "
               f"{it.delta_rep:.5g} |" for k, it in enumerate(rep.iterations)]
+    if getattr(rep, "start", "statistic") == "network":
+        lines += ["", "The first replay is at the network's estimate (`replay.start=network`)."]
     lines += ["", "Levels: " + ", ".join(f"{run} {lv:.4g} g ({src})"
                                           for run, (lv, src) in rep.levels.items())]
     if rep.sweeps:

@@ -275,6 +275,7 @@ class Identification:
             "n_bootstrap": boot.n if ok else 0,
             "noise": None if boot is None else boot.noise, "sweeps": r.sweeps,
             "excitation": getattr(r, "excitation", None),
+            "start": getattr(r, "start", None),
             "resonance": {k: m.to_dict() for k, m in (getattr(r, "resonance", None) or {}).items()},
             "cross_check": None if getattr(r, "cross", None) is None else r.cross.to_dict(),
             "level": None if getattr(r, "level", None) is None else r.level.to_dict(),

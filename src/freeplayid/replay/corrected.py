@@ -203,6 +203,9 @@ class ReplayResult:
         The answer's replay on a second statistic (:class:`Replay` ``cross_check``).
     excitation : str
         What drove the replays: "measured" (the base channel's record) or "law".
+    start : str
+        Where the loop started: "statistic" (the statistic's fit) or "network" (the network's
+        estimate, ``Replay.start``).
     """
 
     kn: float
@@ -227,6 +230,7 @@ class ReplayResult:
     level: LevelSensitivity | None = None
     cross: CrossCheck | None = None
     excitation: str = "law"
+    start: str = "statistic"
 
 
 @dataclass(frozen=True)
@@ -386,6 +390,7 @@ class _Binding:
 
 def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extraction,
                   fit: FitOptions, replay: Replay | None = None,
+                  start: tuple[float, float] | None = None,
                   progress: bool = False) -> ReplayResult:
     """Bias-corrected (kn, delta) by replaying the test (package docstring).
 
@@ -400,6 +405,9 @@ def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extracti
         The options of that estimate, so the replays go through the same extraction and fit.
     replay : Replay
         The replay's options (damping, statistic, weights, bootstrap, convergence, engine).
+    start : (kn [N m/rad], delta [rad]) or None
+        The network's estimate (or the plain fit's given start): the loop's first replay with
+        ``replay.start`` "network"; ignored otherwise or when None.
 
     A test that cannot be replayed (no level or sweep law for a run) or a replay that cannot be
     fitted (the replayed fin stays in the gap: a model far from the test) ends with ``failure``
@@ -419,7 +427,9 @@ def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extracti
                             test.statistic.dofs, fit.mode)
     binding = _Binding(test, system, (source, zeta), opts)
     hat = binding.hat
-    sol = _solve(binding, np.log(np.append(hat, zeta) if estimate else hat), progress, "replay")
+    origin = _first_replay(hat, start, opts.start)
+    sol = _solve(binding, np.log(np.append(origin, zeta) if estimate else origin), progress,
+                 "replay")
     note = ""
     mismatch = _model_damping_mismatch(binding) if opts.damping is None else 0.0
     if source == "model" and abs(mismatch) > DAMPING_MISMATCH:
@@ -443,10 +453,22 @@ def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extracti
     theta = np.exp(sol.u[:2]) if not binding.failure else np.array([plain.kn, plain.delta])
     if estimate:
         zeta = float(np.exp(sol.u[2]))
-    return _result(binding, theta, rule, sol, closest,
-                   _damping_used(source, zeta, binding.ratios, sol.jacobian, estimate, note,
-                                 failed=bool(binding.failure)),
-                   plain, system, opts, progress)
+    res = _result(binding, theta, rule, sol, closest,
+                  _damping_used(source, zeta, binding.ratios, sol.jacobian, estimate, note,
+                                failed=bool(binding.failure)),
+                  plain, system, opts, progress)
+    return dataclasses.replace(res, start="statistic" if origin is hat else "network")
+
+
+def _first_replay(hat: np.ndarray, start, rule: str) -> np.ndarray:
+    """(kn, delta) of the loop's first replay: ``start`` with the rule "network" when it is a
+    finite positive pair, else the statistic's fit ``hat``."""
+    if rule != "network" or start is None:
+        return hat
+    first = np.asarray(start, dtype=float)
+    if first.shape != (2,) or not np.all(np.isfinite(first) & (first > 0)):
+        return hat
+    return first
 
 
 def _solve(binding: _Binding, u0: np.ndarray, progress: bool, label: str):

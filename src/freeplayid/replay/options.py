@@ -7,13 +7,16 @@ from dataclasses import dataclass
 from ..arguments import check_bool, check_choice, check_int, check_number, is_number
 from ..signal import JUMP_POINTS
 
-__all__ = ["Replay", "DAMPING_FORMS", "EXCITATIONS"]
+__all__ = ["Replay", "DAMPING_FORMS", "EXCITATIONS", "STARTS"]
 
 # the replay's damping by name (a number is a modal damping ratio)
 DAMPING_FORMS = ("model", "estimate")
 # what drives the replays: the base channel's record ("measured", when the data set has one) or
 # the sweep law at one level per run ("law")
 EXCITATIONS = ("measured", "law")
+# where the replay loop starts: the fit of the measured statistic (the binding's target) or the
+# network's estimate (the plain fit's given start)
+STARTS = ("statistic", "network")
 
 
 @dataclass(frozen=True)
@@ -65,6 +68,12 @@ class Replay:
         ``level_g`` (a run replayed without its base channel's record): one more replay at those
         levels times (1 + this) measures how far such an error moves the answer, which is added
         to its intervals (:class:`LevelSensitivity`). 0: the levels are taken as exact.
+    start : {"statistic", "network"}
+        Where the replay loop starts: "statistic" (default) the fit of the measured points with
+        the replays' rule; "network" the inverse model's estimate (``inverse.checkpoint``), or
+        the plain fit's given start (``FitOptions.init``), when there is one (else the
+        statistic's fit). The answer solves the same equations from either start; a start
+        closer to it can save replays (docs/inverse.md §4).
     """
 
     damping: float | str | None = None
@@ -78,6 +87,7 @@ class Replay:
     excitation: str = "measured"
     cross_check: bool = True
     level_uncertainty: float = 0.05
+    start: str = "statistic"
 
     def __post_init__(self):
         d = self.damping
@@ -97,6 +107,7 @@ class Replay:
         check_int("max_iter", self.max_iter, 1)
         check_choice("excitation", self.excitation, EXCITATIONS)
         check_number("level_uncertainty", self.level_uncertainty, 0.0, 0.5)
+        check_choice("start", self.start, STARTS)
         if self.engine is not None:
             # the engines' registry imports torch: only when an engine is named
             from ..simulate.engines import ENGINES

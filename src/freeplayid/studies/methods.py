@@ -133,8 +133,10 @@ def _corrected_one(dataset, system, init, fit: FitOptions, extraction: Extractio
     "failed" and the reason."""
     t0 = time.perf_counter()
     try:
+        # from the network: its estimate starts the plain fit and the replays
+        replay = Replay(start="statistic" if init is None else "network")
         res = identify(dataset, system=system, extraction=extraction,
-                       fit=dataclasses.replace(fit, init=init), replay=Replay(), progress=False)
+                       fit=dataclasses.replace(fit, init=init), replay=replay, progress=False)
     except ValueError as err:  # IdentificationError, or every start diverged: a failed case
         return np.nan, np.nan, 0, time.perf_counter() - t0, False, 0, "failed", str(err)
     rep = res.replay
