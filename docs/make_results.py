@@ -1,6 +1,6 @@
 """Write docs/results.md: the paper's Sec. 3 numerical experiments (Tables 1-6) on the default fin.
 
-    cd <repo> && PYTHONPATH=src nice python docs/make_results.py
+    cd <repo> && PYTHONPATH=src nice python docs/make_results.py   # FREEPLAYID_JOBS=2 workers
 
 Every number in docs/results.md and the figures under docs/figures/results_*.png come from this
 script. Simulation: the package's batched RK4 (numba kernel on the CPU), every level of one
@@ -51,6 +51,7 @@ CLEAR_LEVELS = (0.6, 0.8, 1.0, 1.2, 1.4)  # [g] at delta = 3 mrad; scaled by del
 BOUND_FREE = {"delta": 1.0, "kn": 2.0}
 BOUND_NOISE_PAPER = {"delta": 1.2, "kn": 0.5}
 BOUND_NOISE_ISSUE = {"delta": 1.2, "kn": 2.0}
+N_JOBS = int(os.environ.get("FREEPLAYID_JOBS", "2"))  # worker processes of the identifications
 
 
 def git_commit() -> str:
@@ -102,6 +103,33 @@ def corrected_record(res) -> dict:
                 converged=bool(rp is not None and rp.converged),
                 failure=rp.failure if rp is not None else "no replay",
                 runtime_s=res.runtime_s)
+
+
+def identify_backbone(fin, result, run_names, backbone):
+    """``identify_sweeps`` of every member with the ``backbone`` method."""
+    return identify_sweeps(fin, result, run_names, backbone=backbone)
+
+
+def identify_noisy(fin, result, run_names, members, std, seed):
+    """``identify_sweeps`` of ``members`` with white noise of ``std`` [g] and ``seed``."""
+    n = np.zeros(result.signals.shape)
+    n[members] = white_noise(n[members].shape, std_g=std, seed=seed)
+    return identify_sweeps(fin, result, run_names, members=members, noise=n)
+
+
+def identify_or_refuse(fin, result, run_names, members):
+    """``identify_sweeps``, or (points, the refusal, None) when there are too few points."""
+    try:
+        return identify_sweeps(fin, result, run_names, members=members)
+    except IdentificationError as e:
+        return e.points, e, None
+
+
+def parallel(fn, args_list):
+    """``fn(*args)`` for each of ``args_list`` in ``N_JOBS`` worker processes, in order."""
+    from joblib import Parallel, delayed
+
+    return Parallel(n_jobs=N_JOBS, batch_size=1)(delayed(fn)(*a) for a in args_list)
 
 
 def err(est, true):
@@ -203,13 +231,12 @@ def main() -> None:
                                    frame="absolute")
     timing["simulate (3 × 6 sweeps)"] = time.perf_counter() - t0
     t0 = time.perf_counter()
-    pts, fits, corr = {}, {}, {}
-    for q, r in sim.items():
-        pts[q], fits[q], corr[q] = identify_sweeps(fin, r, names)
-    timing["identify (3 × 12 curves, DFA fits and replays)"] = time.perf_counter() - t0
-    t0 = time.perf_counter()
-    _, fit_hb, corr_hb = identify_sweeps(fin, sim["acceleration"], names, backbone="hb")
-    timing["identify (harmonic balance, 1 fit and replays)"] = time.perf_counter() - t0
+    out = parallel(identify_backbone, [(fin, r, names, "dfa") for r in sim.values()]
+                   + [(fin, sim["acceleration"], names, "hb")])
+    pts, fits, corr = ({q: o[k] for q, o in zip(sim, out, strict=False)} for k in range(3))
+    _, fit_hb, corr_hb = out[-1]
+    timing["identify (3 × 12 curves DFA, 1 × 12 harmonic balance; fits and replays)"] = (
+        time.perf_counter() - t0)
     print("tables 1-2 done", {q: (err(f.delta, DELTA), err(f.kn, KN)) for q, f in fits.items()},
           {q: (err(c["delta"], DELTA), err(c["kn"], KN)) for q, c in corr.items()}, flush=True)
 
@@ -217,12 +244,10 @@ def main() -> None:
     t0 = time.perf_counter()
     acc = sim["acceleration"]
     keep = list(range(1, len(LEVELS)))  # 0.4 g is rejected anyway: not re-run
-    noisy = {}
-    for std in NOISE_G:
-        for seed in SEEDS:
-            n = np.zeros(acc.signals.shape)
-            n[keep] = white_noise(n[keep].shape, std_g=std, seed=seed)
-            noisy[std, seed] = identify_sweeps(fin, acc, names[1:], members=keep, noise=n)
+    jobs = [(std, seed) for std in NOISE_G for seed in SEEDS]
+    out = parallel(identify_noisy, [(fin, acc, names[1:], keep, std, seed)
+                                    for std, seed in jobs])
+    noisy = dict(zip(jobs, out, strict=True))
     timing[f"noise ({len(NOISE_G)} × {len(SEEDS)} seeds: extract + fit + replays)"] = (
         time.perf_counter() - t0)
     print("tables 3-4 done", flush=True)
@@ -241,23 +266,21 @@ def main() -> None:
                      frame="absolute")
     timing[f"simulate clearances ({len(d_b)} sweeps, one call)"] = time.perf_counter() - t0
     t0 = time.perf_counter()
-    clear = {}
+    jobs = {}
     for kind, off in (("scaled", 0), ("fixed", 1)):
         for d in CLEARANCES:
             if d == DELTA:
+                if kind == "fixed":  # the same records as (a) at 3 mrad
+                    continue
                 r, idx = sim["acceleration"], list(range(1, len(LEVELS)))
             else:
                 r, idx = sim_c, [i for i in range(off, len(d_b), 2) if d_b[i] == d]
-            lv = r.level_g[idx]
-            rn = [f"{v:.2f} g" for v in lv]
-            if d == DELTA and kind == "fixed":  # the same records as (a) at 3 mrad
-                clear[kind, d] = clear["scaled", d]
-                continue
-            try:
-                p, f, c = identify_sweeps(fin, r, rn, members=idx)
-            except IdentificationError as e:  # too few points
-                p, f, c = e.points, e, None
-            clear[kind, d] = (lv, p, f, c)
+            jobs[kind, d] = (r, idx)
+    out = parallel(identify_or_refuse, [(fin, r, [f"{v:.2f} g" for v in r.level_g[idx]], idx)
+                                        for r, idx in jobs.values()])
+    clear = {key: (r.level_g[idx], *o) for (key, (r, idx)), o in zip(jobs.items(), out,
+                                                                      strict=True)}
+    clear["fixed", DELTA] = clear["scaled", DELTA]
     timing["clearances: identify (9 cases)"] = time.perf_counter() - t0
     print("tables 5-6 done", flush=True)
 
