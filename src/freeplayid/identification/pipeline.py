@@ -121,7 +121,7 @@ def identify(dataset, *, system: FreeplaySystem | None = None,
     if replay is None:
         return _plain_result(dataset, system, est, fit.mode, t0, error, checked)
     rep = corrected_fit(dataset, system, est, extraction=extraction, fit=fit, replay=replay,
-                        start=_network_start(est, fit), progress=progress)
+                        start=_network_start(est, fit, replay), progress=progress)
     result = _corrected_result(dataset, system, est, rep, fit.mode, t0, error, checked)
     if _statistics_disagree(result, replay):
         result = _on_the_other_statistic(result, dataset, system, est, extraction, fit, replay,
@@ -129,9 +129,11 @@ def identify(dataset, *, system: FreeplaySystem | None = None,
     return result
 
 
-def _network_start(est, fit: FitOptions) -> tuple[float, float] | None:
-    """The network's estimate that started the plain fit (``inverse.checkpoint``), else the
-    fit's given start, else None: where ``replay.start="network"`` starts the replays."""
+def _network_start(est, fit: FitOptions, replay: Replay) -> tuple[float, float] | None:
+    """With ``replay.start="network"``: the network's estimate that started the plain fit
+    (``inverse.checkpoint``), else the fit's given start, else None; None otherwise."""
+    if replay.start != "network":
+        return None
     inv = est.inverse_estimate
     if inv is not None:
         return float(inv["kn"]), float(inv["delta"])
@@ -163,7 +165,7 @@ def _on_the_other_statistic(first: Identification, dataset, system, est, extract
              100 * first.replay.cross.delta_shift, rule)
     other = dataclasses.replace(replay, jump_point=rule)
     rep = corrected_fit(dataset, system, est, extraction=extraction, fit=fit, replay=other,
-                        start=_network_start(est, fit), progress=progress)
+                        start=_network_start(est, fit, other), progress=progress)
     if rep.failure:
         return first
     second = _corrected_result(dataset, system, est, rep, fit.mode, t0, error, checked)
