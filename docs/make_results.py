@@ -205,6 +205,14 @@ def corrected_row(label, c, delta_true, bound):
             f"{c['n_replays']}{conv} | {c['status']}{why} |")
 
 
+def errors_and_worst(estimates):
+    """δ and kn errors [%] of (delta, kn) pairs against the truth, and the largest |error| of
+    each (signed): (δ errors, kn errors, worst δ, worst kn)."""
+    ed = np.array([err(d, DELTA) for d, _ in estimates])
+    ek = np.array([err(k, KN) for _, k in estimates])
+    return ed, ek, ed[np.argmax(abs(ed))], ek[np.argmax(abs(ek))]
+
+
 def covers(ci, true):
     return ci[0] <= true <= ci[1]
 
@@ -436,9 +444,7 @@ def report(fin, state) -> None:
     summary = {}
     for s in NOISE_G:
         fs_ = [noisy[s, k][1] for k in SEEDS]
-        ed = np.array([err(f.delta, DELTA) for f in fs_])
-        ek = np.array([err(f.kn, KN) for f in fs_])
-        wd, wk = ed[np.argmax(abs(ed))], ek[np.argmax(abs(ek))]
+        ed, ek, wd, wk = errors_and_worst([(f.delta, f.kn) for f in fs_])
         hd = np.mean([50 * (f.delta_ci95[1] - f.delta_ci95[0]) / DELTA for f in fs_])
         hk = np.mean([50 * (f.kn_ci95[1] - f.kn_ci95[0]) / KN for f in fs_])
         npts = sorted({f.n_points for f in fs_})
@@ -461,9 +467,7 @@ def report(fin, state) -> None:
     csummary = {}
     for s in NOISE_G:
         cs = [noisy[s, k][2] for k in SEEDS]
-        ed = np.array([err(c["delta"], DELTA) for c in cs])
-        ek = np.array([err(c["kn"], KN) for c in cs])
-        wd, wk = ed[np.argmax(abs(ed))], ek[np.argmax(abs(ek))]
+        ed, ek, wd, wk = errors_and_worst([(c["delta"], c["kn"]) for c in cs])
         csummary[s] = (ed.mean(), wd, ek.mean(), wk)
         out.append(
             f"| {s:g} | {len(SEEDS)} | {ed.mean():+.3f} | {wd:+.3f} | "
