@@ -453,11 +453,11 @@ def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extracti
     theta = np.exp(sol.u[:2]) if not binding.failure else np.array([plain.kn, plain.delta])
     if estimate:
         zeta = float(np.exp(sol.u[2]))
-    res = _result(binding, theta, rule, sol, closest,
-                  _damping_used(source, zeta, binding.ratios, sol.jacobian, estimate, note,
-                                failed=bool(binding.failure)),
-                  plain, system, opts, progress)
-    return dataclasses.replace(res, start="statistic" if origin is hat else "network")
+    return _result(binding, theta, rule, sol, closest,
+                   _damping_used(source, zeta, binding.ratios, sol.jacobian, estimate, note,
+                                 failed=bool(binding.failure)),
+                   plain, system, opts, progress,
+                   start="statistic" if origin is hat else "network")
 
 
 def _first_replay(hat: np.ndarray, start, rule: str) -> np.ndarray:
@@ -538,9 +538,9 @@ def _answer_move(J, half: float) -> np.ndarray | None:
 
 
 def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts,
-            progress) -> ReplayResult:
-    """The :class:`ReplayResult` of a finished loop: offsets, curve misfits and the bootstrap
-    at the last replay."""
+            progress, start: str = "statistic") -> ReplayResult:
+    """The :class:`ReplayResult` of a finished loop (started at ``start``): offsets, curve
+    misfits and the bootstrap at the last replay."""
     rep, stat = b.rep, b.stat
     offsets, misfit, boot, resonance, cross, level = (), {}, None, {}, None, None
     if rep is not None:
@@ -570,7 +570,7 @@ def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts
         curves=tuple(rep.points.curves) if rep is not None else (), misfit=misfit,
         damping=damping, failure=b.failure, bootstrap=boot, weights=b.weight_table or None,
         resonance=resonance, cross=cross, level=level,
-        excitation="measured" if b.test.excitations else "law",
+        excitation="measured" if b.test.excitations else "law", start=start,
         sweeps={run: {"source": src, "law": sw.law, **sw.to_dict(),
                       **({} if res is None else {"residual_hz": float(res)})}
                 for run, (sw, src, res) in b.test.sweeps.items()})
