@@ -16,7 +16,7 @@ from ..model.system import FreeplaySystem
 from ..quantity import G, si_unit
 from ..sweep import MeasuredSweep, Sweep
 from .chunks import integrate_chunks
-from .engines import ENGINES, EngineSetup, resolve_engine
+from .engines import AUTO, ENGINES, EngineSetup, resolve_engine
 from .formulation import METHODS, ModalTruncation
 from .plan import DEFAULT_OMEGA_DT, StepPlan, step_plan
 from .quasistatic import QuasiStatic
@@ -150,8 +150,10 @@ def simulate_sweeps(
         Base excitation in relative coordinates or by a seismic mass ``large_mass_ratio`` times
         the structure's mass driven by the force M_L a_g (the paper's method).
     device : str or torch.device, optional
-        Default: CUDA if available and the engine runs there, else CPU (so ``engine="expo"`` or
-        ``"numba"``, and ``quasi_static_hz``, run on the CPU of a machine with a GPU).
+        Default: CUDA if available and the engine runs there, else CPU. ``"auto"`` with numba
+        installed, ``"expo"``, ``"numba"`` and ``quasi_static_hz`` run on the CPU of a machine
+        with a GPU (numba there is faster than the torch engine on the GPU: docs/simulate.md);
+        ``engine="torch"`` runs on its GPU.
     dtype : torch.float32 or torch.float64
     engine : {"auto", "torch", "numba", "expo"} or another key of ``engines.ENGINES``
         "auto": the compiled numba RK4 kernel on CPU when numba is installed, else torch.
@@ -184,12 +186,7 @@ def simulate_sweeps(
     SweepResult
     """
     _check_types(system, sweep, dtype)
-    if device is None:  # CUDA when present, for an engine that runs there
-        named = ENGINES.get(engine) if engine != "auto" else None
-        use_cuda = (torch.cuda.is_available() and quasi_static_hz is None
-                    and (named is None or named.devices is None or "cuda" in named.devices))
-        device = "cuda" if use_cuda else "cpu"
-    device = torch.device(device)
+    device = torch.device(_default_device(engine, quasi_static_hz) if device is None else device)
     # the engine's name (unknown: the valid ones listed), and whether it does device and options
     engine, engine_cls = resolve_engine(engine, device=device,
                                         quasi_static=quasi_static_hz is not None)
@@ -218,6 +215,25 @@ def simulate_sweeps(
         truncation=plan.form.truncation,
         quasi_static=None if plan.qs is None else plan.qs.info,
     )
+
+
+def _default_device(engine: str, quasi_static_hz: float | None) -> str:
+    """The device of a run that names none: CUDA when present and the engine (for ``"auto"``,
+    the first available one of :data:`engines.AUTO`) runs there, else the CPU.
+
+    So ``"auto"`` with numba installed runs on the CPU of a GPU machine too: on an H200 machine
+    the numba kernel on its 16 cores outran the torch engine on the GPU at every batch measured
+    (docs/simulate.md, "On a GPU"), and a training bank of 480-sweep chunks ran there over 10x
+    slower on the GPU than numba does on 2 cores. ``engine="torch"`` (or a ``device``) asks for
+    the GPU.
+    """
+    if not torch.cuda.is_available() or quasi_static_hz is not None:
+        return "cpu"
+    if engine == "auto":
+        engine = next((n for n in AUTO if ENGINES[n].available()), "torch")
+    named = ENGINES.get(engine)
+    runs_there = named is None or named.devices is None or "cuda" in named.devices
+    return "cuda" if runs_there else "cpu"
 
 
 def _check_types(system, sweep, dtype) -> None:
