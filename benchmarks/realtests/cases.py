@@ -274,8 +274,11 @@ def beam_rayleigh(*, levels=(1.1, 1.5, 2.0, 2.6, 3.3), sweep=None, **beam_kw) ->
     scale = delta / 2.5e-3
     runs = [RunSpec(round(lv * scale, 4), dict(sweep)) for lv in levels]
     f = np.sqrt(closed_modes(st)[0][:3]) / (2 * np.pi)
-    return CaseSpec("beam_rayleigh", "single-hinge beam (15 DOF), Rayleigh 2 % at 30/50 Hz, no C "
-                    "in the model file", st, model, {"acc_tip": "w_tip", "acc_mid": "w_out3"},
+    zeta, f_r = beam_kw.get("zeta", 0.02), beam_kw.get("rayleigh_hz", (30.0, 50.0))
+    on = "" if beam_kw.get("rayleigh_on", "closed") == "closed" else " (open-hinge K)"
+    return CaseSpec("beam_rayleigh", f"single-hinge beam (15 DOF), Rayleigh {100 * zeta:g} % at "
+                    f"{f_r[0]:g}/{f_r[1]:g} Hz{on}, no C in the model file", st, model,
+                    {"acc_tip": "w_tip", "acc_mid": "w_out3"},
                     runs, {"kn": st.kn, "delta": delta},
                     params={"levels_g": [r.level_g for r in runs], "sweep": sweep,
                             "closed_modes_hz": np.round(f, 3).tolist(), **beam_kw})
@@ -538,12 +541,72 @@ def _jsonable(x):
     return x
 
 
+def _variant(make: Callable[[], CaseSpec], name: str, clean_from: str | None = None):
+    """A condition at other magnitudes under its own name (``clean_from``: the variant whose
+    clean records it shares, as the ``_ref`` cases share those of their model-error case)."""
+    def build(**kw) -> CaseSpec:
+        spec = make(**kw)
+        spec.name, spec.clean_from = name, clean_from
+        spec.params["variant_of"] = make.__name__ if hasattr(make, "__name__") else None
+        return spec
+    return build
+
+
+def _noisier(noise_g: float, **kw) -> CaseSpec:
+    spec = fin_nominal(**kw)
+    spec.noise_g = noise_g
+    spec.condition = f"control at {noise_g:g} g of noise (3x the others)"
+    return spec
+
+
+# Variants: the conditions at other magnitudes, structures and levels than the table's, chosen
+# once (2026-11-28) and not tuned: a check that the answers hold for the class of condition.
+# python benchmarks/realtests/cases.py --variants; run.py --cases 'var_*'
+VARIANTS: dict[str, Callable[..., CaseSpec]] = {
+    "var_beam_rayleigh": _variant(
+        lambda **kw: beam_rayleigh(delta=2.0e-3, zeta=0.03, rayleigh_hz=(20.0, 80.0),
+                                   rayleigh_on="open", levels=(1.65, 2.25, 3.0, 3.9, 4.95), **kw),
+        "var_beam_rayleigh"),
+    "var_fin_hinge_damper": _variant(lambda **kw: fin_hinge_damper(added_zeta=0.025, **kw),
+                                     "var_fin_hinge_damper"),
+    "var_fin_contact_damping": _variant(lambda **kw: fin_contact_damping(added_zeta=0.035, **kw),
+                                        "var_fin_contact_damping"),
+    "var_fin_rayleigh_noC": _variant(
+        lambda **kw: fin_rayleigh(zeta=0.02, f_hz=(20.0, 80.0),
+                                  levels=tuple(round(0.6 * lv, 3) for lv in FIN_LEVELS), **kw),
+        "var_fin_rayleigh_noC"),
+    "var_fin_level_dip": _variant(
+        lambda **kw: fin_level_dip(depth=0.45, flat_hz=0.3, taper_hz=0.8, **kw),
+        "var_fin_level_dip"),
+    "var_fin_level_ramp": _variant(lambda **kw: fin_level_ramp(ramp=-0.25, **kw),
+                                   "var_fin_level_ramp"),
+    "var_fin_unequal_gaps": _variant(lambda **kw: fin_unequal_gaps(deltas=(0.0024, 0.0036), **kw),
+                                     "var_fin_unequal_gaps"),
+    "var_fin_stiff_out_m0.7": _variant(
+        lambda **kw: fin_stiffness(shift=-0.007, part="outboard", **kw), "var_fin_stiff_out_m0.7"),
+    "var_fin_stiff_out_m0.7_ref": _variant(
+        lambda **kw: fin_stiffness(shift=-0.007, part="outboard", ref=True, **kw),
+        "var_fin_stiff_out_m0.7_ref", clean_from="var_fin_stiff_out_m0.7"),
+    "var_fin_stiff_p1_ref": _variant(lambda **kw: fin_stiffness(shift=0.01, ref=True, **kw),
+                                     "var_fin_stiff_p1_ref"),
+    "var_fin_down_sweep": _variant(
+        lambda **kw: fin_down_sweep(levels=(1.3, 1.6, 1.9), deltas=0.0025, **kw),
+        "var_fin_down_sweep"),
+    "var_fin_log_sweep": _variant(lambda **kw: fin_log_sweep(octaves_per_min=0.5, **kw),
+                                  "var_fin_log_sweep"),
+    "var_fin_kn400_d3.5": _variant(lambda **kw: _fin_case(
+        "x", "the fin at kn 400 N m/rad and half-gap 3.5 mrad (control)", kn=400.0, deltas=0.0035,
+        **kw), "var_fin_kn400_d3.5"),
+    "var_fin_noisy": _variant(lambda **kw: _noisier(0.15, **kw), "var_fin_noisy"),
+}
+ALL_CASES = {**CONDITIONS, **VARIANTS}
+
 def generate(name: str, out: Path, *, force=False, redraw=False, log=print) -> dict:
     """Make one case (and what it depends on) under ``out``; return its summary.
 
     force: simulate again; redraw: write the draws again from the saved clean records.
     """
-    spec = CONDITIONS[name]()
+    spec = ALL_CASES[name]()
     folder = out / name
     if (folder / "d1" / "manifest.yaml").is_file() and not (force or redraw):
         log(f"{name}: exists, skipped")
@@ -584,18 +647,21 @@ def main() -> None:
     ap.add_argument("--out", default=DEFAULT_OUT)
     ap.add_argument("--cases", default="", help="comma-separated names (default: all)")
     ap.add_argument("--list", action="store_true")
+    ap.add_argument("--variants", action="store_true",
+                    help="the variants (other magnitudes) instead of the table's conditions")
     ap.add_argument("--force", action="store_true", help="simulate existing cases again")
     ap.add_argument("--redraw", action="store_true",
                     help="write the noisy data sets again from the saved clean records")
     args = ap.parse_args()
+    chosen = VARIANTS if args.variants else CONDITIONS
     if args.list:
-        for name in CONDITIONS:
-            print(f"{name}: {CONDITIONS[name]().condition}")
+        for name in chosen:
+            print(f"{name}: {chosen[name]().condition}")
         return
-    names = [s for s in args.cases.split(",") if s] or list(CONDITIONS)
-    unknown = [s for s in names if s not in CONDITIONS]
+    names = [s for s in args.cases.split(",") if s] or list(chosen)
+    unknown = [s for s in names if s not in ALL_CASES]
     if unknown:
-        raise SystemExit(f"unknown case(s) {unknown}; known: {list(CONDITIONS)}")
+        raise SystemExit(f"unknown case(s) {unknown}; known: {list(ALL_CASES)}")
     out = Path(args.out)
     t0 = time.perf_counter()
     for name in names:

@@ -68,9 +68,9 @@ def find_cases(data: Path, patterns: list[str]) -> list[tuple[str, str, Path]]:
     """(case, draw, folder) of every data set under ``data``, in cases.py's order."""
     try:
         sys.path.insert(0, str(Path(__file__).resolve().parent))
-        from cases import CONDITIONS
+        from cases import ALL_CASES
 
-        order = {n: i for i, n in enumerate(CONDITIONS)}
+        order = {n: i for i, n in enumerate(ALL_CASES)}
     except Exception:  # the table does not need the generator
         order = {}
     found = []
@@ -150,6 +150,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", default=DEFAULT_DATA, help="folder of the cases (cases.py --out)")
     ap.add_argument("--cases", default="", help="comma-separated names or shell patterns")
+    ap.add_argument("--draws", default="", help="comma-separated draws (default: all; e.g. d0)")
     ap.add_argument("--jobs", type=int, default=1)
     ap.add_argument("--out", default=DEFAULT_OUT, help="folder for one JSONL per case")
     ap.add_argument("--fits", default="plain,corrected", help="plain, corrected or both")
@@ -157,6 +158,8 @@ def main() -> None:
     args = ap.parse_args()
     patterns = [p for p in args.cases.split(",") if p]
     cases = find_cases(Path(args.data), patterns)
+    draws = [d for d in args.draws.split(",") if d]
+    cases = [c for c in cases if not draws or c[1] in draws]
     order = {c: i for i, c in enumerate(dict.fromkeys(c for c, _, _ in cases))}
     if args.report:
         results = [json.loads(line) for f in sorted(Path(args.report).glob("*.jsonl"))
