@@ -20,7 +20,13 @@ import yaml
 
 from freeplayid.backbone import dfa_backbone
 from freeplayid.fit import FittingPoints, fit_backbone
-from freeplayid.identification.verdict import LIMITS, base_level_checks, fit_checks, make_verdict
+from freeplayid.identification.verdict import (
+    LIMITS,
+    answer_checks,
+    base_level_checks,
+    fit_checks,
+    make_verdict,
+)
 from freeplayid.io import read_dataset
 from freeplayid.model import load_system
 from freeplayid.replay import ReplayIteration
@@ -69,6 +75,32 @@ def test_exact_points_are_ok(exact, system):
     assert v.status == "ok", v.reasons
     margin = next(c for c in v.checks if c.name == "contact_margin")
     assert margin.value == pytest.approx(2.5, rel=1e-3)
+
+
+def test_two_runs_leave_no_noise_measure_and_the_reason_says_so(exact, system):
+    # found on a Rayleigh-damped fin whose lower levels did not jump: two runs' points, an
+    # accurate answer, and intervals (0, inf) that the reason called only "wider than the
+    # estimate"
+    points, extraction = exact
+    two = [i for i, r in enumerate(points.run) if r in ("run0", "run1")]
+    few = FittingPoints(channel=tuple(points.channel[i] for i in two),
+                        amplitude_m=points.amplitude_m[two], f_hz=points.f_hz[two],
+                        run=tuple(points.run[i] for i in two))
+    fit = fit_backbone(few, system, init=(KN, DELTA))
+    # each run one observation (what the replay's intervals rest on): two fit exactly
+    assert fit.kn_ci95_by_run == (0.0, math.inf) and fit.delta_ci95_by_run == (0.0, math.inf)
+    checks = answer_checks(few, fit.kn, fit.delta, fit.kn_ci95_by_run, fit.delta_ci95_by_run,
+                           system)
+    v = make_verdict(checks)
+    assert v.status == "suspect"
+    (reason,) = [r for r in v.reasons if "interval" in r]
+    assert "only 2 runs gave points" in reason
+    # four runs: finite intervals, and no word of too few runs
+    full = fit_backbone(exact[0], system, init=(KN, DELTA))
+    assert np.isfinite(full.kn_ci95_by_run[1])
+    check = next(c for c in answer_checks(exact[0], KN, DELTA, (0.0, math.inf), (1e-3, 4e-3),
+                                          system) if c.name == "interval_width")
+    assert not check.passed and "only" not in check.message
 
 
 def test_swapped_channel_mapping_is_suspect(exact, system):

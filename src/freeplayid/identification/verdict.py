@@ -227,7 +227,8 @@ def answer_checks(points, kn: float, delta: float, kn_ci95, delta_ci95, system, 
                         f"highest point at Theta/delta = {hi:.3g}" + ("" if hi < 0.99 * s_max
                         else ": beyond the backbone's range, the fit sees only the closed-hinge "
                         "frequency (quantity or units?)"), hi))
-    checks.append(interval_check(kn, delta, kn_ci95, delta_ci95))
+    runs = None if points.run is None else len(set(points.run))
+    checks.append(interval_check(kn, delta, kn_ci95, delta_ci95, n_runs=runs))
     return checks
 
 
@@ -334,14 +335,23 @@ def fit_checks(points, fit, system, extraction, *, mode: int = 0) -> list[Check]
     return checks + ([direction] if direction is not None else [])
 
 
-def interval_check(kn: float, delta: float, kn_ci95, delta_ci95) -> Check:
-    """``interval_width``: each 95 % interval no wider than its estimate (and finite)."""
+def interval_check(kn: float, delta: float, kn_ci95, delta_ci95, *,
+                   n_runs: int | None = None) -> Check:
+    """``interval_width``: each 95 % interval no wider than its estimate (and finite).
+
+    ``n_runs``: the runs whose points the fit used; with two or fewer the two parameters fit
+    them exactly and nothing measures their noise, which the reason then says."""
     wide = [f"{name} [{ci[0]:.4g}, {ci[1]:.4g}]" for name, ci, v in
             (("kn", kn_ci95, kn), ("delta", delta_ci95, delta))
             if not (np.isfinite(ci[1]) and ci[1] - ci[0] <= v)]
+    why = ""
+    if wide and n_runs is not None and n_runs <= 2:
+        why = (f": only {n_runs} run{'s' if n_runs != 1 else ''} gave points, which the two "
+               "parameters fit exactly, so nothing measures their noise (add runs at levels "
+               "whose jumps lie in the band)")
     return Check("interval_width", not wide,
                  "95 % intervals narrower than the estimates" if not wide else
-                 "95 % interval wider than the estimate: " + ", ".join(wide))
+                 "95 % interval wider than the estimate: " + ", ".join(wide) + why)
 
 
 def model_checks(error) -> list[Check]:
