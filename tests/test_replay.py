@@ -152,6 +152,32 @@ def test_damping_is_estimated_when_the_model_has_none(measured):
         assert lo < res.truth[name] < hi, name
 
 
+def test_a_failed_replay_halves_the_step_that_led_there():
+    """A step that lands where the replay cannot be fitted (found on a down-sweep whose second
+    replay lost a jump-up) is halved and the loop goes on; failing on, it stops at the closest
+    replay. F(u) = u - u*, J0 = I/2 (the first step overshoots into the failing region)."""
+    from freeplayid.replay.broyden import MAX_HALVINGS, solve_binding
+
+    calls = []
+
+    def residual(u, fail_above):
+        calls.append(float(u[0]))
+        return None if u[0] > fail_above else u - 0.3
+
+    sol = solve_binding(lambda u: residual(u, 0.35), np.zeros(1), 0.5 * np.eye(1), max_iter=8,
+                        tolerances=[1e-9])
+    assert sol.converged and sol.u[0] == pytest.approx(0.3, abs=1e-12)
+    # 0 -> 0.405 (the clipped step, failed) -> halved 0.2025 -> 0.3 (the learnt slope) -> 0.3
+    assert calls[:3] == pytest.approx([0.0, np.log(1.5), np.log(1.5) / 2])
+    assert sol.n == len(calls) == 4
+
+    calls.clear()
+    stuck = solve_binding(lambda u: residual(u, 0.01), np.zeros(1), 0.5 * np.eye(1), max_iter=8,
+                          tolerances=[1e-9])
+    assert not stuck.converged and stuck.closest == 0 and stuck.u[0] == 0.0
+    assert stuck.n == len(calls) == 2 + MAX_HALVINGS
+
+
 def test_damping_sensitivity_follows_the_bindings_slope():
     """On a linear binding F(u) = A (u - u*) whose Jacobian the loop knows, the answer's move for
     the amplitude statistic at 1.96 of its standard errors is the move of the solution when that

@@ -7,10 +7,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["BindingSolve", "solve_binding", "MAX_STEP_FACTOR"]
+__all__ = ["BindingSolve", "solve_binding", "MAX_STEP_FACTOR", "MAX_HALVINGS"]
 
 MAX_STEP_FACTOR = 1.5  # [-] the unknowns move by at most this factor per replay
 MAX_CONDITION = 1e4  # [-] a Broyden update that makes J worse conditioned than this is dropped
+MAX_HALVINGS = 2  # a step whose evaluation failed is halved at most this many times
 
 
 @dataclass(frozen=True)
@@ -28,7 +29,7 @@ class BindingSolve:
     closest : int or None
         Without convergence, the index of the closest replay in the residual's history.
     n : int
-        Residual evaluations (replays) made.
+        Residual evaluations (replays) made, failed ones included.
     """
 
     u: np.ndarray
@@ -55,21 +56,29 @@ def solve_binding(residual: Callable[[np.ndarray], np.ndarray | None], u0, J0, *
 
     Each step is ``-J^-1 F`` clipped to a factor :data:`MAX_STEP_FACTOR` per unknown (the
     unknowns are logarithms); the loop stops when every step is below its tolerance
-    (``tolerances``, one per unknown, in log units), after ``max_iter`` evaluations, or when
-    ``residual`` returns None (the evaluation failed). Without convergence the answer is the
-    evaluated ``u`` whose residual came closest to zero.
+    (``tolerances``, one per unknown, in log units) or after ``max_iter`` evaluations. An
+    evaluation that fails (``residual`` returns None: a replay that could not be fitted, as where
+    a step takes a run of the replay out of jumping) halves the step that led there, up to
+    :data:`MAX_HALVINGS` times; the first evaluation failing, or a step failing after that, ends
+    the loop. Without convergence the answer is the evaluated ``u`` whose residual came closest
+    to zero (its index counts the successful evaluations).
     Near the gap the binding can even fall as delta rises (a larger gap at the same levels moves
     the lowest points towards it), which the identity start does not know: the updates learn it.
     """
     u, J = np.asarray(u0, dtype=float).copy(), np.asarray(J0, dtype=float).copy()
-    prev, best, n = None, None, 0
+    prev, best, n, good, halvings = None, None, 0, 0, 0
     for _ in range(max_iter):
         F = residual(u)
-        if F is None:
-            break
         n += 1
+        if F is None:
+            if prev is None or halvings >= MAX_HALVINGS:
+                break
+            halvings += 1
+            u = prev[0] + 0.5 * (u - prev[0])
+            continue
+        halvings, good = 0, good + 1
         if best is None or np.abs(F).max() < best[1]:
-            best = (u.copy(), float(np.abs(F).max()), n - 1)
+            best = (u.copy(), float(np.abs(F).max()), good - 1)
         if prev is not None:
             J = broyden_update(J, u - prev[0], F - prev[1])
         step = np.clip(-np.linalg.solve(J, F), -np.log(MAX_STEP_FACTOR), np.log(MAX_STEP_FACTOR))

@@ -359,6 +359,7 @@ class _Binding:
                             f"rad could not be identified ({err}): the model does not behave "
                             "like the test")
             return None
+        self.failure = ""  # a failed replay before it was a step that the loop halved
         if self.weight_table is None:
             rep = self.fix_weights(rep)
         self.rep = rep
