@@ -14,6 +14,7 @@ import pytest
 
 import sdof_reference as ref
 from freeplayid import identify
+from freeplayid.errors import IdentificationError
 from freeplayid.io import Dataset, Run
 from freeplayid.model import sdof_system
 from freeplayid.replay import replay_dataset, replay_levels
@@ -176,6 +177,19 @@ def test_a_failed_replay_halves_the_step_that_led_there():
                           tolerances=[1e-9])
     assert not stuck.converged and stuck.closest == 0 and stuck.u[0] == 0.0
     assert stuck.n == len(calls) == 2 + MAX_HALVINGS
+
+
+def test_a_failed_replay_names_its_cause_by_the_tests_runs():
+    """Two runs with points (a down-sweep variant): a replay near them can lose one, which is no
+    evidence that the model is not the test's; with more runs it is."""
+    from freeplayid.replay.corrected import replay_failure
+
+    err = IdentificationError("the 2 usable points lie at one resonance")
+    few = replay_failure((404.9, 3.1e-3), err, 2)
+    assert "only 2 runs of the test gave points" in few and "does not behave" not in few
+    assert "kn = 404.9 N·m/rad, delta = 0.0031 rad" in few and "one resonance" in few
+    assert replay_failure((404.9, 3.1e-3), err, 4).endswith("the model does not behave like "
+                                                            "the test")
 
 
 def test_damping_sensitivity_follows_the_bindings_slope():

@@ -355,9 +355,8 @@ class _Binding:
         try:
             rep = self.replay(theta, zeta)
         except IdentificationError as err:
-            self.failure = (f"the replay at kn = {theta[0]:.5g} N·m/rad, delta = {theta[1]:.5g} "
-                            f"rad could not be identified ({err}): the model does not behave "
-                            "like the test")
+            runs = self.stat.points.used()
+            self.failure = replay_failure(theta, err, len({p.run for p in runs}))
             return None
         self.failure = ""  # a failed replay before it was a step that the loop halved
         if self.weight_table is None:
@@ -387,6 +386,19 @@ class _Binding:
             self.bar.set_postfix_str(f"kn {theta[0]:.5g}, delta {theta[1]:.5g}{z}, "
                                      f"misfit {misfit:.2e}", refresh=False)
             self.bar.update(1)
+
+
+def replay_failure(theta, err: Exception, test_runs: int) -> str:
+    """Why a replay at ``theta`` = (kn, delta) could not be identified (``err``), for
+    ``replay_failed``: with two runs or fewer giving the test's points, a replay near the answer
+    can lose a run that barely jumps; with more, the model does not behave like the test."""
+    head = (f"the replay at kn = {theta[0]:.5g} N·m/rad, delta = {theta[1]:.5g} rad could not "
+            f"be identified ({err}): ")
+    if test_runs <= 2:
+        return head + (f"only {test_runs} run{'s' if test_runs != 1 else ''} of the test gave "
+                       "points, and a replay near them can lose one (add runs at levels whose "
+                       "jumps lie well inside the band)")
+    return head + "the model does not behave like the test"
 
 
 def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extraction,
