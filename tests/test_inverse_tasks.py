@@ -153,6 +153,10 @@ def test_compare_adds_the_corrected_fits(trained):
                 continue
             ran += 1
             assert r["verdict"] in ("ok", "suspect") and int(r["n_replays"]) >= 1
+            lo, hi = float(r["delta_ci95_low"]), float(r["delta_ci95_high"])
+            holds = (float(r["kn_ci95_low"]) <= float(r["kn_true"]) <= float(r["kn_ci95_high"])
+                     and lo <= float(r["delta_true"]) <= hi)
+            assert r["ci_holds"] == str(holds)
             assert math.isfinite(float(r["kn_error"])) and math.isfinite(float(r["delta_error"]))
             # the plain fit's evaluations plus every replay's refit
             assert int(r["n_evaluations"]) > int(by[(i, plain)]["n_evaluations"])
@@ -164,6 +168,9 @@ def test_compare_adds_the_corrected_fits(trained):
     assert {s["method"] for s in c["summary"]} == methods
     assert all(s["n"] == 1 for s in c["summary"])  # every method on the same 4 cases
     assert min(c["replays_mean"].values()) >= 1
+    assert set(c["ok_outside"]) == set(c["ci_holds"]) == {"network+corrected",
+                                                          "multi-start+corrected"}
+    assert "`ok` outside the bounds" in proc.stdout + proc.stderr
     table = (out / "compare.md").read_text()
     assert "multi-start" in table and "| noise [g] |" in table
     assert "## The 4 cases with corrected fits, every method" in table

@@ -101,3 +101,30 @@ def test_network_metrics_against_hand_computed_errors():
     high = m["per_value"]["0.1"]
     assert high["delta_within_2sigma"] == pytest.approx(0.5)  # |ln 0.98| / 0.005 > 2
     assert high["kn_err_p90"] == pytest.approx(0.045)  # 90th percentile of 0 and 0.05
+
+
+def test_corrected_metrics_count_ok_outside_the_bounds_and_intervals_holding_the_truth():
+    """An `ok` answer outside the bounds is counted, and whether its intervals hold the truth
+    (the noise study's 0.3 g misses were `ok` with no intervals in their rows)."""
+    from freeplayid.studies.comparison import Comparison
+    from freeplayid.studies.methods import summarise
+
+    def row(case, method, d_err, k_err, verdict, holds):
+        return {"case": case, "method": method, "axis_value": 0.3, "delta_error": d_err,
+                "kn_error": k_err, "n_evaluations": 10, "wall_s": 1.0, "converged": True,
+                "n_replays": 3, "verdict": verdict, "ci_holds": holds}
+
+    rows = [row(0, "multi-start+corrected", 0.012, 0.001, "ok", True),    # ok, outside, holds
+            row(1, "multi-start+corrected", 0.015, 0.001, "ok", False),   # ok, outside
+            row(2, "multi-start+corrected", 0.002, 0.025, "suspect", False),  # not ok
+            row(3, "multi-start+corrected", 0.002, 0.001, "ok", True),    # inside
+            row(0, "network+corrected", 0.001, 0.001, "ok", True),
+            row(1, "network+corrected", 0.001, 0.0199, "ok", False)]      # inside (kn < 2 %)
+    rows += [dict(r, method=m, verdict="", ci_holds=False) for r in rows[:4]
+             for m in ("network", "network+fit", "single-start", "multi-start")]
+    summary = summarise(rows)
+    c = Comparison("noise_g", rows, summary, np.arange(4), summary, [0, 1, 2, 3], (1.0, 1.0),
+                   25, 0.9, {"delta": 0.01, "kn": 0.02}).metrics()["corrected"]
+    assert c["ok_outside"] == {"network+corrected": 0, "multi-start+corrected": 2}
+    assert c["ok_outside_ci_holds"] == {"network+corrected": 0, "multi-start+corrected": 1}
+    assert c["ci_holds"] == {"network+corrected": 0.5, "multi-start+corrected": 0.5}

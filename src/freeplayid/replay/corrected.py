@@ -443,6 +443,14 @@ def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extracti
     origin = _first_replay(hat, start, opts.start)
     sol = _solve(binding, np.log(np.append(origin, zeta) if estimate else origin), progress,
                  "replay")
+    if origin is not hat and binding.failure and not binding.history:
+        # the network's start could not be replayed (e.g. its replay stays in the gap): the
+        # statistic's fit starts the loop instead
+        log.info("replay: the start %s could not be replayed (%s); starting again from the "
+                 "statistic's fit", np.round(origin, 6).tolist(), binding.failure)
+        binding, origin = _Binding(test, system, (source, zeta), opts), hat
+        sol = _solve(binding, np.log(np.append(hat, zeta) if estimate else hat), progress,
+                     "replay")
     note = ""
     mismatch = _model_damping_mismatch(binding) if opts.damping is None else 0.0
     if source == "model" and abs(mismatch) > DAMPING_MISMATCH:

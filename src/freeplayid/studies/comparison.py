@@ -118,7 +118,19 @@ class Comparison:
                         for m in CORRECTED},
             "failed": {m: int(sum(r["verdict"] == "failed" for r in corr if r["method"] == m))
                        for m in CORRECTED},
+            # both intervals hold the truth; `ok` outside the bounds (|delta|, |kn| errors), and
+            # of those the ones whose intervals hold the truth
+            "ci_holds": {m: _mean(r["ci_holds"] for r in by[m]) for m in CORRECTED},
+            "ok_outside": {m: int(sum(self._ok_outside(r) for r in by[m])) for m in CORRECTED},
+            "ok_outside_ci_holds": {m: int(sum(self._ok_outside(r) and r["ci_holds"]
+                                               for r in by[m])) for m in CORRECTED},
         }
+
+    def _ok_outside(self, row: dict) -> bool:
+        """An `ok` verdict on an answer outside the success bounds."""
+        inside = (abs(row["delta_error"]) < self.bounds["delta"]
+                  and abs(row["kn_error"]) < self.bounds["kn"])
+        return row["verdict"] == "ok" and not inside
 
     def markdown(self) -> str:
         """The summary table, and every method on the corrected cases alone."""

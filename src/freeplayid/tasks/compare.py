@@ -181,6 +181,10 @@ def _log_metrics(metrics: dict, n_corrected: int) -> None:
                  f"({c['evaluations_multi-start+corrected']:.0f}); plain network+fit "
                  f"{100 * c['success_network+fit']:.1f} %, multi-start "
                  f"{100 * c['success_multi-start']:.1f} %")
+        for m in ("network+corrected", "multi-start+corrected"):
+            log.info(f"{m}: `ok` outside the bounds {c['ok_outside'][m]} (intervals holding the "
+                     f"truth in {c['ok_outside_ci_holds'][m]} of them); both intervals hold the "
+                     f"truth in {100 * c['ci_holds'][m]:.0f} % of the cases")
 
 
 def _log_corrected(test, picked: np.ndarray, axis: str) -> None:
