@@ -547,7 +547,6 @@ def _variant(make: Callable[[], CaseSpec], name: str, clean_from: str | None = N
     def build(**kw) -> CaseSpec:
         spec = make(**kw)
         spec.name, spec.clean_from = name, clean_from
-        spec.params["variant_of"] = make.__name__ if hasattr(make, "__name__") else None
         return spec
     return build
 

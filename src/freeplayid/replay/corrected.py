@@ -438,19 +438,20 @@ def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extracti
     if estimate:
         zeta = initial_zeta(system, test.statistic.points.used(), test.levels, float(plain.kn),
                             test.statistic.dofs, fit.mode)
+    def unknowns(theta):  # log (kn, delta[, zeta]) of the loop's first replay
+        return np.log(np.append(theta, zeta) if estimate else theta)
+
     binding = _Binding(test, system, (source, zeta), opts)
     hat = binding.hat
     origin = _first_replay(hat, start, opts.start)
-    sol = _solve(binding, np.log(np.append(origin, zeta) if estimate else origin), progress,
-                 "replay")
+    sol = _solve(binding, unknowns(origin), progress, "replay")
     if origin is not hat and binding.failure and not binding.history:
         # the network's start could not be replayed (e.g. its replay stays in the gap): the
         # statistic's fit starts the loop instead
         log.info("replay: the start %s could not be replayed (%s); starting again from the "
                  "statistic's fit", np.round(origin, 6).tolist(), binding.failure)
         binding, origin = _Binding(test, system, (source, zeta), opts), hat
-        sol = _solve(binding, np.log(np.append(hat, zeta) if estimate else hat), progress,
-                     "replay")
+        sol = _solve(binding, unknowns(hat), progress, "replay")
     note = ""
     mismatch = _model_damping_mismatch(binding) if opts.damping is None else 0.0
     if source == "model" and abs(mismatch) > DAMPING_MISMATCH:
