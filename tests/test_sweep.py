@@ -170,6 +170,26 @@ def test_estimate_sweep_follows_the_fundamental_of_an_acceleration():
         estimate_sweep(acc, 512.0, quantity="jerk")
 
 
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_noise_below_an_acceleration_sweep_is_not_taken_for_its_fundamental(seed):
+    # a shaker record: a pure linear sweep 30 -> 46.5 Hz at 0.4 g with 0.15 g of white noise
+    # (numpy alone). Read as an acceleration, any noise bin at f/n outweighs the sweep's line by
+    # its f^-4 weight unless a candidate must be a line: before, the ridge sat at 2.5 Hz in
+    # nearly every frame and the law came out 2.8 -> 2.5 Hz, or no law at all
+    fs, f0, rate, T = 256.0, 30.0, 0.1, 165.0
+    t = np.arange(int(T * fs) + 1) / fs
+    x = 0.4 * np.sin(2 * np.pi * (f0 * t + 0.5 * rate * t * t))
+    x = x + 0.15 * np.random.default_rng(seed).normal(size=t.size)
+    from freeplayid.signal.acmp import ridge_track
+
+    tf, fr, _, _ = ridge_track(x, fs, window_s=1.0, fmin=2.0, order=2)
+    assert np.mean(np.abs(fr - (f0 + rate * tf)) < 1.0) > 0.98
+    est = estimate_sweep(x, fs, quantity="acceleration")
+    assert est.sweep.start_hz == pytest.approx(30.0, abs=0.02)
+    assert est.sweep.stop_hz == pytest.approx(46.5, abs=0.02)
+    assert est.sweep.rate_hz_per_s == pytest.approx(0.1, rel=1e-3)
+
+
 def test_a_run_without_hint_gets_one_law_for_all_its_channels():
     # channel 0 carries a tone of 0.3x the sweep's peak at 150 Hz (a mode ringing on its own): its
     # own law would be the tone's; the run's law comes from its best-tracked channel, and both

@@ -84,6 +84,8 @@ class ChirpMode:
 MAX_INVERSE_WEIGHT = 1e12
 # ridge_track with `order`: the highest harmonic whose fundamental is looked for below a line
 MAX_HARMONIC = 7
+# ... and how far above its frame's median power a candidate must stand to be a line [-]
+LINE_FACTOR = 20.0
 
 
 def bandwidth_weight(bandwidth_hz: float, sample_rate: float) -> float:
@@ -125,8 +127,12 @@ def ridge_track(x, fs: float, *, window_s: float = 1.0, fmin: float = 0.0, order
         3rd-7th harmonics can outgrow the fundamental for seconds. So the frame's largest line
         f_k is compared with the lines at f_k / n (n = 2 ... ``MAX_HARMONIC``, the local maximum
         within one bin) by their displacement power (the power over f^(2 order)), and the
-        largest of those is the ridge: the fundamental of the displacement. Other lines (noise,
-        another mode) are never promoted.
+        largest of those is the ridge: the fundamental of the displacement. Only subharmonics of
+        the largest line itself are looked at (not of one found there), and only lines: a
+        candidate's power must reach ``LINE_FACTOR`` times the frame's median power (the noise
+        floor; a noise bin passes with probability 2^-LINE_FACTOR). Without that test the
+        f^-4 weight of an acceleration promoted noise near ``fmin`` over a clean sweep (a
+        shaker record at 0.15 g of noise on 0.4 g read 2.5 Hz in 326 of 329 frames).
 
     Returns
     -------
@@ -149,13 +155,15 @@ def ridge_track(x, fs: float, *, window_s: float = 1.0, fmin: float = 0.0, order
     if order:
         # the fundamental of the displacement among the subharmonics of the largest line
         fsafe = np.maximum(f, f[1])
-        best = p[k, cols] / fsafe[k] ** (2 * order)
+        floor = np.median(p[f >= fmin], axis=0)  # the frame's noise floor
+        top, best = k.copy(), p[k, cols] / fsafe[k] ** (2 * order)
         for n in range(2, MAX_HARMONIC + 1):
-            j = np.rint(k / n).astype(int)
+            j = np.rint(top / n).astype(int)
             j = np.clip(j, 1, len(f) - 2)
             j = j - 1 + np.argmax(np.stack([p[j - 1, cols], p[j, cols], p[j + 1, cols]]), axis=0)
             pd = p[j, cols] / fsafe[j] ** (2 * order)
-            take = (pd > best) & (f[j] >= fmin) & (j > 0)
+            line = p[j, cols] >= LINE_FACTOR * floor
+            take = (pd > best) & line & (f[j] >= fmin) & (j > 0)
             k, best = np.where(take, j, k), np.where(take, pd, best)
     k = np.clip(k, 1, len(f) - 2)
     lm, l0, lp = (np.log(p[k + d, cols] + 1e-300) for d in (-1, 0, 1))
