@@ -211,8 +211,13 @@ def _replay(r) -> list[str]:
              "|---|---|---|---|---|"]
     lines += [f"| {k + 1} | {it.kn:.5g} | {it.delta:.5g} | {it.kn_rep:.5g} | "
               f"{it.delta_rep:.5g} |" for k, it in enumerate(rep.iterations)]
-    if getattr(rep, "start", "statistic") == "network":
+    start = getattr(rep, "start", "statistic")
+    if start == "network":
         lines += ["", "The first replay is at the network's estimate (`replay.start=network`)."]
+    elif start.startswith("statistic, delta x"):
+        lines += ["", f"The replay at the statistic's fit could not be identified (it stays in "
+                      f"the gap or loses a jump the test has); the loop started at that fit with "
+                      f"{start.split(', ', 1)[1]} instead."]
     lines += ["", "Levels: " + ", ".join(f"{run} {lv:.4g} g ({src})"
                                           for run, (lv, src) in rep.levels.items())]
     if rep.sweeps:
