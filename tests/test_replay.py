@@ -67,6 +67,41 @@ def test_replay_at_the_truth_reproduces_the_measured_points(measured, system):
         assert q.amplitude_m == pytest.approx(p.amplitude_m, rel=2e-3)
 
 
+def test_runs_replayed_on_threads_are_bit_for_bit_those_of_one_thread(measured, system,
+                                                                       monkeypatch):
+    # each run with its measured excitation is a group of one member: the groups run on one
+    # thread per core (the exponential engine's kernels release the GIL); same arrays to the bit
+    import threading
+
+    import freeplayid.replay.runs as runs
+    import freeplayid.simulate as simulate
+    import freeplayid.threads as threads
+
+    if not runs._threadsafe_numba():
+        pytest.skip("numba's threading layer here is not thread-safe (workqueue)")
+    sweeps = runs.replay_sweeps(measured)
+    exc, levels = runs.replay_excitations(measured, sweeps)
+    names = []
+    inner = simulate.simulate_sweeps
+
+    def spy(*a, **k):
+        names.append(threading.current_thread().name)
+        return inner(*a, **k)
+
+    monkeypatch.setattr(simulate, "simulate_sweeps", spy)
+    outs = {}
+    for cores in (1, 2):
+        monkeypatch.setattr(runs, "cores", lambda cores=cores: cores)
+        monkeypatch.setattr(threads, "cores", lambda cores=cores: cores)
+        outs[cores] = replay_dataset(measured, system, WN * WN, ref.DELTA, levels=levels,
+                                     sweeps=sweeps, excitations=exc)
+    assert len(names) == 2 * len(exc) == 8
+    assert not any(n.startswith("replay") for n in names[:4])
+    assert all(n.startswith("replay") for n in names[4:])
+    for a, b in zip(outs[1].runs, outs[2].runs, strict=True):
+        assert a.file == b.file and np.array_equal(np.asarray(a.data), np.asarray(b.data))
+
+
 def test_corrected_fit_reports_its_iterations(measured, system):
     res = identify(measured, system=system, progress=False, fit={"multistart": MULTISTART})
     r = res.replay
@@ -585,3 +620,27 @@ def test_the_cross_check_reads_the_replay_with_the_tests_noise(measured, system,
     copy = noisy_copy(measured, sd, np.random.default_rng(0))
     diff = copy.runs[1].data - measured.runs[1].data
     assert np.std(diff) == pytest.approx(0.5, rel=0.02)
+
+
+def test_points_extracted_on_threads_are_those_of_one_thread(measured, monkeypatch):
+    # the runs of a test are extracted at once (one thread per core): the same points, in the
+    # same order, and a failing run raises as it would alone
+    import importlib
+
+    import freeplayid.threads as threads
+    from freeplayid.estimate import extract_points
+    from freeplayid.signal import Extraction
+
+    acmp = importlib.import_module("freeplayid.signal.acmp")
+    got = {}
+    for cores in (1, 2):
+        acmp._PURSUITS.entries.clear()  # solved afresh, not read back from the kept results
+        monkeypatch.setattr(threads, "cores", lambda cores=cores: cores)
+        got[cores] = extract_points(measured, extraction=Extraction(jump_point="drop"))
+    (p1, r1), (p2, r2) = got[1], got[2]
+    assert r1 == r2 and list(r1) == list(r2)
+    assert [(p.run, p.channel, p.f_hz, p.amplitude_m, p.used) for p in p1.points] == \
+        [(p.run, p.channel, p.f_hz, p.amplitude_m, p.used) for p in p2.points]
+    assert threads.each(lambda x: 2 * x, range(5), workers=2) == [0, 2, 4, 6, 8]
+    with pytest.raises(ZeroDivisionError):
+        threads.each(lambda x: 1 / (x - 3), range(5), workers=2)

@@ -10,6 +10,7 @@ from ..dataset import Dataset
 from ..estimate import run_sweep_law
 from ..quantity import G, check_quantity
 from ..signal import window_amplitudes
+from ..threads import cores, each
 from .excitation import measured_sweep
 
 __all__ = ["replay_sweeps", "replay_levels", "replay_excitations", "replay_dataset",
@@ -119,8 +120,8 @@ def replay_dataset(dataset, system, kn: float, delta: float, *, levels: dict | N
         if run.file in levels:
             key = excitations.get(run.file) or sweeps[run.file][0]
             groups.setdefault(key, []).append(run.file)
-    runs = []
-    for sweep, files in groups.items():
+    def simulate(group):
+        sweep, files = group
         res = simulate_sweeps(system, kn=kn, delta=delta, level_g=[levels[f][0] for f in files],
                               sweep=sweep, channels=list(dataset.channels.values()),
                               quantity=dataset.quantity, frame=frame,
@@ -128,13 +129,53 @@ def replay_dataset(dataset, system, kn: float, delta: float, *, levels: dict | N
                               dtype=torch.float64 if dtype is None else dtype, progress=False,
                               engine=engine)
         ds = sweep_dataset(res, columns=dataset.channels, units=dataset.units, run_names=files)
-        runs += [dataclasses.replace(r, sweep=hints[r.file]) for r in ds.runs]
+        return [dataclasses.replace(r, sweep=hints[r.file]) for r in ds.runs]
+
+    runs = [r for out in _each_group(simulate, list(groups.items()), engine) for r in out]
     order = {r.file: i for i, r in enumerate(dataset.runs)}
     runs.sort(key=lambda r: order[r.file])
     return Dataset(name=f"replay of {dataset.name}", model=None, quantity=dataset.quantity,
                    units=dataset.units, sample_rate=dataset.sample_rate,
                    channels=dict(dataset.channels), runs=tuple(runs),
                    base_channel=dataset.base_channel if frame == "absolute" else None)
+
+
+def _each_group(simulate, groups: list, engine: str) -> list:
+    """``simulate`` of each group, in order; the groups at once on threads
+    (:func:`freeplayid.threads.each`) where that is safe and helps: the exponential engine
+    (its kernels release the GIL; a measured excitation makes each run a group of one member,
+    which one core integrates) under a thread-safe numba threading layer (omp, tbb; not
+    workqueue). The members and their arithmetic are the same either way: the replays are bit
+    for bit those of one thread."""
+    safe = engine == "expo" and len(groups) > 1 and cores() > 1 and _threadsafe_numba()
+    return each(simulate, groups, name="replay", workers=None if safe else 1)
+
+
+_LAYER: list = []
+
+
+def _threadsafe_numba() -> bool:
+    """Whether numba's threading layer lets parallel kernels start from several threads at once
+    (omp and tbb do; workqueue aborts the process). The layer is chosen at the first parallel
+    launch: a trivial kernel launches it if nothing has yet."""
+    if not _LAYER:
+        import numba
+
+        try:
+            layer = numba.threading_layer()
+        except ValueError:  # no parallel kernel has run yet
+            prange = numba.prange
+
+            def touch(n):
+                out = np.zeros(n)
+                for i in prange(n):
+                    out[i] = i
+                return out
+
+            numba.njit(parallel=True)(touch)(2)
+            layer = numba.threading_layer()
+        _LAYER.append(layer in ("omp", "tbb"))
+    return _LAYER[0]
 
 
 def with_sweep_hints(dataset, sweeps: dict):

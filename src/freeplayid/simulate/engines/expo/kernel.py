@@ -132,7 +132,7 @@ def _record(O, Of, Og, zc, f0, u, val, acc_r, gi, half, ntap, m, taps, w0, out, 
     return fir_emit1(acc_r, gi, half, ntap, m, out, col, i)
 
 
-@numba.njit(parallel=True, fastmath=FASTMATH, error_model="numpy", cache=_CACHE)
+@numba.njit(parallel=True, nogil=True, fastmath=FASTMATH, error_model="numpy", cache=_CACHE)
 def expo_chunk(i0, i1, z, fz, kn, dl, lev, PhiT, p11, p12, p21, p22, diag, W, P0T, P1T, D, G,
                O, Of, Og, s_half, tol, out, col0, taps, m, half, w0, ring, gi0, bad):
     # steps gi0 .. gi0 + L - 1 of members i0 .. i1 - 1 (none: compile only). z (batch, 2N) state
@@ -267,7 +267,7 @@ def _hinge_state(D, z, d, th, st):
     return code
 
 
-@numba.njit(parallel=True, fastmath=FASTMATH, error_model="numpy", cache=_CACHE)
+@numba.njit(parallel=True, nogil=True, fastmath=FASTMATH, error_model="numpy", cache=_CACHE)
 def expo_states_chunk(i0, i1, z, kset, dl, lev, kns, levels, PhiT, Ws, cs, P1T, Gm, Ms, es, D,
                       O, Of, Og, s_half, tol, out, col0, taps, m, half, w0, ring, gi0, bad):
     # as expo_chunk, with exact steps per contact state (steps.discretize_states): member

@@ -1,0 +1,54 @@
+"""Work on several threads at once where the heavy part releases the GIL (LAPACK, numba).
+
+A test's runs are independent: each is extracted (banded LAPACK solves) or simulated (the
+exponential engine's numba kernels) alone, with the same arithmetic on any thread, so doing
+them at once changes no number. :func:`each` does that on up to :func:`cores` threads.
+"""
+
+from __future__ import annotations
+
+import os
+
+__all__ = ["cores", "each"]
+
+# a process told to use one thread per library (as `benchmarks/realtests/run.py --jobs N` users
+# do, to share the cores between N processes) uses one for this too
+THREAD_LIMITS = ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS")
+
+
+def cores() -> int:
+    """Threads to use: the cores this process may run on (its CPU affinity), capped by
+    ``NUMBA_NUM_THREADS`` and ``OMP_NUM_THREADS`` when they are set."""
+    try:
+        n = len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        n = os.cpu_count() or 1
+    for var in THREAD_LIMITS:
+        try:
+            n = min(n, int(os.environ[var]))
+        except (KeyError, ValueError):
+            pass
+    return max(1, n)
+
+
+def each(work, items, *, bar=None, name: str = "worker", workers: int | None = None) -> list:
+    """``[work(item) for item in items]``, on up to ``workers`` threads (default
+    :func:`cores`); ``bar`` (a tqdm bar) counts the items done, in order. An exception is
+    raised as the serial loop would raise it (the first failing item's)."""
+    items = list(items)
+    n = min(len(items), cores() if workers is None else workers)
+    out = []
+    if n < 2:
+        for item in items:
+            out.append(work(item))
+            if bar is not None:
+                bar.update(1)
+        return out
+    from concurrent.futures import ThreadPoolExecutor
+
+    with ThreadPoolExecutor(n, thread_name_prefix=name) as pool:
+        for future in [pool.submit(work, item) for item in items]:
+            out.append(future.result())
+            if bar is not None:
+                bar.update(1)
+    return out
