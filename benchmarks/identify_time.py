@@ -9,6 +9,8 @@ in the same run, per row:
 
 - ``plain fit``: ``replay=None`` (the points and the backbone fit, no bias correction);
 - ``corrected``: the default (the plain fit, then the replays of the test);
+- ``…, one thread``: the same on one thread (the code before the runs were extracted and
+  replayed at once, one per core: ``freeplayid.threads``);
 - ``corrected, nothing kept``: the default with every extraction solved afresh, as before the
   extraction kept its results: no pursuit reused (ACMP's iterations on a record it has already
   run on with the same inputs) and the smoothing's Cholesky factor computed at every iteration.
@@ -29,7 +31,6 @@ import logging
 import time
 from contextlib import contextmanager
 
-import numpy as np
 
 from freeplayid import identify
 from freeplayid.io import bundled_example, read_dataset
@@ -87,18 +88,33 @@ def nothing_kept():
         acmp._PURSUITS, banded._smoothing_factor = kept, factor
 
 
+@contextmanager
+def one_thread():
+    """The runs extracted and replayed one at a time (``freeplayid.threads.cores`` -> 1)."""
+    threads = importlib.import_module("freeplayid.threads")
+    runs = importlib.import_module("freeplayid.replay.runs")
+    saved = threads.cores, runs.cores
+    threads.cores = runs.cores = lambda: 1
+    try:
+        yield
+    finally:
+        threads.cores, runs.cores = saved
+
+
 def drop_kept() -> None:
     acmp = importlib.import_module("freeplayid.signal.acmp")
     acmp._PURSUITS.entries.clear()
     importlib.import_module("freeplayid.signal.banded")._smoothing_factor.cache_clear()
 
 
-def run_row(dataset, replay: bool, repeat: int, afresh: bool = False) -> dict:
+def run_row(dataset, replay: bool, repeat: int, afresh: bool = False,
+            single: bool = False) -> dict:
     best = None
     for _ in range(repeat):
         drop_kept()
         totals: dict = {}
-        with timed_stages(totals), (nothing_kept() if afresh else _no_op()):
+        with timed_stages(totals), (nothing_kept() if afresh else _no_op()), \
+                (one_thread() if single else _no_op()):
             t0 = time.perf_counter()
             res = identify(dataset, progress=False, **({} if replay else {"replay": None}))
             wall = time.perf_counter() - t0
@@ -123,7 +139,9 @@ def main() -> None:
     identify(dataset, progress=False)  # warm-up: the replay kernel loads (compiles if cold)
     print(f"warm-up identify (not timed in the table): {time.perf_counter() - t0:.1f} s\n")
     rows = [("plain fit (replay=None)", run_row(dataset, False, args.repeat)),
+            ("plain fit, one thread", run_row(dataset, False, args.repeat, single=True)),
             ("corrected (default)", run_row(dataset, True, args.repeat)),
+            ("corrected, one thread", run_row(dataset, True, args.repeat, single=True)),
             ("corrected, nothing kept", run_row(dataset, True, args.repeat, afresh=True))]
     names = list(dict.fromkeys(STAGES.values()))
     print("| identify | wall [s] | " + " | ".join(f"{n} [s]" for n in names)
@@ -133,8 +151,15 @@ def main() -> None:
         stages = " | ".join(f"{r['stages'].get(n, 0.0):.1f}" for n in names)
         print(f"| {label} | {r['wall']:.1f} | {stages} | {r['kn']:.5g} | "
               f"{1e3 * r['delta']:.5g} | {r['verdict']} |")
-    same = all(np.isclose(rows[1][1][k], rows[2][1][k], rtol=0, atol=0) for k in ("kn", "delta"))
-    print(f"\ncorrected answer the same with and without kept results: {same}")
+    def same(a, b):
+        return all(rows[a][1][k] == rows[b][1][k] for k in ("kn", "delta", "verdict"))
+
+    print(f"\nthreads: {threads_cores()}; the same answers on one thread: plain {same(0, 1)}, "
+          f"corrected {same(2, 3)}; corrected with and without kept results: {same(2, 4)}")
+
+
+def threads_cores() -> int:
+    return importlib.import_module("freeplayid.threads").cores()
 
 
 if __name__ == "__main__":
