@@ -31,7 +31,6 @@ import logging
 import time
 from contextlib import contextmanager
 
-
 from freeplayid import identify
 from freeplayid.io import bundled_example, read_dataset
 
