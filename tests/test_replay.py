@@ -621,26 +621,3 @@ def test_the_cross_check_reads_the_replay_with_the_tests_noise(measured, system,
     diff = copy.runs[1].data - measured.runs[1].data
     assert np.std(diff) == pytest.approx(0.5, rel=0.02)
 
-
-def test_points_extracted_on_threads_are_those_of_one_thread(measured, monkeypatch):
-    # the runs of a test are extracted at once (one thread per core): the same points, in the
-    # same order, and a failing run raises as it would alone
-    import importlib
-
-    import freeplayid.threads as threads
-    from freeplayid.estimate import extract_points
-    from freeplayid.signal import Extraction
-
-    acmp = importlib.import_module("freeplayid.signal.acmp")
-    got = {}
-    for cores in (1, 2):
-        acmp._PURSUITS.entries.clear()  # solved afresh, not read back from the kept results
-        monkeypatch.setattr(threads, "cores", lambda cores=cores: cores)
-        got[cores] = extract_points(measured, extraction=Extraction(jump_point="drop"))
-    (p1, r1), (p2, r2) = got[1], got[2]
-    assert r1 == r2 and list(r1) == list(r2)
-    assert [(p.run, p.channel, p.f_hz, p.amplitude_m, p.used) for p in p1.points] == \
-        [(p.run, p.channel, p.f_hz, p.amplitude_m, p.used) for p in p2.points]
-    assert threads.each(lambda x: 2 * x, range(5), workers=2) == [0, 2, 4, 6, 8]
-    with pytest.raises(ZeroDivisionError):
-        threads.each(lambda x: 1 / (x - 3), range(5), workers=2)

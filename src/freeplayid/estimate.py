@@ -37,7 +37,6 @@ from .signal import (
     extract_backbone_points,
 )
 from .sweep import Sweep
-from .threads import each
 
 __all__ = ["PlainEstimate", "plain_estimate", "refit", "extract_points", "run_sweep_law",
            "weights_of"]
@@ -111,9 +110,8 @@ def run_sweep_law(dataset, run, *, use_hint: bool = True):
 
 def extract_points(dataset, *, extraction: Extraction, progress: bool = False,
                    desc: str = "extracting points") -> tuple[BackbonePoints, dict]:
-    """Points of every usable run and the rejected runs {run: reason}; with ``progress``, a bar
-    ``desc`` over the runs. The runs are extracted at once, one per core
-    (:func:`freeplayid.threads.each`: each alone, the same points as one at a time).
+    """Points of every usable run (one run at a time) and the rejected runs {run: reason};
+    with ``progress``, a bar ``desc`` over the runs.
 
     A run without a hint (or with ``extraction.use_sweep_hint`` False) gets one law for all its
     channels,
@@ -121,9 +119,13 @@ def extract_points(dataset, *, extraction: Extraction, progress: bool = False,
     estimate can lock onto another mode); none found: the extraction tries each channel and
     rejects the ones without a sweep, with the reason.
     """
-    def one(run):
+    points, curves, rejected = [], [], {}
+    bar = progress_bar(dataset.runs, desc=desc, unit="run",
+                       show=progress and len(dataset.runs) > 1)
+    for run in bar:
         if run.reason:
-            return None, run.reason
+            rejected[run.file] = run.reason
+            continue
         if run.sweep and extraction.use_sweep_hint:
             sweep = Sweep(**run.sweep)
         else:
@@ -137,21 +139,10 @@ def extract_points(dataset, *, extraction: Extraction, progress: bool = False,
             channel_names=list(dataset.channels), run_names=[run.file], sweep=sweep, base=base,
             base_name=dataset.base_channel or "base", extraction=extraction,
         )
-        reason = "; ".join(dict.fromkeys(p.reason for p in res.points)) \
-            if res.rejected_runs else ""
-        return res, reason
-
-    points, curves, rejected = [], [], {}
-    bar = progress_bar(total=len(dataset.runs), desc=desc, unit="run",
-                       show=progress and len(dataset.runs) > 1)
-    with bar:
-        done = each(one, dataset.runs, bar=bar, name="extract")
-        for run, (res, reason) in zip(dataset.runs, done, strict=True):
-            if res is not None:
-                points += res.points
-                curves += res.curves
-            if reason:
-                rejected[run.file] = reason
+        points += res.points
+        curves += res.curves
+        if res.rejected_runs:
+            rejected[run.file] = "; ".join(dict.fromkeys(p.reason for p in res.points))
     pts = BackbonePoints(tuple(points), tuple(rejected), tuple(curves), dataset.quantity,
                          extraction.method)
     return pts, rejected

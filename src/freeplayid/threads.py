@@ -1,8 +1,10 @@
-"""Work on several threads at once where the heavy part releases the GIL (LAPACK, numba).
+"""Work on several threads at once where the heavy part releases the GIL.
 
-A test's runs are independent: each is extracted (banded LAPACK solves) or simulated (the
-exponential engine's numba kernels) alone, with the same arithmetic on any thread, so doing
-them at once changes no number. :func:`each` does that on up to :func:`cores` threads.
+A replay's runs are independent: each is simulated alone (the exponential engine's numba
+kernels, which release the GIL), with the same arithmetic on any thread, so doing them at once
+changes no number. :func:`each` does that on up to :func:`cores` threads. (The extraction of a
+test's runs gains nothing from threads: measured with ``benchmarks/identify_time.py``, its
+Python-level work holds the GIL.)
 """
 
 from __future__ import annotations
