@@ -9,8 +9,8 @@ in the same run, per row:
 
 - ``plain fit``: ``replay=None`` (the points and the backbone fit, no bias correction);
 - ``corrected``: the default (the plain fit, then the replays of the test);
-- ``…, one thread``: the same on one thread (the code before the runs were extracted and
-  replayed at once, one per core: ``freeplayid.threads``);
+- ``…, one thread``: the same with a replay's runs simulated one after another (the code
+  before they ran at once, one per core: ``freeplayid.threads``);
 - ``corrected, nothing kept``: the default with every extraction solved afresh, as before the
   extraction kept its results: no pursuit reused (ACMP's iterations on a record it has already
   run on with the same inputs) and the smoothing's Cholesky factor computed at every iteration.
@@ -89,17 +89,17 @@ def nothing_kept():
 
 @contextmanager
 def one_thread():
-    """The runs extracted and replayed one at a time (``freeplayid.threads.cores`` -> 1)."""
+    """A replay's runs simulated one at a time (``freeplayid.threads.cores`` -> 1)."""
     threads = importlib.import_module("freeplayid.threads")
-    runs = importlib.import_module("freeplayid.replay.runs")
-    saved = threads.cores, runs.cores
-    threads.cores = runs.cores = lambda: 1
+    saved = threads.cores
+    threads.cores = lambda: 1
     try:
         yield
     finally:
-        threads.cores, runs.cores = saved
+        threads.cores = saved
 
 
+@contextmanager
 def drop_kept() -> None:
     acmp = importlib.import_module("freeplayid.signal.acmp")
     acmp._PURSUITS.entries.clear()

@@ -91,7 +91,6 @@ def test_runs_replayed_on_threads_are_bit_for_bit_those_of_one_thread(measured, 
     monkeypatch.setattr(simulate, "simulate_sweeps", spy)
     outs = {}
     for cores in (1, 2):
-        monkeypatch.setattr(runs, "cores", lambda cores=cores: cores)
         monkeypatch.setattr(threads, "cores", lambda cores=cores: cores)
         outs[cores] = replay_dataset(measured, system, WN * WN, ref.DELTA, levels=levels,
                                      sweeps=sweeps, excitations=exc)

@@ -33,24 +33,15 @@ def cores() -> int:
     return max(1, n)
 
 
-def each(work, items, *, bar=None, name: str = "worker", workers: int | None = None) -> list:
+def each(work, items, *, name: str = "worker", workers: int | None = None) -> list:
     """``[work(item) for item in items]``, on up to ``workers`` threads (default
-    :func:`cores`); ``bar`` (a tqdm bar) counts the items done, in order. An exception is
-    raised as the serial loop would raise it (the first failing item's)."""
+    :func:`cores`). An exception is raised as the serial loop would raise it (the first failing
+    item's)."""
     items = list(items)
     n = min(len(items), cores() if workers is None else workers)
-    out = []
     if n < 2:
-        for item in items:
-            out.append(work(item))
-            if bar is not None:
-                bar.update(1)
-        return out
+        return [work(item) for item in items]
     from concurrent.futures import ThreadPoolExecutor
 
     with ThreadPoolExecutor(n, thread_name_prefix=name) as pool:
-        for future in [pool.submit(work, item) for item in items]:
-            out.append(future.result())
-            if bar is not None:
-                bar.update(1)
-    return out
+        return [future.result() for future in [pool.submit(work, item) for item in items]]

@@ -34,13 +34,14 @@ __all__ = ["ReplayResult", "ReplayIteration", "PointOffset", "CrossCheck", "corr
 
 log = logging.getLogger(__name__)
 
-# the replays' bar: "replay 2/8 |###    | 00:40<01:20, kn 481.59, delta 0.0030274, misfit 9.03e-03"
-# (at most Replay.max_iter replays: the ETA is the longest the loop can take)
 # a first replay that cannot be identified: the loop starts again from the statistic's fit with
 # the gap times GAP_SHRINK**k, k = 1 ... GAP_RESTARTS (down to 0.61: down-sweep plain fits lie
 # +25 to +44 % above the gap in the realtests and the SDOF reference)
 GAP_SHRINK = 0.85
 GAP_RESTARTS = 3
+
+# the replays' bar: "replay 2/8 |###    | 00:40<01:20, kn 481.59, delta 0.0030274, misfit 9.03e-03"
+# (at most Replay.max_iter replays: the ETA is the longest the loop can take)
 REPLAY_BAR = "{desc} {n_fmt}/{total_fmt} |{bar:12}| {elapsed}<{remaining}{postfix}"
 
 
@@ -450,23 +451,22 @@ def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extracti
     binding = _Binding(test, system, (source, zeta), opts)
     hat = binding.hat
     origin = _first_replay(hat, start, opts.start)
-    began = "statistic" if origin is hat else "network"
-    sol = _solve(binding, unknowns(origin), progress, "replay")
-    failure = binding.failure if began == "statistic" else ""
-    for theta0, label in _restarts(hat, origin):
+    failure = ""  # why the statistic's own fit could not be replayed
+    for k, (theta0, began) in enumerate([(origin, "statistic" if origin is hat else "network"),
+                                         *_restarts(hat, origin)]):
+        if k:
+            # the first replay could not be identified: it stays in the gap or loses jumps the
+            # test has (a network far off; a down-sweep's jump-ups, whose plain fit lies tens of
+            # % above the gap): start again from the statistic's fit, then with a smaller gap
+            log.info("replay: the start %s could not be replayed (%s); starting again from %s",
+                     np.round(origin, 6).tolist(), binding.failure, began)
+            binding, origin = _Binding(test, system, (source, zeta), opts), theta0
+        sol = _solve(binding, unknowns(theta0), progress, "replay")
         if binding.history or not binding.failure:
             break
-        # the first replay could not be identified: it stays in the gap or loses jumps the test
-        # has (a network far off; a down-sweep's jump-ups, whose plain fit lies tens of % above
-        # the gap): start again from the statistic's fit, then from it with a smaller gap
-        log.info("replay: the start %s could not be replayed (%s); starting again from %s",
-                 np.round(origin, 6).tolist(), binding.failure, label)
-        binding, origin, began = _Binding(test, system, (source, zeta), opts), theta0, label
-        sol = _solve(binding, unknowns(theta0), progress, "replay")
-        if label == "statistic":
-            failure = binding.failure
-    if binding.failure and not binding.history and failure:
-        binding.failure = failure  # why the statistic's own fit failed, not the last restart
+        failure = binding.failure if began == "statistic" else failure
+    else:
+        binding.failure = failure or binding.failure  # the statistic's own fit's reason
     note = ""
     mismatch = _model_damping_mismatch(binding) if opts.damping is None else 0.0
     if source == "model" and abs(mismatch) > DAMPING_MISMATCH:

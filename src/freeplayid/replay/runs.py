@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import functools
 
 import numpy as np
 
@@ -10,7 +11,7 @@ from ..dataset import Dataset
 from ..estimate import run_sweep_law
 from ..quantity import G, check_quantity
 from ..signal import window_amplitudes
-from ..threads import cores, each
+from ..threads import each
 from .excitation import measured_sweep
 
 __all__ = ["replay_sweeps", "replay_levels", "replay_excitations", "replay_dataset",
@@ -147,35 +148,31 @@ def _each_group(simulate, groups: list, engine: str) -> list:
     which one core integrates) under a thread-safe numba threading layer (omp, tbb; not
     workqueue). The members and their arithmetic are the same either way: the replays are bit
     for bit those of one thread."""
-    safe = engine == "expo" and len(groups) > 1 and cores() > 1 and _threadsafe_numba()
+    safe = engine == "expo" and len(groups) > 1 and _threadsafe_numba()
     return each(simulate, groups, name="replay", workers=None if safe else 1)
 
 
-_LAYER: list = []
-
-
+@functools.cache
 def _threadsafe_numba() -> bool:
     """Whether numba's threading layer lets parallel kernels start from several threads at once
     (omp and tbb do; workqueue aborts the process). The layer is chosen at the first parallel
     launch: a trivial kernel launches it if nothing has yet."""
-    if not _LAYER:
-        import numba
+    import numba
 
-        try:
-            layer = numba.threading_layer()
-        except ValueError:  # no parallel kernel has run yet
-            prange = numba.prange
+    try:
+        layer = numba.threading_layer()
+    except ValueError:  # no parallel kernel has run yet
+        prange = numba.prange
 
-            def touch(n):
-                out = np.zeros(n)
-                for i in prange(n):
-                    out[i] = i
-                return out
+        def touch(n):
+            out = np.zeros(n)
+            for i in prange(n):
+                out[i] = i
+            return out
 
-            numba.njit(parallel=True)(touch)(2)
-            layer = numba.threading_layer()
-        _LAYER.append(layer in ("omp", "tbb"))
-    return _LAYER[0]
+        numba.njit(parallel=True)(touch)(2)
+        layer = numba.threading_layer()
+    return layer in ("omp", "tbb")
 
 
 def with_sweep_hints(dataset, sweeps: dict):

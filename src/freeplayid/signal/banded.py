@@ -11,9 +11,8 @@ and cost O(N): a banded Cholesky factorisation ``A = U^T U`` and two triangular 
 ``pbtrf`` / ``pbtrs`` do (the same upper band storage), row by row; for these narrow bands
 (4 and 2 super-diagonals) that is 2-2.5x faster than ``scipy.linalg.solveh_banded`` (84 000
 unknowns: 5.3 against 11.9 ms), and they release the GIL. Tested against scipy's solves to
-1e-12. The smoothing's
-matrix ``P / beta + I`` depends only on (N, beta), which every iteration of an ACMP call, and
-every call on a record of the same length, share: its factor is kept.
+1e-12. The smoothing's matrix ``P / beta + I`` depends only on (N, beta), which every iteration
+of an ACMP call, and every call on a record of the same length, share: its factor is kept.
 """
 
 from __future__ import annotations
