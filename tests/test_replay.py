@@ -213,6 +213,75 @@ def test_a_failed_replay_halves_the_step_that_led_there():
     assert stuck.n == len(calls) == 2 + MAX_HALVINGS
 
 
+def test_a_loop_stopped_by_a_step_it_cannot_replay_reports_its_closest_replay(
+        measured, system, monkeypatch):
+    """Replays that could be identified, then a step whose replay cannot (halved or not): the
+    answer is the closest replay's (u), not the plain fit, judged on that replay, and the
+    verdict's convergence check says why the loop stopped. Before, the plain fit (tens of % off
+    on a down-sweep) was reported as if no replay had been made."""
+    from freeplayid.replay import corrected
+
+    real, calls, curves = corrected._Binding.replay, [], []
+
+    def replay(self, theta, zeta, levels=None):
+        calls.append(tuple(theta))
+        if len(calls) > 2 and levels is None:  # the loop's third replay on: a lost jump
+            raise IdentificationError("no jump in band (response stayed in the gap)")
+        rep = real(self, theta, zeta, levels)
+        curves.append(rep.points.curves)
+        return rep
+
+    monkeypatch.setattr(corrected._Binding, "replay", replay)
+    res = identify(measured, system=system, progress=False, fit={"multistart": MULTISTART},
+                   replay={"n_bootstrap": 0, "rtol": 1e-9})
+    r = res.replay
+    assert not r.failure and "could not be identified" in r.stopped and not r.converged
+    assert len(r.iterations) == 2  # then the step and its two halvings failed
+    k = int(np.argmin([max(abs(math.log(it.kn_rep / r.kn_statistic)),
+                           abs(math.log(it.delta_rep / r.delta_statistic)))
+                       for it in r.iterations]))  # the solver's closest: its largest |F|
+    closest = r.iterations[k]
+    assert (res.kn, res.delta) == (r.kn, r.delta) == (closest.kn, closest.delta)
+    assert res.kn != res.plain_fit.kn and r.closest_misfit_se == closest.misfit_se
+    # the curves and offsets judged are that replay's, not the last one's
+    assert [c.amplitude_m.tolist() for c in r.curves] == [c.amplitude_m.tolist() for c in curves[k]]
+    assert r.offsets
+    conv = {c.name: c for c in res.verdict.checks}["replay_converged"]
+    assert ("loop stopped" in conv.message) and (conv.passed == (r.closest_misfit_se <= 0.25))
+    assert "The loop stopped" in res.report() and res.to_dict()["replay"]["stopped"] == r.stopped
+
+
+def test_the_answers_replay_is_the_closest_one_without_convergence():
+    """settle: without convergence the checks read the closest replay (the answer), not the
+    last; converged, the last; a failure after identified replays becomes ``stopped``; with no
+    identified replay it stays a failure."""
+    from freeplayid.replay.broyden import BindingSolve
+    from freeplayid.replay.corrected import _Binding
+
+    def binding(n_ok, failed):
+        b = _Binding.__new__(_Binding)
+        b.history = [object()] * n_ok
+        b.replays = [(f"rep{i}", f"ds{i}") for i in range(n_ok)]
+        b.rep, b.rep_ds = b.replays[-1] if n_ok else (None, None)
+        b.failure, b.stopped = ("replay failed" if failed else ""), ""
+        b.failed_at = ((480.0, 3e-3), IdentificationError("no jump in band"), 4)
+        return b
+
+    b = binding(3, True)
+    b.settle(BindingSolve(np.zeros(2), False, np.eye(2), 0, 6))
+    assert (b.rep, b.rep_ds) == ("rep0", "ds0") and not b.failure
+    assert "kn = 480 N·m/rad, delta = 0.003 rad" in b.stopped and "no jump" in b.stopped
+    b = binding(3, False)
+    b.settle(BindingSolve(np.zeros(2), False, np.eye(2), 1, 8))  # max_iter reached
+    assert (b.rep, b.stopped) == ("rep1", "")
+    b = binding(3, False)
+    b.settle(BindingSolve(np.zeros(2), True, np.eye(2), None, 3))
+    assert b.rep == "rep2"
+    b = binding(0, True)
+    b.settle(BindingSolve(np.zeros(2), False, np.eye(2), None, 1))
+    assert b.failure == "replay failed" and not b.stopped and b.rep is None
+
+
 def test_a_failed_replay_names_its_cause_by_the_tests_runs():
     """Two runs with points (a down-sweep variant): a replay near them can lose one, which is no
     evidence that the model is not the test's; with more runs it is."""

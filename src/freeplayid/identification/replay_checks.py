@@ -156,14 +156,18 @@ def _converged_check(replay) -> Check:
     close = getattr(replay, "closest_misfit_se", None)
     if close is not None and close <= LIMITS["binding_noise"]:
         return Check("replay_converged", True,
-                     f"the corrected fit did not converge in {n} replays, but its closest replay "
-                     f"matches the test's statistics within {close:.2g} of their standard error",
-                     close)
+                     f"the corrected fit did not converge in {n} replays"
+                     + (" (the loop stopped where a step could not be replayed)"
+                        if getattr(replay, "stopped", "") else "")
+                     + f", but its closest replay matches the test's statistics within "
+                     f"{close:.2g} of their standard error", close)
+    stopped = getattr(replay, "stopped", "")
     return Check("replay_converged", False,
                  f"the corrected fit did not converge in {n} replays"
                  + ("" if close is None else
-                    f" (its closest replay misses the test's statistics by {close:.2g} of their "
-                    "standard error)"), close)
+                    f" (its closest replay, the answer, misses the test's statistics by "
+                    f"{close:.2g} of their standard error)")
+                 + (f"; the loop stopped: {stopped}" if stopped else ""), close)
 
 
 def _binding_check(iterations) -> Check:

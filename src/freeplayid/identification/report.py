@@ -238,6 +238,9 @@ def _replay(r) -> list[str]:
                   f"{100 * level.delta_shift:.2g} % (in the intervals)."]
     if rep.failure:
         lines += ["", f"**Replay failed:** {rep.failure}; the estimate above is the plain fit's."]
+    elif getattr(rep, "stopped", ""):
+        lines += ["", f"**The loop stopped** after {len(rep.iterations)} replays: "
+                  f"{rep.stopped}; the estimate above is its closest replay's."]
     lines += ["", f"95 % intervals: {r.interval_source}."]
     boot = rep.bootstrap
     if boot is not None and boot.kn_ci95 is not None:

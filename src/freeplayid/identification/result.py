@@ -270,6 +270,7 @@ class Identification:
             "misfit": r.misfit,
             "damping": None if r.damping is None else r.damping.to_dict(),
             "failure": r.failure or None,
+            "stopped": getattr(r, "stopped", "") or None,
             "kn_ci95_bootstrap": list(boot.kn_ci95) if ok else None,
             "delta_ci95_bootstrap": list(boot.delta_ci95) if ok else None,
             "n_bootstrap": boot.n if ok else 0,

@@ -191,13 +191,18 @@ class ReplayResult:
     offsets : tuple of PointOffset
         Per measured point: the replayed point relative to it at the final estimate.
     curves : tuple of AmplitudeCurve
-        The last replay's first-harmonic displacement curves (the self-check figure).
+        The answer's replay's first-harmonic displacement curves (the self-check figure): the
+        last replay, or without convergence the closest.
     misfit : dict of str -> float
         Per run: :func:`curve_misfit` of its measured and replayed curves (largest channel).
     damping : ReplayDamping or None
         The damping of the replays (the model's C, given, or estimated with its interval).
     failure : str
-        Why the test could not be replayed or a replay could not be fitted, or "".
+        Why the test could not be replayed or no replay could be fitted, or "" (the answer is
+        then the plain estimate).
+    stopped : str
+        Why the loop stopped before converging after replays that could be fitted (a step whose
+        replay could not be), or "": the answer is then the closest replay.
     bootstrap : ReplayBootstrap or None
         The bootstrap by replay (``Replay.n_bootstrap`` copies), when asked for.
     weights : tuple of PointWeight or None
@@ -231,6 +236,7 @@ class ReplayResult:
     misfit: dict | None = None
     damping: ReplayDamping | None = None
     failure: str = ""
+    stopped: str = ""
     bootstrap: ReplayBootstrap | None = None
     weights: tuple | None = None
     resonance: dict = dataclasses.field(default_factory=dict)
@@ -309,6 +315,8 @@ class _Binding:
         self.test, self.system, self.opts, self.bar, self.label = test, system, opts, bar, label
         self.source, self.zeta = damping
         self.history, self.rep, self.rep_ds, self.failure = [], None, None, ""
+        self.replays = []  # (refit, replayed data set) of each entry of ``history``
+        self.stopped, self.failed_at = "", None
         self.weights, self.weight_table = None, None if opts.weighted else ()
         self.ratios = np.array([])
         self.stat = test.statistic
@@ -364,11 +372,13 @@ class _Binding:
         except IdentificationError as err:
             runs = self.stat.points.used()
             self.failure = replay_failure(theta, err, len({p.run for p in runs}))
+            self.failed_at = (theta, err, len({p.run for p in runs}))
             return None
         self.failure = ""  # a failed replay before it was a step that the loop halved
         if self.weight_table is None:
             rep = self.fix_weights(rep)
         self.rep = rep
+        self.replays.append((rep, self.rep_ds))
         F = np.log(np.array([rep.kn, rep.delta]) / self.hat)
         ratio = None
         if estimate:
@@ -383,6 +393,17 @@ class _Binding:
             amplitude_log_ratio=ratio, misfit_se=se))
         self._report(theta, zeta if estimate else None, float(np.abs(F).max()))
         return F
+
+    def settle(self, sol) -> None:
+        """After the loop ``sol``: the replay of the answer is the one it reports (without
+        convergence the closest, not the last), and a step that could not be identified after
+        successful replays stopped the loop (``stopped``) but failed nothing: the answer is the
+        closest replay, not the plain fit. ``failure`` stays only when no replay was identified."""
+        if self.history and self.failure:
+            theta, err, runs = self.failed_at
+            self.failure, self.stopped = "", stop_reason(theta, err, runs)
+        if not sol.converged and sol.closest is not None and sol.closest < len(self.replays):
+            self.rep, self.rep_ds = self.replays[sol.closest]
 
     def _report(self, theta, zeta, misfit: float) -> None:
         """The replay's numbers in the log (DEBUG) and on the bar (its postfix)."""
@@ -406,6 +427,19 @@ def replay_failure(theta, err: Exception, test_runs: int) -> str:
                        "points, and a replay near them can lose one (add runs at levels whose "
                        "jumps lie well inside the band)")
     return head + "the model does not behave like the test"
+
+
+def stop_reason(theta, err: Exception, test_runs: int) -> str:
+    """Why the loop stopped before converging: a step's replay at ``theta`` could not be
+    identified (``err``) after replays that could; a replayed run at the edge of jumping loses
+    its jump there (the step was halved first, :data:`.broyden.MAX_HALVINGS` times)."""
+    head = (f"its step to kn = {theta[0]:.5g} N·m/rad, delta = {theta[1]:.5g} rad could not be "
+            f"identified, halved or not ({err}): a replayed run at the edge of jumping loses "
+            "its jump there")
+    if test_runs <= 2:
+        head += (f"; only {test_runs} run{'s' if test_runs != 1 else ''} of the test gave "
+                 "points (add runs at levels whose jumps lie well inside the band)")
+    return head
 
 
 def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extraction,
@@ -467,6 +501,7 @@ def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extracti
         failure = binding.failure if began == "statistic" else failure
     else:
         binding.failure = failure or binding.failure  # the statistic's own fit's reason
+    binding.settle(sol)
     note = ""
     mismatch = _model_damping_mismatch(binding) if opts.damping is None else 0.0
     if source == "model" and abs(mismatch) > DAMPING_MISMATCH:
@@ -481,6 +516,7 @@ def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extracti
         binding = first.sibling(test, (source, zeta), "replay, damping estimated")
         sol = _solve(binding, np.append(sol.u[:2], np.log(zeta)), progress,
                      "replay, damping estimated")
+        binding.settle(sol)
         note = (f"the model file's C put the replayed amplitudes {100 * mismatch:+.2g} % off "
                 f"the test's at its answer after {len(first.history)} replays; the iterations "
                 "listed are those with the damping estimated, from that answer")
@@ -588,7 +624,7 @@ def _answer_move(J, half: float) -> np.ndarray | None:
 def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts,
             progress, start: str = "statistic") -> ReplayResult:
     """The :class:`ReplayResult` of a finished loop (started at ``start``): offsets, curve
-    misfits and the bootstrap at the last replay."""
+    misfits and the bootstrap at the answer's replay (:meth:`_Binding.settle`)."""
     rep, stat = b.rep, b.stat
     offsets, misfit, boot, resonance, cross, level = (), {}, None, {}, None, None
     if rep is not None:
@@ -616,7 +652,8 @@ def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts
         statistic_ci95=b.stat_ci95, iterations=tuple(b.history), converged=sol.converged,
         closest_misfit_se=closest, levels=b.test.levels, offsets=offsets,
         curves=tuple(rep.points.curves) if rep is not None else (), misfit=misfit,
-        damping=damping, failure=b.failure, bootstrap=boot, weights=b.weight_table or None,
+        damping=damping, failure=b.failure, stopped=b.stopped, bootstrap=boot,
+        weights=b.weight_table or None,
         resonance=resonance, cross=cross, level=level,
         excitation="measured" if b.test.excitations else "law", start=start,
         sweeps={run: {"source": src, "law": sw.law, **sw.to_dict(),
