@@ -603,6 +603,35 @@ VARIANTS: dict[str, Callable[..., CaseSpec]] = {
         **kw), "var_fin_kn400_d3.5"),
     "var_fin_noisy": _variant(lambda **kw: _noisier(0.15, **kw), "var_fin_noisy"),
 }
+# A second set, chosen once (2026-11-28, session 2) before any of its results, at magnitudes and
+# levels neither set above has: fewer runs, another rate, gap and kn, a narrow shallow dip, damping
+# added below the model C's replacement threshold, an inboard model error with sealed modes, a
+# down-sweep of four runs, a ramp up, a faster log sweep. run.py --cases 'var2_*'
+VARIANTS.update({
+    "var2_fin_three_levels": _variant(lambda **kw: _fin_case(
+        "x", "the fin tested at three levels only, 0.7 / 0.95 / 1.2 g (control)",
+        levels=(0.7, 0.95, 1.2), **kw), "var2_fin_three_levels"),
+    "var2_fin_rate_0.25": _variant(lambda **kw: fin_fast_sweep(rate=0.25, **kw),
+                                   "var2_fin_rate_0.25"),
+    "var2_fin_gap1.8_kn550": _variant(lambda **kw: _fin_case(
+        "x", "the fin at kn 550 N m/rad and half-gap 1.8 mrad (control)", kn=550.0,
+        deltas=0.0018, **kw), "var2_fin_gap1.8_kn550"),
+    "var2_fin_level_dip_narrow": _variant(
+        lambda **kw: fin_level_dip(depth=0.2, flat_hz=0.15, taper_hz=0.3, **kw),
+        "var2_fin_level_dip_narrow"),
+    "var2_fin_hinge_damper_small": _variant(lambda **kw: fin_hinge_damper(added_zeta=0.008, **kw),
+                                            "var2_fin_hinge_damper_small"),
+    "var2_fin_contact_damping_small": _variant(
+        lambda **kw: fin_contact_damping(added_zeta=0.01, **kw), "var2_fin_contact_damping_small"),
+    "var2_fin_stiff_in_m0.5_ref": _variant(
+        lambda **kw: fin_stiffness(shift=-0.005, ref=True, **kw), "var2_fin_stiff_in_m0.5_ref"),
+    "var2_fin_down_sweep_b": _variant(
+        lambda **kw: fin_down_sweep(levels=(1.4, 1.7, 2.0, 2.3), **kw), "var2_fin_down_sweep_b"),
+    "var2_fin_level_ramp_up": _variant(lambda **kw: fin_level_ramp(ramp=0.1, **kw),
+                                       "var2_fin_level_ramp_up"),
+    "var2_fin_log_sweep_fast": _variant(lambda **kw: fin_log_sweep(octaves_per_min=0.35, **kw),
+                                        "var2_fin_log_sweep_fast"),
+})
 ALL_CASES = {**CONDITIONS, **VARIANTS}
 
 def generate(name: str, out: Path, *, force=False, redraw=False, log=print) -> dict:

@@ -45,10 +45,21 @@ def identify_case(path: str, corrected: bool) -> dict:
                    else freeplayid.identify(path, replay=None))
     except freeplayid.InputError as exc:
         return {"refused": " ".join(str(exc).split())}
+    rep = res.replay
     return {"kn": float(res.kn), "delta": float(res.delta),
             "kn_ci95": [float(v) for v in res.kn_ci95],
             "delta_ci95": [float(v) for v in res.delta_ci95],
-            "status": str(res.verdict.status), "reasons": [str(r) for r in res.verdict.reasons]}
+            "status": str(res.verdict.status), "reasons": [str(r) for r in res.verdict.reasons],
+            # what the verdict measured: each check's value, and the replay loop's end
+            "checks": {c.name: [bool(c.passed), c.to_dict()["value"]]
+                       for c in res.verdict.checks},
+            "replay": None if rep is None else {
+                "replays": len(rep.iterations), "converged": bool(rep.converged),
+                "failure": rep.failure or None, "stopped": getattr(rep, "stopped", "") or None,
+                "peak_offset": {run: float(m.peak_offset)
+                                for run, m in (rep.resonance or {}).items()},
+                "backbone_offset": {run: float(m.backbone_offset)
+                                    for run, m in (rep.resonance or {}).items()}}}
 
 
 def _task(case: str, draw: str, folder: str, fit: str) -> dict:

@@ -3,7 +3,8 @@
 kn is conditional on the model (:class:`freeplayid.model.ModelOptions`). With the sealed fin's
 modes the model is updated to them before the identification
 (:func:`freeplayid.model.update_to_sealed_modes`); without, or for what the update could not
-explain, kn's interval takes in the move of kn that the model's frequency uncertainty makes:
+explain (with two sealed modes, which the update fits exactly: the option's uncertainty), kn's
+interval takes in the move of kn that the model's frequency uncertainty makes:
 the plain fit's points refitted against the model with that mode's frequency moved by ``u``
 give kn's relative move ``m``, and the interval's log half-width becomes sqrt(h^2 + m^2). The
 mode's frequency is moved by scaling the structure's stiffness (not the hinges'): its share of
@@ -99,7 +100,8 @@ def update_model(dataset, system, est: PlainEstimate, fit: FitOptions,
 def model_error(system, est: PlainEstimate, fit: FitOptions, options: ModelOptions,
                 update: SealedUpdate | None) -> ModelError:
     """kn's relative move for the model's frequency uncertainty (module docstring)."""
-    u = options.frequency_uncertainty if update is None else \
+    # two sealed modes fit the update's two unknowns exactly: nothing measures its error
+    u = options.frequency_uncertainty if update is None or update.reference_hz.size < 3 else \
         max(update.residual, 1e-3)
     ratio = hinge_ratio(system, est.kn, fit.mode)
     if u == 0:

@@ -5,10 +5,17 @@ its frequency error: the backbone's closed-hinge limit is mode 1's frequency, an
 the model's error into kn. The sealed fin's modes (hammer test with the gap closed: the hinges
 at kn, delta = 0) carry what is needed to take it out:
 
-1. a stiffness scale ``s`` of the whole structure (the hinge springs apart) and the contact
-   stiffness ``kn`` from the sealed modes' frequencies together, by least squares of
-   ``log f_k(s K + kn B B^T) - log f_k,ref`` over the paired modes (two or more): mode 1 moves
-   with kn and s, the higher modes mostly with s, so the two separate;
+1. the structure's stiffness (the hinge springs apart) and the contact stiffness ``kn`` from
+   the sealed modes' frequencies together, by least squares of ``log f_k(K' + kn B B^T) -
+   log f_k,ref`` over the paired modes. With three or more: ``K' = s K + (s1 - s) w1^2 M v1
+   v1^T M``, the open-hinge model's lowest elastic mode ``v1`` (mass-normalised, ``w1``) scaled
+   by ``s1`` and the rest of the structure by ``s``; with two, one scale (``s1 = s``, ``K' =
+   s K``). Mode 1 moves with kn and the stiffness, the higher modes only with the stiffness,
+   so they separate. One scale is right when the whole structure is off alike; a part off
+   alone (one plate) moves the lowest elastic mode more than the others, and one scale then
+   puts the difference into kn: on the default fin with one plate's Young's modulus moving
+   mode 1 by -2 ... +2 %, the fit of its exact DFA backbone points against the update is off
+   in kn by 0.2-0.4 % with two scales, 0.8-1.8 % with one (docs/identify.md);
 2. the other modes (not the identified one) moved onto their reference frequencies by a
    stiffness along their own shapes, ``M phi_k (w_ref^2 - w_k^2) phi_k^T M`` (mass-normalised
    closed-hinge shapes at that kn), which leaves every other closed mode where it was.
@@ -30,6 +37,12 @@ from ..system import FreeplaySystem
 
 __all__ = ["SealedUpdate", "update_to_sealed_modes"]
 
+# [-] an open-hinge mode with w^2 below this fraction of the largest is a mechanism (w = 0)
+ELASTIC = 1e-9
+# the two-scale update's Jacobian above this condition number: the modes cannot tell the lowest
+# elastic mode's scale from the rest's, and one scale is kept
+MAX_CONDITION = 1e6
+
 
 @dataclass(frozen=True)
 class SealedUpdate:
@@ -41,6 +54,9 @@ class SealedUpdate:
         The updated model (its stiffness; mass, damping, DOFs and hinges as given).
     scale : float [-]
         The structure's stiffness scale ``s``.
+    first_scale : float [-]
+        The scale ``s1`` of the open-hinge model's lowest elastic mode's stiffness (``s`` with
+        fewer than three modes or where the modes cannot tell the two apart).
     kn : float [N m/rad]
         The contact stiffness the sealed modes alone give (with ``s``).
     mode_factors : dict of int -> float
@@ -48,8 +64,9 @@ class SealedUpdate:
     reference_hz, before_hz, after_hz : ndarray, shape (m,) [Hz]
         The reference frequencies and the paired model modes at ``kn`` before (s = 1) and after.
     residual : float [-]
-        RMS of log(f_model / f_ref) over the modes after the scale alone (what the scale could
-        not explain: how far the error is from a uniform stiffness error).
+        RMS of log(f_model / f_ref) over the modes after one uniform scale of the stiffness
+        (what one scale could not explain: how far the error is from a uniform stiffness error;
+        kn's interval takes it in, :mod:`freeplayid.identification.model_error`).
     """
 
     system: FreeplaySystem
@@ -60,15 +77,23 @@ class SealedUpdate:
     before_hz: np.ndarray
     after_hz: np.ndarray
     residual: float
+    first_scale: float | None = None
+
+    def __post_init__(self):
+        if self.first_scale is None:
+            object.__setattr__(self, "first_scale", self.scale)
 
     def describe(self) -> str:
         others = ", ".join(f"mode {k + 1} x{v:.4f}" for k, v in self.mode_factors.items())
-        return (f"stiffness x{self.scale:.4f}" + (f", {others} (frequency)" if others else "")
+        first = ("" if self.first_scale == self.scale else
+                 f" (its lowest elastic open-hinge mode x{self.first_scale:.4f})")
+        return (f"stiffness x{self.scale:.4f}{first}"
+                + (f", {others} (frequency)" if others else "")
                 + f" to the sealed fin's {self.reference_hz.size} modes (their own kn "
                 f"{self.kn:.4g} N·m/rad; uniform-stiffness residual {100 * self.residual:.2g} %)")
 
     def to_dict(self) -> dict:
-        return {"scale": self.scale, "kn_sealed": self.kn,
+        return {"scale": self.scale, "first_scale": self.first_scale, "kn_sealed": self.kn,
                 "mode_factors": {str(k + 1): v for k, v in self.mode_factors.items()},
                 "reference_hz": self.reference_hz.tolist(), "before_hz": self.before_hz.tolist(),
                 "after_hz": self.after_hz.tolist(), "residual": self.residual}
@@ -102,15 +127,27 @@ def update_to_sealed_modes(system: FreeplaySystem, kn_start: float, reference_hz
     if np.count_nonzero(ok) < 2 or mode not in pairing[ok]:
         return None
     pair, ref = pairing[ok], ref[ok]
+    first = _lowest_elastic(system)
+
+    def stiffness(s, s1):
+        return s * system.K + (s1 - s) * first if s1 != s else s * system.K
 
     def freqs(x):
-        kn, s = np.exp(x)
-        return modal_analysis(system.M, _closed(system, s * system.K, kn)).frequencies_hz[pair]
+        kn, s = np.exp(x[:2])
+        s1 = float(np.exp(x[2])) if x.size == 3 else s
+        return modal_analysis(system.M, _closed(system, stiffness(s, s1), kn)).frequencies_hz[pair]
 
-    sol = scipy.optimize.least_squares(lambda x: np.log(freqs(x) / ref),
-                                       [np.log(kn_start), 0.0], x_scale=1.0)
-    kn, s = (float(v) for v in np.exp(sol.x))
-    K = s * system.K
+    def solve(x0):
+        return scipy.optimize.least_squares(lambda x: np.log(freqs(x) / ref), x0, x_scale=1.0)
+
+    uniform = solve(np.array([np.log(kn_start), 0.0]))
+    kn, s = (float(v) for v in np.exp(uniform.x))
+    s1 = s
+    if pair.size >= 3 and first is not None:
+        two = solve(np.append(uniform.x, uniform.x[1]))
+        if two.success and np.linalg.cond(two.jac) < MAX_CONDITION:
+            kn, s, s1 = (float(v) for v in np.exp(two.x))
+    K = stiffness(s, s1)
     closed = modal_analysis(system.M, _closed(system, K, kn))
     factors = {}
     for k, f_ref in zip(pair, ref, strict=True):
@@ -124,4 +161,18 @@ def update_to_sealed_modes(system: FreeplaySystem, kn_start: float, reference_hz
     after = modal_analysis(updated.M, updated.closed_stiffness(kn)).frequencies_hz[pair]
     return SealedUpdate(system=updated, scale=s, kn=kn, mode_factors=factors, reference_hz=ref,
                         before_hz=modes.frequencies_hz[pair],
-                        after_hz=after, residual=float(np.sqrt(np.mean(sol.fun ** 2))))
+                        after_hz=after, residual=float(np.sqrt(np.mean(uniform.fun ** 2))),
+                        first_scale=s1)
+
+
+def _lowest_elastic(system: FreeplaySystem) -> np.ndarray | None:
+    """``w1^2 M v1 v1^T M``: the stiffness of the open-hinge model's lowest elastic mode (the
+    mechanisms about the hinges, w = 0, apart); None without one."""
+    modes = modal_analysis(system.M, system.K)
+    w2 = modes.omega ** 2
+    elastic = np.flatnonzero(w2 > ELASTIC * max(float(w2.max()), 0.0))
+    if elastic.size == 0:
+        return None
+    k = int(elastic[0])
+    m_phi = system.M @ modes.shapes[:, k]
+    return w2[k] * np.outer(m_phi, m_phi)
