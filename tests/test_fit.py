@@ -269,3 +269,34 @@ def test_weights_count_a_point_as_often_as_its_weight_squared():
     for bad in ([1.0] * 3, [0.0] + [1.0] * 9, [np.nan] + [1.0] * 9):
         with pytest.raises(ValueError, match="`weights` must be 10 finite numbers > 0"):
             fit_backbone(pts, sys_, init=(1.5e4, 1.2e-3), weights=bad)
+
+
+def test_curves_between_kn_nodes_are_interpolated_to_the_computed_ones():
+    """The fit's curve of a kn between nodes (Catmull-Rom over four node curves) against the
+    curve the describing function computes at that kn (``curve_at``), on the default fin's two
+    hinges (the unequal-hinge fixed point) and its equal-hinge scouting model, kn 1e2-1e6: within
+    1.3e-6 in frequency and 1e-8 in ln amplitude; where the nodes are not smooth in kn (the
+    fin's mode veering near contact above kn 3e4) the curve is computed at kn itself. A fit that
+    moves kn by a few % computes a handful of node curves, shared by the fits of one system."""
+    from freeplayid.fit import objective
+    from freeplayid.model import default_fin
+
+    fin = default_fin()
+    kns = [150.0, 480.0, 2.1e3, 9.3e3, 3.53e4, 8.28e4, 1.79e5, 6.1e5]  # 3.5e4-1.8e5: veering
+    for options in ({}, {"equal_hinges": True}):
+        model = objective.BackboneModel(fin, ["uz_top_left", "uz_lower_right"], **options)
+        for kn in kns:
+            f, la = model.curve(kn)
+            f0, la0 = model.curve_at(kn, keep=False)
+            live = f0 > 0
+            assert np.max(np.abs(f[live] / f0[live] - 1)) < 1.3e-6, kn
+            both = np.isfinite(la) & np.isfinite(la0)
+            assert np.array_equal(both, np.isfinite(la0)) and np.max(np.abs(la - la0)[both]) < 1e-8
+    local = objective.BackboneModel(fin, ["uz_top_left"])
+    before = local.n_curves
+    for kn in np.linspace(470.0, 490.0, 30):
+        local.curve(kn)
+    assert local.n_curves - before <= 6  # 4 % of kn, 2.3 node spacings: 3 intervals, 6 nodes
+    again = objective.BackboneModel(fin, ["uz_top_left"])
+    again.curve(480.0)
+    assert again.n_curves == 0  # the nodes of the first model, shared

@@ -32,6 +32,10 @@ from .uncertainty import bootstrap_intervals, jacobian_intervals
 
 __all__ = ["FitResult", "fit_backbone"]
 
+# curve nodes per decade of kn of the multi-start's scouting model (objective.py): its optima only
+# choose the start that the accurate model polishes, and its 25 starts span five decades
+SCOUT_KN_NODES = 32
+
 
 @dataclass(frozen=True)
 class FitResult:
@@ -142,7 +146,8 @@ def _best_start(obj: _Objective, starts, system, ch, mode, dfa_model, points,
     scout = dfa_model
     if len(starts) > 1 and system.n_hinges > 1:
         scout = BackboneModel(system, ch, backbone="dfa", mode=mode, equal_hinges=True,
-                              s=amplitude_grid(200, s_min=1.0005, s_max=2000.0))
+                              s=amplitude_grid(200, s_min=1.0005, s_max=2000.0),
+                              kn_nodes=SCOUT_KN_NODES)
     runs = []
     bar = progress_bar(starts, desc="fitting the backbone", unit="start",
                        show=progress and len(starts) > 1, leave=False, delay=2.0)
