@@ -9,9 +9,9 @@ comes near it: a fit that moves kn by a few % computes a handful of curves inste
 evaluation. Against the curve computed at that kn: frequencies within 1.3e-6 and ln amplitudes
 within 1e-8 on the default fin, kn 1e2-1e6 (``tests/test_fit.py``); where the nodes are not
 smooth in kn (a mode veering near contact, :data:`KINK`) the curve is computed at kn itself.
-Curves are interpolated in
-ln X. Points whose amplitude lies outside the curve's range take the end value (the open-hinge
-or the closed-hinge frequency), which keeps the objective continuous for any start.
+Curves are interpolated in ln X. Points whose amplitude lies outside the curve's range take the
+end value (the open-hinge or the closed-hinge frequency), which keeps the objective continuous
+for any start.
 """
 
 from __future__ import annotations
@@ -186,7 +186,10 @@ def _shared_nodes(model: BackboneModel) -> dict:
     mode, grid, node spacing and options): one dict, filled by whichever computes a node first."""
     key = (id(model.system), model.channels, model.backbone, model.mode, model.kn_nodes,
            model.s.tobytes(), tuple(sorted(model.options.items())))
-    hit = _NODES.get(key)
+    try:
+        hit = _NODES.get(key)
+    except TypeError:  # an option that cannot be a key (an array): its own nodes
+        return {}
     if hit is not None and hit[0] is model.system:
         return hit[1]
     if len(_NODES) >= _NODES_KEPT:
