@@ -85,7 +85,7 @@ class SealedUpdate:
 
     def describe(self) -> str:
         others = ", ".join(f"mode {k + 1} x{v:.4f}" for k, v in self.mode_factors.items())
-        first = ("" if self.first_scale == self.scale else
+        first = ("" if f"{self.first_scale:.4f}" == f"{self.scale:.4f}" else
                  f" (its lowest elastic open-hinge mode x{self.first_scale:.4f})")
         return (f"stiffness x{self.scale:.4f}{first}"
                 + (f", {others} (frequency)" if others else "")
