@@ -100,8 +100,7 @@ def update_model(dataset, system, est: PlainEstimate, fit: FitOptions,
 def model_error(system, est: PlainEstimate, fit: FitOptions, options: ModelOptions,
                 update: SealedUpdate | None) -> ModelError:
     """kn's relative move for the model's frequency uncertainty (module docstring)."""
-    # two sealed modes fit the update's two unknowns exactly: nothing measures its error
-    u = options.frequency_uncertainty if update is None or update.reference_hz.size < 3 else \
+    u = options.frequency_uncertainty if update is None or not update.residual_measured else \
         max(update.residual, 1e-3)
     ratio = hinge_ratio(system, est.kn, fit.mode)
     if u == 0:

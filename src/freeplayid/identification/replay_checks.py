@@ -154,14 +154,14 @@ def _converged_check(replay) -> Check:
     if replay.converged:
         return Check("replay_converged", True, f"the corrected fit converged in {n} replays")
     close = getattr(replay, "closest_misfit_se", None)
+    stopped = getattr(replay, "stopped", "")
     if close is not None and close <= LIMITS["binding_noise"]:
         return Check("replay_converged", True,
                      f"the corrected fit did not converge in {n} replays"
-                     + (" (the loop stopped where a step could not be replayed)"
-                        if getattr(replay, "stopped", "") else "")
+                     + (" (the loop stopped where a step could not be replayed)" if stopped
+                        else "")
                      + f", but its closest replay matches the test's statistics within "
                      f"{close:.2g} of their standard error", close)
-    stopped = getattr(replay, "stopped", "")
     return Check("replay_converged", False,
                  f"the corrected fit did not converge in {n} replays"
                  + ("" if close is None else

@@ -370,9 +370,8 @@ class _Binding:
         try:
             rep = self.replay(theta, zeta)
         except IdentificationError as err:
-            runs = self.stat.points.used()
-            self.failure = replay_failure(theta, err, len({p.run for p in runs}))
-            self.failed_at = (theta, err, len({p.run for p in runs}))
+            self.failed_at = (theta, err, len({p.run for p in self.stat.points.used()}))
+            self.failure = replay_failure(*self.failed_at)
             return None
         self.failure = ""  # a failed replay before it was a step that the loop halved
         if self.weight_table is None:
@@ -400,9 +399,8 @@ class _Binding:
         successful replays stopped the loop (``stopped``) but failed nothing: the answer is the
         closest replay, not the plain fit. ``failure`` stays only when no replay was identified."""
         if self.history and self.failure:
-            theta, err, runs = self.failed_at
-            self.failure, self.stopped = "", stop_reason(theta, err, runs)
-        if not sol.converged and sol.closest is not None and sol.closest < len(self.replays):
+            self.failure, self.stopped = "", stop_reason(*self.failed_at)
+        if not sol.converged and sol.closest is not None:
             self.rep, self.rep_ds = self.replays[sol.closest]
 
     def _report(self, theta, zeta, misfit: float) -> None:
@@ -423,10 +421,14 @@ def replay_failure(theta, err: Exception, test_runs: int) -> str:
     head = (f"the replay at kn = {theta[0]:.5g} N·m/rad, delta = {theta[1]:.5g} rad could not "
             f"be identified ({err}): ")
     if test_runs <= 2:
-        return head + (f"only {test_runs} run{'s' if test_runs != 1 else ''} of the test gave "
-                       "points, and a replay near them can lose one (add runs at levels whose "
-                       "jumps lie well inside the band)")
+        return head + _few_runs(test_runs, ", and a replay near them can lose one")
     return head + "the model does not behave like the test"
+
+
+def _few_runs(test_runs: int, why: str = "") -> str:
+    """The advice for a test whose points come from ``test_runs`` (two or fewer) runs."""
+    return (f"only {test_runs} run{'s' if test_runs != 1 else ''} of the test gave points{why} "
+            "(add runs at levels whose jumps lie well inside the band)")
 
 
 def stop_reason(theta, err: Exception, test_runs: int) -> str:
@@ -436,10 +438,7 @@ def stop_reason(theta, err: Exception, test_runs: int) -> str:
     head = (f"its step to kn = {theta[0]:.5g} N·m/rad, delta = {theta[1]:.5g} rad could not be "
             f"identified, halved or not ({err}): a replayed run at the edge of jumping loses "
             "its jump there")
-    if test_runs <= 2:
-        head += (f"; only {test_runs} run{'s' if test_runs != 1 else ''} of the test gave "
-                 "points (add runs at levels whose jumps lie well inside the band)")
-    return head
+    return head + ("; " + _few_runs(test_runs) if test_runs <= 2 else "")
 
 
 def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extraction,

@@ -83,6 +83,12 @@ class SealedUpdate:
         if self.first_scale is None:
             object.__setattr__(self, "first_scale", self.scale)
 
+    @property
+    def residual_measured(self) -> bool:
+        """Whether ``residual`` measures anything: with two modes one scale and kn fit them
+        exactly (residual 0 whatever the model's error)."""
+        return self.reference_hz.size > 2
+
     def describe(self) -> str:
         others = ", ".join(f"mode {k + 1} x{v:.4f}" for k, v in self.mode_factors.items())
         first = ("" if f"{self.first_scale:.4f}" == f"{self.scale:.4f}" else
