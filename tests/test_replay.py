@@ -404,6 +404,43 @@ def test_record_noise_sees_the_noise_through_a_replay_that_is_a_little_off(measu
         assert regressed[run.file][0] == pytest.approx(sd, rel=0.2)
 
 
+def test_the_offsets_noise_is_the_tests_noise_through_the_base_channel(measured, system,
+                                                                        monkeypatch):
+    """Noise on the base channel only (0.3 m/s^2): the test's points are taken relative to the
+    base, so it moves them. The replay's offsets' standard error (noisy copies of the answer's
+    replay with the levels record_noise measures, the base's included) against an independent
+    measurement: eight independently noised copies of the reference itself, their points'
+    distances from the exact backbone (sdof_reference) about the noiseless reference's. Within
+    a factor of 2 (16 and 32 samples); copies without the base's noise give 0.04 of it."""
+    import freeplayid.replay.corrected as corrected
+    from freeplayid.estimate import extract_points
+    from freeplayid.signal import Extraction
+
+    def noised(seed, sd=0.3):
+        rng = np.random.default_rng(seed)
+        return dataclasses.replace(measured, runs=tuple(
+            dataclasses.replace(r, base=r.base + sd * rng.standard_normal(r.base.shape))
+            for r in measured.runs))
+
+    monkeypatch.setattr(corrected, "OFFSET_NOISE_FROM", 0.0)  # measured whatever the offsets
+    res = identify(noised(0), system=system, progress=False, fit={"multistart": MULTISTART})
+    got = {m.offset_se for m in res.replay.resonance.values()}
+    samples = {m.offset_se_samples for m in res.replay.resonance.values()}
+    assert len(got) == 1 and samples == {corrected.OFFSET_COPIES * 3}  # 0.4 g: no jump
+
+    extraction = Extraction(jump_point=res.replay.jump_point, use_sweep_hint=True)
+
+    def distances(ds):
+        pts, _ = extract_points(ds, extraction=extraction)
+        return {p.run: p.f_hz / ref.exact_backbone_hz(p.amplitude_m) - 1 for p in pts.used()}
+
+    clean = distances(measured)
+    devs = [d - clean[run] for k in range(8) for run, d in distances(noised(100 + k)).items()
+            if run in clean]
+    want = float(np.sqrt(np.mean(np.square(devs))))
+    assert 0.5 * want < got.pop() < 2.0 * want
+
+
 def test_the_replay_statistic_can_be_the_plain_points(measured, system):
     # replay_jump_point=None without weights: the replays match the plain fit itself, so the
     # loop starts at the plain fit; both statistics land on the truth of this clean reference

@@ -408,31 +408,28 @@ def test_the_cross_checks_standard_error_pools_the_runs_and_the_copies():
     np.testing.assert_allclose(se, want, rtol=1e-12)
 
 
-def test_the_offsets_standard_error_is_the_measured_scatter_beyond_the_replays():
-    """Three runs at measured distances +0.3, -0.3, 0 % from the backbone and replayed +0.1,
-    -0.1, 0 %: the noise is what the replay does not share, (18e-6 - 2e-6) / 3, times 3 / 1 for
-    the two fitted parameters: 0.4 %. A replay that scatters as much as the test (a model that
-    reproduces the pattern, or one that misses it by more) leaves no noise: 0."""
-    from freeplayid.replay.misfit import resonance_misfits
-    from freeplayid.signal import AmplitudeCurve
+def test_the_offsets_standard_error_is_the_noisy_copies_scatter_about_the_replay():
+    """Two runs, two channels each, the noiseless replay's points at +0.1 % and 0 % from a flat
+    backbone; three copies whose channels scatter about them: a (copy, run)'s deviation is the
+    median over its channels less the replay's, the standard error their RMS; a copy that lost a
+    run's points adds no sample for it; one sample is not enough; copies equal to the replay
+    give 0."""
+    from freeplayid.replay.misfit import offset_noise
 
-    f = np.linspace(35.0, 45.0, 50)
-    x = np.exp(-0.5 * ((f - 40.0) / 2.0) ** 2)
+    def pts(devs):  # {(run, channel): distance} -> points at 40 Hz (1 + distance)
+        return [BackbonePoint(run, ch, 40.0 * (1 + d), 1e-4, True, "", 1.0, 30.0)
+                for (run, ch), d in devs.items()]
 
-    def misfits(measured, replayed):
-        meas, rep, curves = [], [], []
-        for k, (dm, dr) in enumerate(zip(measured, replayed, strict=True)):
-            run = f"r{k}"
-            meas.append(BackbonePoint(run, "c", 40.0 * (1 + dm), 1e-4, True, "", 1.0, 30.0))
-            rep.append(BackbonePoint(run, "c", 40.0 * (1 + dr), 1e-4, True, "", 1.0, 30.0))
-            curves.append(AmplitudeCurve(run, "c", f, x))
-        return resonance_misfits(meas, rep, curves, curves, backbone_f=lambda p: 40.0)
-
-    out = misfits([3e-3, -3e-3, 0.0], [1e-3, -1e-3, 0.0])
-    assert out["r0"].offset_se == pytest.approx(4e-3, rel=1e-6)
-    assert out["r0"].backbone_offset == pytest.approx(-2e-3, rel=1e-6)
-    assert misfits([1e-3, -1e-3, 0.0], [3e-3, -3e-3, 0.0])["r1"].offset_se == 0.0
-    assert np.isnan(misfits([1e-3, -1e-3], [0.0, 0.0])["r0"].offset_se)
+    rep = pts({("a", "x"): 1e-3, ("a", "y"): 1e-3, ("b", "x"): 0.0, ("b", "y"): 0.0})
+    copies = [pts({("a", "x"): 3e-3, ("a", "y"): 1e-3, ("b", "x"): -1e-3, ("b", "y"): -1e-3}),
+              pts({("a", "x"): 0.0, ("a", "y"): 1e-3, ("b", "x"): 2e-3, ("b", "y"): 0.0}),
+              pts({("b", "x"): 1e-3, ("b", "y"): 1e-3})]
+    se, n = offset_noise(rep, copies, lambda p: 40.0)
+    devs = np.array([1e-3, -1e-3, -0.5e-3, 1e-3, 1e-3])
+    assert n == 5
+    assert se == pytest.approx(np.sqrt(np.mean(devs ** 2)), rel=1e-9)
+    assert np.isnan(offset_noise(rep, copies[2:], lambda p: 40.0)[0])
+    assert offset_noise(rep, [rep, rep], lambda p: 40.0) == (0.0, 4)
 
 
 def test_the_replayed_answer_judges_the_channels_spread_against_the_replays():

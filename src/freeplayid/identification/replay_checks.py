@@ -5,9 +5,10 @@
   information: the statistic point's place against the backbone at the answer (its relative
   distance f / f_BC(X) - 1, replayed minus measured) within ``backbone_offset`` (0.2 %, about a
   0.4 % move of kn), or within ``offset_se`` (3) standard errors of that offset where the data's
-  noise makes that larger (the measured points' scatter about the answer's backbone beyond the
-  noiseless replay's: :attr:`freeplayid.replay.RunMisfit.offset_se`; what the replay does not
-  reproduce does not count as noise). A point that only moves along the backbone
+  noise makes that larger (:attr:`freeplayid.replay.RunMisfit.offset_se`: the answer's replay
+  read through the test's noise, on noisy copies with each channel's and the base's measured
+  noise; what the replay does not reproduce does not count as noise). A point that only moves
+  along the backbone
   (another damping puts the phase resonance at another amplitude) does not move the answer and
   does not fail; the peaks and the upper branches are reported beside it (a replay of the right
   model lands 0.01-0.03 % from each run's jump and 0.1-0.5 % from its peak on the bundled
@@ -79,8 +80,10 @@ def _resonance_check(replay, down_runs=()) -> Check:
                    if math.isfinite(m.backbone_offset)), default=0.0)
     noise = [LIMITS["offset_se"] * m.offset_se for m in misfits.values()
              if math.isfinite(getattr(m, "offset_se", math.nan))]
+    samples = max((getattr(m, "offset_se_samples", 0) for m in misfits.values()), default=0)
     rule = (f"limit {100 * LIMITS['backbone_offset']:g} %, or {LIMITS['offset_se']:g} standard "
-            f"errors of the data's noise where larger (up to {100 * max(noise):.2g} %)"
+            f"errors of the data's noise where larger: {100 * max(noise):.2g} %, measured on "
+            f"{samples} points of the replay's noisy copies"
             if noise else f"limit {100 * LIMITS['backbone_offset']:g} %")
     peaks = max(abs(m.peak_offset) for m in misfits.values())
     branch = max((m.branch for m in misfits.values() if math.isfinite(m.branch)), default=0.0)

@@ -27,7 +27,8 @@ class ReplayBootstrap:
     n_fitted : int
         Copies whose plain estimate could be made (the others' noise hid a jump).
     noise : dict of str -> list of float
-        Per run: each channel's measured noise level the copies got [data units].
+        Per run: each channel's measured noise level the copies got, then the base channel's
+        where the runs have one [data units].
     """
 
     kn_ci95: tuple | None
@@ -70,14 +71,21 @@ def bootstrap_by_replay(replayed, system, noise: dict, *, theta, theta_rep, n: i
 
 def noisy_copy(replayed, noise: dict, rng):
     """``replayed`` (a Dataset) with fresh white noise of each channel's measured level added
-    to its responses (``noise``: per run, one level per channel, :func:`noise_levels`): a replay
-    as the test's sensors would have recorded it."""
+    to its responses, and to its base channel where the level list has one more entry
+    (``noise``: per run, one level per data channel, then the base's:
+    :func:`freeplayid.replay.weights.record_noise`): a replay as the test's sensors would have
+    recorded it."""
     runs = []
     for run in replayed.runs:
         sd = noise.get(run.file)
         if sd is None:
             runs.append(run)
             continue
-        noisy = run.data + np.asarray(sd)[:, None] * rng.standard_normal(run.data.shape)
-        runs.append(dataclasses.replace(run, data=noisy))
+        sd = np.asarray(sd, float)
+        n = run.data.shape[0]
+        noisy = run.data + sd[:n, None] * rng.standard_normal(run.data.shape)
+        base = run.base
+        if base is not None and sd.size > n:
+            base = base + sd[n] * rng.standard_normal(base.shape)
+        runs.append(dataclasses.replace(run, data=noisy, base=base))
     return dataclasses.replace(replayed, runs=tuple(runs))

@@ -11,14 +11,14 @@ import numpy as np
 import scipy.stats
 
 from ..errors import IdentificationError
-from ..estimate import PlainEstimate, plain_estimate, refit
+from ..estimate import PlainEstimate, extract_points, plain_estimate, refit
 from ..fit import BackboneModel, FitOptions
 from ..progress import progress_bar
 from ..signal import Extraction
 from .bootstrap import ReplayBootstrap, bootstrap_by_replay, noisy_copy
 from .broyden import solve_binding
 from .damping_estimate import ZETA_RTOL, ReplayDamping, damped_system, damping_mode, initial_zeta
-from .misfit import resonance_misfits, run_misfits
+from .misfit import offset_noise, resonance_misfits, run_misfits
 from .options import Replay
 from .runs import (
     replay_dataset,
@@ -574,6 +574,13 @@ def _model_damping_mismatch(binding: _Binding) -> float:
 # noisy copies of the answer's replay that the cross-check's second statistic is read from
 CROSS_COPIES = 3
 
+# noisy copies of the answer's replay that measure the noise of each run's offset from the
+# backbone (ReplayResult.resonance), where some run's offset exceeds OFFSET_NOISE_FROM [-] (half
+# the verdict's 0.2 % accuracy floor: below it the noise cannot matter, and the copies' extraction
+# costs about a second each); with four runs, 16 samples of the noise
+OFFSET_COPIES = 4
+OFFSET_NOISE_FROM = 1e-3
+
 # [-] the model's C is replaced by an estimated damping (``Replay.damping`` None) when its replay
 # at the answer puts the matched points' amplitudes further than this from the test's: at the
 # phase resonance the amplitude is inversely proportional to the damping, and a replay of the
@@ -633,15 +640,18 @@ def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts
                         for p in stat.points.used()
                         if (q := replayed.get((p.run, p.channel))) is not None)
         misfit = run_misfits(plain.points.curves, rep.points.curves, b.test.levels)
+        backbone_f = _backbone_at(b, theta)
         resonance = resonance_misfits(stat.points.used(), rep.points.used(), stat.points.curves,
-                                      rep.points.curves, _backbone_at(b, theta))
+                                      rep.points.curves, backbone_f)
+        noise = record_noise(b.test.dataset, b.rep_ds)  # the noise itself, not the misfit
+        resonance = _offset_noise(b, resonance, noise, backbone_f, progress)
         if opts.cross_check and CROSS_RULE.get(rule) and not b.failure:
-            cross = _cross_check(b, theta, CROSS_RULE[rule], progress)
+            cross = _cross_check(b, theta, CROSS_RULE[rule], noise, progress)
         level = None if b.failure else _level_sensitivity(b, sol, opts.level_uncertainty,
                                                           progress)
         if opts.n_bootstrap > 0 and not b.failure:
             boot = bootstrap_by_replay(
-                b.rep_ds, system, record_noise(b.test.dataset, b.rep_ds), theta=theta,
+                b.rep_ds, system, noise, theta=theta,
                 theta_rep=np.array([rep.kn, rep.delta]), n=opts.n_bootstrap, seed=opts.seed,
                 extraction=b.test.extraction, fit=b.test.fit, point_weights=b.weights,
                 progress=progress)
@@ -697,16 +707,37 @@ def _level_sensitivity(b: _Binding, sol, u: float,
     return LevelSensitivity(float(u), float(shift[0]), float(shift[1]), runs)
 
 
-def _cross_check(b: _Binding, theta, rule: str, progress: bool = False) -> CrossCheck | None:
+def _offset_noise(b: _Binding, resonance: dict, noise: dict, backbone_f,
+                  progress: bool = False) -> dict:
+    """``resonance`` with each run's offset's standard error from the test's noise
+    (:func:`.misfit.offset_noise` on ``OFFSET_COPIES`` noisy copies of the answer's replay, the
+    statistic's extraction, ``noise`` from :func:`.weights.record_noise`), measured where some
+    run's offset exceeds ``OFFSET_NOISE_FROM``; unchanged elsewhere."""
+    if not any(abs(m.backbone_offset) > OFFSET_NOISE_FROM for m in resonance.values()
+               if math.isfinite(m.backbone_offset)):
+        return resonance
+    rng = np.random.default_rng([b.opts.seed, 1])  # not the cross-check's copies
+    copies = []
+    for _ in progress_bar(range(OFFSET_COPIES), desc="the offsets' noise: noisy copies",
+                          unit="copy", show=progress, leave=False):
+        pts, _ = extract_points(noisy_copy(b.rep_ds, noise, rng), extraction=b.test.extraction)
+        copies.append(pts.used())
+    se, n = offset_noise(b.rep.points.used(), copies, backbone_f)
+    return {run: dataclasses.replace(m, offset_se=se, offset_se_samples=n)
+            for run, m in resonance.items()}
+
+
+def _cross_check(b: _Binding, theta, rule: str, noise: dict,
+                 progress: bool = False) -> CrossCheck | None:
     """The test and its last replay (at the answer ``theta``) on a second statistic, ``rule``'s
     points fitted alike (unweighted): how far that statistic would move the answer. The replay
     is read as the test's sensors would have recorded it: ``CROSS_COPIES`` copies with the
-    measured noise added, their fits averaged in log (a maximum-based statistic is biased up by
-    noise, which a noiseless replay does not have)."""
+    measured noise (``noise``, :func:`.weights.record_noise`) added, their fits averaged in
+    log (a maximum-based statistic is biased up by noise, which a noiseless replay does not
+    have)."""
     t = b.test
     extraction = dataclasses.replace(t.extraction, jump_point=rule, use_sweep_hint=True)
     rng = np.random.default_rng(b.opts.seed)
-    noise = record_noise(t.dataset, b.rep_ds)  # the noise itself, not the replay's misfit
     try:
         test = plain_estimate(t.dataset, b.system, init=tuple(theta), extraction=extraction,
                               fit=t.fit, progress=progress, desc=f"cross-check: the test's "

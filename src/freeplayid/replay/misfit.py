@@ -7,7 +7,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-__all__ = ["RunMisfit", "curve_misfit", "resonance_misfits", "run_misfits"]
+__all__ = ["RunMisfit", "curve_misfit", "offset_noise", "resonance_misfits", "run_misfits"]
 
 
 def curve_misfit(measured, replayed) -> float:
@@ -71,11 +71,9 @@ class RunMisfit:
         rises through half its peak to the point), relative to the peak.
     offset_se : float [-]
         The standard error of ``backbone_offset`` from the measurement's noise, one for all
-        runs: the measured points scatter about the answer's backbone by noise and by what the
-        model does not reproduce, the replayed (noiseless) points by the latter only, so
-        noise^2 = mean(measured distance^2) - mean(replayed distance^2) over the runs, times
-        runs / (runs - 2) for the two fitted parameters (0 when the replay scatters as much;
-        NaN with two runs or fewer).
+        runs: the noiseless replay's point against the same replay read through the test's
+        noise (:func:`offset_noise`, noisy copies), measured where some run's offset is large
+        enough to matter (NaN where it was not measured).
     channel_spread, channel_spread_replayed : float [-]
         The spread of the run's channels' point frequencies, (max - min) / mean, measured and
         replayed (absolute accelerations without a base channel spread by a few % through the
@@ -91,13 +89,15 @@ class RunMisfit:
     offset_se: float = float("nan")
     channel_spread: float = float("nan")
     channel_spread_replayed: float = float("nan")
+    offset_se_samples: int = 0
 
     def to_dict(self) -> dict:
         return {"run": self.run, "f_offset": self.f_offset, "f_hz": self.f_hz,
                 "backbone_offset": self.backbone_offset, "peak_offset": self.peak_offset,
                 "branch": self.branch, "offset_se": self.offset_se,
                 "channel_spread": self.channel_spread,
-                "channel_spread_replayed": self.channel_spread_replayed}
+                "channel_spread_replayed": self.channel_spread_replayed,
+                "offset_se_samples": self.offset_se_samples}
 
 
 def _upper_branch(curve, f_point: float) -> np.ndarray:
@@ -150,15 +150,13 @@ def resonance_misfits(measured_points, replayed_points, measured_curves, replaye
     def median(rows, value):
         return float(np.median([value(ch) for ch in rows]))
 
-    se = _offset_se([median(rows, lambda ch: ch.dist) for rows in by_run.values()],
-                    [median(rows, lambda ch: ch.dist_rep) for rows in by_run.values()])
     out = {}
     for run, rows in by_run.items():
         strongest = max(rows, key=lambda ch: ch.peak)
         out[run] = RunMisfit(
             run, median(rows, lambda ch: ch.f_rep / ch.f - 1), median(rows, lambda ch: ch.f),
             median(rows, lambda ch: ch.dist_rep - ch.dist), strongest.peak_offset,
-            strongest.branch, se, _spread([ch.f for ch in rows]),
+            strongest.branch, float("nan"), _spread([ch.f for ch in rows]),
             _spread([ch.f_rep for ch in rows]))
     return out
 
@@ -183,13 +181,23 @@ def _spread(f) -> float:
     return float((f.max() - f.min()) / f.mean()) if f.size > 1 else float("nan")
 
 
-def _offset_se(measured, replayed) -> float:
-    """:attr:`RunMisfit.offset_se` from each run's measured and replayed distances from the
-    backbone (NaN with two runs or fewer)."""
-    m, r = np.asarray(measured, float), np.asarray(replayed, float)
-    ok = np.isfinite(m) & np.isfinite(r)
-    n = int(np.count_nonzero(ok))
-    if n <= 2:
-        return float("nan")
-    noise2 = max(0.0, float(np.mean(m[ok] ** 2) - np.mean(r[ok] ** 2)))
-    return float(np.sqrt(noise2 * n / (n - 2)))
+def offset_noise(replayed_points, copies, backbone_f) -> tuple[float, int]:
+    """(standard error, samples) of a run's point distance from the backbone from the test's
+    noise: for each noisy copy of the answer's replay (``copies``: each copy's used points) and
+    run, the median over its channels of the copy's point's relative distance from the backbone
+    (``backbone_f``, as in :func:`resonance_misfits`) less the noiseless replay's; their RMS over
+    the copies and runs. The replay is the test's model at the answer, so what the copies scatter
+    by is the noise alone, which the measured point carries and the noiseless replay does not:
+    the noise of :attr:`RunMisfit.backbone_offset`. NaN with fewer than two samples."""
+    ref = {(p.run, p.channel): p.f_hz / backbone_f(p) - 1 for p in replayed_points}
+    devs = []
+    for points in copies:
+        by_run: dict[str, list] = {}
+        for p in points:
+            r = ref.get((p.run, p.channel))
+            if r is not None:
+                by_run.setdefault(p.run, []).append(p.f_hz / backbone_f(p) - 1 - r)
+        devs += [float(np.median(d)) for d in by_run.values()]
+    if len(devs) < 2:
+        return float("nan"), len(devs)
+    return float(np.sqrt(np.mean(np.square(devs)))), len(devs)

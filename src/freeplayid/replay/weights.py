@@ -81,31 +81,46 @@ def record_noise(measured, replayed, *, window: int = 128) -> dict:
 
     :func:`noise_levels` takes the plain difference: it counts such a phase misfit as noise and
     overestimates it (20-25x on a 5 %-damped fin swept at 0.5 Hz/s, against 1.05-1.14x here).
-    The noisy copies that read a replay as the test's sensors would (the cross-check) need
-    the noise itself.
+    The noisy copies that read a replay as the test's sensors would (the cross-check, the
+    offsets' noise) need the noise itself. Where both runs have a base channel its level comes
+    last, after the data channels' (:func:`freeplayid.replay.bootstrap.noisy_copy`): the test's
+    points are taken relative to the base, so its noise moves them too.
     """
-    from scipy.signal import hilbert
-
     out = {}
     for file, x, y in _pairs(measured, replayed):
-        n = x.shape[-1]
-        w = max(16, min(int(window), n))
-        k = n // w
-        x = x[..., : k * w].reshape(-1, k, w)
-        q = np.imag(hilbert(y, axis=-1))
-        # the regressors: the replay, its quadrature (a phase rotation) and their slopes (a
-        # small time shift, which moves every harmonic by its own phase)
-        basis = np.stack([u[..., : k * w].reshape(-1, k, w)
-                          for u in (y, q, np.gradient(y, axis=-1), np.gradient(q, axis=-1))],
-                         axis=-1)
-        rms = np.empty(x.shape[:2])
-        for c in range(x.shape[0]):
-            for j in range(k):
-                coef, *_ = np.linalg.lstsq(basis[c, j], x[c, j], rcond=None)
-                res = x[c, j] - basis[c, j] @ coef
-                rms[c, j] = np.sqrt(np.sum(res * res) / (w - basis.shape[-1]))
-        out[file] = np.median(rms, axis=-1)
+        out[file] = _regressed_noise(x, y, window)
+    bases = {r.file: r.base for r in replayed.runs if r.base is not None}
+    for run in measured.runs:
+        if run.file in out and run.base is not None and run.file in bases:
+            n = min(run.base.shape[-1], bases[run.file].shape[-1])
+            base = _regressed_noise(np.asarray(run.base[None, :n], float),
+                                    np.asarray(bases[run.file][None, :n], float), window)
+            out[run.file] = np.concatenate([out[run.file], base])
     return out
+
+
+def _regressed_noise(x: np.ndarray, y: np.ndarray, window: int) -> np.ndarray:
+    """Per channel of ``x`` (channels, samples): the median over windows of the RMS of ``x``
+    less its regression on ``y``, its quadrature and their slopes (:func:`record_noise`)."""
+    from scipy.signal import hilbert
+
+    n = x.shape[-1]
+    w = max(16, min(int(window), n))
+    k = n // w
+    x = x[..., : k * w].reshape(-1, k, w)
+    q = np.imag(hilbert(y, axis=-1))
+    # the regressors: the replay, its quadrature (a phase rotation) and their slopes (a
+    # small time shift, which moves every harmonic by its own phase)
+    basis = np.stack([u[..., : k * w].reshape(-1, k, w)
+                      for u in (y, q, np.gradient(y, axis=-1), np.gradient(q, axis=-1))],
+                     axis=-1)
+    rms = np.empty(x.shape[:2])
+    for c in range(x.shape[0]):
+        for j in range(k):
+            coef, *_ = np.linalg.lstsq(basis[c, j], x[c, j], rcond=None)
+            res = x[c, j] - basis[c, j] @ coef
+            rms[c, j] = np.sqrt(np.sum(res * res) / (w - basis.shape[-1]))
+    return np.median(rms, axis=-1)
 
 
 def point_weights(points, noise: dict, dataset, system, kn: float, delta: float, *,
