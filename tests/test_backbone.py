@@ -87,6 +87,34 @@ def test_unequal_hinges_fixed_point_equals_one_harmonic_balance():
     assert np.max(np.abs(eq.frequency_hz / dfa.frequency_hz - 1)) > 1e-3
 
 
+def test_a_hinges_own_gap_is_its_describing_function():
+    """One hinge with its half-gap 1.7 x delta: the describing function of 1.7 delta exactly;
+    two hinges, the second's gap so large that it never closes: the curve of the system
+    without that hinge (the same amplitudes, the same frequencies); gaps equal to c: delta x c."""
+    bc = dfa_backbone(sdof_system(mass=2.0), kn=8.0e4, delta=1e-3, gaps=[1.7])
+    wn = np.sqrt(8.0e4 / 2.0)
+    expected = wn * np.sqrt(describing_function(bc.channel("x")[0], 1.7e-3)) / (2 * np.pi)
+    np.testing.assert_allclose(bc.frequency_hz[0], expected, rtol=1e-10)
+
+    two = two_hinge_system()
+    one = FreeplaySystem(
+        M=two.M, K=two.K, dof_names=two.dof_names, hinge_pairs=two.hinge_pairs[:1],
+        base_influence=two.base_influence)
+    far = dfa_backbone(two, kn=4.0e3, delta=2e-3, gaps=[1.0, 1e3], s=np.geomspace(1.05, 20, 40))
+    assert far.converged.all()
+    s1 = far.hinge_amplitude[0, :, 0] / 2e-3  # hinge 1's amplitude over its gap
+    ref = dfa_backbone(one, kn=4.0e3, delta=2e-3, s=s1[s1 > 1.0])
+    np.testing.assert_allclose(far.frequency_hz[0, s1 > 1.0], ref.frequency_hz[0], rtol=1e-7)
+    np.testing.assert_allclose(far.amplitude[0, s1 > 1.0], ref.amplitude[0], rtol=1e-6)
+    s = np.geomspace(2.2, 20, 30)
+    same = dfa_backbone(two, kn=4.0e3, delta=1e-3, gaps=[2.0, 2.0], s=s)
+    ref = dfa_backbone(two, kn=4.0e3, delta=2e-3, s=s / 2.0)
+    np.testing.assert_allclose(same.frequency_hz, ref.frequency_hz, rtol=1e-9)
+    np.testing.assert_allclose(same.amplitude, ref.amplitude, rtol=1e-7)
+    with pytest.raises(ValueError, match="gaps"):
+        dfa_backbone(two, kn=4.0e3, delta=1e-3, gaps=[1.0])
+
+
 def test_batched_kn_equals_individual_calls_and_frequency_at():
     sys_ = two_dof_system()
     kns = np.array([5e3, 2e4, 8e4])

@@ -338,6 +338,37 @@ def test_the_replay_misfit_limit_is_the_larger_of_the_accuracy_and_the_noise(se,
     assert ("standard errors" in check.message) is bool(np.isfinite(se))
 
 
+@pytest.mark.parametrize("runs, off, without, passed", [
+    (4, ("r0",), (2e-3, -3e-3), True),    # one run off; the answer hardly rests on it
+    (4, ("r0",), (2e-3, -8e-3), False),   # without it delta moves 0.8 %: it rests on it
+    (4, ("r0",), (1.5e-2, 0.0), False),   # kn 1.5 %
+    (4, ("r0",), None, False),            # not measured: not set aside
+    (3, ("r0",), (2e-3, -3e-3), False),   # three runs: none can be set aside
+    (5, ("r0", "r1"), (2e-3, -3e-3), False),  # two runs off: a pattern, not one run
+])
+def test_one_run_off_is_set_aside_only_where_the_answer_does_not_rest_on_it(runs, off, without,
+                                                                            passed):
+    """A run 0.27 % off the measured point's place (the 0.2 % limit; the noise 0.01 %) among
+    ``runs``: it passes where it is the only one off, of four or more, and the answer without
+    it moves by no more than half the bounds (delta 0.5 %, kn 1 %); the reason names it."""
+    from freeplayid.identification.replay_checks import replay_checks
+    from freeplayid.replay.misfit import RunMisfit
+
+    class Rep:
+        failure, misfit, sweeps, damping, converged = "", {}, {}, None, True
+        jump_point, excitation, cross = "quadrature", "measured", None
+        iterations = [ReplayIteration(480.0, 3e-3, 480.0, 3e-3, n_evaluations=10)]
+        resonance = {f"r{k}": RunMisfit(f"r{k}", 1e-3, 40.0, 2.7e-3 if f"r{k}" in off else 1e-4,
+                                        0.2, 0.02, 1e-4, without=without)
+                     for k in range(runs)}
+
+    check = {c.name: c for c in replay_checks(Rep())}["replay_misfit"]
+    assert check.passed is passed
+    assert "run r0: its phase resonance 0.27 %" in check.message
+    assert ("without it the answer moves delta" in check.message) is (without is not None)
+    assert ("does not rest on that run" in check.message) is passed
+
+
 @pytest.mark.parametrize("shift, se, dof, passed", [
     (0.0063, 0.0017, 4.0, True),       # 3.7 se: chance 2 % of the time with 4 dof (t: 6.6)
     (0.0063, 0.0017, math.inf, False),  # the same se known exactly: 3.7 normal se fails

@@ -128,6 +128,7 @@ def dfa_backbone(
     mode: int = 0,
     s: np.ndarray | None = None,
     equal_hinges: bool = False,
+    gaps=None,
     tol: float = 1e-10,
     max_iter: int = 100,
 ) -> BackboneCurve:
@@ -146,6 +147,11 @@ def dfa_backbone(
         Largest hinge amplitude over delta at each point (> 1); default :func:`amplitude_grid`.
     equal_hinges : bool
         Give every hinge the largest hinge's kappa (no fixed point).
+    gaps : array_like, shape (h,), optional [-]
+        Each hinge's half-gap over ``delta`` (default 1 for every hinge): hinge j's spring is
+        kappa(gaps_j delta / Theta_j) kn; ``s`` stays the largest hinge amplitude over
+        ``delta``. Gaps that differ make the curve bend in two places, which is how the data
+        could tell them apart (:func:`freeplayid.identification.model_error.gap_split`).
     tol, max_iter : float, int
         Fixed-point tolerance on kappa and iteration cap.
 
@@ -172,6 +178,11 @@ def dfa_backbone(
     g = Linv @ B  # (n, h): hinge vectors in the transformed coordinates
 
     k_, m_, h = kn.size, s.size, B.shape[1]
+    gap = np.ones(h) if gaps is None else np.asarray(gaps, dtype=float).reshape(-1)
+    if gap.shape != (h,) or not np.all(np.isfinite(gap) & (gap > 0)):
+        raise ValueError(f"`gaps` must be {h} finite numbers > 0 (one per hinge), got {gaps!r}")
+    if equal_hinges and gaps is not None:
+        raise ValueError("`equal_hinges` gives every hinge one kappa: it takes no `gaps`")
     # flatten the (kn, s) batch to P points; Newton then works on the unconverged ones only
     kn_p = np.repeat(kn, m_)
     s_p = np.tile(s, k_)
@@ -184,17 +195,17 @@ def dfa_backbone(
         theta = np.abs(vec @ g)  # (P, h): |b_j^T phi| up to a common scale
         ratio = theta / theta.max(axis=-1, keepdims=True)
         with np.errstate(divide="ignore"):
-            implied = kappa_of_ratio(1.0 / (s_p[idx, None] * ratio))
+            implied = kappa_of_ratio(gap / (s_p[idx, None] * ratio))
         return lam[:, mode], vec, theta, implied
 
     # Newton on G(kappa) = kappa - F(kappa) = 0 with a forward-difference Jacobian (h extra
     # eigen-batches per iteration) and a fall-back to the relaxed fixed point
     P = kn_p.size
     everything = np.arange(P)
-    kappa = np.repeat(kappa_of_ratio(1.0 / s_p)[:, None], h, axis=1)
+    kappa = kappa_of_ratio(gap[None, :] / s_p[:, None])
     lam, vec, theta, implied = solve(kappa, everything)
-    converged = np.full(P, equal_hinges or h == 1)
-    if not (equal_hinges or h == 1):
+    converged = np.full(P, equal_hinges or (h == 1 and gaps is None))
+    if not converged.all():
         eps = 1e-7
         active = everything
         for _ in range(max_iter):

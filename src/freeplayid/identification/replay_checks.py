@@ -12,7 +12,10 @@
   (another damping puts the phase resonance at another amplitude) does not move the answer and
   does not fail; the peaks and the upper branches are reported beside it (a replay of the right
   model lands 0.01-0.03 % from each run's jump and 0.1-0.5 % from its peak on the bundled
-  example, 0.05 g noise).
+  example, 0.05 g noise). One run off among four or more passes where the answer without that
+  run (:attr:`freeplayid.replay.RunMisfit.without`) moves by no more than ``without_delta`` /
+  ``without_kn`` (half the accuracy bounds): the answer does not rest on it; the reason still
+  names the run and its offset.
 - ``replay_consistency`` (the drop or maxima statistics): the answer's replay against the test
   on a second statistic it was not fitted to (:class:`freeplayid.replay.CrossCheck`); apart by
   more than ``cross_delta`` / ``cross_kn`` (half the accuracy bounds) and as many standard errors
@@ -69,10 +72,17 @@ def _resonance_check(replay, down_runs=()) -> Check:
 
     off = {run: m for run, m in misfits.items()
            if math.isfinite(m.backbone_offset) and abs(m.backbone_offset) > limit(m)}
+
+    def without(m):  # the answer's move were the run left out, as words ("" if not measured)
+        w = getattr(m, "without", None)
+        return "" if w is None else (f"; without it the answer moves delta {100 * w[1]:+.2g} %, "
+                                     f"kn {100 * w[0]:+.2g} %")
+
     bad = [f"run {run}: its {point(run)} {100 * abs(m.backbone_offset):.2g} % "
            f"{'above' if m.backbone_offset > 0 else 'below'} the measured one's place against "
            f"the backbone ({m.f_offset * m.f_hz:+.2g} Hz, the peak {100 * m.peak_offset:+.2g} %;"
-           f" limit {100 * limit(m):.2g} %)" for run, m in off.items()]
+           f" limit {100 * limit(m):.2g} %{without(m)})" for run, m in off.items()]
+    alone = _one_run_aside(off, misfits)
     ratios = [abs(m.backbone_offset) / limit(m) for m in misfits.values()
               if math.isfinite(m.backbone_offset)]
     worst = max(ratios, default=0.0)
@@ -97,10 +107,26 @@ def _resonance_check(replay, down_runs=()) -> Check:
                      f"the replay at the answer puts every run's {what} where the test has it "
                      f"against the backbone (within {100 * largest:.2g} %; {rule})" + shape,
                      worst)
+    if alone:
+        return Check("replay_misfit", True,
+                     f"the replay at the answer puts every run's {what} where the test has it "
+                     f"against the backbone but one ({rule}): " + bad[0] + ", within half the "
+                     f"accuracy bounds, so the answer does not rest on that run{shape} (that "
+                     f"run's point: {_causes(replay, bool(set(off) & set(down_runs)))}?)", worst)
     down = any(run in down_runs for run in off)
     return Check("replay_misfit", False,
                  f"the replay at the answer does not reproduce the test's {what} points: "
                  + "; ".join(bad) + f" ({rule}){shape} ({_causes(replay, down)}?)", worst)
+
+
+def _one_run_aside(off: dict, misfits: dict) -> bool:
+    """Whether the only run off (``off``, of four or more in ``misfits``) can be set aside: the
+    answer without it moves by no more than ``without_delta`` / ``without_kn``."""
+    if len(off) != 1 or len(misfits) < 4:
+        return False
+    w = getattr(next(iter(off.values())), "without", None)
+    return (w is not None and abs(w[1]) <= LIMITS["without_delta"]
+            and abs(w[0]) <= LIMITS["without_kn"])
 
 
 def _consistency_check(replay) -> Check | None:

@@ -78,6 +78,10 @@ LIMITS = {
     # error that matters for the answer
     "backbone_offset": 2e-3,  # [-] a run's point against the backbone, replayed - measured,
     "offset_se": 3.0,  # [-] ... or this many of its standard errors (the data's noise), if more
+    # [-] ... unless it is the only run off (of four or more) and the answer without that run
+    # moves delta and kn by no more than half the accuracy bounds: the answer does not rest on it
+    "without_delta": 5e-3,
+    "without_kn": 1e-2,
     "peak_amplitude": 0.05,  # [-] a run's peak: beyond this the report says the damping differs
     "cross_delta": 5e-3,  # [-] a second statistic's move of delta (half the 1 % bound) ...
     "cross_kn": 1e-2,  # [-] ... and of kn (half the 2 % bound) ...

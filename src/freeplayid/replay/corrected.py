@@ -11,8 +11,8 @@ import numpy as np
 import scipy.stats
 
 from ..errors import IdentificationError
-from ..estimate import PlainEstimate, extract_points, plain_estimate, refit
-from ..fit import BackboneModel, FitOptions
+from ..estimate import PlainEstimate, extract_points, plain_estimate, refit, weights_of
+from ..fit import BackboneModel, FitOptions, FittingPoints, fit_backbone
 from ..progress import progress_bar
 from ..signal import Extraction
 from .bootstrap import ReplayBootstrap, bootstrap_by_replay, noisy_copy
@@ -645,6 +645,7 @@ def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts
                                       rep.points.curves, backbone_f)
         noise = record_noise(b.test.dataset, b.rep_ds)  # the noise itself, not the misfit
         resonance = _offset_noise(b, resonance, noise, backbone_f, progress)
+        resonance = _without_runs(b, resonance)
         if opts.cross_check and CROSS_RULE.get(rule) and not b.failure:
             cross = _cross_check(b, theta, CROSS_RULE[rule], noise, progress)
         level = None if b.failure else _level_sensitivity(b, sol, opts.level_uncertainty,
@@ -725,6 +726,46 @@ def _offset_noise(b: _Binding, resonance: dict, noise: dict, backbone_f,
     se, n = offset_noise(b.rep.points.used(), copies, backbone_f)
     return {run: dataclasses.replace(m, offset_se=se, offset_se_samples=n)
             for run, m in resonance.items()}
+
+
+def _without_runs(b: _Binding, resonance: dict) -> dict:
+    """``resonance`` with, for each run whose offset exceeds ``OFFSET_NOISE_FROM`` (four runs
+    or more), the answer's relative move were that run left out of the statistic
+    (:attr:`.misfit.RunMisfit.without`): the test's statistic and the answer's replay refitted
+    (their weights) without the run's points; at the answer the two fits agree, so the move is
+    log(test / replay) without the run less the same with it (the binding's correction taken as
+    locally constant, as the bootstrap by replay does). A run the fit cannot do without (fewer
+    than two points left, a failed fit) keeps None."""
+    if len(resonance) < 4:
+        return resonance
+    test, rep = b.stat.fitting_points(), b.rep.fitting_points()
+    t = b.test
+
+    def fitted(points, keep, init):
+        mask = np.array([r != keep for r in points.run])
+        if np.count_nonzero(mask) < 2:
+            return None
+        sub = FittingPoints(channel=tuple(np.asarray(points.channel)[mask]),
+                            amplitude_m=points.amplitude_m[mask], f_hz=points.f_hz[mask],
+                            run=tuple(np.asarray(points.run)[mask]))
+        try:
+            res = fit_backbone(sub, b.system, init=init, backbone=t.fit.backbone,
+                               mode=t.fit.mode, weights=weights_of(sub, b.weights))
+        except (IdentificationError, ValueError):
+            return None
+        return np.log([res.kn, res.delta]) if res.success else None
+
+    base = np.log([b.stat.kn, b.stat.delta]) - np.log([b.rep.kn, b.rep.delta])
+    out = dict(resonance)
+    for run, m in resonance.items():
+        if not (math.isfinite(m.backbone_offset) and abs(m.backbone_offset) > OFFSET_NOISE_FROM):
+            continue
+        a = fitted(test, run, (b.stat.kn, b.stat.delta))
+        r = fitted(rep, run, (b.rep.kn, b.rep.delta))
+        if a is not None and r is not None:
+            move = np.expm1(a - r - base)
+            out[run] = dataclasses.replace(m, without=(float(move[0]), float(move[1])))
+    return out
 
 
 def _cross_check(b: _Binding, theta, rule: str, noise: dict,

@@ -90,6 +90,7 @@ class RunMisfit:
     channel_spread: float = float("nan")
     channel_spread_replayed: float = float("nan")
     offset_se_samples: int = 0
+    without: tuple | None = None
 
     def to_dict(self) -> dict:
         return {"run": self.run, "f_offset": self.f_offset, "f_hz": self.f_hz,
@@ -97,7 +98,8 @@ class RunMisfit:
                 "branch": self.branch, "offset_se": self.offset_se,
                 "channel_spread": self.channel_spread,
                 "channel_spread_replayed": self.channel_spread_replayed,
-                "offset_se_samples": self.offset_se_samples}
+                "offset_se_samples": self.offset_se_samples,
+                "without": None if self.without is None else list(self.without)}
 
 
 def _upper_branch(curve, f_point: float) -> np.ndarray:
