@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import functools
 import logging
 import math
 from dataclasses import dataclass
@@ -643,16 +644,17 @@ def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts
         backbone_f = _backbone_at(b, theta)
         resonance = resonance_misfits(stat.points.used(), rep.points.used(), stat.points.curves,
                                       rep.points.curves, backbone_f)
-        noise = record_noise(b.test.dataset, b.rep_ds)  # the noise itself, not the misfit
+        # the noise itself, not the misfit; measured once, where something reads it
+        noise = functools.cache(lambda: record_noise(b.test.dataset, b.rep_ds))
         resonance = _offset_noise(b, resonance, noise, backbone_f, progress)
         resonance = _without_runs(b, resonance)
         if opts.cross_check and CROSS_RULE.get(rule) and not b.failure:
-            cross = _cross_check(b, theta, CROSS_RULE[rule], noise, progress)
+            cross = _cross_check(b, theta, CROSS_RULE[rule], noise(), progress)
         level = None if b.failure else _level_sensitivity(b, sol, opts.level_uncertainty,
                                                           progress)
         if opts.n_bootstrap > 0 and not b.failure:
             boot = bootstrap_by_replay(
-                b.rep_ds, system, noise, theta=theta,
+                b.rep_ds, system, noise(), theta=theta,
                 theta_rep=np.array([rep.kn, rep.delta]), n=opts.n_bootstrap, seed=opts.seed,
                 extraction=b.test.extraction, fit=b.test.fit, point_weights=b.weights,
                 progress=progress)
@@ -708,12 +710,12 @@ def _level_sensitivity(b: _Binding, sol, u: float,
     return LevelSensitivity(float(u), float(shift[0]), float(shift[1]), runs)
 
 
-def _offset_noise(b: _Binding, resonance: dict, noise: dict, backbone_f,
+def _offset_noise(b: _Binding, resonance: dict, noise, backbone_f,
                   progress: bool = False) -> dict:
     """``resonance`` with each run's offset's standard error from the test's noise
     (:func:`.misfit.offset_noise` on ``OFFSET_COPIES`` noisy copies of the answer's replay, the
-    statistic's extraction, ``noise`` from :func:`.weights.record_noise`), measured where some
-    run's offset exceeds ``OFFSET_NOISE_FROM``; unchanged elsewhere."""
+    statistic's extraction, ``noise()`` the levels of :func:`.weights.record_noise`), measured
+    where some run's offset exceeds ``OFFSET_NOISE_FROM``; unchanged elsewhere."""
     if not any(abs(m.backbone_offset) > OFFSET_NOISE_FROM for m in resonance.values()
                if math.isfinite(m.backbone_offset)):
         return resonance
@@ -721,7 +723,8 @@ def _offset_noise(b: _Binding, resonance: dict, noise: dict, backbone_f,
     copies = []
     for _ in progress_bar(range(OFFSET_COPIES), desc="the offsets' noise: noisy copies",
                           unit="copy", show=progress, leave=False):
-        pts, _ = extract_points(noisy_copy(b.rep_ds, noise, rng), extraction=b.test.extraction)
+        pts, _ = extract_points(noisy_copy(b.rep_ds, noise(), rng),
+                                extraction=b.test.extraction)
         copies.append(pts.used())
     se, n = offset_noise(b.rep.points.used(), copies, backbone_f)
     return {run: dataclasses.replace(m, offset_se=se, offset_se_samples=n)
