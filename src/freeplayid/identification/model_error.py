@@ -183,15 +183,14 @@ def gap_split(system, est: PlainEstimate, mode: int = 0) -> GapSplit | None:
     # split moves them by up to 0.8 x
     grid = np.geomspace(max(1.0005, 0.5 * ratios.min()), 2.0 * ratios.max(), 128)
 
-    def logf(kn_, delta_, gaps=None):
+    def logf(kn_, delta_, gaps=None):  # (members, points) for one or more (kn, delta)
         curve = dfa_backbone(system, kn=kn_, delta=delta_, mode=mode, gaps=gaps, s=grid)
-        return np.log([curve.frequency_at(x, ch)[0, 0]
-                       for x, ch in zip(pts.amplitude_m, pts.channel, strict=True)])
+        return np.log(np.stack([curve.frequency_at(x, ch)[:, 0] for x, ch in
+                                zip(pts.amplitude_m, pts.channel, strict=True)], axis=1))
 
-    base = logf(kn, delta)
-    eps = 1e-3
-    J = np.stack([(logf(kn * (1 + eps), delta) - base) / eps,
-                  (logf(kn, delta * (1 + eps)) - base) / eps], axis=1)
+    eps = 1e-3  # the answer and a step in each of (kn, delta), one batch
+    base, *steps = logf([kn, kn * (1 + eps), kn], [delta, delta, delta * (1 + eps)])
+    J = np.stack([(f - base) / eps for f in steps], axis=1)
     if not (np.all(np.isfinite(base)) and np.all(np.isfinite(J))):
         return None
     h = system.n_hinges
@@ -201,7 +200,7 @@ def gap_split(system, est: PlainEstimate, mode: int = 0) -> GapSplit | None:
         for j in range(h):
             gaps = np.full(h, 1.0 - a / (h - 1))
             gaps[j] = 1.0 + a
-            v = logf(kn, delta, gaps) - base
+            v = logf(kn, delta, gaps)[0] - base
             if not np.all(np.isfinite(v)):
                 return None
             step = np.linalg.lstsq(J, v, rcond=None)[0]  # what the common fit absorbs
