@@ -71,7 +71,7 @@ class GapSplit:
     delta_bias: float
 
     def describe(self) -> str:
-        up = f"{'more than ' if self.beyond else 'up to '}+-{100 * self.split:.2g} %"
+        up = f"{'more than ' if self.beyond else 'up to '}±{100 * self.split:.2g} %"
         return (f"gaps split by {up} between the hinges move no point by more than the points' "
                 f"scatter about the fit ({100 * self.scatter:.2g} %) once the common fit absorbs "
                 "what it can, so these data cannot tell such gaps apart: a hinge's own half-gap "
