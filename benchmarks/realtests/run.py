@@ -59,7 +59,15 @@ def identify_case(path: str, corrected: bool) -> dict:
                 "peak_offset": {run: float(m.peak_offset)
                                 for run, m in (rep.resonance or {}).items()},
                 "backbone_offset": {run: float(m.backbone_offset)
-                                    for run, m in (rep.resonance or {}).items()}}}
+                                    for run, m in (rep.resonance or {}).items()},
+                # the offsets' noise (noisy copies) and the answer's move without each run,
+                # where measured
+                "offset_se": {run: float(m.offset_se) for run, m in (rep.resonance or {}).items()
+                              if getattr(m, "offset_se_samples", 0)},
+                "without": {run: list(m.without) for run, m in (rep.resonance or {}).items()
+                            if getattr(m, "without", None) is not None}},
+            "checks_text": {c.name: str(c.message) for c in res.verdict.checks
+                            if c.name == "replay_misfit"}}
 
 
 def _task(case: str, draw: str, folder: str, fit: str) -> dict:
