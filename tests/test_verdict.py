@@ -534,3 +534,12 @@ def test_a_failed_cross_check_reports_the_other_statistics_answer(monkeypatch):
     assert got.verdict.checks[1].name == "residual"
     fake_fit.failure = "the replay could not be fitted"
     assert pipeline._on_the_other_statistic(first, *args) is first
+
+
+def test_the_replay_measures_what_the_resonance_check_reads_wherever_it_can_fail():
+    """The replay measures the offsets' noise and each run's `without` only for offsets beyond
+    OFFSET_NOISE_FROM; the check fails an offset only beyond LIMITS['backbone_offset'], so the
+    first must lie below the second, or a failing run would be judged without them."""
+    from freeplayid.replay.corrected import OFFSET_NOISE_FROM
+
+    assert 0 < OFFSET_NOISE_FROM < LIMITS["backbone_offset"]
