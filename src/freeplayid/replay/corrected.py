@@ -754,7 +754,7 @@ def _without_runs(b: _Binding, resonance: dict) -> dict:
         try:
             res = fit_backbone(sub, b.system, init=init, backbone=t.fit.backbone,
                                mode=t.fit.mode, weights=weights_of(sub, b.weights))
-        except (IdentificationError, ValueError):
+        except (IdentificationError, ValueError, np.linalg.LinAlgError):
             return None
         return np.log([res.kn, res.delta]) if res.success else None
 
