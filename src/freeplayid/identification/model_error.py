@@ -31,7 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..backbone.dfa import dfa_backbone
+from ..backbone import dfa_backbone
 from ..estimate import PlainEstimate, refit
 from ..fit import FitOptions, gap_ratios
 from ..model import ModelOptions, SealedUpdate, modal_analysis, update_to_sealed_modes

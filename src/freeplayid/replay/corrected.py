@@ -710,14 +710,19 @@ def _level_sensitivity(b: _Binding, sol, u: float,
     return LevelSensitivity(float(u), float(shift[0]), float(shift[1]), runs)
 
 
+def _matters(m) -> bool:
+    """Whether a run's offset (a :class:`.misfit.RunMisfit`) is large enough for its noise and
+    the answer's move without the run to be measured (``OFFSET_NOISE_FROM``)."""
+    return math.isfinite(m.backbone_offset) and abs(m.backbone_offset) > OFFSET_NOISE_FROM
+
+
 def _offset_noise(b: _Binding, resonance: dict, noise, backbone_f,
                   progress: bool = False) -> dict:
     """``resonance`` with each run's offset's standard error from the test's noise
     (:func:`.misfit.offset_noise` on ``OFFSET_COPIES`` noisy copies of the answer's replay, the
     statistic's extraction, ``noise()`` the levels of :func:`.weights.record_noise`), measured
     where some run's offset exceeds ``OFFSET_NOISE_FROM``; unchanged elsewhere."""
-    if not any(abs(m.backbone_offset) > OFFSET_NOISE_FROM for m in resonance.values()
-               if math.isfinite(m.backbone_offset)):
+    if not any(_matters(m) for m in resonance.values()):
         return resonance
     rng = np.random.default_rng([b.opts.seed, 1])  # not the cross-check's copies
     copies = []
@@ -744,14 +749,9 @@ def _without_runs(b: _Binding, resonance: dict) -> dict:
     test, rep = b.stat.fitting_points(), b.rep.fitting_points()
     t = b.test
 
-    def fitted(points, keep, init):
-        mask = np.array([r != keep for r in points.run])
-        if np.count_nonzero(mask) < 2:
-            return None
-        sub = FittingPoints(channel=tuple(np.asarray(points.channel)[mask]),
-                            amplitude_m=points.amplitude_m[mask], f_hz=points.f_hz[mask],
-                            run=tuple(np.asarray(points.run)[mask]))
+    def fitted(points, leave, init):  # log (kn, delta) of the points less run ``leave``
         try:
+            sub = FittingPoints.from_records(r for r in points.to_records() if r["run"] != leave)
             res = fit_backbone(sub, b.system, init=init, backbone=t.fit.backbone,
                                mode=t.fit.mode, weights=weights_of(sub, b.weights))
         except (IdentificationError, ValueError, np.linalg.LinAlgError):
@@ -761,7 +761,7 @@ def _without_runs(b: _Binding, resonance: dict) -> dict:
     base = np.log([b.stat.kn, b.stat.delta]) - np.log([b.rep.kn, b.rep.delta])
     out = dict(resonance)
     for run, m in resonance.items():
-        if not (math.isfinite(m.backbone_offset) and abs(m.backbone_offset) > OFFSET_NOISE_FROM):
+        if not _matters(m):
             continue
         a = fitted(test, run, (b.stat.kn, b.stat.delta))
         r = fitted(rep, run, (b.rep.kn, b.rep.delta))

@@ -86,16 +86,16 @@ def record_noise(measured, replayed, *, window: int = 128) -> dict:
     last, after the data channels' (:func:`freeplayid.replay.bootstrap.noisy_copy`): the test's
     points are taken relative to the base, so its noise moves them too.
     """
+    bases = {r.file: r.base for r in measured.runs}, {r.file: r.base for r in replayed.runs}
     out = {}
     for file, x, y in _pairs(measured, replayed):
         out[file] = _regressed_noise(x, y, window)
-    bases = {r.file: r.base for r in replayed.runs if r.base is not None}
-    for run in measured.runs:
-        if run.file in out and run.base is not None and run.file in bases:
-            n = min(run.base.shape[-1], bases[run.file].shape[-1])
-            base = _regressed_noise(np.asarray(run.base[None, :n], float),
-                                    np.asarray(bases[run.file][None, :n], float), window)
-            out[run.file] = np.concatenate([out[run.file], base])
+        xb, yb = bases[0][file], bases[1][file]
+        if xb is not None and yb is not None:
+            n = min(xb.shape[-1], yb.shape[-1])
+            base = _regressed_noise(np.asarray(xb[None, :n], float),
+                                    np.asarray(yb[None, :n], float), window)
+            out[file] = np.concatenate([out[file], base])
     return out
 
 
