@@ -99,6 +99,49 @@ def test_smoothing_factor_kept_per_length_and_weight():
                                    np.linalg.solve(d.T @ d / beta + np.eye(n), z), rtol=1e-10)
 
 
+def _numpy_pursuit(x, f, fsd, *, alpha, alpha_min, beta, adapt, tol, max_iter):
+    """The pursuit's loop written with the numpy operators checked above against dense solves
+    (the module's phase rule, np.gradient): the reference of the compiled loop."""
+    phase = importlib.import_module("freeplayid.signal.acmp")._phase
+    prev, converged, it = None, False, 0
+    for it in range(1, max_iter + 1):  # noqa: B007
+        phi = phase(f, fsd)
+        u, v = demodulate(x, phi, alpha)
+        xm = u * np.cos(phi) + v * np.sin(phi)
+        du, dv = np.gradient(u) * fsd, np.gradient(v) * fsd
+        df = (v * du - u * dv) / (2 * np.pi * np.maximum(u * u + v * v, 1e-300))
+        f = np.clip(f + smooth_second_difference(df, beta), 1e-6 * fsd, 0.5 * fsd)
+        if adapt and float(xm @ x) > 0:
+            alpha = max(alpha_min, min(alpha * float(xm @ xm) / float(xm @ x), alpha))
+        if prev is not None and float(np.sum((xm - prev) ** 2)) / float(prev @ prev) < tol:
+            converged = True
+            break
+        prev = xm
+    return f, alpha, it, converged
+
+
+@pytest.mark.parametrize("adapt", [True, False])
+def test_compiled_pursuit_is_the_numpy_composition(adapt):
+    # a chirp through a resonance-like amplitude bump, noise, a wrong start: several iterations
+    acmp_module = importlib.import_module("freeplayid.signal.acmp")
+    fs = 200.0
+    t = np.arange(int(30 * fs)) / fs
+    amp = 1.0 + 2.0 * np.exp(-(((t - 18.0) / 3.0) ** 2))
+    x = amp * np.sin(2 * np.pi * (20 * t + 0.25 * t * t)) \
+        + 0.2 * np.random.default_rng(4).normal(size=t.size)
+    f0 = 20.3 + 0.48 * t
+    opts = {"alpha": acmp_module.bandwidth_weight(2.0, fs),
+            "alpha_min": acmp_module.bandwidth_weight(0.5, fs),
+            "beta": acmp_module.bandwidth_weight(1.0, fs), "adapt": adapt, "tol": 1e-8,
+            "max_iter": 40}
+    f, alpha, it, converged = acmp_module._pursue(x, f0.copy(), fs, **opts)
+    f_ref, alpha_ref, it_ref, converged_ref = _numpy_pursuit(x, f0.copy(), fs, **opts)
+    assert it > 3 and (it, converged) == (it_ref, converged_ref)
+    assert alpha == pytest.approx(alpha_ref, rel=1e-9)
+    np.testing.assert_allclose(f, f_ref, rtol=0, atol=1e-9)
+    assert np.median(np.abs(f - (20 + 0.5 * t))) < 0.05  # and it pursued the chirp
+
+
 def test_acmp_pursuit_kept_for_identical_inputs(monkeypatch):
     acmp_module = importlib.import_module("freeplayid.signal.acmp")
 

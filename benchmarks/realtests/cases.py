@@ -632,6 +632,57 @@ VARIANTS.update({
     "var2_fin_log_sweep_fast": _variant(lambda **kw: fin_log_sweep(octaves_per_min=0.35, **kw),
                                         "var2_fin_log_sweep_fast"),
 })
+
+
+def _ramped(spec: CaseSpec, ramp: float) -> CaseSpec:
+    """``spec`` with its level ramping -ramp -> +ramp over each sweep (as fin_level_ramp)."""
+    for r in spec.runs:
+        T = r.duration()
+        r.profile = lambda t, f, T=T: 1.0 + ramp * (2.0 * np.asarray(t) / T - 1.0)
+    spec.condition += f"; level ramps {-100 * ramp:+g} % -> {100 * ramp:+g} % over each sweep"
+    spec.params["ramp"] = ramp
+    return spec
+
+
+# A third set, chosen once (2026-11-28, session 4) before any of its results: another beam (kn,
+# gap, damping), two conditions at once (Rayleigh damping and a ramp, contact damping and a log
+# sweep, a hinge damper and a down-sweep, noise and a dip), kn and gap outside the example's,
+# wider unequal gaps, a model error within the documented uncertainty and one beyond it with the
+# sealed modes. run.py --cases 'var3_*'
+VARIANTS.update({
+    "var3_beam_kn3500_d3": _variant(
+        lambda **kw: beam_rayleigh(kn=3500.0, delta=3.0e-3, zeta=0.025, rayleigh_hz=(25.0, 70.0),
+                                   levels=(1.0, 1.4, 1.9, 2.5), **kw), "var3_beam_kn3500_d3"),
+    "var3_fin_rayleigh_ramp": _variant(
+        lambda **kw: _ramped(fin_rayleigh(zeta=0.035, f_hz=(28.0, 50.0),
+                                          levels=(0.5, 0.7, 0.9, 1.1, 1.3), **kw), 0.12),
+        "var3_fin_rayleigh_ramp"),
+    "var3_fin_contact_damping_log": _variant(
+        lambda **kw: fin_contact_damping(added_zeta=0.015, sweep={
+            "start_hz": 30.0, "stop_hz": 46.5, "octaves_per_min": 0.3}, **kw),
+        "var3_fin_contact_damping_log"),
+    "var3_fin_damper_down_sweep": _variant(
+        lambda **kw: fin_hinge_damper(added_zeta=0.01, levels=(1.5, 1.8, 2.1, 2.4), sweep={
+            "start_hz": 46.5, "stop_hz": 30.0, "rate_hz_per_s": 0.1}, **kw),
+        "var3_fin_damper_down_sweep"),
+    "var3_fin_noisy_dip": _variant(
+        lambda **kw: dataclasses.replace(fin_level_dip(depth=0.2, flat_hz=0.8, taper_hz=0.4, **kw),
+                                         noise_g=0.1), "var3_fin_noisy_dip"),
+    "var3_fin_kn620_d2.4": _variant(lambda **kw: _fin_case(
+        "x", "the fin at kn 620 N m/rad and half-gap 2.4 mrad, sweep to 54 Hz (control)",
+        kn=620.0, deltas=0.0024, sweep=dict(FIN_SWEEP, stop_hz=54.0), **kw),
+        "var3_fin_kn620_d2.4"),
+    "var3_fin_kn450_d2.8_rate0.15": _variant(lambda **kw: _fin_case(
+        "x", "the fin at kn 450 N m/rad, half-gap 2.8 mrad, 0.15 Hz/s (control)", kn=450.0,
+        deltas=0.0028, sweep=dict(FIN_SWEEP, rate_hz_per_s=0.15), **kw),
+        "var3_fin_kn450_d2.8_rate0.15"),
+    "var3_fin_unequal_gaps_wide": _variant(
+        lambda **kw: fin_unequal_gaps(deltas=(0.0021, 0.0039), **kw), "var3_fin_unequal_gaps_wide"),
+    "var3_fin_stiff_out_p0.4": _variant(
+        lambda **kw: fin_stiffness(shift=0.004, part="outboard", **kw), "var3_fin_stiff_out_p0.4"),
+    "var3_fin_stiff_in_p0.8_ref": _variant(
+        lambda **kw: fin_stiffness(shift=0.008, ref=True, **kw), "var3_fin_stiff_in_p0.8_ref"),
+})
 ALL_CASES = {**CONDITIONS, **VARIANTS}
 
 def generate(name: str, out: Path, *, force=False, redraw=False, log=print) -> dict:

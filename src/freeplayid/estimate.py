@@ -37,6 +37,7 @@ from .signal import (
     extract_backbone_points,
 )
 from .sweep import Sweep
+from .threads import each
 
 __all__ = ["PlainEstimate", "plain_estimate", "refit", "extract_points", "run_sweep_law",
            "weights_of"]
@@ -110,8 +111,10 @@ def run_sweep_law(dataset, run, *, use_hint: bool = True):
 
 def extract_points(dataset, *, extraction: Extraction, progress: bool = False,
                    desc: str = "extracting points") -> tuple[BackbonePoints, dict]:
-    """Points of every usable run (one run at a time) and the rejected runs {run: reason};
-    with ``progress``, a bar ``desc`` over the runs.
+    """Points of every usable run and the rejected runs {run: reason}; with ``progress``, a bar
+    ``desc`` over the runs. The runs are extracted at once on threads
+    (:func:`freeplayid.threads.each`: the pursuit's compiled loop releases the GIL); each run's
+    points are those of one thread.
 
     A run without a hint (or with ``extraction.use_sweep_hint`` False) gets one law for all its
     channels,
@@ -119,26 +122,22 @@ def extract_points(dataset, *, extraction: Extraction, progress: bool = False,
     estimate can lock onto another mode); none found: the extraction tries each channel and
     rejects the ones without a sweep, with the reason.
     """
-    points, curves, rejected = [], [], {}
-    bar = progress_bar(dataset.runs, desc=desc, unit="run",
+    bar = progress_bar(total=len(dataset.runs), desc=desc, unit="run",
                        show=progress and len(dataset.runs) > 1)
-    for run in bar:
-        if run.reason:
+
+    def one_run(run):
+        try:
+            return None if run.reason else _run_extraction(dataset, run, extraction)
+        finally:
+            bar.update()
+
+    with bar:
+        results = each(one_run, dataset.runs, name="extract")
+    points, curves, rejected = [], [], {}
+    for run, res in zip(dataset.runs, results, strict=True):
+        if res is None:
             rejected[run.file] = run.reason
             continue
-        if run.sweep and extraction.use_sweep_hint:
-            sweep = Sweep(**run.sweep)
-        else:
-            try:
-                sweep = run_sweep_law(dataset, run, use_hint=False)[0]
-            except ValueError:
-                sweep = None
-        base = None if run.base is None else [dataset.to_si(run.base)]
-        res = extract_backbone_points(
-            [dataset.to_si(run.data)], dataset.sample_rate, quantity=dataset.quantity,
-            channel_names=list(dataset.channels), run_names=[run.file], sweep=sweep, base=base,
-            base_name=dataset.base_channel or "base", extraction=extraction,
-        )
         points += res.points
         curves += res.curves
         if res.rejected_runs:
@@ -146,6 +145,23 @@ def extract_points(dataset, *, extraction: Extraction, progress: bool = False,
     pts = BackbonePoints(tuple(points), tuple(rejected), tuple(curves), dataset.quantity,
                          extraction.method)
     return pts, rejected
+
+
+def _run_extraction(dataset, run, extraction: Extraction) -> BackbonePoints:
+    """The points of one run (a ``Dataset`` run) of ``dataset``."""
+    if run.sweep and extraction.use_sweep_hint:
+        sweep = Sweep(**run.sweep)
+    else:
+        try:
+            sweep = run_sweep_law(dataset, run, use_hint=False)[0]
+        except ValueError:
+            sweep = None
+    base = None if run.base is None else [dataset.to_si(run.base)]
+    return extract_backbone_points(
+        [dataset.to_si(run.data)], dataset.sample_rate, quantity=dataset.quantity,
+        channel_names=list(dataset.channels), run_names=[run.file], sweep=sweep, base=base,
+        base_name=dataset.base_channel or "base", extraction=extraction,
+    )
 
 
 def check_enough(points: BackbonePoints, rejected: dict, where) -> None:

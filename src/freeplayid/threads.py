@@ -2,9 +2,8 @@
 
 A replay's runs are independent: each is simulated alone (the exponential engine's numba
 kernels, which release the GIL), with the same arithmetic on any thread, so doing them at once
-changes no number. :func:`each` does that on up to :func:`cores` threads. (The extraction of a
-test's runs gains nothing from threads: measured with ``benchmarks/identify_time.py``, its
-Python-level work holds the GIL.)
+changes no number. So are a test's runs for the extraction (ACMP's pursuit is one compiled loop
+that releases the GIL). :func:`each` does that on up to :func:`cores` threads.
 """
 
 from __future__ import annotations

@@ -33,10 +33,18 @@ import threading
 from collections import OrderedDict
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 from scipy import signal as sps
 
-from .banded import demodulate, smooth_second_difference
+from .banded import (
+    _solve,  # the compiled triangular solves, called from the pursuit
+    demodulate,
+    demodulate_into,
+    not_positive_definite,
+    second_difference_gram,
+    smoothing_factor,
+)
 from .decimate import decimate, decimation_factor
 from .validate import as_signal, check_positive
 
@@ -387,28 +395,67 @@ _PURSUITS = _Pursuits()
 def _pursue(x, f, fsd, *, alpha, alpha_min, beta, adapt, tol, max_iter):
     """The pursuit's iterations at the working rate ``fsd``: (frequency, final alpha,
     iterations, converged). Each demodulates at the current frequency, moves the frequency by
-    the smoothed phase drift of the demodulated pair and, with ``adapt``, narrows alpha."""
-    xm_prev = None
-    converged = False
-    it = 0
-    for it in range(1, max_iter + 1):  # noqa: B007 (the count is reported)
-        phi = _phase(f, fsd)
-        u, v = demodulate(x, phi, alpha)
-        xm = u * np.cos(phi) + v * np.sin(phi)
-        du = np.gradient(u) * fsd
-        dv = np.gradient(v) * fsd
-        a2 = u * u + v * v
-        df = (v * du - u * dv) / (2 * np.pi * np.maximum(a2, 1e-300))
-        f = f + smooth_second_difference(df, beta)
-        f = np.clip(f, 1e-6 * fsd, 0.5 * fsd)
-        if adapt:
-            den = float(xm @ x)
-            if den > 0:
-                alpha = max(alpha_min, min(alpha * float(xm @ xm) / den, alpha))
-        if xm_prev is not None:
-            change = float(np.sum((xm - xm_prev) ** 2)) / max(float(xm_prev @ xm_prev), 1e-300)
-            if change < tol:
+    the smoothed phase drift of the demodulated pair and, with ``adapt``, narrows alpha; all of
+    it in one compiled call (:func:`_pursuit`), which releases the GIL."""
+    x = np.ascontiguousarray(x, dtype=float)
+    p0, p1, p2 = second_difference_gram(x.shape[0])
+    f, alpha, it, converged, bad = _pursuit(
+        x, np.array(f, dtype=float), float(fsd), float(alpha), float(alpha_min),
+        smoothing_factor(x.shape[0], beta), p0, p1, p2, bool(adapt), float(tol), int(max_iter))
+    if bad:
+        raise not_positive_definite(bad)
+    return f, alpha, it, converged
+
+
+@numba.njit(nogil=True, cache=True)
+def _pursuit(x, f, fsd, alpha, alpha_min, smoothing, p0, p1, p2, adapt, tol,
+             max_iter):  # pragma: no cover (compiled)
+    """:func:`_pursue`'s loop on ``f`` (updated in place): (f, alpha, iterations, converged,
+    0 or the leading minor of a demodulation that was not positive definite). Step by step the
+    numpy composition it replaced (``demodulate``, ``np.gradient``, ``smooth_second_difference``;
+    tests/test_signal.py checks the two agree)."""
+    n = x.shape[0]
+    phi, u, v = np.empty(n), np.empty(n), np.empty(n)
+    c, s, xm, prev, df = np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n)
+    ab = np.empty((5, 2 * n))
+    two_pi = 2 * math.pi
+    converged, it = False, 0
+    for it in range(1, max_iter + 1):
+        total = 0.0  # the phase of f (trapezoidal rule, 0 first), as _phase
+        phi[0] = 0.0
+        for k in range(1, n):
+            total += 0.5 * (f[k] + f[k - 1])
+            phi[k] = two_pi * (total / fsd)
+        bad = demodulate_into(x, phi, alpha, p0, p1, p2, ab, c, s, u, v)
+        if bad:
+            return f, alpha, it, converged, bad
+        for k in range(n):
+            xm[k] = u[k] * c[k] + v[k] * s[k]
+        for k in range(n):  # np.gradient (one-sided at the ends) times fsd
+            if k == 0:
+                du, dv = u[1] - u[0], v[1] - v[0]
+            elif k == n - 1:
+                du, dv = u[k] - u[k - 1], v[k] - v[k - 1]
+            else:
+                du, dv = 0.5 * (u[k + 1] - u[k - 1]), 0.5 * (v[k + 1] - v[k - 1])
+            a2 = u[k] * u[k] + v[k] * v[k]
+            df[k] = (v[k] * (du * fsd) - u[k] * (dv * fsd)) / (two_pi * max(a2, 1e-300))
+        step = _solve(smoothing, df)
+        for k in range(n):
+            f[k] = min(max(f[k] + step[k], 1e-6 * fsd), 0.5 * fsd)
+        mm, mx = 0.0, 0.0
+        for k in range(n):
+            mm += xm[k] * xm[k]
+            mx += xm[k] * x[k]
+        if adapt and mx > 0:
+            alpha = max(alpha_min, min(alpha * mm / mx, alpha))
+        if it > 1:
+            change, norm = 0.0, 0.0
+            for k in range(n):
+                change += (xm[k] - prev[k]) ** 2
+                norm += prev[k] * prev[k]
+            if change / max(norm, 1e-300) < tol:
                 converged = True
                 break
-        xm_prev = xm
-    return f, alpha, it, converged
+        prev[:] = xm
+    return f, alpha, it, converged, 0

@@ -23,8 +23,8 @@ import math
 import numba
 import numpy as np
 
-__all__ = ["second_difference_gram", "demodulate", "smooth_second_difference",
-           "cholesky_banded", "solve_factored"]
+__all__ = ["second_difference_gram", "demodulate", "demodulate_into", "smoothing_factor",
+           "smooth_second_difference", "cholesky_banded", "solve_factored"]
 
 
 def second_difference_gram(n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -51,7 +51,8 @@ def demodulate(x: np.ndarray, phase: np.ndarray, alpha: float) -> tuple[np.ndarr
 
     With u and v interleaved (y = [u_0, v_0, u_1, v_1, ...]) the matrix is symmetric with 4
     super-diagonals: K^T K couples (u_n, v_n) (offset 1), P couples u_n with u_{n+1}, u_{n+2}
-    (offsets 2 and 4). One banded Cholesky solve of 2N unknowns, O(N) time and memory.
+    (offsets 2 and 4). One banded Cholesky solve of 2N unknowns, O(N) time and memory, assembled,
+    factored and solved in one compiled pass (:func:`demodulate_into`).
 
     Parameters
     ----------
@@ -62,24 +63,49 @@ def demodulate(x: np.ndarray, phase: np.ndarray, alpha: float) -> tuple[np.ndarr
     -------
     u, v : ndarray, shape (N,) [signal units]
     """
+    x = np.ascontiguousarray(x, dtype=float)
     n = x.shape[0]
-    c = np.cos(phase)
-    s = np.sin(phase)
     p0, p1, p2 = second_difference_gram(n)
+    u, v = np.empty(n), np.empty(n)
+    bad = demodulate_into(x, np.ascontiguousarray(phase, dtype=float), float(alpha), p0, p1, p2,
+                          np.empty((5, 2 * n)), np.empty(n), np.empty(n), u, v)
+    if bad:
+        raise not_positive_definite(bad)
+    return u, v
+
+
+@numba.njit(nogil=True, cache=True)
+def demodulate_into(x, phase, alpha, p0, p1, p2, ab, c, s, u, v):  # pragma: no cover (compiled)
+    """:func:`demodulate` into ``u``, ``v`` (and the phase's cosine and sine into ``c``, ``s``),
+    with ``ab`` (5, 2N) as work space; the Gram's diagonals ``p0, p1, p2`` of
+    :func:`second_difference_gram`. Returns 0, or the failing leading minor (not positive
+    definite)."""
+    n = x.shape[0]
     inv = 1.0 / alpha
-    ab = np.zeros((5, 2 * n))  # upper form: ab[4 + i - j, j] = A[i, j]
-    ab[4, 0::2] = c * c + inv * p0
-    ab[4, 1::2] = s * s + inv * p0
-    ab[3, 1::2] = c * s  # A[2k, 2k+1]
-    ab[2, 2::2] = inv * p1  # A[2k, 2k+2]
-    ab[2, 3::2] = inv * p1
-    ab[0, 4::2] = inv * p2  # A[2k, 2k+4]
-    ab[0, 5::2] = inv * p2
     rhs = np.empty(2 * n)
-    rhs[0::2] = c * x
-    rhs[1::2] = s * x
-    y = solve_factored(cholesky_banded(ab), rhs)
-    return y[0::2], y[1::2]
+    for k in range(n):  # upper form: ab[4 + i - j, j] = A[i, j]
+        ck, sk = math.cos(phase[k]), math.sin(phase[k])
+        c[k], s[k] = ck, sk
+        j = 2 * k
+        ab[4, j], ab[4, j + 1] = ck * ck + inv * p0[k], sk * sk + inv * p0[k]
+        ab[3, j], ab[3, j + 1] = 0.0, ck * sk  # A[2k, 2k+1]
+        ab[1, j], ab[1, j + 1] = 0.0, 0.0
+        q1 = inv * p1[k - 1] if k >= 1 else 0.0  # A[2k-2, 2k] and A[2k-1, 2k+1]
+        ab[2, j], ab[2, j + 1] = q1, q1
+        q2 = inv * p2[k - 2] if k >= 2 else 0.0  # A[2k-4, 2k] and A[2k-3, 2k+1]
+        ab[0, j], ab[0, j + 1] = q2, q2
+        rhs[j], rhs[j + 1] = ck * x[k], sk * x[k]
+    bad = _factor(ab)
+    if bad:
+        return bad
+    y = _solve(ab, rhs)
+    for k in range(n):
+        u[k], v[k] = y[2 * k], y[2 * k + 1]
+    return 0
+
+
+def not_positive_definite(minor: int) -> np.linalg.LinAlgError:
+    return np.linalg.LinAlgError(f"banded matrix not positive definite (leading minor {minor})")
 
 
 def smooth_second_difference(z: np.ndarray, beta: float) -> np.ndarray:
@@ -90,8 +116,14 @@ def smooth_second_difference(z: np.ndarray, beta: float) -> np.ndarray:
     z : ndarray, shape (N,) [any]
     beta : float [-], > 0
     """
-    factor = _smoothing_factor(z.shape[0], float(beta))
+    factor = smoothing_factor(z.shape[0], beta)
     return solve_factored(factor, np.asarray(z, dtype=float))
+
+
+def smoothing_factor(n: int, beta: float) -> np.ndarray:
+    """Upper banded Cholesky factor of ``P / beta + I`` for records of ``n`` samples (kept per
+    ``(n, beta)``; read-only): :func:`smooth_second_difference` is ``solve_factored`` with it."""
+    return _smoothing_factor(int(n), float(beta))
 
 
 @functools.lru_cache(maxsize=16)
@@ -153,7 +185,7 @@ def cholesky_banded(ab: np.ndarray) -> np.ndarray:
     ab = np.ascontiguousarray(ab, dtype=float)
     bad = _factor(ab)
     if bad:
-        raise np.linalg.LinAlgError(f"banded matrix not positive definite (leading minor {bad})")
+        raise not_positive_definite(bad)
     return ab
 
 
