@@ -11,7 +11,7 @@ from ..dataset import Dataset
 from ..estimate import run_sweep_law
 from ..quantity import G, check_quantity
 from ..signal import window_amplitudes
-from ..threads import each
+from ..threads import cores, each
 from .excitation import measured_sweep
 
 __all__ = ["replay_sweeps", "replay_levels", "replay_excitations", "replay_dataset",
@@ -149,7 +149,19 @@ def _each_group(simulate, groups: list, engine: str) -> list:
     workqueue). The members and their arithmetic are the same either way: the replays are bit
     for bit those of one thread."""
     safe = engine == "expo" and len(groups) > 1 and _threadsafe_numba()
-    return each(simulate, groups, name="replay", workers=None if safe else 1)
+    if not safe:
+        return each(simulate, groups, name="replay", workers=1)
+    import numba
+
+    share = max(1, cores() // min(len(groups), cores()))
+
+    def alone(group):
+        # this worker's parallel kernels on its share of the cores (numba's count is per
+        # thread): a batch of one member on a team of several leaves the others spinning
+        numba.set_num_threads(share)
+        return simulate(group)
+
+    return each(alone, groups, name="replay")
 
 
 @functools.cache
