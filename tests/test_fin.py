@@ -190,3 +190,56 @@ def test_default_influence_is_rigid_and_close_to_the_exact_load_in_mode_1(cfg):
         assert abs(ratio - 1) < 0.02
     with pytest.raises(ValueError, match="influence"):
         reduce_fin(fe, influence="modal")
+
+
+def test_part_ratios_reach_each_mode_as_the_complex_eigenvalues_of_part_damping_say(cfg):
+    """A ratio per plate (inboard 1 %, outboard 4 %, hinge springs 2 %): each zero-clearance
+    mode's ratio by its strain energy (the modal strain energy method) against the reference it
+    approximates, the complex eigenvalues of structural damping in each part,
+    (K_in (1 + 2i z_in) + K_out (1 + 2i z_out) + kn B B^T (1 + 2i z_h)) phi = lam M phi, whose
+    ratios Im(lam) / (2 Re(lam)) agree to first order; the system's C carries those ratios."""
+    import scipy.linalg
+
+    from freeplayid.model.fin.fe import fin_reduction, mode_damping
+
+    two = cfg.replace(zeta=0.02, part_zeta={"inboard": 0.01, "outboard": 0.04})
+    fe = build_fin_fe(two)
+    red = fin_reduction(fe)
+    system = reduce_fin(fe)
+    B = system.hinge_matrix()
+    f, zeta = mode_damping(fe, red, B)
+    T = np.asarray(red.T)
+    K_in, K_out = (T.T @ (fe.part_stiffness(p) @ T) for p in ("inboard", "outboard"))
+    np.testing.assert_allclose(K_in + K_out, red.K_r, rtol=0, atol=1e-9 * abs(red.K_r).max())
+    K_h = two.kn * B @ B.T
+    lam = scipy.linalg.eigvals(K_in * (1 + 0.02j) + K_out * (1 + 0.08j) + K_h * (1 + 0.04j),
+                               red.M_r)
+    lam = lam[np.argsort(lam.real)]
+    ref = lam.imag / (2 * lam.real)
+    np.testing.assert_allclose(np.sqrt(lam.real) / (2 * np.pi), f, rtol=1e-3)
+    np.testing.assert_allclose(zeta, ref, rtol=3e-3)  # second order in the ratios: 0.18 %
+    assert np.all((zeta > 0.01) & (zeta < 0.04)) and np.ptp(zeta[:4]) > 5e-3  # modes differ
+    modes = modal_analysis(system.M, system.closed_stiffness(two.kn))
+    w = 2 * np.pi * modes.frequencies_hz
+    np.testing.assert_allclose(np.einsum("ij,ik,kj->j", modes.shapes, system.C, modes.shapes)
+                               / (2 * w), zeta, rtol=1e-6)
+    # the same ratio in every part and the springs: the one-ratio model, exactly
+    same = reduce_fin(build_fin_fe(cfg.replace(zeta=0.02, part_zeta={"inboard": 0.02,
+                                                                     "outboard": 0.02})))
+    one = reduce_fin(build_fin_fe(cfg.replace(zeta=0.02)))
+    np.testing.assert_allclose(same.C, one.C, rtol=0, atol=1e-9 * abs(one.C).max())
+
+
+def test_part_ratios_in_the_config(mapping):
+    m = copy.deepcopy(mapping)
+    m["damping"]["parts"] = {"outboard": 0.05}
+    assert load_fin_config().replace(part_zeta={"outboard": 0.05}).part_zeta == \
+        (("outboard", 0.05),)
+    fin_from_config(m)  # a part left out gets damping.zeta
+    for bad in ({"wing": 0.01}, {"inboard": 1.5}, [0.01]):
+        m["damping"]["parts"] = bad
+        with pytest.raises(ValueError, match="damping.parts"):
+            fin_from_config(m)
+    m["damping"].update(parts={"inboard": 0.01}, model="rayleigh")
+    with pytest.raises(ValueError, match="needs `damping.model` 'modal'"):
+        fin_from_config(m)

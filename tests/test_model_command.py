@@ -213,3 +213,30 @@ def test_identify_reports_the_zero_clearance_check(tmp_path):
 
     with pytest.raises(DatasetError, match="reference_modes"):
         read_dataset(tmp_path)
+
+
+def test_each_parts_measured_damping_reaches_the_modes():
+    """Outboard tests at 1 %, inboard at 4 %: each part's mean ratio, and each zero-clearance
+    mode's ratio between them by its strain energy (the hinge springs at the mean of all);
+    the fin's C carries them; the report and metrics say so."""
+    from freeplayid.model import MeasuredModes, ModalTest
+
+    cfg = load_fin_config()
+    out, _ = part_modes(cfg, "outboard_free", n_modes=2)
+    inb, _ = part_modes(cfg, "inboard_clamped", n_modes=2)
+    test = ModalTest({"outboard_free": MeasuredModes(out, 0.01),
+                      "inboard_clamped": MeasuredModes(inb, [0.04, np.nan])})
+    b = model_from_modal_test(cfg, test)
+    assert dict(b.config.part_zeta) == pytest.approx({"inboard": 0.04, "outboard": 0.01})
+    assert b.zeta == pytest.approx(0.02)  # the mean of the three measured ratios
+    z = np.array([r for _, r in b.mode_zeta])
+    assert np.all((z > 0.01) & (z < 0.04)) and np.ptp(z[:3]) > 2e-3
+    modes = modal_analysis(b.system.M, b.system.closed_stiffness(cfg.kn))
+    w = 2 * np.pi * modes.frequencies_hz
+    np.testing.assert_allclose(
+        np.einsum("ij,ik,kj->j", modes.shapes, b.system.C, modes.shapes) / (2 * w), z, rtol=1e-6)
+    assert "strain energy" in b.report() and "inboard 0.04" in b.report()
+    assert b.metrics()["part_zeta"] == pytest.approx({"inboard": 0.04, "outboard": 0.01})
+    # one ratio for every test: every mode at it, as before
+    same = model_from_modal_test(cfg, ModalTest({"outboard_free": MeasuredModes(out, 0.025)}))
+    assert np.allclose([r for _, r in same.mode_zeta], 0.025, rtol=1e-9)

@@ -11,7 +11,7 @@ N m/rad). The layout of the mapping is the one of the default fin ``freeplayid/m
     mesh: {element_size}
     hinge: {x: [left, mid, right], knuckle_width, kn, delta}
     points: {top_left: [x, y], lower_right: [x, y], exciting: [x, y]}
-    damping: {model: modal | rayleigh, zeta, f1, f2}
+    damping: {model: modal | rayleigh, zeta, f1, f2, parts: {inboard: zeta, outboard: zeta}}
     reduction: {method: craig_bampton | guyan, n_modes, interior: system | fixed_interface}
 """
 
@@ -139,6 +139,11 @@ class FinConfig:
         Exciting point on the clamped root edge (the base; its Uz is the large-mass DOF).
     damping_model : "modal" or "rayleigh"
     zeta : float [-]
+    part_zeta : tuple of (str, float)
+        Modal damping only: a ratio per part (``(("inboard", z1), ("outboard", z2))``; YAML
+        ``damping.parts``). Each zero-clearance mode then gets the ratio of its strain energy's
+        parts (the modal strain energy method, :func:`freeplayid.model.fin.fe.mode_damping`),
+        the hinge springs' share at ``zeta``. Empty (default): ``zeta`` in every mode.
     rayleigh_hz : (float, float) [Hz]
         f1, f2 of Rayleigh damping (ignored for modal damping).
     reduction : "craig_bampton" or "guyan"
@@ -165,6 +170,7 @@ class FinConfig:
     damping_model: str = "modal"
     zeta: float = 0.02
     rayleigh_hz: tuple = (30.0, 60.0)
+    part_zeta: tuple = ()
     reduction: str = "craig_bampton"
     n_modes: int = 6
     interior: str = "system"
@@ -225,6 +231,19 @@ class FinConfig:
         if not (0 < f1 < f2):
             raise ValueError(f"`damping.f1`, `damping.f2` must satisfy 0 < f1 < f2, got {f1}, {f2}")
         object.__setattr__(self, "rayleigh_hz", (f1, f2))
+        try:
+            pz = dict(self.part_zeta)
+            bad = bool(set(pz) - set(PARTS)) or not all(0 <= float(v) < 1 for v in pz.values())
+        except (TypeError, ValueError):
+            pz, bad = self.part_zeta, True
+        if bad:
+            raise ValueError(f"`damping.parts` must map parts among {list(PARTS)} to ratios in "
+                             f"[0, 1), got {pz!r}")
+        if pz and self.damping_model != "modal":
+            raise ValueError("`damping.parts` needs `damping.model` 'modal' (a ratio per part "
+                             f"is given to each mode by its strain energy), got "
+                             f"{self.damping_model!r}")
+        object.__setattr__(self, "part_zeta", tuple((k, float(pz[k])) for k in PARTS if k in pz))
         if self.reduction not in ("craig_bampton", "guyan"):
             raise ValueError(
                 f"`reduction.method` must be 'craig_bampton' or 'guyan', got {self.reduction!r}"
@@ -254,7 +273,7 @@ class FinConfig:
         h = _keys(m["hinge"], hinge_keys, "hinge", required=hinge_keys)
         pt_keys = ("top_left", "lower_right", "exciting")
         pts = _keys(m["points"], pt_keys, "points", required=pt_keys[:2])
-        d = _keys(m.get("damping", {}), ("model", "zeta", "f1", "f2"), "damping")
+        d = _keys(m.get("damping", {}), ("model", "zeta", "f1", "f2", "parts"), "damping")
         r = _keys(m.get("reduction", {}), ("method", "n_modes", "interior"), "reduction")
         return cls(
             root_chord=g["root_chord"],
@@ -273,6 +292,7 @@ class FinConfig:
             damping_model=d.get("model", "modal"),
             zeta=d.get("zeta", 0.02),
             rayleigh_hz=(d.get("f1", 30.0), d.get("f2", 60.0)),
+            part_zeta=d.get("parts") or (),
             reduction=r.get("method", "craig_bampton"),
             n_modes=r.get("n_modes", 6),
             interior=r.get("interior", "system"),

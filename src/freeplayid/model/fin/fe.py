@@ -48,6 +48,7 @@ __all__ = [
     "reduce_fin",
     "fin_from_config",
     "default_fin",
+    "mode_damping",
     "part_matrices",
     "part_meshes",
     "REDUCED_DOF_NAMES",
@@ -132,6 +133,12 @@ class FinFE:
             _unit=self._unit,
             _to_plate=self._to_plate,
         )
+
+    def part_stiffness(self, part: str) -> sp.csr_matrix:
+        """The stiffness of one plate (``part`` in PARTS) over the free DOFs; ``K`` is their
+        sum."""
+        props = self.config.parts[part]
+        return flexural_rigidity(props.E, props.thickness, props.nu) * self._unit[part][0]
 
     def plate_displacement(self, x) -> dict:
         """Nodal (w, theta_x, theta_y) of each plate from free DOFs ``x`` of shape (n,).
@@ -395,7 +402,8 @@ def reduce_fin(
     cfg = fe.config
     K_closed = red.K_r + cfg.kn * B @ B.T
     if cfg.damping_model == "modal":
-        C = modal_damping(red.M_r, K_closed, cfg.zeta)
+        C = modal_damping(red.M_r, K_closed, mode_damping(fe, red, B)[1] if cfg.part_zeta
+                          else cfg.zeta)
     else:
         f1, f2 = cfg.rayleigh_hz
         C = rayleigh_damping(red.M_r, K_closed, f1=f1, f2=f2, zeta=cfg.zeta)
@@ -407,6 +415,29 @@ def reduce_fin(
         hinge_pairs=FIN_HINGE_PAIRS,
         base_influence=r,
     )
+
+
+def mode_damping(fe: FinFE, red: Reduction, B: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(frequencies [Hz], damping ratios [-]) of the reduced fin's zero-clearance modes (at the
+    configuration's kn) from a ratio per part (``config.part_zeta``; a part without one, and
+    the hinge springs, at ``config.zeta``), by the modal strain energy method: mode i's ratio
+    is its parts' ratios weighted by the shares of its strain energy,
+
+        zeta_i = sum_p zeta_p phi_i^T K_p phi_i / phi_i^T K phi_i,
+
+    K_p the part's plate stiffness reduced with the model's basis (T^T K_p T) and the hinge
+    springs' kn B B^T. Exact to first order in the ratios for damping proportional to each
+    part's stiffness (structural damping of each plate); tests/test_model_fin.py checks it
+    against the complex eigenvalues of that damping."""
+    cfg = fe.config
+    T = np.asarray(red.T)
+    zeta = dict(cfg.part_zeta)
+    energy_of = [T.T @ (fe.part_stiffness(p) @ T) for p in PARTS] + [cfg.kn * B @ B.T]
+    ratio = [zeta.get(p, cfg.zeta) for p in PARTS] + [cfg.zeta]
+    modes = modal_analysis(red.M_r, red.K_r + cfg.kn * B @ B.T)
+    phi = modes.shapes
+    energy = np.array([np.einsum("ij,ik,kj->j", phi, Kp, phi) for Kp in energy_of])
+    return modes.frequencies_hz, (np.array(ratio) @ energy) / energy.sum(axis=0)
 
 
 def fin_from_config(mapping) -> FreeplaySystem:

@@ -125,6 +125,10 @@ class ModelBuild:
         Modal damping ratio of the reduced model (measured mean, or the configuration's).
     zeta_source : str
         "modal test" or "configuration".
+    mode_zeta : tuple of (float, float)
+        With measured ratios: (frequency [Hz], damping ratio [-]) of each zero-clearance mode of
+        the reduced fin, each part's measured mean ratio weighted by the mode's strain energy in
+        that part (:func:`freeplayid.model.fin.fe.mode_damping`; ``config.part_zeta``).
     clamp_stiffness : float or None [N m/rad per m]
     n_evaluations : int
     success : bool
@@ -140,6 +144,7 @@ class ModelBuild:
     separable: bool = True
     zeta: float = 0.0
     zeta_source: str = "configuration"
+    mode_zeta: tuple = ()
     clamp_stiffness: float | None = None
     n_evaluations: int = 0
     success: bool = True
@@ -170,7 +175,10 @@ class ModelBuild:
         """JSON-ready summary (``metrics.json``)."""
         out = {
             "updated": self.updated, "condition": self.condition, "separable": self.separable,
-            "zeta": self.zeta, "zeta_source": self.zeta_source, "n_evaluations":
+            "zeta": self.zeta, "zeta_source": self.zeta_source,
+            "part_zeta": dict(self.config.part_zeta),
+            "mode_zeta": [{"frequency_hz": f, "zeta": z} for f, z in self.mode_zeta],
+            "n_evaluations":
             self.n_evaluations, "success": self.success,
             "parameters": {k: {"initial": a, "updated": b, "scale": s}
                            for k, (a, b, s) in self.parameters.items()},
@@ -211,11 +219,31 @@ class ModelBuild:
         lines += ["## Reduced model (model.npz)", "",
                   f"- DOFs ({len(s.dof_names)}): {', '.join(s.dof_names)}",
                   f"- hinge pairs: {s.hinge_pairs}",
-                  f"- damping: modal, zeta = {self.zeta:.4g} ({self.zeta_source}), on the "
-                  f"zero-clearance model at kn = {self.config.kn:g} N·m/rad", ""]
+                  f"- damping: {_damping_line(self)}", ""]
         if figures:
             lines += ["## Figures", ""] + [f"![{f}]({f})" for f in figures]
         return "\n".join(lines) + "\n"
+
+
+def _mode_zeta(system: FreeplaySystem, kn: float) -> tuple:
+    """(frequency [Hz], damping ratio) of each zero-clearance mode at ``kn`` of a system whose
+    C is modal in those modes: phi^T C phi / (2 w)."""
+    modes = modal_analysis(system.M, system.closed_stiffness(kn))
+    w = 2 * np.pi * modes.frequencies_hz
+    z = np.einsum("ij,ik,kj->j", modes.shapes, system.C, modes.shapes) / (2 * w)
+    return tuple(zip(modes.frequencies_hz.tolist(), z.tolist(), strict=True))
+
+
+def _damping_line(build: ModelBuild) -> str:
+    """The report's damping line: one ratio, or each part's and the modes' they give."""
+    where = f"on the zero-clearance model at kn = {build.config.kn:g} N·m/rad"
+    if not build.mode_zeta:
+        return f"modal, zeta = {build.zeta:.4g} ({build.zeta_source}), {where}"
+    parts = ", ".join(f"{p} {z:.4g}" for p, z in build.config.part_zeta)
+    modes = ", ".join(f"{f:.1f} Hz {z:.4g}" for f, z in build.mode_zeta[:4])
+    return (f"modal, {where}: each mode's ratio is the parts' measured mean ratios ({parts}; "
+            f"the hinge springs {build.zeta:.4g}, the mean of all) weighted by its strain "
+            f"energy in each: {modes}, …")
 
 
 # ---------------------------------------------------------------------------- part test models
@@ -383,8 +411,12 @@ def model_from_modal_test(
     cfg, k_theta = _apply(cfg0, names, residual.p0 * np.exp(x), clamp_stiffness)
     zeta_meas = modal_test.mean_damping()
     if zeta_meas is not None:
-        cfg = cfg.replace(zeta=zeta_meas, damping_model="modal")
+        # each part's measured mean reaches each mode by its strain energy (reduce_fin); the
+        # hinge springs, which no test isolates, at the mean of all
+        part_zeta = modal_test.part_damping({t: p for t, (p, _) in TEST_PART.items()})
+        cfg = cfg.replace(zeta=zeta_meas, damping_model="modal", part_zeta=part_zeta)
     system = reduce_fin(build_fin_fe(cfg))
+    mode_zeta = _mode_zeta(system, cfg.kn) if cfg.part_zeta else ()
     p0 = residual.p0
     updated = {n: (float(a), float(b), float(b / a))
                for n, a, b in zip(names, p0, p0 * np.exp(x), strict=True)}
@@ -393,8 +425,8 @@ def model_from_modal_test(
         comparisons=_comparisons(modal_test, before, after), condition=condition,
         separable=bool(not names or condition < CONDITION_LIMIT),
         zeta=cfg.zeta, zeta_source="modal test" if zeta_meas is not None else "configuration",
-        clamp_stiffness=k_theta, n_evaluations=residual.n_evaluations, success=success,
-        message=message)
+        mode_zeta=mode_zeta, clamp_stiffness=k_theta, n_evaluations=residual.n_evaluations,
+        success=success, message=message)
 
 
 def _check_parameters(names: list[str], clamp_stiffness: float | None) -> None:

@@ -102,6 +102,18 @@ class ModalTest:
         """Measured modes over all tests."""
         return sum(t.n_modes for t in self.tests.values())
 
+    def part_damping(self, part_of: dict) -> dict:
+        """Mean measured damping ratio of each part {part: ratio} over its tests' modes
+        (``part_of``: test name -> part); a part without a measured ratio is left out."""
+        out = {}
+        for part in dict.fromkeys(part_of.values()):
+            z = np.concatenate([np.asarray(t.damping, float) for name, t in self.tests.items()
+                                if part_of.get(name) == part] or [np.empty(0)])
+            z = z[np.isfinite(z)]
+            if z.size:
+                out[part] = float(z.mean())
+        return out
+
     def mean_damping(self) -> float | None:
         """Mean of the measured damping ratios of all modes, None if none was measured."""
         z = np.concatenate([t.damping for t in self.tests.values()])
