@@ -481,6 +481,7 @@ def test_the_replay_statistic_can_be_the_plain_points(measured, system):
                    replay={"jump_point": None, "weighted": False})
     r = res.replay
     assert r.jump_point == "smoothed" and r.kn_statistic == res.plain_fit.kn and r.weights is None
+    assert r.damping_sensitivity is None  # up-sweeps: their peaks measure the damping
     assert r.iterations[0].kn == pytest.approx(res.plain_fit.kn)
     assert abs(res.truth_error["delta"]) < 0.02 and abs(res.truth_error["kn"]) < 0.01
 
@@ -528,6 +529,47 @@ def test_a_network_start_that_cannot_be_replayed_falls_back_to_the_statistic(
     assert not r.failure and r.start == "statistic" and r.converged
     assert r.iterations[0].kn == pytest.approx(base.replay.iterations[0].kn, rel=1e-9)
     assert (net.kn, net.delta) == pytest.approx((base.kn, base.delta), rel=1e-9)
+
+
+@pytest.fixture(scope="module")
+def down_sweeps():
+    """The independent RK4 swept down 60 -> 30 Hz at 0.55, 0.6 and 0.7 g (each run jumps up
+    where its lower branch ends, below the backbone)."""
+    sweep = Sweep(60.0, 30.0, RATE)
+    hint = {"start_hz": 60.0, "stop_hz": 30.0, "rate_hz_per_s": RATE}
+    runs = []
+    for lv in (0.55, 0.6, 0.7):
+        _, _, a, ag = ref.simulate_sdof_sweep(lv, sweep)
+        runs.append(Run(file=f"d{lv:.2f}.csv", time=np.arange(a.size) / ref.FS,
+                        data=(a + ag)[None, :], level_g=lv, sweep=hint, base=ag))
+    return Dataset(name="down-sweep", model=None, quantity="acceleration", units="m/s^2",
+                   sample_rate=ref.FS, channels={"acc": "x"}, runs=tuple(runs),
+                   base_channel="acc_base", truth={"kn": WN * WN, "delta": ref.DELTA})
+
+
+def test_a_down_sweeps_answer_says_how_far_the_damping_moves_it(down_sweeps, system):
+    """Down-sweeps never reach the peak, so their amplitudes hardly measure the damping, while
+    where they jump up depends on it: the answer's move for the model's C 25 % higher, against
+    the whole identification with that C (a new loop from the statistic's fit), in the
+    intervals and the report; up-sweeps (their peaks measure it) carry none. Unweighted, so
+    that both fit one statistic (the weights come from the first replay, which the C moves)."""
+    tight = {"rtol": 1e-5, "max_iter": 20, "weighted": False}
+    fit = {"multistart": MULTISTART}
+    res = identify(down_sweeps, system=system, progress=False, fit=fit, replay=tight)
+    d = res.replay.damping_sensitivity
+    assert d is not None and d.uncertainty == 0.25 and d.runs == ("d0.55.csv", "d0.60.csv",
+                                                                   "d0.70.csv")
+    more = identify(down_sweeps, system=system.replace(C=1.25 * system.C), progress=False,
+                    fit=fit, replay=tight)
+    moved = (abs(math.log(more.kn / res.kn)), abs(math.log(more.delta / res.delta)))
+    assert (d.kn_shift, d.delta_shift) == pytest.approx(moved, rel=0.05, abs=2e-4)
+    assert d.delta_shift > 2e-3  # a move that matters on this reference
+    exact = identify(down_sweeps, system=system, progress=False, fit=fit,
+                     replay={**tight, "damping_uncertainty": 0.0})
+    assert exact.replay.damping_sensitivity is None and (exact.kn, exact.delta) == (res.kn,
+                                                                                   res.delta)
+    assert res.delta_ci95[1] / res.delta > exact.delta_ci95[1] / exact.delta
+    assert "do not measure" in res.report() and "which they do not measure" in res.report()
 
 
 def test_a_down_sweep_whose_first_replay_loses_its_jump_ups_starts_at_a_smaller_gap(

@@ -266,8 +266,8 @@ def _corrected_intervals(rep) -> tuple[tuple, tuple, str]:
     """The corrected estimate's intervals: the Jacobian ones of the statistic's fit (the points
     the replays match, each run's points one observation) moved with the estimate (same
     relative width); with the bootstrap by replay, the smallest interval holding both; widened
-    by the answer's move for the levels' uncertainty where they came from ``level_g``, and for an
-    estimated damping's."""
+    by the answer's move for the levels' uncertainty where they came from ``level_g``, for the
+    damping's where down-sweeps rest on one they do not measure, and for an estimated damping's."""
     (kn_ci, delta_ci) = rep.statistic_ci95
     sk, sd = rep.kn / rep.kn_statistic, rep.delta / rep.delta_statistic
     kn_ci = tuple(v * sk for v in kn_ci)
@@ -284,6 +284,12 @@ def _corrected_intervals(rep) -> tuple[tuple, tuple, str]:
         delta_ci = widen(delta_ci, rep.delta, level.delta_shift)
         source += (f", with the levels' {100 * level.uncertainty:g} % uncertainty (no base "
                    "channel)")
+    damped = getattr(rep, "damping_sensitivity", None)
+    if damped is not None:  # a damping the down-sweeps do not measure
+        kn_ci = widen(kn_ci, rep.kn, damped.kn_shift)
+        delta_ci = widen(delta_ci, rep.delta, damped.delta_shift)
+        source += (f", with the damping's {100 * damped.uncertainty:g} % uncertainty "
+                   "(down-sweeps do not measure it)")
     damping = rep.damping
     if damping is not None and damping.kn_shift is not None:  # an estimated zeta is uncertain
         kn_ci = widen(kn_ci, rep.kn, damping.kn_shift)
@@ -307,7 +313,8 @@ def _corrected_result(dataset, system, plain: PlainEstimate, rep, mode: int, t0:
     kn_ci, delta_ci, source = _corrected_intervals(rep)
     kn_ci = widen(kn_ci, rep.kn, error.kn_shift)
     validation = _zero_clearance_check(dataset, system, rep.kn)
-    direction = sweep_direction_check(plain.points, replayed=True)
+    direction = sweep_direction_check(plain.points, replayed=True,
+                                      damping=getattr(rep, "damping_sensitivity", None))
     channels = replayed_channel_check(rep.resonance or {})
     verdict = make_verdict(
         record_checks(records) + base_level_checks(dataset)

@@ -236,6 +236,12 @@ def _replay(r) -> list[str]:
         lines += [f"Levels from `level_g` ({', '.join(level.runs)}): a {100 * level.uncertainty:g} "
                   f"% error of them moves kn by {100 * level.kn_shift:.2g} % and delta by "
                   f"{100 * level.delta_shift:.2g} % (in the intervals)."]
+    damped = getattr(rep, "damping_sensitivity", None)
+    if damped is not None:
+        lines += [f"Damping of the down-sweeps ({', '.join(damped.runs)}), which they do not "
+                  f"measure: {100 * damped.uncertainty:g} % more of it moves kn by "
+                  f"{100 * damped.kn_shift:.2g} % and delta by {100 * damped.delta_shift:.2g} % "
+                  "(in the intervals)."]
     if rep.failure:
         lines += ["", f"**Replay failed:** {rep.failure}; the estimate above is the plain fit's."]
     elif getattr(rep, "stopped", ""):

@@ -280,6 +280,8 @@ class Identification:
             "resonance": {k: m.to_dict() for k, m in (getattr(r, "resonance", None) or {}).items()},
             "cross_check": None if getattr(r, "cross", None) is None else r.cross.to_dict(),
             "level": None if getattr(r, "level", None) is None else r.level.to_dict(),
+            "damping_sensitivity": None if getattr(r, "damping_sensitivity", None) is None
+            else r.damping_sensitivity.to_dict(),
         }
 
     def backbone_overlay(self) -> dict:

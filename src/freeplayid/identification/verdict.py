@@ -280,16 +280,24 @@ def down_sweep_runs(extraction) -> tuple[str, ...]:
     return tuple(down)
 
 
-def sweep_direction_check(extraction, *, replayed: bool) -> Check | None:
-    """``sweep_direction`` (module docstring): None when every used run sweeps up."""
+def sweep_direction_check(extraction, *, replayed: bool, damping=None) -> Check | None:
+    """``sweep_direction`` (module docstring): None when every used run sweeps up. With the
+    replay, ``damping`` (a :class:`freeplayid.replay.DampingSensitivity`) says how far the
+    damping, which down-sweeps do not measure, moves the answer."""
     down = down_sweep_runs(extraction)
     if not down:
         return None
     runs = ", ".join(down)
     if replayed:
+        rests = "" if damping is None else (
+            f"; where they jump up depends on the damping, which they do not measure (they never "
+            f"reach the peak): the replay's damping {100 * damping.uncertainty:g} % higher moves "
+            f"kn by {100 * damping.kn_shift:.2g} % and delta by {100 * damping.delta_shift:.2g} "
+            "% (in the intervals); the answer is as good as that damping (an up-sweep run "
+            "measures it)")
         return Check("sweep_direction", True,
                      f"run(s) {runs} sweep down: their jump-up points lie below the backbone; "
-                     "the replay sweeps them down too and matches them as they are",
+                     "the replay sweeps them down too and matches them as they are" + rests,
                      float(len(down)))
     return Check("sweep_direction", False,
                  f"run(s) {runs} sweep down: a down-sweep jumps up where the lower branch ends, "

@@ -70,6 +70,7 @@ solve), ``bootstrap`` (the bootstrap by replay), ``misfit`` (the self-check's cu
 from .bootstrap import ReplayBootstrap
 from .corrected import (
     CrossCheck,
+    DampingSensitivity,
     LevelSensitivity,
     PointOffset,
     ReplayIteration,
@@ -83,7 +84,8 @@ from .runs import replay_dataset, replay_levels, replay_sweeps
 from .weights import WEIGHT_FLOOR, PointWeight, noise_levels, point_weights
 
 __all__ = ["Replay", "ReplayResult", "ReplayIteration", "PointOffset", "PointWeight",
-           "ReplayBootstrap", "ReplayDamping", "CrossCheck", "LevelSensitivity", "replay_sweeps",
+           "ReplayBootstrap", "ReplayDamping", "CrossCheck", "LevelSensitivity",
+           "DampingSensitivity", "replay_sweeps",
            "replay_levels",
            "replay_dataset", "corrected_fit", "curve_misfit", "damped_system", "noise_levels",
            "initial_zeta", "point_weights", "WEIGHT_FLOOR", "ZETA_START", "ZETA_RTOL"]

@@ -163,6 +163,25 @@ class LevelSensitivity:
 
 
 @dataclass(frozen=True)
+class DampingSensitivity(LevelSensitivity):
+    """How far an error of a damping the test does not measure moves the answer: the model
+    file's C or a given ratio, replayed on runs that sweep down
+    (:attr:`Replay.damping_uncertainty`).
+
+    Attributes
+    ----------
+    uncertainty : float [-]
+        The damping's relative uncertainty (95 %).
+    kn_shift, delta_shift : float [-]
+        |log| move of the answer for the damping times (1 + ``uncertainty``): the binding solved
+        again as for the levels (:class:`LevelSensitivity`). Added to the intervals' log
+        half-widths in quadrature.
+    runs : tuple of str
+        The replayed runs that sweep down.
+    """
+
+
+@dataclass(frozen=True)
 class ReplayResult:
     """The bias-corrected estimate and its iterations.
 
@@ -211,6 +230,10 @@ class ReplayResult:
     resonance : dict of str -> RunMisfit
         Per run, at the answer: the replayed statistic point's frequency, the peak and the upper
         branch against the measured ones (:func:`.misfit.resonance_misfits`).
+    level : LevelSensitivity or None
+        The answer's move for an error of the levels taken from ``level_g``.
+    damping_sensitivity : DampingSensitivity or None
+        The answer's move for an error of a damping the test does not measure (down-sweeps).
     cross : CrossCheck or None
         The answer's replay on a second statistic (:class:`Replay` ``cross_check``).
     excitation : str
@@ -242,6 +265,7 @@ class ReplayResult:
     weights: tuple | None = None
     resonance: dict = dataclasses.field(default_factory=dict)
     level: LevelSensitivity | None = None
+    damping_sensitivity: DampingSensitivity | None = None
     cross: CrossCheck | None = None
     excitation: str = "law"
     start: str = "statistic"
@@ -633,7 +657,7 @@ def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts
     """The :class:`ReplayResult` of a finished loop (started at ``start``): offsets, curve
     misfits and the bootstrap at the answer's replay (:meth:`_Binding.settle`)."""
     rep, stat = b.rep, b.stat
-    offsets, misfit, boot, resonance, cross, level = (), {}, None, {}, None, None
+    offsets, misfit, boot, resonance, cross, level, damped = (), {}, None, {}, None, None, None
     if rep is not None:
         replayed = {(p.run, p.channel): p for p in rep.points.used()}
         offsets = tuple(PointOffset(p.run, p.channel, q.f_hz / p.f_hz - 1,
@@ -652,6 +676,8 @@ def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts
             cross = _cross_check(b, theta, CROSS_RULE[rule], noise(), progress)
         level = None if b.failure else _level_sensitivity(b, sol, opts.level_uncertainty,
                                                           progress)
+        damped = None if b.failure else _damping_sensitivity(b, sol, opts.damping_uncertainty,
+                                                             progress)
         if opts.n_bootstrap > 0 and not b.failure:
             boot = bootstrap_by_replay(
                 b.rep_ds, system, noise(), theta=theta,
@@ -666,7 +692,7 @@ def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts
         curves=tuple(rep.points.curves) if rep is not None else (), misfit=misfit,
         damping=damping, failure=b.failure, stopped=b.stopped, bootstrap=boot,
         weights=b.weight_table or None,
-        resonance=resonance, cross=cross, level=level,
+        resonance=resonance, cross=cross, level=level, damping_sensitivity=damped,
         excitation="measured" if b.test.excitations else "law", start=start,
         sweeps={run: {"source": src, "law": sw.law, **sw.to_dict(),
                       **({} if res is None else {"residual_hz": float(res)})}
@@ -698,16 +724,41 @@ def _level_sensitivity(b: _Binding, sol, u: float,
         return None
     levels = {r: ((lv * (1 + u), src) if r in runs else (lv, src))
               for r, (lv, src) in t.levels.items()}
-    label = f"replay at levels x{1 + u:g}"
-    up = b.sibling(dataclasses.replace(t, levels=levels), (b.source, b.zeta), label)
+    up = b.sibling(dataclasses.replace(t, levels=levels), (b.source, b.zeta),
+                   f"replay at levels x{1 + u:g}")
+    shift = _moved(b, up, sol, progress)
+    return None if shift is None else LevelSensitivity(float(u), *shift, runs)
+
+
+def _damping_sensitivity(b: _Binding, sol, u: float,
+                         progress: bool = False) -> DampingSensitivity | None:
+    """:class:`DampingSensitivity`: the binding solved again with the damping times (1 + u)
+    (the model's C, or a given ratio), as for the levels. None with an estimated damping (its
+    own interval counts), with u = 0 or when no replayed run sweeps down."""
+    runs = tuple(r for r, (sw, _, _) in b.test.sweeps.items() if sw.stop_hz < sw.start_hz)
+    if not (runs and u > 0 and b.history) or b.source == "estimated":
+        return None
+    label = f"replay at damping x{1 + u:g}"
+    if b.source == "model":
+        up = b.sibling(b.test, (b.source, b.zeta), label)
+        up.system = b.system.replace(C=(1 + u) * np.asarray(b.system.C))
+    else:
+        up = b.sibling(b.test, (b.source, (1 + u) * b.zeta), label)
+    shift = _moved(b, up, sol, progress)
+    return None if shift is None else DampingSensitivity(float(u), *shift, runs)
+
+
+def _moved(b: _Binding, up: _Binding, sol, progress: bool) -> tuple[float, float] | None:
+    """|log| move of (kn, delta) of the binding ``up`` (``b``'s statistic under another
+    replay) solved from ``b``'s answer with its Jacobian; None when a replay fails."""
     tol = [np.log1p(b.opts.rtol)] * 2 + ([np.log1p(ZETA_RTOL)] if sol.u.size == 3 else [])
-    with _replay_bar(b.opts.max_iter, label, progress) as up.bar:
+    with _replay_bar(b.opts.max_iter, up.label, progress) as up.bar:
         moved = solve_binding(up, sol.u, sol.jacobian, max_iter=b.opts.max_iter,
                               tolerances=tol)
     if up.failure:
         return None
     shift = np.abs(moved.u[:2] - sol.u[:2])
-    return LevelSensitivity(float(u), float(shift[0]), float(shift[1]), runs)
+    return float(shift[0]), float(shift[1])
 
 
 def _matters(m) -> bool:

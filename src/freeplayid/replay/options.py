@@ -68,6 +68,15 @@ class Replay:
         ``level_g`` (a run replayed without its base channel's record): one more replay at those
         levels times (1 + this) measures how far such an error moves the answer, which is added
         to its intervals (:class:`LevelSensitivity`). 0: the levels are taken as exact.
+    damping_uncertainty : float [-]
+        The relative uncertainty (95 %) of a damping the replay takes without the test measuring
+        it: the model file's C or a given ratio, where a replayed run sweeps down (a down-sweep
+        jumps up where its lower branch ends and never reaches the peak, so its amplitudes
+        hardly measure the damping, while where it jumps up depends on it). The binding solved
+        again with that damping times (1 + this) measures how far such an error moves the
+        answer, which is added to its intervals (:class:`DampingSensitivity`). 0: the damping
+        is taken as exact. Up-sweeps need none: their peaks measure the damping (the model's C
+        is replaced by an estimated ratio when its replay misses them by 5 %).
     start : {"statistic", "network"}
         Where the replay loop starts: "statistic" (default) the fit of the measured points with
         the replays' rule; "network" the inverse model's estimate (``inverse.checkpoint``), or
@@ -87,6 +96,7 @@ class Replay:
     excitation: str = "measured"
     cross_check: bool = True
     level_uncertainty: float = 0.05
+    damping_uncertainty: float = 0.25
     start: str = "statistic"
 
     def __post_init__(self):
@@ -107,6 +117,7 @@ class Replay:
         check_int("max_iter", self.max_iter, 1)
         check_choice("excitation", self.excitation, EXCITATIONS)
         check_number("level_uncertainty", self.level_uncertainty, 0.0, 0.5)
+        check_number("damping_uncertainty", self.damping_uncertainty, 0.0, 1.0)
         check_choice("start", self.start, STARTS)
         if self.engine is not None:
             # the engines' registry imports torch: only when an engine is named
