@@ -302,6 +302,26 @@ def test_a_down_sweep_fails_the_plain_fit_and_passes_the_replay():
     assert sweep_direction_check(_points_with_directions({"a": 1, "b": 1}), replayed=False) is None
 
 
+def test_a_down_sweeps_answer_resting_on_an_unmeasured_damping_beyond_the_bounds_is_suspect():
+    """The damping's stated uncertainty moves the answer within the bounds: a note, passed;
+    beyond them (either parameter): suspect, naming the damping and what measures it."""
+    from freeplayid.identification.verdict import LIMITS, sweep_direction_check
+    from freeplayid.replay import DampingSensitivity
+
+    mixed = _points_with_directions({"up": 1, "down": -1})
+    kn, dl = LIMITS["damping_kn"], LIMITS["damping_delta"]
+    within = sweep_direction_check(mixed, replayed=True, damping=DampingSensitivity(
+        0.25, 0.6 * kn, 0.3 * dl, ("down",)))
+    assert within.passed and "as good as that damping" in within.message
+    for shifts in ((1.2 * kn, 0.3 * dl), (0.5 * kn, 1.1 * dl)):
+        beyond = sweep_direction_check(mixed, replayed=True,
+                                       damping=DampingSensitivity(0.25, *shifts, ("down",)))
+        assert not beyond.passed and beyond.value == pytest.approx(max(
+            shifts[0] / kn, shifts[1] / dl))
+        assert "do not measure the damping" in beyond.message
+        assert "up-sweep run" in beyond.message and "replay.damping" in beyond.message
+
+
 def test_the_replay_misfit_of_a_down_sweep_names_the_jump_up():
     """A down-sweep run whose replayed jump up misses is named as a jump up, and the causes
     start with the down-sweep's jump-up."""

@@ -65,7 +65,10 @@ def identify_case(path: str, corrected: bool) -> dict:
                 "offset_se": {run: float(m.offset_se) for run, m in (rep.resonance or {}).items()
                               if getattr(m, "offset_se_samples", 0)},
                 "without": {run: list(m.without) for run, m in (rep.resonance or {}).items()
-                            if getattr(m, "without", None) is not None}},
+                            if getattr(m, "without", None) is not None},
+                # the answer's move for a damping the down-sweeps do not measure
+                "damping_sensitivity": None if getattr(rep, "damping_sensitivity", None) is None
+                else rep.damping_sensitivity.to_dict()},
             "checks_text": {c.name: str(c.message) for c in res.verdict.checks
                             if c.name == "replay_misfit"}}
 
