@@ -64,10 +64,13 @@ def demodulate(x: np.ndarray, phase: np.ndarray, alpha: float) -> tuple[np.ndarr
     u, v : ndarray, shape (N,) [signal units]
     """
     x = np.ascontiguousarray(x, dtype=float)
+    phase = np.ascontiguousarray(phase, dtype=float)
+    if x.ndim != 1 or phase.shape != x.shape:
+        raise ValueError(f"`x` and `phase` must be 1-D of one length, got {x.shape}, {phase.shape}")
     n = x.shape[0]
     p0, p1, p2 = second_difference_gram(n)
     u, v = np.empty(n), np.empty(n)
-    bad = demodulate_into(x, np.ascontiguousarray(phase, dtype=float), float(alpha), p0, p1, p2,
+    bad = demodulate_into(x, phase, float(alpha), p0, p1, p2,
                           np.empty((5, 2 * n)), np.empty(n), np.empty(n), u, v)
     if bad:
         raise not_positive_definite(bad)
