@@ -572,6 +572,16 @@ def test_a_down_sweeps_answer_says_how_far_the_damping_moves_it(down_sweeps, sys
     assert "do not measure" in res.report() and "which they do not measure" in res.report()
 
 
+def test_an_up_sweep_among_the_down_sweeps_measures_the_damping(down_sweeps, measured, system):
+    # its peak measures the damping (the model's C is replaced where the replay misses it), so
+    # no move for an unmeasured damping is added
+    up = [r for r in measured.runs if r.file == "s0.8.csv"]
+    mixed = dataclasses.replace(down_sweeps, runs=(*down_sweeps.runs, *up))
+    res = identify(mixed, system=system, progress=False, fit={"multistart": MULTISTART})
+    assert "s0.8.csv" in {p.run for p in res.points.used()}
+    assert res.replay.damping_sensitivity is None and not res.replay.failure
+
+
 def test_a_down_sweep_whose_first_replay_loses_its_jump_ups_starts_at_a_smaller_gap(
         down_sweeps, system, caplog):
     # the down-sweeps jump up where the lower branch ends, below the backbone, so the plain fit

@@ -734,9 +734,13 @@ def _damping_sensitivity(b: _Binding, sol, u: float,
                          progress: bool = False) -> DampingSensitivity | None:
     """:class:`DampingSensitivity`: the binding solved again with the damping times (1 + u)
     (the model's C, or a given ratio), as for the levels. None with an estimated damping (its
-    own interval counts), with u = 0 or when no replayed run sweeps down."""
-    runs = tuple(r for r, (sw, _, _) in b.test.sweeps.items() if sw.stop_hz < sw.start_hz)
-    if not (runs and u > 0 and b.history) or b.source == "estimated":
+    own interval counts), with u = 0, when no replayed run sweeps down, or when a run with
+    points sweeps up (its peak measures the damping: the model's C is replaced where the
+    replay misses it)."""
+    with_points = {p.run for p in b.stat.points.used()}
+    down = {r for r, (sw, _, _) in b.test.sweeps.items() if sw.stop_hz < sw.start_hz}
+    runs = tuple(r for r in b.test.sweeps if r in down)
+    if not (runs and u > 0 and b.history) or b.source == "estimated" or with_points - down:
         return None
     label = f"replay at damping x{1 + u:g}"
     if b.source == "model":

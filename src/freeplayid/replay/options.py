@@ -70,13 +70,14 @@ class Replay:
         to its intervals (:class:`LevelSensitivity`). 0: the levels are taken as exact.
     damping_uncertainty : float [-]
         The relative uncertainty (95 %) of a damping the replay takes without the test measuring
-        it: the model file's C or a given ratio, where a replayed run sweeps down (a down-sweep
-        jumps up where its lower branch ends and never reaches the peak, so its amplitudes
-        hardly measure the damping, while where it jumps up depends on it). The binding solved
-        again with that damping times (1 + this) measures how far such an error moves the
-        answer, which is added to its intervals (:class:`DampingSensitivity`). 0: the damping
-        is taken as exact. Up-sweeps need none: their peaks measure the damping (the model's C
-        is replaced by an estimated ratio when its replay misses them by 5 %).
+        it: the model file's C or a given ratio, where the runs with points all sweep down (a
+        down-sweep jumps up where its lower branch ends and never reaches the peak, so its
+        amplitudes hardly measure the damping, while where it jumps up depends on it). The
+        binding solved again with that damping times (1 + this) measures how far such an error
+        moves the answer, which is added to its intervals (:class:`DampingSensitivity`). 0: the
+        damping is taken as exact. An up-sweep run with points needs none: its peak measures
+        the damping (the model's C is replaced by an estimated ratio when its replay misses it
+        by 5 %).
     start : {"statistic", "network"}
         Where the replay loop starts: "statistic" (default) the fit of the measured points with
         the replays' rule; "network" the inverse model's estimate (``inverse.checkpoint``), or
