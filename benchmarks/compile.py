@@ -19,8 +19,11 @@ Which kernels the commands compile (``scripts/identify.py`` simulates nothing):
 - ``scripts/simulate.py`` (float32, acceleration, absolute): the full-model kernel and the
   base-term pass (``assemble._add``), float32;
 - ``scripts/simulate.py quasi_static_hz=1000``: the quasi-static kernel and ``assemble._add``;
-- ``scripts/train.py debug=fast`` (bank: float32, acceleration, relative, full model): the
-  full-model kernel, float32 (the relative frame has no base terms: no ``assemble._add``);
+- ``scripts/train.py`` and ``debug=fast`` (bank: float32, acceleration, relative, fast modes
+  condensed, ``dataset.bank.quasi_static_hz: 1000``): the quasi-static kernel, float32 (the
+  relative frame has no base terms: no ``assemble._add``);
+- ``scripts/compare.py`` (its bank: the full model, ``dataset/exact.yaml``): the full-model
+  kernel, float32;
 - ``simulate_sweeps(engine="expo")`` (float64): the exponential kernel (``engines/expo/kernel.py``).
 """
 
@@ -144,11 +147,11 @@ KERNELS = {  # name -> case
 # the defaults: what the default commands compile, and the float64 exponential kernel (the
 # engine of the replay's small batches when chosen, engine="expo")
 DEFAULT = list(KERNELS)[:3] + ["exponential (expo), float64"]
-# what the default commands compile with their default options: scripts/simulate.py and the
-# bank of scripts/train.py / compare.py (full model + base terms, float32) and the replay of
-# scripts/identify.py replay=true (expo, float64); quasi_static_hz is an opt-in option
-DEFAULT_COMMANDS = ["full model, float32", "base terms (assemble), float32",
-                    "exponential (expo), float64"]
+# what the default commands compile with their default options: scripts/simulate.py (full model
+# + base terms, float32), the bank of scripts/train.py (quasi-static, float32), that of
+# scripts/compare.py (full model, float32) and the replay of scripts/identify.py (expo, float64)
+DEFAULT_COMMANDS = ["full model, float32", "quasi-static, float32",
+                    "base terms (assemble), float32", "exponential (expo), float64"]
 CH = ["uz_top_left", "uz_lower_right"]
 COMMANDS = {
     "scripts/simulate.py": dict(what="command", kw=dict(
@@ -158,6 +161,9 @@ COMMANDS = {
         dtype="float32", quantity="acceleration", frame="absolute", channels=CH,
         sample_rate=512.0, quasi_static_hz=1000.0)),
     "scripts/train.py debug=fast (bank)": dict(what="command", kw=dict(
+        dtype="float32", quantity="acceleration", frame="relative", channels=CH,
+        sample_rate=256.0, quasi_static_hz=1000.0)),
+    "scripts/compare.py debug=fast (bank)": dict(what="command", kw=dict(
         dtype="float32", quantity="acceleration", frame="relative", channels=CH,
         sample_rate=256.0)),
 }
@@ -202,7 +208,7 @@ def main() -> None:
                   f"{total[rev]:9.1f}")
         if all(k in cases for k in DEFAULT_COMMANDS):
             for rev in srcs:
-                print(f"{'default commands (no quasi-static opt.)':40s} {rev:{w}s} "
+                print(f"{'default commands':40s} {rev:{w}s} "
                       f"{default[rev]:9.1f}")
 
 

@@ -8,14 +8,23 @@ The low-pass is the base-band filter ACMP applies for the same ``bandwidth_hz`` 
 ``K^T K ~ I / 2`` the ACMP mode update reduces to ``(I + 2 D^T D / alpha)^{-1}``,
 ``alpha = (2 pi f_c / fs)^4``: gain 1/2 at ``2^(-1/4) f_c ~ 0.84 f_c``, 4th-order roll-off, O(N)
 banded solves. So both methods average the same amount of noise for the same bandwidth.
+
+The two low-pass solves share one compiled pass with the kept factor of the smoothing matrix;
+the sweep's carrier (its phase, cosine and sine) is kept for the last few sweeps and lengths, so
+the runs of a data set share it; the unwrapping and the outputs are compiled loops (checked
+against the numpy composition: ``smooth_second_difference``, ``np.unwrap``, ``np.gradient``).
 """
 
 from __future__ import annotations
 
+import functools
+import math
+
+import numba
 import numpy as np
 
 from .acmp import ChirpMode, bandwidth_weight, check_bandwidth
-from .banded import smooth_second_difference
+from .banded import smoothing_factor
 from .decimate import decimate, decimation_factor
 from .validate import as_signal, check_positive
 
@@ -69,23 +78,29 @@ def lockin(
         fsd = fs / q
     else:
         x, fsd = x_full, fs
-    t = np.arange(x.shape[0]) / fsd
-    phi = sweep.phase(t)
     check_bandwidth(bw, fsd, "bandwidth_hz")
-    a = 0.5 * bandwidth_weight(bw, fsd)
-    zr = smooth_second_difference(2 * x * np.cos(phi), a)
-    zi = smooth_second_difference(-2 * x * np.sin(phi), a)
-    theta = np.unwrap(np.arctan2(zi, zr))
+    factor = smoothing_factor(x.shape[0], 0.5 * bandwidth_weight(bw, fsd))
+    phi, c, s = _carrier(sweep, x.shape[0], fsd)
+    x = np.asarray(x, dtype=float)
+    zr, zi = 2.0 * x * c, -2.0 * x * s
+    _smooth_pair(factor, zr, zi)
+    theta = np.arctan2(zi, zr)
+    _unwrap(theta)
     if q > 1:
+        t = np.arange(x.shape[0]) / fsd
         zr = np.interp(t_full, t, zr)
         zi = np.interp(t_full, t, zi)
         theta = np.interp(t_full, t, theta)
-    amp = np.hypot(zr, zi)
-    phase = sweep.phase(t_full) + theta
-    freq = sweep.frequency(t_full) + np.gradient(theta) * fs / (2 * np.pi)
-    mode = amp * np.cos(phase)
-    res = float(np.sum((x_full - mode) ** 2))
-    snr = 10 * np.log10(max(float(mode @ mode), 1e-300) / max(res, 1e-300))
+        phi = sweep.phase(t_full)
+        c = s = None
+    amp, phase, freq = np.empty(n_full), np.empty(n_full), np.empty(n_full)
+    _assemble(np.asarray(phi, dtype=float), zr, zi, theta,
+              np.asarray(sweep.frequency(t_full), dtype=float), fs / (2 * np.pi), amp, phase, freq)
+    # Re(z e^{i phi}) = amp cos(phase); at the full rate without decimation the carrier's
+    # sines are at hand
+    mode = zr * c - zi * s if c is not None else amp * np.cos(phase)
+    r = x_full - mode
+    snr = 10 * np.log10(max(float(mode @ mode), 1e-300) / max(float(r @ r), 1e-300))
     return ChirpMode(
         amplitude=amp,
         frequency=freq,
@@ -97,3 +112,87 @@ def lockin(
         bandwidth_hz=bw,
         sample_rate=fs,
     )
+
+
+
+def _carrier(sweep, n: int, fs: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The sweep's phase at ``n`` samples of rate ``fs``, its cosine and sine (read-only), kept
+    for the last few (sweep, n, fs): a data set's runs share one sweep."""
+    try:
+        return _kept_carrier(sweep, int(n), float(fs))
+    except TypeError:  # an unhashable sweep law
+        return _make_carrier(sweep, int(n), float(fs))
+
+
+def _make_carrier(sweep, n, fs):
+    phi = np.ascontiguousarray(sweep.phase(np.arange(n) / fs), dtype=float)
+    out = (phi, np.cos(phi), np.sin(phi))
+    for a in out:
+        a.setflags(write=False)
+    return out
+
+
+_kept_carrier = functools.lru_cache(maxsize=4)(_make_carrier)
+
+
+@numba.njit(nogil=True, cache=True)
+def _smooth_pair(factor, zr, zi):  # pragma: no cover (compiled)
+    """``zr``, ``zi`` <- ``(U^T U)^{-1}`` of each, in place, for the upper banded factor ``U`` of
+    :func:`smoothing_factor` (two super-diagonals: ``factor[2 - m, j] = U[j - m, j]``)."""
+    n = factor.shape[1]
+    inv = np.empty(n)
+    for j in range(n):
+        inv[j] = 1.0 / factor[2, j]
+    r1 = i1 = r2 = i2 = 0.0  # y[j-1], y[j-2]
+    for j in range(n):  # U^T y = b
+        u1 = factor[1, j] if j >= 1 else 0.0
+        u2 = factor[0, j] if j >= 2 else 0.0
+        r = (zr[j] - u1 * r1 - u2 * r2) * inv[j]
+        im = (zi[j] - u1 * i1 - u2 * i2) * inv[j]
+        zr[j], zi[j] = r, im
+        r1, r2, i1, i2 = r, r1, im, i1
+    r1 = i1 = r2 = i2 = 0.0  # z[j+1], z[j+2]
+    for j in range(n - 1, -1, -1):  # U z = y
+        u1 = factor[1, j + 1] if j + 1 < n else 0.0
+        u2 = factor[0, j + 2] if j + 2 < n else 0.0
+        r = (zr[j] - u1 * r1 - u2 * r2) * inv[j]
+        im = (zi[j] - u1 * i1 - u2 * i2) * inv[j]
+        zr[j], zi[j] = r, im
+        r1, r2, i1, i2 = r, r1, im, i1
+
+
+@numba.njit(nogil=True, cache=True)
+def _unwrap(theta):  # pragma: no cover (compiled)
+    """``np.unwrap(theta)`` in place: each step of 2 pi or more brought into [-pi, pi)."""
+    pi, two_pi = math.pi, 2.0 * math.pi
+    shift = 0.0
+    prev = theta[0]
+    for k in range(1, theta.shape[0]):
+        a = theta[k]
+        dd = a - prev
+        if abs(dd) >= pi:
+            m = (dd + pi) % two_pi - pi
+            if m == -pi and dd > 0:
+                m = pi
+            shift += m - dd
+        prev = a
+        theta[k] = a + shift
+
+
+@numba.njit(nogil=True, cache=True)
+def _assemble(phi, zr, zi, theta, f_sweep, scale, amp, phase, freq):  # pragma: no cover
+    """Amplitude ``|z|``, phase ``phi + theta`` and frequency ``f_sweep + scale * dtheta`` (the
+    derivative as ``np.gradient`` takes it) at every sample."""
+    n = phi.shape[0]
+    for k in range(n):
+        amp[k] = math.sqrt(zr[k] * zr[k] + zi[k] * zi[k])
+        phase[k] = phi[k] + theta[k]
+        if n == 1:
+            g = 0.0
+        elif k == 0:
+            g = theta[1] - theta[0]
+        elif k == n - 1:
+            g = theta[n - 1] - theta[n - 2]
+        else:
+            g = 0.5 * (theta[k + 1] - theta[k - 1])
+        freq[k] = f_sweep[k] + scale * g
