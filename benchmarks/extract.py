@@ -27,14 +27,14 @@ import numpy as np  # noqa: E402
 import scipy.signal  # noqa: E402
 
 from freeplayid.signal import acmp, extract_backbone_points, lockin, white_noise  # noqa: E402
-
-# the modules (the package's names are the functions): what they keep between calls
-_acmp = importlib.import_module("freeplayid.signal.acmp")
-_lockin = importlib.import_module("freeplayid.signal.lockin")
 from freeplayid.sweep import Sweep  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from lockin_reference import numpy_lockin  # noqa: E402  (the numpy composition, before)
+
+# the modules (the package's names are the functions): what they keep between calls
+_acmp = importlib.import_module("freeplayid.signal.acmp")
+_lockin = importlib.import_module("freeplayid.signal.lockin")
 
 FS = 2048.0  # [Hz]
 SWEEP = Sweep(25.0, 50.0, 0.1)  # 250 s

@@ -28,7 +28,12 @@ from freeplayid.signal import (
     to_displacement,
     white_noise,
 )
-from freeplayid.signal.banded import demodulate, smooth_second_difference
+from freeplayid.signal.banded import (
+    demodulate,
+    smooth_pair_into,
+    smooth_second_difference,
+    smoothing_factor,
+)
 from freeplayid.sweep import Sweep
 from lockin_reference import numpy_lockin
 from sdof_reference import DELTA, FS, ZETA, exact_backbone_hz, simulate_sdof_sweep
@@ -88,6 +93,18 @@ def test_smoothing_matches_dense_and_passes_lines():
     )
     line = 3.0 + 0.2 * np.arange(n)
     np.testing.assert_allclose(smooth_second_difference(line, 1e-6), line, rtol=1e-8)
+
+
+def test_smooth_pair_is_the_dense_solve_of_each():
+    rng = np.random.default_rng(5)
+    for n in (3, 4, 57):
+        zr, zi = rng.normal(size=n), rng.normal(size=n)
+        d = _dense_d(n)
+        a = d.T @ d / 0.05 + np.eye(n)
+        ar, ai = zr.copy(), zi.copy()
+        smooth_pair_into(smoothing_factor(n, 0.05), ar, ai)
+        np.testing.assert_allclose(ar, np.linalg.solve(a, zr), rtol=1e-10, atol=1e-12)
+        np.testing.assert_allclose(ai, np.linalg.solve(a, zi), rtol=1e-10, atol=1e-12)
 
 
 def test_smoothing_factor_kept_per_length_and_weight():

@@ -24,7 +24,7 @@ import numba
 import numpy as np
 
 __all__ = ["second_difference_gram", "demodulate", "demodulate_into", "smoothing_factor",
-           "smooth_second_difference", "cholesky_banded", "solve_factored"]
+           "smooth_second_difference", "smooth_pair_into", "cholesky_banded", "solve_factored"]
 
 
 def second_difference_gram(n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -179,6 +179,34 @@ def _solve(u, b):  # pragma: no cover (compiled)
             s -= u[kd + j - i, i] * x[i]
         x[j] = s / u[kd, j]
     return x
+
+
+@numba.njit(nogil=True, cache=True)
+def smooth_pair_into(factor, zr, zi):  # pragma: no cover (compiled)
+    """:func:`solve_factored` of two records at once, in place (``zr``, ``zi`` <- ``A^{-1}`` of
+    each), for a factor of two super-diagonals (:func:`smoothing_factor`: ``factor[2 - m, j] =
+    U[j - m, j]``): one pass, the diagonal's inverse off the recurrence (4.6x faster than two
+    :func:`solve_factored` on 66 k samples; the lock-in's two parts)."""
+    n = factor.shape[1]
+    inv = np.empty(n)
+    for j in range(n):
+        inv[j] = 1.0 / factor[2, j]
+    r1 = i1 = r2 = i2 = 0.0  # y[j-1], y[j-2]
+    for j in range(n):  # U^T y = b
+        u1 = factor[1, j] if j >= 1 else 0.0
+        u2 = factor[0, j] if j >= 2 else 0.0
+        r = (zr[j] - u1 * r1 - u2 * r2) * inv[j]
+        im = (zi[j] - u1 * i1 - u2 * i2) * inv[j]
+        zr[j], zi[j] = r, im
+        r1, r2, i1, i2 = r, r1, im, i1
+    r1 = i1 = r2 = i2 = 0.0  # z[j+1], z[j+2]
+    for j in range(n - 1, -1, -1):  # U z = y
+        u1 = factor[1, j + 1] if j + 1 < n else 0.0
+        u2 = factor[0, j + 2] if j + 2 < n else 0.0
+        r = (zr[j] - u1 * r1 - u2 * r2) * inv[j]
+        im = (zi[j] - u1 * i1 - u2 * i2) * inv[j]
+        zr[j], zi[j] = r, im
+        r1, r2, i1, i2 = r, r1, im, i1
 
 
 def cholesky_banded(ab: np.ndarray) -> np.ndarray:

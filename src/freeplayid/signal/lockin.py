@@ -9,7 +9,8 @@ The low-pass is the base-band filter ACMP applies for the same ``bandwidth_hz`` 
 ``alpha = (2 pi f_c / fs)^4``: gain 1/2 at ``2^(-1/4) f_c ~ 0.84 f_c``, 4th-order roll-off, O(N)
 banded solves. So both methods average the same amount of noise for the same bandwidth.
 
-The two low-pass solves share one compiled pass with the kept factor of the smoothing matrix;
+The two low-pass solves share one compiled pass with the kept factor of the smoothing matrix
+(:func:`~.banded.smooth_pair_into`);
 the sweep's carrier (its phase, cosine and sine) is kept for the last few sweeps and lengths, so
 the runs of a data set share it; the unwrapping and the outputs are compiled loops (checked
 against the numpy composition: ``smooth_second_difference``, ``np.unwrap``, ``np.gradient``).
@@ -24,7 +25,7 @@ import numba
 import numpy as np
 
 from .acmp import ChirpMode, bandwidth_weight, check_bandwidth
-from .banded import smoothing_factor
+from .banded import smooth_pair_into, smoothing_factor
 from .decimate import decimate, decimation_factor
 from .validate import as_signal, check_positive
 
@@ -83,7 +84,7 @@ def lockin(
     phi, c, s = _carrier(sweep, x.shape[0], fsd)
     x = np.asarray(x, dtype=float)
     zr, zi = 2.0 * x * c, -2.0 * x * s
-    _smooth_pair(factor, zr, zi)
+    smooth_pair_into(factor, zr, zi)
     theta = np.arctan2(zi, zr)
     _unwrap(theta)
     if q > 1:
@@ -114,7 +115,6 @@ def lockin(
     )
 
 
-
 def _carrier(sweep, n: int, fs: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The sweep's phase at ``n`` samples of rate ``fs``, its cosine and sine (read-only), kept
     for the last few (sweep, n, fs): a data set's runs share one sweep."""
@@ -133,32 +133,6 @@ def _make_carrier(sweep, n, fs):
 
 
 _kept_carrier = functools.lru_cache(maxsize=4)(_make_carrier)
-
-
-@numba.njit(nogil=True, cache=True)
-def _smooth_pair(factor, zr, zi):  # pragma: no cover (compiled)
-    """``zr``, ``zi`` <- ``(U^T U)^{-1}`` of each, in place, for the upper banded factor ``U`` of
-    :func:`smoothing_factor` (two super-diagonals: ``factor[2 - m, j] = U[j - m, j]``)."""
-    n = factor.shape[1]
-    inv = np.empty(n)
-    for j in range(n):
-        inv[j] = 1.0 / factor[2, j]
-    r1 = i1 = r2 = i2 = 0.0  # y[j-1], y[j-2]
-    for j in range(n):  # U^T y = b
-        u1 = factor[1, j] if j >= 1 else 0.0
-        u2 = factor[0, j] if j >= 2 else 0.0
-        r = (zr[j] - u1 * r1 - u2 * r2) * inv[j]
-        im = (zi[j] - u1 * i1 - u2 * i2) * inv[j]
-        zr[j], zi[j] = r, im
-        r1, r2, i1, i2 = r, r1, im, i1
-    r1 = i1 = r2 = i2 = 0.0  # z[j+1], z[j+2]
-    for j in range(n - 1, -1, -1):  # U z = y
-        u1 = factor[1, j + 1] if j + 1 < n else 0.0
-        u2 = factor[0, j + 2] if j + 2 < n else 0.0
-        r = (zr[j] - u1 * r1 - u2 * r2) * inv[j]
-        im = (zi[j] - u1 * i1 - u2 * i2) * inv[j]
-        zr[j], zi[j] = r, im
-        r1, r2, i1, i2 = r, r1, im, i1
 
 
 @numba.njit(nogil=True, cache=True)
@@ -187,9 +161,7 @@ def _assemble(phi, zr, zi, theta, f_sweep, scale, amp, phase, freq):  # pragma: 
     for k in range(n):
         amp[k] = math.sqrt(zr[k] * zr[k] + zi[k] * zi[k])
         phase[k] = phi[k] + theta[k]
-        if n == 1:
-            g = 0.0
-        elif k == 0:
+        if k == 0:  # n >= 3: the smoothing's factor needs three samples
             g = theta[1] - theta[0]
         elif k == n - 1:
             g = theta[n - 1] - theta[n - 2]
