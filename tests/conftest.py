@@ -1,4 +1,7 @@
-"""Shared fixtures: a stand-in for the default fin until ``freeplayid.model.default_fin`` lands."""
+"""Shared fixtures: a stand-in for the default fin until ``freeplayid.model.default_fin`` lands,
+and Lightning's info lines kept out of the inverse model's tests."""
+
+import logging
 
 import numpy as np
 import pytest
@@ -54,3 +57,11 @@ def standin_fin(*, seed: int = 0, dense_damping: bool = True) -> FreeplaySystem:
 @pytest.fixture(scope="session")
 def fin():
     return standin_fin()
+
+
+@pytest.fixture
+def quiet_lightning(caplog):
+    """Lightning's "GPU available: ..." and "`Trainer.fit` stopped: ..." info lines off; its
+    warnings still show (``pytestmark = pytest.mark.usefixtures("quiet_lightning")``)."""
+    caplog.set_level(logging.WARNING, logger="pytorch_lightning")
+    caplog.set_level(logging.WARNING, logger="lightning_fabric")

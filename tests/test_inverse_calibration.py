@@ -6,7 +6,6 @@ whose spread is wrong by a known factor), never produced by the code under test.
 
 from __future__ import annotations
 
-import logging
 import warnings
 
 import numpy as np
@@ -30,13 +29,10 @@ from freeplayid.inverse.calibration import (
     sbc_ranks,
 )
 
+pytestmark = pytest.mark.usefixtures("quiet_lightning")
+
 CHANNELS = ("uz_top_left", "uz_root")
 
-
-@pytest.fixture(autouse=True)
-def _quiet_lightning(caplog):
-    caplog.set_level(logging.WARNING, logger="pytorch_lightning")
-    caplog.set_level(logging.WARNING, logger="lightning_fabric")
 
 
 def _posterior(n, *, seed, spread_error=1.0):
@@ -219,3 +215,36 @@ def _points(ps):
     sel = ps.case == 0
     return FittingPoints(channel=tuple(CHANNELS[c] for c in ps.channel[sel]),
                          amplitude_m=ps.amplitude[sel], f_hz=ps.frequency[sel])
+
+
+def test_the_clustered_rank_test_holds_its_level_where_cases_share_a_kn():
+    """Cases in clusters of 16 that err alike (a shift per cluster, the marginal posterior
+    calibrated): the ranks are uniform over all cases, but not independent. The plain
+    chi-square then rejects far more often than its level; the test for clustered samples holds
+    it. With every case of a cluster in one bin the design effect is the cluster size."""
+    from freeplayid.inverse.calibration import design_effect, rank_uniformity, sbc_ranks
+
+    rng = np.random.default_rng(5)
+    n_cl, m, tau = 40, 16, 1.0
+    cl = np.repeat(np.arange(n_cl), m)
+    plain, clustered = [], []
+    for _ in range(200):
+        err = rng.normal(0.0, tau, n_cl)[cl] + rng.standard_normal(cl.size)
+        truth = np.exp(err)  # log truth - log estimate = err, spread sqrt(1 + tau^2): calibrated
+        ranks = sbc_ranks(truth, np.ones(cl.size), np.full(cl.size, np.hypot(1.0, tau)),
+                          seed=int(rng.integers(1 << 30)))
+        u = rank_uniformity(ranks, 99, clusters=cl)
+        plain.append(u["p_value"] < 0.05)
+        clustered.append(u["p_value_clustered"] < 0.05)
+        assert u["deff"] >= 1.0
+    assert np.mean(plain) > 0.3, np.mean(plain)
+    assert np.mean(clustered) < 0.12, np.mean(clustered)
+    # independent cases: no design effect to speak of; no clusters: none at all
+    ranks = rng.integers(0, 100, cl.size)
+    assert design_effect(ranks, np.linspace(-0.5, 99.5, 11), cl) < 1.4
+    u = rank_uniformity(ranks, 99)
+    assert u["deff"] == 1.0 and u["p_value_clustered"] == pytest.approx(u["p_value"])
+    same = np.repeat(rng.integers(0, 100, n_cl), m)
+    assert design_effect(same, np.linspace(-0.5, 99.5, 11), cl) == pytest.approx(m, rel=0.15)
+    with pytest.raises(ValueError, match="one label per rank"):
+        design_effect(ranks, np.linspace(-0.5, 99.5, 11), cl[:-1])

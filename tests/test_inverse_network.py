@@ -1,11 +1,15 @@
-"""Set network of the inverse model: invariances, learning a known law, checkpoints, refusals."""
+"""Set network of the inverse model: invariances, learning a known law, checkpoints, refusals;
+each point's noise floor as its word of the noise (measured by the extraction, carried through
+FittingPoints and PointSets, read by the network, checked by the domain)."""
 
-import logging
+import warnings
 
 import numpy as np
 import pytest
 import torch
 
+from freeplayid.errors import InverseDomainWarning
+from freeplayid.fit import FittingPoints
 from freeplayid.inverse import (
     InverseModel,
     InverseModelError,
@@ -13,23 +17,23 @@ from freeplayid.inverse import (
     InverseNet,
     Normalisation,
     PointSets,
+    TrainingDomain,
     collate_point_sets,
     load_inverse_model,
+    point_sets_from_records,
     train_inverse_model,
 )
 from freeplayid.model.small import sdof_system
+from freeplayid.signal import BackbonePoint, BackbonePoints
 
 CHANNELS = ("uz_tip", "uz_root")
 QUIET = dict(enable_progress_bar=False, logger=False)
 # Lightning 2.6 with torch 2.13 (harmless, outside our code)
-pytestmark = pytest.mark.filterwarnings("ignore:`isinstance\\(treespec, LeafSpec\\)` is deprecated")
+pytestmark = [
+    pytest.mark.filterwarnings("ignore:`isinstance\\(treespec, LeafSpec\\)` is deprecated"),
+    pytest.mark.usefixtures("quiet_lightning"),
+]
 
-
-@pytest.fixture(autouse=True)
-def _quiet_lightning(caplog):
-    # "GPU available: ...", "`Trainer.fit` stopped: ..." are info lines; warnings still show
-    caplog.set_level(logging.WARNING, logger="pytorch_lightning")
-    caplog.set_level(logging.WARNING, logger="lightning_fabric")
 
 
 def synthetic_point_sets(n: int, *, seed: int) -> PointSets:
@@ -280,3 +284,182 @@ def test_predict_points_takes_fitting_points_as_the_fit_does(trained):
                           f_hz=[40.0, 41.0])
     with pytest.raises(ValueError, match=r"'rx_hinge'.*allowed: \['uz_tip', 'uz_root'\]"):
         model.predict_points(other)
+
+
+# --- the noise input ------------------------------------------------------------------------
+
+
+def noisy_point_sets(n: int, *, seed: int) -> tuple[PointSets, np.ndarray]:
+    """Cases of a known softening law whose frequencies carry a relative scatter of one of three
+    levels (0.1 %, 1 %, 4 %) per case; each point's noise_db says the level (20 log10 of it,
+    with 1 dB of jitter). Returns the cases and each case's scatter."""
+    rng = np.random.default_rng(seed)
+    kn = np.exp(rng.uniform(np.log(240.0), np.log(960.0), n))
+    delta = np.exp(rng.uniform(np.log(3e-4), np.log(3e-3), n))
+    sigma = rng.choice([1e-3, 1e-2, 4e-2], n)
+    case = np.repeat(np.arange(n), rng.integers(3, 7, n))
+    r = rng.uniform(1.5, 6.0, case.size)
+    channel = rng.integers(0, 2, case.size)
+    f = 40.0 * np.sqrt(kn[case] / 480.0) * np.sqrt(1.0 - 1.0 / r)
+    f = f * (1.0 + sigma[case] * rng.standard_normal(case.size))
+    amplitude = r * delta[case] * np.where(channel == 1, 0.6, 1.0)
+    noise = 20.0 * np.log10(sigma[case]) + rng.normal(0.0, 1.0, case.size)
+    return PointSets(channels=CHANNELS, case=case, channel=channel, amplitude=amplitude,
+                     frequency=f, kn=kn, delta=delta, noise_db=noise), sigma
+
+
+def test_fitting_points_carry_the_noise_through_records():
+    pts = FittingPoints(channel=["a", "b"], amplitude_m=[1e-3, 2e-3], f_hz=[5.0, 6.0],
+                        run=["r0", "r1"], noise_db=[-30.0, np.nan])
+    rec = pts.to_records()
+    assert rec[0]["noise_db"] == -30.0 and np.isnan(rec[1]["noise_db"])
+    assert FittingPoints.from_records(rec) == pts
+    # a record without it drops it for all; equality sees the difference
+    rec[1].pop("noise_db")
+    back = FittingPoints.from_records(rec)
+    assert back.noise_db is None and back != pts and "noise_db" not in back.to_records()[0]
+    with pytest.raises(ValueError, match="noise_db"):
+        FittingPoints(channel=["a", "b"], amplitude_m=[1e-3, 2e-3], f_hz=[5.0, 6.0],
+                      noise_db=[-30.0])
+
+
+def test_fitting_points_from_an_extraction_take_its_noise():
+
+    pts = (BackbonePoint("r1", "a", 5.2, 2e-3, True, "", 1.0, 31.5, -31.5),
+           BackbonePoint("r1", "b", 5.2, 1e-3, False, "no jump in band", 1.0, 2.0, -2.0),
+           BackbonePoint("r2", "a", 5.6, 4e-3, True, "", 2.0, 17.25, -17.25))
+    fp = FittingPoints.from_extraction(BackbonePoints(
+        points=pts, rejected_runs=(), curves=(), quantity="acceleration", method="acmp"))
+    np.testing.assert_array_equal(fp.noise_db, [-31.5, -17.25])
+    np.testing.assert_array_equal(point_sets_from_records(fp, ("a", "b")).noise_db,
+                                  [-31.5, -17.25])
+    # a point made without one (a saved result's): NaN
+    assert np.isnan(BackbonePoint("r1", "a", 5.2, 2e-3, True, "", 1.0, 31.5).noise_db)
+
+
+def test_point_sets_keep_the_noise_through_subset_concatenate_and_files(tmp_path):
+    ps, _ = noisy_point_sets(7, seed=1)
+    sub = ps.subset([5, 2])
+    rows = np.concatenate([np.flatnonzero(ps.case == 5), np.flatnonzero(ps.case == 2)])
+    np.testing.assert_array_equal(sub.noise_db, ps.noise_db[rows])
+    both = PointSets.concatenate([sub, ps])
+    np.testing.assert_array_equal(both.noise_db, np.r_[sub.noise_db, ps.noise_db])
+    # a part without it: the whole has none
+    bare = PointSets(**{**ps.__dict__, "noise_db": None})
+    assert PointSets.concatenate([bare, ps]).noise_db is None
+    ps.save(tmp_path / "c.npz")
+    np.testing.assert_array_equal(PointSets.load(tmp_path / "c.npz").noise_db, ps.noise_db)
+    bare.save(tmp_path / "b.npz")
+    assert PointSets.load(tmp_path / "b.npz").noise_db is None
+    np.testing.assert_array_equal(ps.fitting_points(3).noise_db, ps.noise_db[ps.case == 3])
+    one = point_sets_from_records(ps.fitting_points(3), CHANNELS)
+    np.testing.assert_array_equal(one.noise_db, ps.noise_db[ps.case == 3])
+    recs = [{"channel": "uz_tip", "amplitude_m": 1e-3, "f_hz": 30.0, "noise_db": -21.0},
+            {"channel": "uz_root", "amplitude_m": 2e-3, "f_hz": 31.0}]
+    assert point_sets_from_records(recs, CHANNELS).noise_db is None
+    recs[1]["noise_db"] = -19.0
+    np.testing.assert_array_equal(point_sets_from_records(recs, CHANNELS).noise_db,
+                                  [-21.0, -19.0])
+    with pytest.raises(ValueError, match="`noise_db` must have shape"):
+        PointSets(**{**ps.__dict__, "noise_db": ps.noise_db[:-1]})
+
+
+def test_normalisation_and_collate_with_and_without_the_noise():
+    ps, _ = noisy_point_sets(6, seed=2)
+    norm = Normalisation.from_point_sets(ps)
+    assert norm.uses_noise and norm.noise_db_mean == pytest.approx(ps.noise_db.mean())
+    assert norm.noise_db_std == pytest.approx(ps.noise_db.std())
+    assert Normalisation.from_dict(norm.as_dict()) == norm
+    old = Normalisation.from_point_sets(ps, noise=False)
+    assert not old.uses_noise and "noise_db_mean" not in old.as_dict()
+    # a checkpoint's record from before the noise input reads back as it was
+    assert Normalisation.from_dict(old.as_dict()) == old
+    with pytest.raises(ValueError, match="exactly the keys"):
+        Normalisation.from_dict({**old.as_dict(), "noise_db_mean": 1.0})
+    bare = PointSets(**{**ps.__dict__, "noise_db": None})
+    assert not Normalisation.from_point_sets(bare).uses_noise  # the default: when it is there
+    with pytest.raises(ValueError, match="noise_db"):
+        Normalisation.from_point_sets(bare, noise=True)
+    b = collate_point_sets(ps, [4], norm=norm)
+    rows = np.flatnonzero(ps.case == 4)
+    k = rows.size
+    assert b["x"].shape == (1, k, 3 + len(CHANNELS))
+    np.testing.assert_allclose(b["x"][0, :, 2].numpy(),
+                               (ps.noise_db[rows] - norm.noise_db_mean) / norm.noise_db_std,
+                               rtol=1e-5)
+    np.testing.assert_array_equal(b["x"][0, np.arange(k), 3 + ps.channel[rows]].numpy(), 1.0)
+    np.testing.assert_array_equal(b["x"][0, :, 3:].sum(1).numpy(), 1.0)
+    assert collate_point_sets(ps, [4], norm=old)["x"].shape == (1, k, 2 + len(CHANNELS))
+    # a point without a measured noise floor reads the training mean (0)
+    gap = PointSets(**{**ps.__dict__, "noise_db": np.where(ps.case == 4, np.nan, ps.noise_db)})
+    assert np.all(collate_point_sets(gap, [4], norm=norm)["x"][0, :, 2].numpy() == 0)
+
+
+def test_the_network_reads_the_noise_from_its_input(tmp_path):
+    """Trained on cases whose scatter only noise_db tells, the network with the noise input gives
+    the noisy cases a wider posterior than the clean ones, and its central 50 % intervals hold
+    about half the truths at every level; without it, every case gets about one spread."""
+    ps, sigma = noisy_point_sets(1500, seed=0)
+    train, val = ps.subset(np.arange(1200)), ps.subset(np.arange(1200, 1500))
+    s_val = sigma[1200:]
+    spreads, inside = {}, {}
+    for noise in (True, False):
+        module, _, _ = train_inverse_model(
+            train, val, channels=CHANNELS, fingerprint="synthetic", hidden=32, depth=2,
+            lr=1e-2, batch_size=64, max_epochs=25, seed=0, noise_input=noise, **QUIET)
+        assert module.norm.uses_noise is noise
+        pred = InverseModel(module).predict(val)
+        z = np.log(val.kn / pred.kn) / pred.log_kn_std
+        spreads[noise] = [np.median(pred.log_kn_std[s_val == s]) for s in (1e-3, 4e-2)]
+        inside[noise] = [np.mean(np.abs(z[s_val == s]) < 0.6745) for s in (1e-3, 4e-2)]
+    wide, narrow = spreads[True][1], spreads[True][0]
+    assert wide > 2.0 * narrow, spreads
+    assert spreads[False][1] < 1.5 * spreads[False][0], spreads
+    # the share of truths inside the central 50 %: near 0.5 for both levels with the input
+    assert all(0.35 < v < 0.65 for v in inside[True]), inside
+    assert abs(inside[True][0] - inside[True][1]) < 0.15, inside
+    # without it the clean cases' intervals are too wide and the noisy ones' too narrow
+    assert inside[False][0] - inside[False][1] > 0.25, inside
+
+
+def test_a_network_with_the_noise_input_round_trips_and_warns_without_it(tmp_path):
+    ps, _ = noisy_point_sets(120, seed=4)
+    train, val = ps.subset(np.arange(96)), ps.subset(np.arange(96, 120))
+    module, trainer, _ = train_inverse_model(
+        train, val, channels=CHANNELS, fingerprint="0123456789abcdef", hidden=16, depth=2,
+        max_epochs=1, out_dir=tmp_path, enable_progress_bar=False, logger=False)
+    assert module.norm.uses_noise  # the default: when the cases have it
+    model = load_inverse_model(tmp_path / "best.ckpt")
+    assert model.norm == module.norm and model.module.net.n_features == 3 + len(CHANNELS)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        p = model.predict(val)
+    np.testing.assert_allclose(p.kn, InverseModel(module).predict(val).kn, rtol=1e-6)
+    bare = PointSets(**{**val.__dict__, "noise_db": None})
+    with pytest.warns(InverseDomainWarning, match="carry no measured noise floor"):
+        model.predict(bare)
+    fp = val.fitting_points(0)
+    with pytest.warns(InverseDomainWarning, match="1 of"):
+        model.predict(point_sets_from_records(
+            FittingPoints(channel=fp.channel, amplitude_m=fp.amplitude_m, f_hz=fp.f_hz,
+                          noise_db=np.r_[np.nan, fp.noise_db[1:]]), CHANNELS))
+
+
+def test_the_domain_names_a_point_noisier_than_any_training_point():
+    ps, _ = noisy_point_sets(40, seed=5)
+    dom = TrainingDomain.from_point_sets(ps)
+    assert dom.noise_db_max > ps.noise_db.max()
+    assert TrainingDomain.from_dict(dom.to_dict()) == dom
+    assert dom.outside(ps) == [""] * ps.n_cases
+    noisy = PointSets(**{**ps.__dict__, "noise_db": np.where(ps.case == 2, dom.noise_db_max + 3,
+                                                              ps.noise_db)})
+    why = dom.outside(noisy)
+    assert "noisier than any training record" in why[2]
+    assert why[:2] == ["", ""] and why[3:] == [""] * (ps.n_cases - 3)
+    # cleaner than any training point is not outside
+    clean = PointSets(**{**ps.__dict__, "noise_db": ps.noise_db - 40})
+    assert dom.outside(clean) == [""] * ps.n_cases
+    # no noise floor recorded on either side: no check
+    bare = PointSets(**{**ps.__dict__, "noise_db": None})
+    assert TrainingDomain.from_point_sets(bare).noise_db_max is None
+    assert dom.outside(bare) == [""] * ps.n_cases

@@ -271,7 +271,7 @@ def test_points_table_has_one_row_per_point(result):
     pts = result.points.points
     assert len(rows) == len(pts) == 4
     assert list(rows[0]) == ["run", "level_g", "channel", "dof", "f_hz", "amplitude_m", "used",
-                             "reason", "residual", "snr_db", "time_s"]
+                             "reason", "residual", "snr_db", "noise_db", "time_s"]
     assert [(r["run"], r["channel"], r["f_hz"], r["amplitude_m"], r["used"]) for r in rows] == [
         (p.run, p.channel, p.f_hz, p.amplitude_m, p.used) for p in pts]
     assert [r["level_g"] for r in rows] == [LEVELS[p.run] for p in pts]
@@ -314,7 +314,8 @@ def test_write_then_read_gives_the_same_result(result, tmp_path):
         return [(p.run, p.channel, p.f_hz, p.amplitude_m, p.used, p.reason) for p in points]
 
     assert fields(back.points.points) == fields(result.points.points)
-    assert all(math.isnan(p.time_s) and math.isnan(p.snr_db) for p in back.points.points)
+    assert all(math.isnan(p.time_s) and math.isnan(p.snr_db) and math.isnan(p.noise_db)
+               for p in back.points.points)
     np.testing.assert_array_equal(back.plain_fit.residuals, result.plain_fit.residuals)
     assert back.dofs == result.dofs and back.levels == result.levels == LEVELS
     assert back.rejected_runs == result.rejected_runs and back.truth == result.truth

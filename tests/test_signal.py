@@ -24,6 +24,7 @@ from freeplayid.signal import (
     find_jump_peak,
     lockin,
     narrowest_bandwidth,
+    noise_floor,
     ridge_frequency,
     to_displacement,
     white_noise,
@@ -366,6 +367,40 @@ def test_sdof_peaks_lie_on_exact_backbone(sdof_runs, sweep, method):
     f, x = res.arrays("x")
     np.testing.assert_array_equal(f, [p.f_hz for p in used])
     np.testing.assert_array_equal(x, [p.amplitude_m for p in used])
+
+
+def test_noise_floor_reads_the_noise_not_a_transient():
+    """The floor of white noise with a burst of 10x its level over 8 % of the record: within
+    the low quantile's own bias (0.96 sigma for 1 s windows of 256 samples) of the noise."""
+    rng = np.random.default_rng(0)
+    fs, sigma = 256.0, 0.3
+    r = rng.normal(0.0, sigma, int(100 * fs))
+    r[int(40 * fs):int(48 * fs)] += rng.normal(0.0, 10 * sigma, int(8 * fs))
+    assert 0.93 * sigma < noise_floor(r, fs) < 1.0 * sigma
+    assert np.sqrt(np.mean(r ** 2)) > 2.5 * sigma  # what the whole record's RMS reads
+    assert noise_floor(r[:100], fs) == pytest.approx(np.sqrt(np.mean(r[:100] ** 2)))
+
+
+@pytest.mark.parametrize("method", ["acmp", "lockin"])
+def test_point_noise_is_the_records_noise_relative_to_the_point(sdof_runs, sweep, method):
+    """Freeplay SDOF sweeps with a jump, and the same with white noise of a known std: the noisy
+    point's floor is the noise's power (that std relative to the point, as displacement at the
+    point's frequency) plus the noise-free record's floor (this SDOF's free mass rattles in its
+    gap), within 0.6 dB (the low quantile's bias is -0.35 dB); the jump's transient does not
+    enter it."""
+    kw = dict(quantity="acceleration", run_names=RUNS, channel_names=["x"], sweep=sweep,
+              method=method)
+    clean = extract_backbone_points(sdof_runs["acceleration"], FS, **kw)
+    sigma = 1.0 * G  # [m/s^2]
+    noisy_runs = sdof_runs["acceleration"] + np.random.default_rng(3).normal(
+        0.0, sigma, sdof_runs["acceleration"].shape)
+    noisy = extract_backbone_points(noisy_runs, FS, **kw)
+    assert [p.run for p in noisy.used()] == [p.run for p in clean.used()] == RUNS[1:]
+    for p, q in zip(noisy.used(), clean.used(), strict=True):
+        noise = 20 * np.log10(sigma / (2 * np.pi * p.f_hz) ** 2 / p.amplitude_m)
+        assert q.noise_db < noise - 6, (q, noise)
+        want = 10 * np.log10(10 ** (noise / 10) + 10 ** (q.noise_db / 10))
+        assert abs(p.noise_db - want) < 0.6, (p, want)
 
 
 def test_peak_amplitude_is_first_harmonic_of_the_record(sdof_runs, sweep):

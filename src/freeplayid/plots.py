@@ -408,7 +408,10 @@ def plot_sbc_ranks(ax, calibration: dict, quantity: str = "kn"):
                         for i in range(bins)], fontsize=7)
     ax.set_xlabel(f"rank of the true {name} among {sbc['n_draws']} posterior draws")
     ax.set_ylabel("test cases")
-    ax.set_title(f"SBC ranks of {name}: chi-square p = {sbc['p_value']:.2g}", fontsize=9)
+    clustered = (f" ({sbc['p_value_clustered']:.2g} clustered by kn)"
+                 if sbc.get("deff", 1.0) > 1.0 else "")
+    ax.set_title(f"SBC ranks of {name}: chi-square p = {sbc['p_value']:.2g}{clustered}",
+                 fontsize=9)
     ax.legend(fontsize=7)
 
 

@@ -55,6 +55,10 @@ class FittingPoints:
         Resonance (jump) frequency.
     run : tuple of str, shape (p,), or None
         Sweep run of each point (informational).
+    noise_db : ndarray, shape (p,) [dB], or None
+        Each point's record's noise floor relative to the point (``noise_db`` of
+        :class:`freeplayid.signal.BackbonePoint`; NaN where not measured): the neural inverse
+        model's word of the noise (docs/inverse.md). The fit does not use it.
 
     Raises
     ------
@@ -67,16 +71,20 @@ class FittingPoints:
     amplitude_m: np.ndarray
     f_hz: np.ndarray
     run: tuple | None = None
+    noise_db: np.ndarray | None = None
 
     def __post_init__(self):
         channel = _names("channel", self.channel)
         amp = _vector("amplitude_m", self.amplitude_m)
         f = _vector("f_hz", self.f_hz)
         run = None if self.run is None else _names("run", self.run)
+        noise = None if self.noise_db is None else _vector("noise_db", self.noise_db)
         p = len(channel)
         sizes = {"amplitude_m": amp.size, "f_hz": f.size}
         if run is not None:
             sizes["run"] = len(run)
+        if noise is not None:
+            sizes["noise_db"] = noise.size
         wrong = {k: v for k, v in sizes.items() if v != p}
         if wrong:
             raise ValueError(
@@ -96,6 +104,7 @@ class FittingPoints:
         object.__setattr__(self, "amplitude_m", amp)
         object.__setattr__(self, "f_hz", f)
         object.__setattr__(self, "run", run)
+        object.__setattr__(self, "noise_db", noise)
 
     def __len__(self) -> int:
         return len(self.channel)
@@ -108,6 +117,9 @@ class FittingPoints:
             and self.run == other.run
             and np.array_equal(self.amplitude_m, other.amplitude_m)
             and np.array_equal(self.f_hz, other.f_hz)
+            and (self.noise_db is None) == (other.noise_db is None)
+            and (self.noise_db is None
+                 or np.array_equal(self.noise_db, other.noise_db, equal_nan=True))
         )
 
     __hash__ = None  # mutable-looking arrays inside: not hashable, like ndarray
@@ -115,9 +127,9 @@ class FittingPoints:
     @classmethod
     def from_records(cls, records: Iterable[Mapping]) -> FittingPoints:
         """Points from records: ``channel`` (DOF name), ``amplitude_m`` [m], ``f_hz`` [Hz],
-        optional ``run`` and ``used`` (records with ``used`` False are skipped).
+        optional ``run``, ``noise_db`` [dB] and ``used`` (records with ``used`` False are skipped).
 
-        ``run`` is kept when every used record has one, else dropped.
+        ``run`` and ``noise_db`` are kept when every used record has one, else dropped.
 
         Raises
         ------
@@ -130,11 +142,13 @@ class FittingPoints:
             if missing:
                 raise ValueError(f"point record {i} lacks {missing} (has {sorted(r)})")
         runs = [r.get("run") for r in rows]
+        noise = [r.get("noise_db") for r in rows]
         return cls(
             channel=tuple(r["channel"] for r in rows),
             amplitude_m=[r["amplitude_m"] for r in rows],
             f_hz=[r["f_hz"] for r in rows],
             run=None if any(v is None for v in runs) else tuple(runs),
+            noise_db=None if any(v is None for v in noise) else noise,
         )
 
     @classmethod
@@ -173,11 +187,12 @@ class FittingPoints:
             amplitude_m=[p.amplitude_m for p in used],
             f_hz=[p.f_hz for p in used],
             run=tuple(p.run for p in used),
+            noise_db=[p.noise_db for p in used],
         )
 
     def to_records(self) -> list[dict]:
         """One dict per point: ``channel``, ``amplitude_m`` [m], ``f_hz`` [Hz] (plain floats),
-        and ``run`` when known; :meth:`from_records` reads them back."""
+        and ``run`` and ``noise_db`` [dB] when known; :meth:`from_records` reads them back."""
         out = [
             {"channel": c, "amplitude_m": float(a), "f_hz": float(q)}
             for c, a, q in zip(self.channel, self.amplitude_m, self.f_hz, strict=True)
@@ -185,4 +200,7 @@ class FittingPoints:
         if self.run is not None:
             for rec, r in zip(out, self.run, strict=True):
                 rec["run"] = r
+        if self.noise_db is not None:
+            for rec, v in zip(out, self.noise_db, strict=True):
+                rec["noise_db"] = float(v)
         return out

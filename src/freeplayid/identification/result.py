@@ -180,8 +180,9 @@ class Identification:
             Keys: ``run``, ``level_g`` [g] (None if unknown), ``channel``, ``dof``, ``f_hz``
             [Hz], ``amplitude_m`` [m] (first-harmonic displacement), ``used``, ``reason``
             (empty when used), ``residual`` [-] (the plain fit's (f_BC - f) / f of a used point,
-            NaN otherwise), ``snr_db`` [dB] and ``time_s`` [s] (NaN where not measured or not
-            in the result file).
+            NaN otherwise), ``snr_db`` [dB], ``noise_db`` [dB] (the record's noise floor
+            relative to the point) and ``time_s`` [s] (NaN where not measured or not in the
+            result file).
         """
         residuals = iter(self.plain_fit.residuals)  # in the order of the used points
         levels = self.levels
@@ -189,7 +190,8 @@ class Identification:
                  "dof": self.dofs.get(p.channel), "f_hz": float(p.f_hz),
                  "amplitude_m": float(p.amplitude_m), "used": bool(p.used), "reason": p.reason,
                  "residual": float(next(residuals)) if p.used else math.nan,
-                 "snr_db": float(p.snr_db), "time_s": float(p.time_s)}
+                 "snr_db": float(p.snr_db), "noise_db": float(p.noise_db),
+                 "time_s": float(p.time_s)}
                 for p in self.points.points]
 
     def to_dataframe(self):

@@ -106,6 +106,12 @@ class InverseModel:
         if empty.size:
             raise ValueError(f"cases {empty[:20].tolist()}{' ...' if empty.size > 20 else ''} "
                              "have no points; the inverse model needs >= 1 point per case")
+        if self.norm.uses_noise and (ps.noise_db is None or not np.all(np.isfinite(ps.noise_db))):
+            n = ps.case.size if ps.noise_db is None else int(np.sum(~np.isfinite(ps.noise_db)))
+            warnings.warn(f"inverse model {self.path or ''}: {n} of {ps.case.size} points carry "
+                          "no measured noise floor (noise_db), which this network reads as its "
+                          "word of the noise; they get the training points' mean, so the spread is "
+                          "an average test's, not this one's", InverseDomainWarning, stacklevel=2)
         net = self.module.net
         device = next(net.parameters()).device
         was_training = net.training

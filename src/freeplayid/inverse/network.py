@@ -3,17 +3,27 @@
 A case is a *set* of points (channel c, amplitude A [m], frequency f [Hz]) of any size, in no
 order. The network is a DeepSets model (Zaheer et al. 2017):
 
-    h_i = phi([z_A,i, z_f,i, onehot(c_i)])            per point, shared MLP
+    h_i = phi([z_A,i, z_f,i, z_N,i, onehot(c_i)])     per point, shared MLP
     g   = [mean_i h_i, max_i h_i, log n]              masked pooling: order and padding free
     (mu, s) = rho(g)                                  mu, s: shape (2,)
 
-with ``z_A = (log A - m_A) / s_A`` and ``z_f = (f - m_f) / s_f``. The outputs are the mean
+with ``z_A = (log A - m_A) / s_A``, ``z_f = (f - m_f) / s_f`` and ``z_N = (N - m_N) / s_N``, N
+the point's record's noise floor relative to the point [dB] (``noise_db`` of
+:class:`freeplayid.signal.BackbonePoint`; a network trained without it, as every one before
+2026-11-29, has no ``z_N``). The outputs are the mean
 ``mu`` and log-variance ``s`` of the normalised targets ``((log kn - m_kn) / s_kn,
 (log delta - m_delta) / s_delta)``.
 
 Why log A: scaling delta by c scales every amplitude by c at the same frequencies (the freeplay
 backbone depends on A / delta only), so a delta change is a shift of log A, which the network
 sees as a shift of one input feature.
+
+Why the noise floor: the points do not say how noisy their records were, and the posterior's
+spread is set by that noise (without it, the share of truths inside the central 50 % interval
+fell from 0.72-0.80 on noise-free cases to 0.41-0.43 at 0.3 g, docs/inverse.md). Why not the
+record's SNR (``snr_db``): its residual holds the jump's transient, so it tells the jump's size
+and the sweep, and a network that read it was confidently wrong on records of another
+integrator (docs/inverse.md); the floor is read where the jump is not.
 """
 
 from __future__ import annotations
@@ -51,6 +61,9 @@ class Normalisation:
         Of ``log kn`` over the training cases.
     log_delta_mean, log_delta_std : float [log rad]
         Of ``log delta`` over the training cases.
+    noise_db_mean, noise_db_std : float or None [dB]
+        Of the points' noise floor relative to them over all training points; None: the
+        network has no noise input (trained without it).
     """
 
     log_amplitude_mean: float
@@ -61,16 +74,25 @@ class Normalisation:
     log_kn_std: float
     log_delta_mean: float
     log_delta_std: float
+    noise_db_mean: float | None = None
+    noise_db_std: float | None = None
+
+    @property
+    def uses_noise(self) -> bool:
+        """Whether the network reads each point's noise floor (a third point feature)."""
+        return self.noise_db_mean is not None
 
     @classmethod
-    def from_point_sets(cls, ps: PointSets) -> Normalisation:
+    def from_point_sets(cls, ps: PointSets, *, noise: bool | None = None) -> Normalisation:
         """Statistics of the training set ``ps``: features over its points, targets over its cases
-        with known truth (finite, > 0 kn and delta).
+        with known truth (finite, > 0 kn and delta); with ``noise``, the points' ``noise_db``
+        too (the network then reads it; None: when every point has a finite one).
 
         Raises
         ------
         ValueError
-            ``ps`` has no points, or no case with known truth.
+            ``ps`` has no points, or no case with known truth, or ``noise`` and ``ps`` has no
+            finite ``noise_db`` for every point.
         """
         if ps.case.size == 0:
             raise ValueError("`ps` must contain points to normalise by, got 0 points")
@@ -82,16 +104,28 @@ class Normalisation:
             )
         log_a = np.log(ps.amplitude)
         log_kn, log_delta = np.log(ps.kn[known]), np.log(ps.delta[known])
+        extra = {}
+        if noise is None:
+            noise = ps.noise_db is not None and bool(np.all(np.isfinite(ps.noise_db)))
+        if noise:
+            if ps.noise_db is None or not np.all(np.isfinite(ps.noise_db)):
+                raise ValueError("`ps` must have a finite `noise_db` for every point to train the "
+                                 "noise input (cases cached before it was stored lack it; or "
+                                 "set network.noise_input=false)")
+            extra = {"noise_db_mean": float(ps.noise_db.mean()),
+                     "noise_db_std": _spread(ps.noise_db)}
         return cls(
             log_amplitude_mean=float(log_a.mean()), log_amplitude_std=_spread(log_a),
             frequency_mean=float(ps.frequency.mean()), frequency_std=_spread(ps.frequency),
             log_kn_mean=float(log_kn.mean()), log_kn_std=_spread(log_kn),
             log_delta_mean=float(log_delta.mean()), log_delta_std=_spread(log_delta),
+            **extra,
         )
 
     def as_dict(self) -> dict[str, float]:
-        """Plain ``{name: float}`` (what a checkpoint stores)."""
-        return {k: float(v) for k, v in asdict(self).items()}
+        """Plain ``{name: float}`` (what a checkpoint stores; the noise's entries only when the
+        network reads it)."""
+        return {k: float(v) for k, v in asdict(self).items() if v is not None}
 
     @classmethod
     def from_dict(cls, d: Mapping) -> Normalisation:
@@ -99,12 +133,15 @@ class Normalisation:
         if isinstance(d, Normalisation):
             return d
         names = [f.name for f in fields(cls)]
-        if not isinstance(d, Mapping) or set(d) != set(names):
+        base = names[:-2]  # without the noise's pair (checkpoints trained without it)
+        if not isinstance(d, Mapping) or set(d) not in (set(names), set(base)):
             got = sorted(d) if isinstance(d, Mapping) else type(d).__name__
-            raise ValueError(f"`norm` must be a mapping with exactly the keys {names}, got {got}")
-        out = cls(**{k: float(d[k]) for k in names})
+            raise ValueError(f"`norm` must be a mapping with exactly the keys {names} (or "
+                             f"without the last two), got {got}")
+        out = cls(**{k: float(d[k]) for k in names if k in d})
         if not all(math.isfinite(v) for v in out.as_dict().values()) or min(
-            out.log_amplitude_std, out.frequency_std, out.log_kn_std, out.log_delta_std
+            out.log_amplitude_std, out.frequency_std, out.log_kn_std, out.log_delta_std,
+            out.noise_db_std if out.uses_noise else 1.0
         ) <= 0:
             raise ValueError(f"`norm` must have finite means and stds > 0, got {out}")
         return out
@@ -141,8 +178,10 @@ def collate_point_sets(
     Returns
     -------
     dict with
-        ``x`` : Tensor, shape (batch, max_points, 2 + n_channels) float32 -- features
-        ``[(log A - m) / s, (f - m) / s, one-hot channel]``, zero on padding;
+        ``x`` : Tensor, shape (batch, max_points, n_features) float32 -- features
+        ``[(log A - m) / s, (f - m) / s, (noise_db - m) / s, one-hot channel]`` (the noise only
+        when ``norm.uses_noise``; a point without one gets the training mean, 0), zero on
+        padding; ``n_features = 2 + norm.uses_noise + n_channels``;
         ``mask`` : Tensor, shape (batch, max_points) bool -- True on real points;
         ``y`` : Tensor, shape (batch, 2) float32 -- normalised (log kn, log delta), NaN where the
         truth is unknown;
@@ -163,12 +202,16 @@ def collate_point_sets(
     rows = starts[idx][batch_of] + pos if idx.size else np.zeros(0, np.int64)
 
     n_ch = len(ps.channels)
-    x = np.zeros((idx.size, max(int(lengths.max(initial=0)), 1), 2 + n_ch), np.float32)
+    first = 2 + int(norm.uses_noise)  # column of the one-hot channel's first entry
+    x = np.zeros((idx.size, max(int(lengths.max(initial=0)), 1), first + n_ch), np.float32)
     x[batch_of, pos, 0] = (np.log(ps.amplitude[rows]) - norm.log_amplitude_mean) / (
         norm.log_amplitude_std
     )
     x[batch_of, pos, 1] = (ps.frequency[rows] - norm.frequency_mean) / norm.frequency_std
-    x[batch_of, pos, 2 + ps.channel[rows]] = 1.0
+    if norm.uses_noise and ps.noise_db is not None:
+        z = (ps.noise_db[rows] - norm.noise_db_mean) / norm.noise_db_std
+        x[batch_of, pos, 2] = np.where(np.isfinite(z), z, 0.0)
+    x[batch_of, pos, first + ps.channel[rows]] = 1.0
     mask = np.zeros(x.shape[:2], bool)
     mask[batch_of, pos] = True
     with np.errstate(invalid="ignore", divide="ignore"):  # unknown truth -> NaN targets
@@ -206,10 +249,13 @@ class InverseNet(nn.Module):
         Linear layers of the per-point MLP phi; the set MLP rho has ``depth - 1`` hidden layers
         (at least 1) and a linear output layer.
     activation : {"silu", "gelu"}
+    noise_input : bool
+        Whether each point carries its noise floor as a third feature
+        (:func:`collate_point_sets`).
     """
 
     def __init__(self, n_channels: int, *, hidden: int = 64, depth: int = 3,
-                 activation: str = "silu"):
+                 activation: str = "silu", noise_input: bool = False):
         super().__init__()
         if int(n_channels) < 1:
             raise ValueError(f"`n_channels` must be >= 1, got {n_channels!r}")
@@ -218,7 +264,7 @@ class InverseNet(nn.Module):
         if activation not in _ACTIVATIONS:
             raise ValueError(f"`activation` must be one of {sorted(_ACTIVATIONS)}, "
                              f"got {activation!r}")
-        self.n_features = 2 + int(n_channels)
+        self.n_features = 2 + int(bool(noise_input)) + int(n_channels)
         self.phi = _mlp(self.n_features, [hidden] * depth, activation, last_activation=True)
         self.rho = _mlp(2 * hidden + 1, [hidden] * max(depth - 1, 1) + [4], activation,
                         last_activation=False)

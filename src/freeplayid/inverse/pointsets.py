@@ -41,6 +41,10 @@ class PointSets:
         Truth, NaN when unknown.
     meta : dict of str -> ndarray, shape (N,)
         Per-case labels of the studies (e.g. ``noise_g``, ``sim``), any dtype.
+    noise_db : ndarray, shape (P,) [dB], or None
+        Each point's measured signal-to-noise ratio (its record's first harmonic against the
+        rest, :class:`freeplayid.signal.BackbonePoint`), NaN where not measured; None: none
+        recorded (cases cached before it was).
     """
 
     channels: tuple
@@ -51,13 +55,15 @@ class PointSets:
     kn: np.ndarray
     delta: np.ndarray
     meta: dict = field(default_factory=dict)
+    noise_db: np.ndarray | None = None
 
     def __post_init__(self):
         n = self.kn.shape[0]
         p = self.case.shape[0]
         if self.delta.shape != (n,):
             raise ValueError(f"`delta` must have shape ({n},), got {self.delta.shape}")
-        for name in ("channel", "amplitude", "frequency"):
+        for name in ("channel", "amplitude", "frequency") + (
+                ("noise_db",) if self.noise_db is not None else ()):
             if getattr(self, name).shape != (p,):
                 got = getattr(self, name).shape
                 raise ValueError(f"`{name}` must have shape ({p},), got {got}")
@@ -92,6 +98,7 @@ class PointSets:
             channel=self.channel[rows], amplitude=self.amplitude[rows],
             frequency=self.frequency[rows], kn=self.kn[idx], delta=self.delta[idx],
             meta={k: np.asarray(v)[idx] for k, v in self.meta.items()},
+            noise_db=None if self.noise_db is None else self.noise_db[rows],
         )
 
     def fitting_points(self, i: int) -> FittingPoints:
@@ -104,7 +111,8 @@ class PointSets:
         """
         rows = np.flatnonzero(self.case == i)
         return FittingPoints(channel=tuple(self.channels[c] for c in self.channel[rows]),
-                             amplitude_m=self.amplitude[rows], f_hz=self.frequency[rows])
+                             amplitude_m=self.amplitude[rows], f_hz=self.frequency[rows],
+                             noise_db=None if self.noise_db is None else self.noise_db[rows])
 
     def records(self, i: int) -> list[dict]:
         """Case ``i`` as point records (channel name, amplitude_m, f_hz)."""
@@ -112,7 +120,8 @@ class PointSets:
 
     @staticmethod
     def concatenate(parts: Sequence[PointSets]) -> PointSets:
-        """One PointSets of all cases of ``parts`` (same channels), in order."""
+        """One PointSets of all cases of ``parts`` (same channels), in order; ``noise_db`` where
+        every part has it."""
         if not parts:
             raise ValueError("`parts` must not be empty")
         chans = parts[0].channels
@@ -131,6 +140,8 @@ class PointSets:
             kn=np.concatenate([p.kn for p in parts]),
             delta=np.concatenate([p.delta for p in parts]),
             meta={k: np.concatenate([np.asarray(p.meta[k]) for p in parts]) for k in keys},
+            noise_db=None if any(p.noise_db is None for p in parts) else
+            np.concatenate([p.noise_db for p in parts]),
         )
 
     def save(self, path) -> None:
@@ -141,6 +152,7 @@ class PointSets:
                      channel=self.channel, amplitude=self.amplitude, frequency=self.frequency,
                      kn=self.kn, delta=self.delta,
                      meta_keys=np.array(sorted(self.meta), dtype=str),
+                     **({} if self.noise_db is None else {"noise_db": self.noise_db}),
                      **{f"meta_{k}": np.asarray(v) for k, v in self.meta.items()})
 
     @staticmethod
@@ -151,13 +163,15 @@ class PointSets:
                 channel=z["channel"], amplitude=z["amplitude"], frequency=z["frequency"],
                 kn=z["kn"], delta=z["delta"],
                 meta={str(k): z[f"meta_{k}"] for k in z["meta_keys"]},
+                noise_db=z["noise_db"] if "noise_db" in z.files else None,
             )
 
 
 def point_sets_from_records(records: FittingPoints | Sequence[dict],
                             channels: Sequence[str]) -> PointSets:
     """One case from fitting points: a :class:`~freeplayid.fit.FittingPoints`, or point records
-    (``channel`` DOF name, ``amplitude_m``, ``f_hz``; ``used``; one point suffices here).
+    (``channel`` DOF name, ``amplitude_m``, ``f_hz``; ``used``, ``noise_db``; one point suffices
+    here). ``noise_db`` is kept where every point has it.
 
     Raises
     ------
@@ -169,11 +183,14 @@ def point_sets_from_records(records: FittingPoints | Sequence[dict],
         names = records.channel
         amplitude = np.array(records.amplitude_m, dtype=float)
         frequency = np.array(records.f_hz, dtype=float)
+        noise = records.noise_db
     else:
         rows = [r for r in records if r.get("used", True)]
         names = [r["channel"] for r in rows]
         amplitude = np.array([float(r.get("amplitude_m", r.get("amplitude"))) for r in rows])
         frequency = np.array([float(r["f_hz"]) for r in rows])
+        noise = None if any(r.get("noise_db") is None for r in rows) else \
+            [float(r["noise_db"]) for r in rows]
     idx = []
     for name in names:
         if name not in channels:
@@ -187,4 +204,5 @@ def point_sets_from_records(records: FittingPoints | Sequence[dict],
         channels=channels, case=np.zeros(n, np.int64), channel=np.array(idx, np.int64),
         amplitude=amplitude.reshape(n), frequency=frequency.reshape(n),
         kn=np.array([np.nan]), delta=np.array([np.nan]),
+        noise_db=None if noise is None else np.array(noise, dtype=float).reshape(n),
     )

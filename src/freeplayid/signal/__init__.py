@@ -13,6 +13,7 @@ from .extract import (
     BackbonePoint,
     BackbonePoints,
     extract_backbone_points,
+    noise_floor,
     to_displacement,
 )
 from .jump import (
@@ -43,6 +44,7 @@ __all__ = [
     "white_noise",
     "add_noise_for_snr",
     "extract_backbone_points",
+    "noise_floor",
     "Extraction",
     "EXTRACTION_METHODS",
     "JUMP_POINTS",

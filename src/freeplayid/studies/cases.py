@@ -38,6 +38,9 @@ __all__ = ["CaseSpec", "AXES", "PlannedCase", "plan_cases", "build_cases", "rebu
            "require_plan_index", "split_by_kn"]
 
 AXES = ("noise_g", "delta")  # ablation axes of a case set
+# what the cache stores per point (a case set cached with other columns has another key)
+POINT_COLUMNS = ("channel", "amplitude_m", "f_hz", "noise_db")
+_NCOL = len(POINT_COLUMNS)
 
 
 @dataclass(frozen=True)
@@ -101,6 +104,7 @@ class CaseSpec:
         d.pop("n_jobs")
         if self.axis == "delta":  # clearances are drawn in a bin around each value (format 2)
             d["delta_sampling"] = "bin"
+        d["point_columns"] = list(POINT_COLUMNS)
         return digest({"cases": d, "bank": bank.key, "format": CACHE_FORMAT})
 
     def delta_bins(self) -> np.ndarray:
@@ -117,14 +121,16 @@ class CaseSpec:
         return np.exp(np.concatenate([[2 * v[0] - mid[0]], mid, [2 * v[-1] - mid[-1]]]))
 
 
-def _extract(signals, fs, sweep, channels, extraction, names) -> list[tuple[int, float, float]]:
-    """Used points (channel index, amplitude [m], f [Hz]) of records (runs, C, T) [m/s^2]."""
+def _extract(signals, fs, sweep, channels, extraction, names) -> list[tuple]:
+    """Used points (channel index, amplitude [m], f [Hz], noise [dB]) of records (runs, C, T)
+    [m/s^2] (:data:`POINT_COLUMNS`)."""
     from ..signal import extract_backbone_points
 
     res = extract_backbone_points(list(signals), fs, quantity="acceleration",
                                   channel_names=list(channels), run_names=names, sweep=sweep,
                                   **extraction)
-    return [(channels.index(p.channel), p.amplitude_m, p.f_hz) for p in res.points if p.used]
+    return [(channels.index(p.channel), p.amplitude_m, p.f_hz, p.noise_db)
+            for p in res.points if p.used]
 
 
 def _case_records(bank_signals, scale, noise_ms2, seed) -> np.ndarray:
@@ -224,7 +230,7 @@ def build_cases(
         The kept cases; ``meta`` holds per case ``kn_index`` (index into ``bank.kn``),
         ``axis_value``, ``noise_g`` [g], ``n_runs``, ``level_max_g`` [g] and ``plan_index``
         (its entry of :func:`plan_cases`, for :func:`rebuild_case`; cases cached before it
-        was stored lack it).
+        was stored lack it); ``noise_db`` each point's noise floor relative to it [dB].
     """
     from joblib import Parallel, delayed
 
@@ -251,7 +257,8 @@ def build_cases(
             for k, r in progress_bar(need, desc="clean points", unit="sweep",
                                      show=progress and bool(need))
         )
-        clean = {kr: np.array(p, float).reshape(-1, 3) for kr, p in zip(need, out, strict=True)}
+        clean = {kr: np.array(p, float).reshape(-1, _NCOL)
+                 for kr, p in zip(need, out, strict=True)}
         with atomic_path(clean_path) as tmp:
             np.savez(tmp, keys=np.array(need, int).reshape(-1, 2),
                      **{f"p{a}_{b}": v for (a, b), v in clean.items()})
@@ -275,14 +282,16 @@ def build_cases(
             rows = []
             for i, (k, _v, delta, noise, runs, _) in enumerate(block):
                 if noise > 0:
-                    p = np.array(pts[i], float).reshape(-1, 3)
+                    p = np.array(pts[i], float).reshape(-1, _NCOL)
                 else:
-                    p = np.concatenate([clean[(k, int(r))] for r in runs]).reshape(-1, 3)
-                    p = p * [1.0, delta / DELTA_REF, 1.0]
+                    p = np.concatenate([clean[(k, int(r))] for r in runs]).reshape(-1, _NCOL)
+                    # the extraction is scale-equivariant: amplitudes scale, the noise floor
+                    # relative to the point does not (a noise-free record's is NOISE_DB_MIN)
+                    p = p * [1.0, delta / DELTA_REF, 1.0, 1.0]
                 rows.append(p)
             with atomic_path(path) as tmp:
                 np.savez(tmp, n=np.array([len(r) for r in rows]),
-                         pts=np.concatenate(rows) if rows else np.zeros((0, 3)))
+                         pts=np.concatenate(rows) if rows else np.zeros((0, _NCOL)))
         with np.load(path) as z:
             parts.append((z["n"], z["pts"]))
         bar.update(len(block))
@@ -305,7 +314,7 @@ def build_cases(
         channels=chans, case=new_index[case[sel]].astype(np.int64),
         channel=pts[sel, 0].astype(np.int64), amplitude=pts[sel, 1], frequency=pts[sel, 2],
         kn=bank.kn[meta["kn_index"][keep]], delta=np.array([c.delta for c in plan])[keep],
-        meta={k: v[keep] for k, v in meta.items()},
+        meta={k: v[keep] for k, v in meta.items()}, noise_db=pts[sel, 3],
     )
     info = {"spec": asdict(spec), "bank": bank.key, "n_planned": len(plan),
             "n_cases": ps.n_cases, "n_dropped": int((~keep).sum())}

@@ -138,13 +138,15 @@ def _train(cfg: DictConfig, stage: Path, t0: float) -> dict:
     log.info(f"test cases: {data.test.n_cases}; network alone within "
              f"{100 * cfg.network_bounds.delta:g} % in delta and {100 * cfg.network_bounds.kn:g} % "
              f"in kn: {100 * net['overall']['within_bounds']:.1f} % of cases")
+    sbc = {p: calibration[p]["sbc"] for p in ("kn", "delta")}
     log.info(f"calibration on the test cases ({model.calibration.describe()}; spreads x " +
              ", ".join(f"{p} {calibration['std_scale'][p]:.3g}" for p in ("kn", "delta")) +
              "): largest coverage gap " + ", ".join(
                  f"{p} {100 * calibration[p]['max_gap']:.1f} points (uncalibrated "
                  f"{100 * calibration['uncalibrated_max_gap'][p]:.1f})" for p in ("kn", "delta")) +
         "; SBC ranks' chi-square p " + ", ".join(
-        f"{p} {calibration[p]['sbc']['p_value']:.2g}" for p in ("kn", "delta")) +
+        f"{p} {sbc[p]['p_value']:.2g} ({sbc[p]['p_value_clustered']:.2g} clustered by kn, "
+        f"design effect {sbc[p]['deff']:.2f})" for p in ("kn", "delta")) +
         f"; {calibration['outside_domain']} cases outside the training domain")
     for v, b in net["per_value"].items():
         log.info(f"  {axis} = {v}: median |err| delta {100 * b['delta_err_median']:.2f} %, "
