@@ -211,9 +211,11 @@ class Identification:
 
     def point_records(self) -> list[dict]:
         """Every candidate point as a JSON-ready record (run, channel, dof, f_hz, amplitude_m,
-        used, reason, residual: the plain fit's (f_BC - f) / f, None for a point not used),
-        NaN as None."""
-        keys = ("run", "channel", "dof", "f_hz", "amplitude_m", "used", "reason", "residual")
+        used, reason, residual: the plain fit's (f_BC - f) / f, None for a point not used;
+        noise_db: the record's noise floor re the point, which an inverse model reads), NaN as
+        None."""
+        keys = ("run", "channel", "dof", "f_hz", "amplitude_m", "used", "reason", "residual",
+                "noise_db")
         return [{k: (None if isinstance(row[k], float) and not math.isfinite(row[k]) else row[k])
                  for k in keys} for row in self.points_table()]
 

@@ -80,7 +80,8 @@ def identification_from_record(record: dict) -> Identification:
     :func:`read_identification` for what it holds)."""
     points = tuple(BackbonePoint(run=p["run"], channel=p["channel"], f_hz=_num(p["f_hz"]),
                                  amplitude_m=_num(p["amplitude_m"]), used=bool(p["used"]),
-                                 reason=p["reason"] or "", time_s=math.nan, snr_db=math.nan)
+                                 reason=p["reason"] or "", time_s=math.nan, snr_db=math.nan,
+                                 noise_db=_num(p.get("noise_db")))
                    for p in record["points"])
     rejected = tuple((r["run"], r["reason"]) for r in record["rejected_runs"])
     dataset = dict(record.get("dataset") or {})

@@ -4,7 +4,8 @@ The file holds plain JSON: ``kn`` [N m/rad], ``delta`` [rad], their 95 % interva
 ``delta_ci95`` ([lo, hi]), the fitting ``points`` (run, channel, dof, f_hz, amplitude_m, used,
 reason), ``rejected_runs`` (run, reason), ``residual_rms``, ``backbone``, ``init`` and
 ``runtime_s``; optional keys (``mode``, ``n_evaluations``, the ``dataset`` identified from,
-each point's ``residual``, bootstrap intervals, the inverse model's estimate, the truth of a
+each point's ``residual`` and ``noise_db`` (its record's noise floor re the point), bootstrap
+intervals, the inverse model's estimate, the truth of a
 simulated data set, the verdict and its checks, the replay) may follow. ``records`` holds what
 the record checks found before the extraction (docs/record_checks.md): ``{"findings": [{check,
 run, channel, size, unit, action, message}], "skipped": {check: why}}``, ``null`` when they were
