@@ -268,3 +268,31 @@ def test_bank_quasi_static_option_reaches_the_simulator(tmp_path):
     full = simulate_sweeps(fin, **kw).signals[0, 0]
     np.testing.assert_allclose(b.signals[0, 0, 0], qs, rtol=0, atol=1e-6 * np.abs(qs).max())
     assert np.abs(qs - full).max() > 1e-5 * np.abs(full).max()  # the option changed the model
+
+
+def test_bank_damping_range_draws_a_damping_per_kn(system, tmp_path):
+    """Each kn's sweeps are those of the SDOF built with its damping times the drawn factor
+    (chunks of 5 cut across the kn's groups of 3); kn and the ratios are the draws without it;
+    the cases record each one's factor."""
+    spec = _spec(damping_range=(0.5, 2.0))
+    b = simulate_bank(system, spec, cache_dir=tmp_path, progress=False)
+    plain_kn, plain_ratio = _spec().draw()
+    np.testing.assert_array_equal(b.kn, plain_kn)
+    np.testing.assert_array_equal(b.ratio, plain_ratio)
+    assert b.damping.shape == (4,) and np.all((b.damping >= 0.5) & (b.damping <= 2.0))
+    assert np.ptp(np.log(b.damping)) > 0.3  # drawn, not one value
+    assert spec.key(system) != _spec().key(system)
+    for k in range(4):
+        ref = simulate_sweeps(sdof_system(mass=MASS, damping=b.damping[k] * DAMPING),
+                              kn=b.kn[k], delta=DELTA_REF, level_g=b.ratio[k] * DELTA_REF,
+                              sweep=SWEEP, channels=["x"], frame="relative", sample_rate=256.0,
+                              dtype=torch.float64, progress=False)
+        np.testing.assert_allclose(b.signals[k], ref.signals, rtol=0,
+                                   atol=1e-6 * np.abs(ref.signals).max())
+    ps = build_cases(b, CaseSpec(axis="delta", values=(2.5e-3,), cases_per_value=1,
+                                 runs=(3, 3), n_jobs=1), cache_dir=tmp_path, progress=False)
+    np.testing.assert_array_equal(ps.meta["damping"], b.damping[ps.meta["kn_index"]])
+    with pytest.raises(ValueError, match="damping matrix C"):
+        simulate_bank(system.replace(C=None), spec, cache_dir=tmp_path, progress=False)
+    with pytest.raises(ValueError, match="damping_range"):
+        _spec(damping_range=(2.0, 0.5))

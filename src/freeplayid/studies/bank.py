@@ -78,6 +78,11 @@ class BankSpec:
         Simulate with the quasi-static condensation of the modes above it
         (``simulate_sweeps(quasi_static_hz=)``: 6-7x faster on the default fin at 1000 Hz,
         peak-amplitude error <= 2.1e-3; docs/simulate.md). None: the full model.
+    damping_range : (float, float) or None [-]
+        A factor on the model's damping matrix C per kn, drawn log-uniform in it (after kn and
+        the ratios, so those draws are the same with or without it): the training data then
+        span a damping the test may not share (a real test's damping is never the model's
+        exactly). None: the model's C for every sweep.
     """
 
     sweep: Sweep
@@ -91,6 +96,7 @@ class BankSpec:
     dtype: str = "float32"
     chunk_sweeps: int = 512
     quasi_static_hz: float | None = None
+    damping_range: tuple | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "kn_range", check_pair("kn_range", self.kn_range))
@@ -110,6 +116,9 @@ class BankSpec:
                 raise ValueError("`quasi_static_hz` must be > 0 or null, got "
                                  f"{self.quasi_static_hz!r}")
             object.__setattr__(self, "quasi_static_hz", float(self.quasi_static_hz))
+        if self.damping_range is not None:
+            object.__setattr__(self, "damping_range",
+                               check_pair("damping_range", self.damping_range))
 
     def key(self, system: FreeplaySystem) -> str:
         """Cache key: this spec, the model fingerprint and the cache format."""
@@ -119,16 +128,29 @@ class BankSpec:
             d.pop("quasi_static_hz")
         if d["sweep"].get("octaves_per_min") is None:  # linear: keys of banks before log sweeps
             d["sweep"].pop("octaves_per_min", None)
+        if d["damping_range"] is None:  # the model's damping: keys of banks before the option
+            d.pop("damping_range")
         return digest({"bank": d, "model": system.fingerprint(), "format": CACHE_FORMAT})
 
     def draw(self) -> tuple[np.ndarray, np.ndarray]:
         """kn (n_kn,) [N m/rad] and ratios (n_kn, n_ratios) [g/rad], from ``seed``."""
+        return self._draw()[:2]
+
+    def damping(self) -> np.ndarray:
+        """The factor on the model's C of each kn, shape (n_kn,) (ones without
+        ``damping_range``), from ``seed``."""
+        return self._draw()[2]
+
+    def _draw(self):
         rng = np.random.default_rng(self.seed)
         lk = np.log(self.kn_range)
         lr = np.log(self.ratio_range)
         kn = np.exp(rng.uniform(lk[0], lk[1], self.n_kn))
         ratio = np.sort(np.exp(rng.uniform(lr[0], lr[1], (self.n_kn, self.n_ratios))), axis=1)
-        return kn, ratio
+        if self.damping_range is None:
+            return kn, ratio, np.ones(self.n_kn)
+        ld = np.log(self.damping_range)
+        return kn, ratio, np.exp(rng.uniform(ld[0], ld[1], self.n_kn))
 
 
 @dataclass(frozen=True)
@@ -145,6 +167,8 @@ class SweepBank:
     signals : ndarray, shape (K, R, C, T) [m/s^2]
         Relative acceleration at ``DELTA_REF`` and level ``ratio * DELTA_REF`` [g].
     diverged : ndarray, shape (K, R) bool
+    damping : ndarray, shape (K,) [-]
+        The factor on the model's C of each kn's sweeps (ones: the model's damping).
     """
 
     spec: BankSpec
@@ -154,6 +178,7 @@ class SweepBank:
     time: np.ndarray
     signals: np.ndarray
     diverged: np.ndarray
+    damping: np.ndarray | None = None
 
 
 def simulate_bank(
@@ -179,12 +204,15 @@ def simulate_bank(
     if missing:
         raise ValueError(f"bank `channels` {missing} are not DOFs of the model; "
                          f"allowed: {list(system.dof_names)}")
+    if spec.damping_range is not None and system.C is None:
+        raise ValueError("`damping_range` scales the model's damping matrix C, and this model "
+                         "has none; give the model a C or set damping_range to null")
     key = spec.key(system)
     folder = Path(cache_dir) / f"bank-{key}"
     folder.mkdir(parents=True, exist_ok=True)
     spec_json = {"spec": asdict(spec), "model": system.fingerprint(), "delta_ref": DELTA_REF}
     (folder / "spec.json").write_text(json.dumps(spec_json, indent=2, default=float))
-    kn, ratio = spec.draw()
+    kn, ratio, damping = spec._draw()
     flat_kn = np.repeat(kn, spec.n_ratios)
     flat_s = ratio.reshape(-1)
     n = flat_kn.size
@@ -199,16 +227,27 @@ def simulate_bank(
                        show=progress and len(todo) > 1)
     for i, size in zip(todo, sizes):
         sl = slice(cuts[i], cuts[i] + size)
-        res = simulate_sweeps(
-            system, kn=flat_kn[sl], delta=DELTA_REF, level_g=flat_s[sl] * DELTA_REF,
-            sweep=spec.sweep, channels=list(spec.channels), quantity="acceleration",
-            frame="relative", sample_rate=spec.sample_rate, dtype=dtype, device=device,
-            progress=progress, quasi_static_hz=spec.quasi_static_hz,
-        )
+        kw = dict(delta=DELTA_REF, sweep=spec.sweep, channels=list(spec.channels),
+                  quantity="acceleration", frame="relative", sample_rate=spec.sample_rate,
+                  dtype=dtype, device=device, progress=progress,
+                  quasi_static_hz=spec.quasi_static_hz)
+        if spec.damping_range is None:
+            res = simulate_sweeps(system, kn=flat_kn[sl], level_g=flat_s[sl] * DELTA_REF, **kw)
+            time, sig, div = res.time, res.signals, res.diverged
+        else:  # one damping per kn: a call per kn of the chunk
+            parts = []
+            for k in np.unique(np.arange(n)[sl] // spec.n_ratios):
+                js = np.arange(max(sl.start, k * spec.n_ratios),
+                               min(sl.stop, (k + 1) * spec.n_ratios))
+                res = simulate_sweeps(system.replace(C=damping[k] * np.asarray(system.C)),
+                                      kn=flat_kn[js], level_g=flat_s[js] * DELTA_REF, **kw)
+                parts.append(res)
+            time = parts[0].time
+            sig = np.concatenate([r.signals for r in parts])
+            div = np.concatenate([r.diverged for r in parts])
         # a per-process temporary name: parallel jobs (a joblib multirun) may build one chunk
         with atomic_path(folder / f"chunk-{i:04d}.npz") as tmp:
-            np.savez(tmp, time=res.time, signals=res.signals.astype(np.float32),
-                     diverged=res.diverged)
+            np.savez(tmp, time=time, signals=sig.astype(np.float32), diverged=div)
         bar.update(size)
     bar.close()
     parts = [np.load(folder / f"chunk-{i:04d}.npz") for i in range(len(cuts))]
@@ -218,4 +257,4 @@ def simulate_bank(
     k, r = spec.n_kn, spec.n_ratios
     return SweepBank(spec=spec, key=key, kn=kn, ratio=ratio, time=time,
                      signals=signals.reshape(k, r, *signals.shape[1:]),
-                     diverged=diverged.reshape(k, r))
+                     diverged=diverged.reshape(k, r), damping=damping)

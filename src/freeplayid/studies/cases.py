@@ -228,7 +228,8 @@ def build_cases(
     -------
     PointSets
         The kept cases; ``meta`` holds per case ``kn_index`` (index into ``bank.kn``),
-        ``axis_value``, ``noise_g`` [g], ``n_runs``, ``level_max_g`` [g] and ``plan_index``
+        ``axis_value``, ``noise_g`` [g], ``n_runs``, ``level_max_g`` [g], ``damping`` (the
+        bank's factor on the model's C) and ``plan_index``
         (its entry of :func:`plan_cases`, for :func:`rebuild_case`; cases cached before it
         was stored lack it); ``noise_db`` each point's noise floor relative to it [dB].
     """
@@ -308,6 +309,8 @@ def build_cases(
         "noise_g": np.array([c.noise_g for c in plan], float),
         "n_runs": np.array([len(c.runs) for c in plan]),
         "level_max_g": np.array([bank.ratio[c.kn_index, c.runs].max() * c.delta for c in plan]),
+        "damping": np.array([1.0 if bank.damping is None else bank.damping[c.kn_index]
+                             for c in plan]),
         "plan_index": np.arange(len(plan)),
     }
     ps = PointSets(
