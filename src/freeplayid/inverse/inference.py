@@ -106,7 +106,7 @@ class InverseModel:
         if empty.size:
             raise ValueError(f"cases {empty[:20].tolist()}{' ...' if empty.size > 20 else ''} "
                              "have no points; the inverse model needs >= 1 point per case")
-        if self.norm.uses_noise and (ps.noise_db is None or not np.all(np.isfinite(ps.noise_db))):
+        if self.norm.uses_noise and not ps.noise_known:
             n = ps.case.size if ps.noise_db is None else int(np.sum(~np.isfinite(ps.noise_db)))
             warnings.warn(f"inverse model {self.path or ''}: {n} of {ps.case.size} points carry "
                           "no measured noise floor (noise_db), which this network reads as its "

@@ -106,9 +106,9 @@ class Normalisation:
         log_kn, log_delta = np.log(ps.kn[known]), np.log(ps.delta[known])
         extra = {}
         if noise is None:
-            noise = ps.noise_db is not None and bool(np.all(np.isfinite(ps.noise_db)))
+            noise = ps.noise_known
         if noise:
-            if ps.noise_db is None or not np.all(np.isfinite(ps.noise_db)):
+            if not ps.noise_known:
                 raise ValueError("`ps` must have a finite `noise_db` for every point to train the "
                                  "noise input (cases cached before it was stored lack it; or "
                                  "set network.noise_input=false)")

@@ -42,9 +42,8 @@ class PointSets:
     meta : dict of str -> ndarray, shape (N,)
         Per-case labels of the studies (e.g. ``noise_g``, ``sim``), any dtype.
     noise_db : ndarray, shape (P,) [dB], or None
-        Each point's measured signal-to-noise ratio (its record's first harmonic against the
-        rest, :class:`freeplayid.signal.BackbonePoint`), NaN where not measured; None: none
-        recorded (cases cached before it was).
+        Each point's record's noise floor relative to the point (``noise_db`` of
+        :class:`freeplayid.signal.BackbonePoint`), NaN where not measured; None: none recorded.
     """
 
     channels: tuple
@@ -76,6 +75,11 @@ class PointSets:
         for k, v in self.meta.items():
             if np.shape(v)[:1] != (n,):
                 raise ValueError(f"meta[{k!r}] must have {n} entries, got shape {np.shape(v)}")
+
+    @property
+    def noise_known(self) -> bool:
+        """Whether every point has a measured (finite) ``noise_db``."""
+        return self.noise_db is not None and bool(np.all(np.isfinite(self.noise_db)))
 
     @property
     def n_cases(self) -> int:

@@ -136,12 +136,9 @@ class BankSpec:
         """kn (n_kn,) [N m/rad] and ratios (n_kn, n_ratios) [g/rad], from ``seed``."""
         return self._draw()[:2]
 
-    def damping(self) -> np.ndarray:
-        """The factor on the model's C of each kn, shape (n_kn,) (ones without
-        ``damping_range``), from ``seed``."""
-        return self._draw()[2]
-
     def _draw(self):
+        """kn, ratios and the factor on the model's C of each kn (ones without
+        ``damping_range``), from ``seed``."""
         rng = np.random.default_rng(self.seed)
         lk = np.log(self.kn_range)
         lr = np.log(self.ratio_range)
@@ -178,7 +175,7 @@ class SweepBank:
     time: np.ndarray
     signals: np.ndarray
     diverged: np.ndarray
-    damping: np.ndarray | None = None
+    damping: np.ndarray
 
 
 def simulate_bank(

@@ -309,8 +309,7 @@ def build_cases(
         "noise_g": np.array([c.noise_g for c in plan], float),
         "n_runs": np.array([len(c.runs) for c in plan]),
         "level_max_g": np.array([bank.ratio[c.kn_index, c.runs].max() * c.delta for c in plan]),
-        "damping": np.array([1.0 if bank.damping is None else bank.damping[c.kn_index]
-                             for c in plan]),
+        "damping": np.array([bank.damping[c.kn_index] for c in plan]),
         "plan_index": np.arange(len(plan)),
     }
     ps = PointSets(
