@@ -6,6 +6,7 @@ whose spread is wrong by a known factor), never produced by the code under test.
 
 from __future__ import annotations
 
+import dataclasses
 import warnings
 
 import numpy as np
@@ -155,6 +156,80 @@ def test_a_case_the_estimate_does_not_explain_is_named():
     why = dom.outside(ps, est, system=fin)
     assert why[0] == "" and "misses the points" in why[1]
     assert "misses the points" not in dom.outside(ps, est)[1]  # without the model: unchecked
+
+
+def test_a_fin_outside_the_prior_is_named_whatever_the_network_estimates():
+    """Points on the default fin's backbone at kn 2000 (prior 300-800): the best backbone within
+    the prior misses them, by as much as a brute-force scan of the prior's edge finds; points at
+    kn 480 are explained (misfit ~0). The check needs no estimate, and without the model it is
+    not made."""
+    from freeplayid.fit import BackboneModel
+    from freeplayid.inverse.calibration import backbone_misfit, prior_misfit
+    from freeplayid.model import default_fin
+
+    fin = default_fin()
+    ch = ("uz_top_left", "uz_lower_right")
+    amp = np.array([6e-3, 9e-3, 1.4e-2, 2e-3, 3e-3])
+    cidx = np.array([0, 0, 0, 1, 1])
+    model = BackboneModel(fin, ch)
+    f = np.concatenate([model.frequency(amp, cidx, kn, 3e-3) for kn in (480.0, 2000.0)])
+    ps = PointSets(channels=ch, case=np.repeat([0, 1], 5), channel=np.tile(cidx, 2),
+                   amplitude=np.tile(amp, 2), frequency=f, kn=np.array([480.0, 2000.0]),
+                   delta=np.full(2, 3e-3))
+    kn_range, delta_range = (300.0, 800.0), (1e-3, 5e-3)
+    m = prior_misfit(ps, fin, kn_range, delta_range)
+    assert m[0] < 1e-4
+    # the reference: the stiffest fin of the prior (the edge the points pull to) at 400 gaps
+    one = ps.subset(np.array([1]))
+    scan = min(backbone_misfit(one, fin, np.array([kn]), np.array([d]))[0]
+               for kn in (760.0, 800.0) for d in np.geomspace(*delta_range, 400))
+    assert m[1] > 0.05 and m[1] <= scan * 1.001 and m[1] >= 0.9 * scan
+    dom = TrainingDomain.from_point_sets(ps.subset(np.array([0])), prior_misfit_limit=0.01)
+    dom = dataclasses.replace(dom, kn=kn_range, delta=delta_range)
+    why = dom.outside(ps, system=fin)
+    assert why[0] == "" and "no (kn, delta) of the training prior explains" in why[1]
+    assert "no (kn, delta)" not in dom.outside(ps)[1]  # without the model: unchecked
+    assert TrainingDomain.from_dict(dom.to_dict()) == dom
+
+
+def test_the_calibration_bounds_the_prior_misfit_by_the_training_cases_noise():
+    """Training cases on the default fin's backbone (kn 400-600, delta 2-4 mrad) with 0.3 % of
+    frequency noise, a network whose estimates are 10 % off: the limit at the estimates grows
+    with the network's errors, the prior's best fit's stays at the noise's RMS; a fin at kn
+    2000 is named by the second, a training-like case by neither."""
+    from types import SimpleNamespace
+
+    from freeplayid.fit import BackboneModel
+    from freeplayid.inverse import Calibration
+    from freeplayid.model import default_fin
+
+    fin = default_fin()
+    ch = ("uz_top_left", "uz_lower_right")
+    model = BackboneModel(fin, ch)
+    rng = np.random.default_rng(5)
+    n = 60
+    kn = np.r_[rng.uniform(400, 600, n), 2000.0]
+    delta = np.r_[rng.uniform(2e-3, 4e-3, n), 3e-3]
+    s = np.array([2.0, 3.0, 4.5, 2.0, 3.0, 4.5])
+    cidx = np.array([0, 0, 0, 1, 1, 1])
+    amp = np.concatenate([s * d * np.where(cidx == 1, 0.3, 1.0) for d in delta])
+    f = np.concatenate([model.frequency(amp[6 * c: 6 * c + 6], cidx, kn[c], delta[c])
+                        for c in range(n + 1)]) * (1 + 0.003 * rng.standard_normal(6 * (n + 1)))
+    ps = PointSets(channels=ch, case=np.repeat(np.arange(n + 1), 6), channel=np.tile(cidx, n + 1),
+                   amplitude=amp, frequency=f, kn=kn, delta=delta)
+    train = ps.subset(np.arange(n))
+    off = np.exp(0.1 * rng.standard_normal(n))
+    raw = SimpleNamespace(kn=kn[:n] * off, delta=delta[:n], log_kn_std=np.full(n, 0.1),
+                          log_delta_std=np.full(n, 0.1))
+    cal = Calibration.fit(train, train, raw, system=fin, raw_train=raw)
+    dom = cal.domain
+    assert 0.002 < dom.prior_misfit_limit < 0.006 < dom.misfit_limit
+    est = {"kn": kn, "delta": delta, "log_kn_std": np.full(n + 1, 0.05),
+           "log_delta_std": np.full(n + 1, 0.05)}
+    est["kn"] = np.r_[kn[:n], 800.0]  # the network puts the stiff fin inside the prior
+    why = dom.outside(ps.subset(np.array([0, n])), {k: v[[0, n]] for k, v in est.items()},
+                      system=fin)
+    assert why[0] == "" and "no (kn, delta) of the training prior explains" in why[1]
 
 
 @pytest.fixture(scope="module")
