@@ -171,6 +171,70 @@ def part_factor_for_shift(part: str, shift: float) -> float:
     return float(scipy.optimize.brentq(lambda x: f1(x) / base - 1 - shift, 0.5, 2.0, xtol=1e-10))
 
 
+def _ke(EI, L):  # Euler-Bernoulli element (w1, th1, w2, th2)
+    return EI / L**3 * np.array([[12, 6 * L, -12, 6 * L],
+                                 [6 * L, 4 * L * L, -6 * L, 2 * L * L],
+                                 [-12, -6 * L, 12, -6 * L],
+                                 [6 * L, 2 * L * L, -6 * L, 4 * L * L]])
+
+
+def _me(m, L):  # consistent mass, m per unit length
+    return m * L / 420 * np.array([[156, 22 * L, 54, -13 * L],
+                                   [22 * L, 4 * L * L, 13 * L, -3 * L * L],
+                                   [54, 13 * L, 156, -22 * L],
+                                   [-13 * L, -3 * L * L, -22 * L, 4 * L * L]])
+
+
+def _hinged_beam(segments, *, kn, deltas, E, rho, zeta, rayleigh_hz, rayleigh_on):
+    """(model file system, true Structure) of a clamped beam of ``segments`` ((length, elements,
+    width, thickness) from the root out), joined by a hinge at each interior junction: a shared
+    deflection and separate rotations carrying a freeplay spring. One hinge: DOFs w_hinge,
+    th_hinge_in, th_hinge_out, the outboard nodes w_out<i> / th_out<i> and w_tip; more hinges:
+    w_hinge<j>, th_hinge<j>_in, th_hinge<j>_out and the segments' nodes w_s<k>_<i>."""
+    from freeplayid.model import FreeplaySystem, rayleigh_coefficients
+
+    h = len(segments) - 1
+    dofs, elems, prev, pairs = ["w_root", "th_root"], [], (0, 1), []
+    for k, (L, n_el, b, t) in enumerate(segments):
+        for i in range(1, n_el + 1):
+            if k < h and i == n_el:  # the segment ends at a hinge
+                tag = "hinge" if h == 1 else f"hinge{k + 1}"
+                dofs += [f"w_{tag}", f"th_{tag}_in"]
+            elif k == h and i == n_el:
+                dofs += ["w_tip", "th_tip"]
+            else:
+                nm = ("in" if k == 0 else "out") if h == 1 else f"s{k}_"
+                dofs += [f"w_{nm}{i}", f"th_{nm}{i}"]
+            cur = (len(dofs) - 2, len(dofs) - 1)
+            elems.append((prev, cur, E * b * t**3 / 12, rho * b * t, L / n_el))
+            prev = cur
+        if k < h:
+            tag = "hinge" if h == 1 else f"hinge{k + 1}"
+            dofs.append(f"th_{tag}_out")
+            prev = (dofs.index(f"w_{tag}"), len(dofs) - 1)
+            pairs.append((f"th_{tag}_out", f"th_{tag}_in"))
+    n = len(dofs)
+    K, M = np.zeros((n, n)), np.zeros((n, n))
+    for a, b, EI, mA, L in elems:
+        idx = [a[0], a[1], b[0], b[1]]
+        K[np.ix_(idx, idx)] += _ke(EI, L)
+        M[np.ix_(idx, idx)] += _me(mA, L)
+    free = list(range(2, n))
+    rigid = np.array([1.0 if d.startswith("w_") else 0.0 for d in dofs])
+    Mf, Kf, names = M[np.ix_(free, free)], K[np.ix_(free, free)], [dofs[i] for i in free]
+    load, r = M[free, :] @ rigid, rigid[free]
+    B = np.zeros((len(free), h))
+    for j, (o, i) in enumerate(pairs):
+        B[names.index(o), j], B[names.index(i), j] = 1.0, -1.0
+    a, b = rayleigh_coefficients(*rayleigh_hz, zeta)
+    Kd = Kf + (kn * B @ B.T if rayleigh_on == "closed" else 0.0)
+    st = es.structure_from_arrays(Mf, Kf, a * Mf + b * Kd, B, kn=kn, deltas=deltas,
+                                  dof_names=names, influence=r, load=load)
+    model = FreeplaySystem(M=Mf, K=Kf, dof_names=tuple(names), hinge_pairs=tuple(pairs),
+                           base_influence=r)
+    return model, st
+
+
 def beam(*, kn=5000.0, delta=2.5e-3, L_in=0.12, L_out=0.30, n_in=2, n_out=5, E=70e9,
          rho=2700.0, b_in=0.05, t_in=0.012, b_out=0.06, t_out=0.008, zeta=0.02,
          rayleigh_hz=(30.0, 50.0), rayleigh_on="closed"):
@@ -185,53 +249,21 @@ def beam(*, kn=5000.0, delta=2.5e-3, L_in=0.12, L_out=0.30, n_in=2, n_out=5, E=7
     model file carries r, the contract's -M r a_g, which differs from it by the root coupling).
     The model file has M, K, r and no C.
     """
-    from freeplayid.model import FreeplaySystem, rayleigh_coefficients
+    return _hinged_beam([(L_in, n_in, b_in, t_in), (L_out, n_out, b_out, t_out)], kn=kn,
+                        deltas=delta, E=E, rho=rho, zeta=zeta, rayleigh_hz=rayleigh_hz,
+                        rayleigh_on=rayleigh_on)
 
-    def ke(EI, L):  # Euler-Bernoulli element (w1, th1, w2, th2)
-        return EI / L**3 * np.array([[12, 6 * L, -12, 6 * L],
-                                     [6 * L, 4 * L * L, -6 * L, 2 * L * L],
-                                     [-12, -6 * L, 12, -6 * L],
-                                     [6 * L, 2 * L * L, -6 * L, 4 * L * L]])
 
-    def me(m, L):  # consistent mass, m per unit length
-        return m * L / 420 * np.array([[156, 22 * L, 54, -13 * L],
-                                       [22 * L, 4 * L * L, 13 * L, -3 * L * L],
-                                       [54, 13 * L, 156, -22 * L],
-                                       [-13 * L, -3 * L * L, -22 * L, 4 * L * L]])
-
-    dofs, elems, prev = ["w_root", "th_root"], [], (0, 1)
-    for i in range(1, n_in + 1):
-        dofs += ["w_hinge", "th_hinge_in"] if i == n_in else [f"w_in{i}", f"th_in{i}"]
-        cur = (len(dofs) - 2, len(dofs) - 1)
-        elems.append((prev, cur, E * b_in * t_in**3 / 12, rho * b_in * t_in, L_in / n_in))
-        prev = cur
-    dofs.append("th_hinge_out")
-    prev = (dofs.index("w_hinge"), len(dofs) - 1)
-    for i in range(1, n_out + 1):
-        nm = "tip" if i == n_out else f"out{i}"
-        dofs += [f"w_{nm}", f"th_{nm}"]
-        cur = (len(dofs) - 2, len(dofs) - 1)
-        elems.append((prev, cur, E * b_out * t_out**3 / 12, rho * b_out * t_out, L_out / n_out))
-        prev = cur
-    n = len(dofs)
-    K, M = np.zeros((n, n)), np.zeros((n, n))
-    for a, b, EI, mA, L in elems:
-        idx = [a[0], a[1], b[0], b[1]]
-        K[np.ix_(idx, idx)] += ke(EI, L)
-        M[np.ix_(idx, idx)] += me(mA, L)
-    free = list(range(2, n))
-    rigid = np.array([1.0 if d.startswith("w_") else 0.0 for d in dofs])
-    Mf, Kf, names = M[np.ix_(free, free)], K[np.ix_(free, free)], [dofs[i] for i in free]
-    load, r = M[free, :] @ rigid, rigid[free]
-    B = np.zeros((len(free), 1))
-    B[names.index("th_hinge_out"), 0], B[names.index("th_hinge_in"), 0] = 1.0, -1.0
-    a, b = rayleigh_coefficients(*rayleigh_hz, zeta)
-    Kd = Kf + (kn * B @ B.T if rayleigh_on == "closed" else 0.0)
-    st = es.structure_from_arrays(Mf, Kf, a * Mf + b * Kd, B, kn=kn, deltas=delta,
-                                  dof_names=names, influence=r, load=load)
-    model = FreeplaySystem(M=Mf, K=Kf, dof_names=tuple(names),
-                           hinge_pairs=(("th_hinge_out", "th_hinge_in"),), base_influence=r)
-    return model, st
+def two_hinge_beam(*, kn=5000.0, deltas=(2.0e-3, 3.0e-3), E=70e9, rho=2700.0, zeta=0.02,
+                   rayleigh_hz=(30.0, 50.0), rayleigh_on="closed",
+                   segments=((0.10, 2, 0.05, 0.012), (0.14, 2, 0.06, 0.009),
+                             (0.22, 4, 0.06, 0.008))):
+    """(model file system, true Structure) of a beam with two hinges (the :func:`beam`'s make:
+    root segment, hinge 1, middle segment, hinge 2, outboard segment), whose hinges turn
+    unequally in mode 1 (the inner one carries more of the bending), so that their gaps bend
+    the backbone at different amplitudes; Rayleigh damping, no C in the model file."""
+    return _hinged_beam(list(segments), kn=kn, deltas=deltas, E=E, rho=rho, zeta=zeta,
+                        rayleigh_hz=rayleigh_hz, rayleigh_on=rayleigh_on)
 
 
 # --------------------------------------------------------------------------- conditions
@@ -282,6 +314,25 @@ def beam_rayleigh(*, levels=(1.1, 1.5, 2.0, 2.6, 3.3), sweep=None, **beam_kw) ->
                     runs, {"kn": st.kn, "delta": delta},
                     params={"levels_g": [r.level_g for r in runs], "sweep": sweep,
                             "closed_modes_hz": np.round(f, 3).tolist(), **beam_kw})
+
+
+def beam_two_hinges(*, deltas=(2.0e-3, 3.0e-3), levels=(1.2, 1.6, 2.0, 2.5, 3.0),
+                    sweep=None, name="beam_two_hinges", **beam_kw) -> CaseSpec:
+    """The two-hinge beam (:func:`two_hinge_beam`, hinges turning 0.45 : 1 in mode 1) with
+    unequal half-gaps: the per-hinge option's check (truth delta = the hinges' mean)."""
+    sweep = sweep or {"start_hz": 24.0, "stop_hz": 40.0, "rate_hz_per_s": 0.1}
+    model, st = two_hinge_beam(deltas=deltas, **beam_kw)
+    scale = float(np.mean(deltas)) / 2.5e-3
+    runs = [RunSpec(round(lv * scale, 4), dict(sweep)) for lv in levels]
+    f = np.sqrt(closed_modes(st)[0][:3]) / (2 * np.pi)
+    return CaseSpec(name, f"two-hinge beam (18 DOF, hinges turning 0.45 : 1), "
+                    f"half-gaps {1e3 * deltas[0]:g} / {1e3 * deltas[1]:g} mrad, Rayleigh 2 %, "
+                    "no C in the model file", st, model,
+                    {"acc_tip": "w_tip", "acc_mid": "w_s1_1"}, runs,
+                    {"kn": st.kn, "delta": float(np.mean(deltas))},
+                    params={"levels_g": [r.level_g for r in runs], "sweep": sweep,
+                            "deltas": list(deltas), "closed_modes_hz": np.round(f, 3).tolist(),
+                            **beam_kw})
 
 
 def fin_hinge_damper(*, added_zeta=0.015, **kw) -> CaseSpec:
@@ -418,6 +469,9 @@ CONDITIONS: dict[str, Callable[..., CaseSpec]] = {
     "fin_dip_no_base": lambda **kw: fin_no_base(name="fin_dip_no_base", src="fin_level_dip", **kw),
     "beam_rayleigh_no_base": lambda **kw: fin_no_base(name="beam_rayleigh_no_base",
                                                       src="beam_rayleigh", **kw),
+    "beam_two_hinges": beam_two_hinges,
+    "beam_two_hinges_equal": lambda **kw: beam_two_hinges(deltas=(2.5e-3, 2.5e-3),
+                                                          name="beam_two_hinges_equal", **kw),
 }
 
 

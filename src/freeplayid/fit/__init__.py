@@ -7,7 +7,8 @@ points' distance from contact (:func:`gap_ratios`).
 ``options``: :class:`FitOptions`, :class:`MultiStart`.
 ``starts``: :func:`resolve_start`, :func:`count_resonances`, the multi-start's choice.
 ``least_squares``: :func:`fit_backbone` -> :class:`FitResult`.
-``uncertainty``: :func:`jacobian_intervals`, :func:`bootstrap_intervals`.
+``uncertainty``: :func:`jacobian_intervals` (:func:`jacobian_halfwidths` for any number of
+parameters), :func:`bootstrap_intervals`.
 """
 
 from .fitting_points import FittingPoints
@@ -15,7 +16,7 @@ from .least_squares import FitResult, fit_backbone
 from .objective import MIN_GAP_RATIO, BackboneModel, gap_ratios
 from .options import FitOptions, MultiStart, multistart_grid
 from .starts import Start, count_resonances, resolve_start
-from .uncertainty import bootstrap_intervals, jacobian_intervals
+from .uncertainty import bootstrap_intervals, jacobian_halfwidths, jacobian_intervals
 
 __all__ = [
     "FittingPoints",
@@ -31,5 +32,6 @@ __all__ = [
     "gap_ratios",
     "MIN_GAP_RATIO",
     "jacobian_intervals",
+    "jacobian_halfwidths",
     "bootstrap_intervals",
 ]

@@ -29,9 +29,45 @@ import scipy.stats
 
 from ..progress import progress_bar
 
-__all__ = ["jacobian_intervals", "bootstrap_intervals"]
+__all__ = ["jacobian_intervals", "jacobian_halfwidths", "bootstrap_intervals"]
 
 Interval = tuple[float, float]
+
+
+def jacobian_halfwidths(residuals, jacobian, groups=None, combinations=None) -> np.ndarray:
+    """Gauss-Newton 95 % half-widths of the fitted parameters (module docstring, any number
+    n of them: p - n degrees of freedom), shape (n,), or of the linear combinations
+    ``combinations @ x`` (shape (k, n): k half-widths); inf where J^T J is singular or, by
+    run, with no more runs than parameters (nothing measures their noise).
+
+    Parameters
+    ----------
+    residuals : ndarray, shape (p,) [-]
+        Residuals at the optimum.
+    jacobian : ndarray, shape (p, n) [-]
+        d residuals / d x at the optimum.
+    groups : sequence, shape (p,), optional
+        Each point's run: one observation per run (module docstring).
+    """
+    res = np.asarray(residuals, float)
+    J = np.asarray(jacobian, float)
+    n = J.shape[1]
+    G = np.eye(n) if combinations is None else np.asarray(combinations, float)
+    if groups is not None:  # one observation per group: its points' mean residual and row
+        labels = list(dict.fromkeys(groups))
+        idx = np.array([labels.index(g) for g in groups])
+        res = np.array([res[idx == k].mean() for k in range(len(labels))])
+        J = np.array([J[idx == k].mean(axis=0) for k in range(len(labels))])
+        if res.size <= n:  # as many runs as parameters fit exactly: nothing measures noise
+            return np.full(G.shape[0], np.inf)
+    dof = max(res.size - n, 1)
+    s2 = float(res @ res) / dof
+    try:
+        cov = s2 * np.linalg.inv(J.T @ J)
+    except np.linalg.LinAlgError:
+        return np.full(G.shape[0], np.inf)
+    var = np.einsum("ij,jk,ik->i", G, cov, G)
+    return scipy.stats.t.ppf(0.975, dof) * np.sqrt(np.clip(var, 0, None))
 
 
 def jacobian_intervals(x, residuals, jacobian, groups=None) -> tuple[Interval, Interval]:
@@ -41,13 +77,9 @@ def jacobian_intervals(x, residuals, jacobian, groups=None) -> tuple[Interval, I
     ----------
     x : ndarray, shape (2,) [-]
         Optimum (ln kn, ln delta).
-    residuals : ndarray, shape (p,) [-]
-        Residuals at the optimum.
-    jacobian : ndarray, shape (p, 2) [-]
-        d residuals / d x at the optimum.
-    groups : sequence, shape (p,), optional
-        Each point's run: one observation per run (module docstring); with two runs or fewer
-        nothing measures the noise and the intervals are (0, inf).
+    residuals, jacobian, groups
+        As :func:`jacobian_halfwidths`; with two runs or fewer by run the intervals are
+        (0, inf).
 
     Returns
     -------
@@ -55,24 +87,9 @@ def jacobian_intervals(x, residuals, jacobian, groups=None) -> tuple[Interval, I
     delta_ci95 : (float, float) [rad]
         (inf-wide when J^T J is singular).
     """
-    res = np.asarray(residuals, float)
-    J = np.asarray(jacobian, float)
-    if groups is not None:  # one observation per group: its points' mean residual and row
-        labels = list(dict.fromkeys(groups))
-        idx = np.array([labels.index(g) for g in groups])
-        res = np.array([res[idx == k].mean() for k in range(len(labels))])
-        J = np.array([J[idx == k].mean(axis=0) for k in range(len(labels))])
-        if res.size <= 2:  # two runs fit exactly: nothing measures their noise
-            return (0.0, float("inf")), (0.0, float("inf"))
-    dof = max(res.size - 2, 1)
-    s2 = float(res @ res) / dof
-    try:
-        cov = s2 * np.linalg.inv(J.T @ J)
-        half = scipy.stats.t.ppf(0.975, dof) * np.sqrt(np.clip(np.diag(cov), 0, None))
-    except np.linalg.LinAlgError:
-        half = np.array([np.inf, np.inf])
+    half = jacobian_halfwidths(residuals, jacobian, groups)
     kn, delta = np.exp(x)
-    with np.errstate(over="ignore"):  # an unbounded direction: the interval runs to inf
+    with np.errstate(over="ignore", invalid="ignore"):  # an unbounded direction: to inf
         kn_ci = (float(kn * np.exp(-half[0])), float(kn * np.exp(half[0])))
         delta_ci = (float(delta * np.exp(-half[1])), float(delta * np.exp(half[1])))
     return kn_ci, delta_ci

@@ -22,6 +22,25 @@ scatter at every point, over the hinges, is the split these data cannot see; the
 delta then differs from the hinges' mean by the move it absorbs (on the bundled example: a split
 up to +-0.57 cannot be seen; at +-0.1 delta is the mean within 0.6 %; the realtests fin with
 half-gaps 2.7 and 3.3 mrad gave the mean +0.33 %, the model +0.37 %).
+
+One half-gap per hinge (:func:`fit_hinge_gaps`): the plain fit's points fitted again with each
+hinge's half-gap free, x = (ln kn, ln delta_1, ..., ln delta_h), the DFA backbone with
+``gaps = delta_j / mean`` (the curve bends where each hinge reaches its gap), started from the
+common fit. Each hinge's share of the gaps has a Gauss-Newton interval (each run one observation,
+as kn's and delta's: :func:`freeplayid.fit.jacobian_halfwidths`, ln share's variance through
+the mean). Where the hinges turn unequally in the identified mode (rotation ratio below
+:data:`HINGES_TOGETHER`) this fit runs by default and an F test says whether one common delta
+explains the points (:func:`_common_gap_p`; the verdict's ``hinge_gaps``): where it does not,
+delta is no hinge's half-gap (on a two-hinge beam with half-gaps 2 and 3 mrad, turning 1 : 0.45,
+the corrected delta was 2.30 mrad, 8 % below their mean, with an interval of +-2.6 %), and the
+replay, which gives every hinge that delta, does not correct it. With
+``ModelOptions.hinge_gaps`` each hinge's half-gap is reported: the plain per-hinge gap moved by
+the replay's correction of the common delta, its log half-width those of delta and of its share
+in quadrature (:meth:`HingeGaps.half_gaps`); the sweep's bias of the split itself is not
+corrected (that beam: 2.11 and 2.81 mrad, intervals x/÷ 2.6 and 2.0 holding 2 and 3). Where
+the hinges turn together the shares are not determined (the default fin at half-gaps 2.7 / 3.3
+mrad: shares 0.70 / 1.30, intervals beyond x/÷ 10), and the report says the data cannot tell
+the gaps apart.
 """
 
 from __future__ import annotations
@@ -30,14 +49,16 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.optimize
+import scipy.stats
 
-from ..backbone import dfa_backbone
+from ..backbone import amplitude_grid, dfa_backbone
 from ..estimate import PlainEstimate, refit
-from ..fit import FitOptions, gap_ratios
+from ..fit import FitOptions, gap_ratios, jacobian_halfwidths
 from ..model import ModelOptions, SealedUpdate, modal_analysis, update_to_sealed_modes
 
-__all__ = ["ModelError", "GapSplit", "update_model", "model_error", "hinge_ratio",
-           "frequency_scale", "gap_split"]
+__all__ = ["ModelError", "GapSplit", "HingeGaps", "update_model", "model_error", "hinge_ratio",
+           "frequency_scale", "gap_split", "fit_hinge_gaps"]
 
 # [-] hinge rotation ratio in the identified mode above which the hinges count as turning together
 HINGES_TOGETHER = 0.9
@@ -45,6 +66,12 @@ HINGES_TOGETHER = 0.9
 # [-] the gap splits a tried (hinge j's half-gap (1 + a) delta); the split the points cannot see
 # is interpolated between them, and reported as at least the last where even that is not seen
 GAP_SPLITS = (0.05, 0.1, 0.2, 0.4, 0.8)
+
+# the F test's p-value below which one common delta does not explain the points (point by point:
+# a liberal test, :func:`_common_gap_p`)
+COMMON_GAP_P = 1e-3
+# [-] a share's 95 % log half-width from which it counts as not determined (a factor of 10)
+NOT_DETERMINED = math.log(10.0)
 
 
 @dataclass(frozen=True)
@@ -84,6 +111,96 @@ class GapSplit:
 
 
 @dataclass(frozen=True)
+class HingeGaps:
+    """One half-gap per hinge from the plain fit's points (:func:`fit_hinge_gaps`).
+
+    Attributes
+    ----------
+    hinges : tuple of str
+        Each hinge's name, "outboard/inboard" DOFs.
+    deltas : tuple of float [rad]
+        Each hinge's half-gap fitted to the plain fit's points (with their sweep bias).
+    log_halfwidth : tuple of float [-]
+        The 95 % half-width of each hinge's share of the gaps' sum, in log (inf: not determined
+        by the points).
+    common_delta : float [rad]
+        The common fit's delta on the same points.
+    residual_rms, common_rms : float [-]
+        The points' RMS relative frequency residual about this fit and about the common one.
+    p_common : float or None
+        The F test's p-value that one common delta explains the points as well (each point one
+        observation, :func:`_common_gap_p`; None: too few points to test).
+    """
+
+    hinges: tuple
+    deltas: tuple
+    log_halfwidth: tuple
+    common_delta: float
+    residual_rms: float
+    common_rms: float
+    p_common: float | None
+
+    @property
+    def shares(self) -> tuple:
+        """Each hinge's half-gap over the hinges' mean."""
+        m = float(np.mean(self.deltas))
+        return tuple(d / m for d in self.deltas)
+
+    @property
+    def common_explains(self) -> bool:
+        """The F test does not reject one common delta at :data:`COMMON_GAP_P` (or cannot be
+        made)."""
+        return self.p_common is None or self.p_common >= COMMON_GAP_P
+
+    def half_gaps(self, delta: float, delta_ci95) -> list[tuple[float, tuple[float, float]]]:
+        """Each hinge's half-gap [rad] and its 95 % interval for the reported (corrected)
+        ``delta`` with its interval ``delta_ci95``: the plain per-hinge gaps moved by the
+        replay's correction of the common delta (delta / common_delta), their log half-widths
+        those of delta and of each hinge's share in quadrature (module docstring)."""
+        lo, hi = delta_ci95
+        h_lo = math.log(delta / lo) if lo > 0 else math.inf
+        h_hi = math.log(hi / delta) if math.isfinite(hi) else math.inf
+        out = []
+        for d, w in zip(self.deltas, self.log_halfwidth, strict=True):
+            v = d * delta / self.common_delta
+            if w >= NOT_DETERMINED:
+                out.append((v, (0.0, math.inf)))
+                continue
+            out.append((v, (v * math.exp(-math.hypot(h_lo, w)),
+                            v * math.exp(math.hypot(h_hi, w)))))
+        return out
+
+    def test(self) -> str:
+        """The common-delta test in words."""
+        if self.p_common is None:
+            return "too few points to test whether one common half-gap explains them"
+        return (f"one half-gap per hinge lowers the points' RMS residual from "
+                f"{100 * self.common_rms:.2g} % to {100 * self.residual_rms:.2g} % (F test: "
+                f"p = {self.p_common:.2g})")
+
+    def describe(self) -> str:
+        shares = ", ".join(f"{n} {r:.3g} (95 % x/÷ {math.exp(w):.3g})"
+                           if w < NOT_DETERMINED else f"{n} {r:.3g} (not determined)"
+                           for n, r, w in zip(self.hinges, self.shares, self.log_halfwidth,
+                                              strict=True))
+        verdict = ("one common half-gap explains the points" if self.common_explains else
+                   "one common half-gap does not explain the points: the hinges' gaps differ")
+        wide = max(self.log_halfwidth) > math.log(2.0)
+        return (f"one half-gap per hinge (the backbone fitted with each hinge's gap free), each "
+                f"hinge's over their mean: {shares}; {verdict} ({self.test()})"
+                + ("; the points cannot tell the gaps apart beyond a factor of two" if wide
+                   else ""))
+
+    def to_dict(self) -> dict:
+        return {"hinges": list(self.hinges), "deltas": list(self.deltas),
+                "shares": list(self.shares),
+                "log_halfwidth": [w if math.isfinite(w) else None for w in self.log_halfwidth],
+                "common_delta": self.common_delta, "residual_rms": self.residual_rms,
+                "common_rms": self.common_rms, "p_common": self.p_common,
+                "common_explains": self.common_explains}
+
+
+@dataclass(frozen=True)
 class ModelError:
     """What the answer's kn owes to the linear model.
 
@@ -103,6 +220,12 @@ class ModelError:
         differ).
     gaps : GapSplit or None
         With two or more hinges: how unequal their gaps could be without the points showing it.
+    hinge_gaps : HingeGaps or None
+        With two or more hinges, where they turn unequally (``hinge_ratio`` below
+        :data:`HINGES_TOGETHER`) or with ``ModelOptions.hinge_gaps``: the fit with one half-gap
+        per hinge and its test whether one common delta explains the points.
+    per_hinge : bool
+        ``ModelOptions.hinge_gaps``: each hinge's half-gap is reported.
     """
 
     update: SealedUpdate | None
@@ -110,6 +233,8 @@ class ModelError:
     kn_shift: float
     hinge_ratio: float | None = None
     gaps: GapSplit | None = None
+    hinge_gaps: HingeGaps | None = None
+    per_hinge: bool = False
 
     def describe(self) -> str:
         if self.update is not None:
@@ -126,6 +251,12 @@ class ModelError:
         if r is None:
             return ""
         split = "" if self.gaps is None else "; " + self.gaps.describe()
+        hg = self.hinge_gaps
+        if hg is not None:
+            split += "; " + (hg.describe() if self.per_hinge else (
+                "one common half-gap explains the points" if hg.common_explains else
+                "one common half-gap does not explain the points: the hinges' gaps differ")
+                + f" ({hg.test()})")
         if r >= HINGES_TOGETHER:
             return (f"; the hinges turn together in the identified mode (rotation ratio "
                     f"{r:.2f}): delta is one half-gap for all of them, their mean if they "
@@ -138,7 +269,9 @@ class ModelError:
         return {"update": None if self.update is None else self.update.to_dict(),
                 "frequency_uncertainty": self.frequency_uncertainty, "kn_shift": self.kn_shift,
                 "hinge_ratio": self.hinge_ratio,
-                "gaps": None if self.gaps is None else self.gaps.to_dict()}
+                "gaps": None if self.gaps is None else self.gaps.to_dict(),
+                "hinge_gaps": None if self.hinge_gaps is None else self.hinge_gaps.to_dict(),
+                "per_hinge": self.per_hinge}
 
 
 def update_model(dataset, system, est: PlainEstimate, fit: FitOptions,
@@ -162,11 +295,97 @@ def model_error(system, est: PlainEstimate, fit: FitOptions, options: ModelOptio
         max(update.residual, 1e-3)
     ratio = hinge_ratio(system, est.kn, fit.mode)
     gaps = gap_split(system, est, fit.mode)
+    per = None
+    if options.hinge_gaps or (ratio is not None and ratio < HINGES_TOGETHER):
+        per = fit_hinge_gaps(system, est.fitting_points(), est.kn, est.delta, mode=fit.mode,
+                             common_residuals=est.fit.residuals)
     if u == 0:
-        return ModelError(update, 0.0, 0.0, ratio, gaps)
+        return ModelError(update, 0.0, 0.0, ratio, gaps, per, options.hinge_gaps)
     moved = system.replace(K=system.K * frequency_scale(system, est.kn, u, fit.mode))
     kn_moved = refit(est, moved, fit).kn
-    return ModelError(update, float(u), abs(math.log(kn_moved / est.kn)), ratio, gaps)
+    return ModelError(update, float(u), abs(math.log(kn_moved / est.kn)), ratio, gaps, per,
+                      options.hinge_gaps)
+
+
+def fit_hinge_gaps(system, points, kn: float, delta: float, *, mode: int = 0,
+                   common_residuals=None) -> HingeGaps | None:
+    """One half-gap per hinge from fitting points (module docstring), started from the common
+    fit (``kn``, ``delta``) whose relative residuals at the points were ``common_residuals``
+    (for the test whether one delta explains them); None with one hinge or where the backbone
+    does not reach the points.
+
+    Parameters
+    ----------
+    system : FreeplaySystem
+    points : freeplayid.fit.FittingPoints
+        The plain fit's points (their ``run`` groups the intervals' observations).
+    kn, delta : float [N m/rad], [rad]
+    """
+    h = system.n_hinges
+    if h < 2:
+        return None
+    ratios, _ = gap_ratios(points, system, kn, delta, mode)
+    if not np.all(np.isfinite(ratios)):
+        return None
+    f = np.asarray(points.f_hz, float)
+    amp = np.asarray(points.amplitude_m, float)
+    ch = np.asarray(points.channel, dtype=str)
+    groups = [(c, np.flatnonzero(ch == c)) for c in dict.fromkeys(ch)]
+    # a hinge's gap may halve: its amplitude over it then doubles
+    grid = amplitude_grid(256, s_max=4.0 * float(ratios.max()))
+
+    def residual(x):
+        deltas = np.exp(x[1:])
+        mean = float(deltas.mean())
+        curve = dfa_backbone(system, kn=float(np.exp(x[0])), delta=mean, mode=mode,
+                             gaps=deltas / mean, s=grid)
+        model = np.empty(f.size)
+        for c, idx in groups:
+            model[idx] = curve.frequency_at(amp[idx], c)[0]
+        out = model / f - 1.0
+        return np.where(np.isfinite(out), out, 1.0)  # a point off the curve's range
+
+    x0 = np.log(np.r_[kn, np.full(h, delta)])
+    span = np.r_[2.0, np.full(h, 3.0)]
+    sol = scipy.optimize.least_squares(residual, x0, method="trf", diff_step=1e-4,
+                                       bounds=(x0 - span, x0 + span))
+    deltas = np.exp(sol.x[1:])
+    w = deltas / deltas.sum()
+    # ln r_j = ln delta_j - ln mean: its gradient in (ln kn, ln delta_1..h) is e_j - w
+    G = np.zeros((h, h + 1))
+    G[:, 1:] = np.eye(h) - w[None, :]
+    half = jacobian_halfwidths(sol.fun, sol.jac, points.run, combinations=G)
+    p = None
+    if common_residuals is not None:
+        p = _common_gap_p(np.asarray(common_residuals, float), sol.fun, h)
+    common_rms = float("nan") if common_residuals is None else _rms(common_residuals)
+    return HingeGaps(tuple(f"{o}/{i}" for o, i in system.hinge_pairs),
+                     tuple(float(v) for v in deltas), tuple(float(v) for v in half),
+                     float(delta), _rms(sol.fun), common_rms, p)
+
+
+def _rms(r) -> float:
+    return float(np.sqrt(np.mean(np.square(r))))
+
+
+def _common_gap_p(common, per_hinge, h: int) -> float | None:
+    """The F test's p-value of the common fit (2 parameters) against the per-hinge one (h + 1)
+    on the same points, each point one observation; None with no degree of freedom left.
+
+    Not by run, as the intervals are: the common fit's misfit of unequal gaps is a disagreement
+    of a run's channels (each reads the hinges' bends in its own proportion), which the run
+    means average away (p = 1.0 by run on the two-hinge beam's data at 2 / 3 mrad). Point by
+    point, the noise the channels of a run share makes the test liberal, hence its level
+    :data:`COMMON_GAP_P` (0.1 %): on that beam (benchmarks/realtests, exact integrator, two noise
+    draws) p = 4e-6 and 1e-4 at 2 / 3 mrad, 1.0 and 0.006 at equal gaps."""
+    dof = common.size - (h + 1)
+    if dof < 1:
+        return None
+    rss_c, rss_h = float(common @ common), float(per_hinge @ per_hinge)
+    if rss_h <= 0:
+        return 0.0 if rss_c > 0 else 1.0
+    F = max(rss_c - rss_h, 0.0) / (h - 1) / (rss_h / dof)
+    return float(scipy.stats.f.sf(F, h - 1, dof))
 
 
 def gap_split(system, est: PlainEstimate, mode: int = 0) -> GapSplit | None:

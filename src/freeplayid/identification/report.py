@@ -178,6 +178,13 @@ def _model(r) -> list[str]:
                   "|---|---|---|---|"]
         lines += [f"| {i + 1} | {f:.3f} | {b:.3f} | {a:.3f} |" for i, (f, b, a) in
                   enumerate(zip(upd.reference_hz, upd.before_hz, upd.after_hz, strict=True))]
+    gaps = r.hinge_gap_records()
+    if gaps:
+        lines += ["", "One half-gap per hinge (`linear_model.hinge_gaps`; delta is their mean):",
+                  "", "| hinge (outboard/inboard DOF) | half-gap [mrad] | 95 % CI [mrad] |",
+                  "|---|---|---|"]
+        lines += [f"| {g['hinge']} | {1e3 * g['delta']:.4g} | "
+                  f"{format_ci(g['delta_ci95'], 1e3)} |" for g in gaps]
     return lines
 
 

@@ -251,12 +251,24 @@ class Identification:
             out["validation"] = validation_record(self.validation)
         if self.model_error is not None:
             out["model_error"] = self.model_error.to_dict()
+            if self.model_error.per_hinge and self.model_error.hinge_gaps is not None:
+                out["hinge_gaps"] = self.hinge_gap_records()
         if self.replay is not None:
             out["replay"] = self._replay_record()
             out["interval_source"] = self.interval_source
         out["records"] = None if self.records is None else {
             "findings": self.records.to_records(), "skipped": dict(self.records.skipped)}
         return out
+
+    def hinge_gap_records(self) -> list[dict]:
+        """Each hinge's half-gap [rad] and 95 % interval (``linear_model.hinge_gaps``), the
+        reported delta taken as the hinges' mean; [] without them."""
+        err = self.model_error
+        per = None if err is None or not err.per_hinge else err.hinge_gaps
+        if per is None:
+            return []
+        return [{"hinge": n, "delta": v, "delta_ci95": list(ci)} for n, (v, ci) in
+                zip(per.hinges, per.half_gaps(self.delta, self.delta_ci95), strict=True)]
 
     def _replay_record(self) -> dict:
         """The ``replay`` entry of the JSON record."""

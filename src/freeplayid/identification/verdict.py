@@ -43,6 +43,12 @@ compares the result or the data with a physical limit, never with a value tuned 
   damping's stated uncertainty (``Replay.damping_uncertainty``, 25 %) moves the answer, and the
   check fails when that move alone exceeds the accuracy bounds (``damping_kn`` 2 %,
   ``damping_delta`` 1 %): the answer is then only as good as a damping nothing measured.
+- ``hinge_gaps``: where two or more hinges turn unequally in the identified mode (their rotation
+  ratio below 0.9; on the default fin they turn together and the points cannot tell their gaps
+  apart), the points fitted with one half-gap per hinge: an F test rejecting one common delta at
+  0.1 % fails the check, since delta is then no hinge's half-gap
+  and the replay, which gives every hinge that delta, does not correct it
+  (:mod:`freeplayid.identification.model_error`).
 - ``base_level``: the base channel's amplitude against each run's ``level_g``: a factor 9.81,
   1/9.81 or 1000 is a units error, a ratio that varies as a power of the frequency is a quantity
   error (acceleration declared as displacement...).
@@ -403,7 +409,18 @@ def model_checks(error) -> list[Check]:
         msg = (f"the linear model needed its {what} scaled by {v:.3g} to match the "
                "sealed fin's modes: no small model error, the model file is not the tested "
                f"structure (the answer is from the updated model; {msg})")
-    return [Check("linear_model", not far, msg, None if upd is None else upd.scale)]
+    checks = [Check("linear_model", not far, msg, None if upd is None else upd.scale)]
+    hg = error.hinge_gaps
+    if hg is not None:
+        if hg.common_explains:
+            why = "one common half-gap explains the points: " + hg.test()
+        else:
+            why = ("one common half-gap does not explain the points, the hinges' gaps differ: "
+                   + hg.test() + "; delta is then no hinge's half-gap (it leans to the hinge "
+                   "that turns most) and the replay, which gives every hinge that delta, does "
+                   "not correct it (`linear_model.hinge_gaps=true` reports each hinge's)")
+        checks.append(Check("hinge_gaps", hg.common_explains, why, hg.p_common))
+    return checks
 
 
 def validation_checks(validation) -> list[Check]:

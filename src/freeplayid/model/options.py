@@ -29,11 +29,19 @@ class ModelOptions:
         not updated to sealed modes: kn's interval includes the move of kn it makes (0: kn's
         interval is conditional on an exact model). With an update, what the update could not
         explain (the sealed modes' residual after a uniform stiffness scale) takes its place.
+    hinge_gaps : bool
+        With two or more hinges: report each hinge's half-gap with its interval, from the plain
+        estimate's points fitted again with one half-gap per hinge
+        (:func:`freeplayid.identification.model_error.fit_hinge_gaps`, a few seconds). Off:
+        one delta for all; where the hinges turn unequally that fit still runs, to test
+        whether one delta explains the points (the verdict's ``hinge_gaps``).
     """
 
     update: bool = True
     frequency_uncertainty: float = 0.005
+    hinge_gaps: bool = False
 
     def __post_init__(self):
         check_bool("update", self.update)
         check_number("frequency_uncertainty", self.frequency_uncertainty, 0.0, 0.2)
+        check_bool("hinge_gaps", self.hinge_gaps)
