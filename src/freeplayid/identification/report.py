@@ -180,11 +180,13 @@ def _model(r) -> list[str]:
                   enumerate(zip(upd.reference_hz, upd.before_hz, upd.after_hz, strict=True))]
     gaps = r.hinge_gap_records()
     if gaps:
-        lines += ["", "One half-gap per hinge (`linear_model.hinge_gaps`; delta is their mean):",
-                  "", "| hinge (outboard/inboard DOF) | half-gap [mrad] | 95 % CI [mrad] |",
+        lines += ["", "One half-gap per hinge (`linear_model.hinge_gaps`: the points fitted with "
+                  "each hinge's gap free, moved by the replay's correction of delta):", "",
+                  "| hinge (outboard/inboard DOF) | half-gap [mrad] | 95 % CI [mrad] |",
                   "|---|---|---|"]
         lines += [f"| {g['hinge']} | {1e3 * g['delta']:.4g} | "
-                  f"{format_ci(g['delta_ci95'], 1e3)} |" for g in gaps]
+                  + ("not determined by the points" if g["delta_ci95"][1] == float("inf") else
+                     format_ci(g["delta_ci95"], 1e3)) + " |" for g in gaps]
     return lines
 
 
