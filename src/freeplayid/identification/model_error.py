@@ -178,13 +178,17 @@ class HingeGaps:
                 f"{100 * self.common_rms:.2g} % to {100 * self.residual_rms:.2g} % (F test: "
                 f"p = {self.p_common:.2g})")
 
+    def outcome(self) -> str:
+        """Whether one common delta explains the points, in words."""
+        return ("one common half-gap explains the points" if self.common_explains else
+                "one common half-gap does not explain the points: the hinges' gaps differ")
+
     def describe(self) -> str:
         shares = ", ".join(f"{n} {r:.3g} (95 % x/÷ {math.exp(w):.3g})"
                            if w < NOT_DETERMINED else f"{n} {r:.3g} (not determined)"
                            for n, r, w in zip(self.hinges, self.shares, self.log_halfwidth,
                                               strict=True))
-        verdict = ("one common half-gap explains the points" if self.common_explains else
-                   "one common half-gap does not explain the points: the hinges' gaps differ")
+        verdict = self.outcome()
         wide = max(self.log_halfwidth) > math.log(2.0)
         return (f"one half-gap per hinge (the backbone fitted with each hinge's gap free), each "
                 f"hinge's over their mean: {shares}; {verdict} ({self.test()})"
@@ -253,10 +257,8 @@ class ModelError:
         split = "" if self.gaps is None else "; " + self.gaps.describe()
         hg = self.hinge_gaps
         if hg is not None:
-            split += "; " + (hg.describe() if self.per_hinge else (
-                "one common half-gap explains the points" if hg.common_explains else
-                "one common half-gap does not explain the points: the hinges' gaps differ")
-                + f" ({hg.test()})")
+            split += "; " + (hg.describe() if self.per_hinge else
+                             f"{hg.outcome()} ({hg.test()})")
         if r >= HINGES_TOGETHER:
             return (f"; the hinges turn together in the identified mode (rotation ratio "
                     f"{r:.2f}): delta is one half-gap for all of them, their mean if they "
@@ -328,9 +330,6 @@ def fit_hinge_gaps(system, points, kn: float, delta: float, *, mode: int = 0,
     if not np.all(np.isfinite(ratios)):
         return None
     f = np.asarray(points.f_hz, float)
-    amp = np.asarray(points.amplitude_m, float)
-    ch = np.asarray(points.channel, dtype=str)
-    groups = [(c, np.flatnonzero(ch == c)) for c in dict.fromkeys(ch)]
     # a hinge's gap may halve: its amplitude over it then doubles
     grid = amplitude_grid(256, s_max=4.0 * float(ratios.max()))
 
@@ -339,10 +338,7 @@ def fit_hinge_gaps(system, points, kn: float, delta: float, *, mode: int = 0,
         mean = float(deltas.mean())
         curve = dfa_backbone(system, kn=float(np.exp(x[0])), delta=mean, mode=mode,
                              gaps=deltas / mean, s=grid)
-        model = np.empty(f.size)
-        for c, idx in groups:
-            model[idx] = curve.frequency_at(amp[idx], c)[0]
-        out = model / f - 1.0
+        out = _at_points(curve, points)[0] / f - 1.0
         return np.where(np.isfinite(out), out, 1.0)  # a point off the curve's range
 
     x0 = np.log(np.r_[kn, np.full(h, delta)])
@@ -404,8 +400,7 @@ def gap_split(system, est: PlainEstimate, mode: int = 0) -> GapSplit | None:
 
     def logf(kn_, delta_, gaps=None):  # (members, points) for one or more (kn, delta)
         curve = dfa_backbone(system, kn=kn_, delta=delta_, mode=mode, gaps=gaps, s=grid)
-        return np.log(np.stack([curve.frequency_at(x, ch)[:, 0] for x, ch in
-                                zip(pts.amplitude_m, pts.channel, strict=True)], axis=1))
+        return np.log(_at_points(curve, pts))
 
     eps = 1e-3  # the answer and a step in each of (kn, delta), one batch
     base, *steps = logf([kn, kn * (1 + eps), kn], [delta, delta, delta * (1 + eps)])
@@ -436,6 +431,18 @@ def gap_split(system, est: PlainEstimate, mode: int = 0) -> GapSplit | None:
         np.interp(scatter, shown[k - 1: k + 1], splits[k - 1: k + 1]))
     within = [b for a, b in zip(GAP_SPLITS, bias, strict=True) if a <= split] or bias[:1]
     return GapSplit(split, beyond, scatter, float(max(within)))
+
+
+def _at_points(curve, points) -> np.ndarray:
+    """The backbone frequency [Hz] of every member of ``curve`` at each point's amplitude on its
+    channel, shape (members, points); NaN off the curve's amplitude range."""
+    amp = np.asarray(points.amplitude_m, float)
+    ch = np.asarray(points.channel, dtype=str)
+    out = np.empty((curve.frequency_hz.shape[0], amp.size))
+    for c in dict.fromkeys(ch):
+        idx = np.flatnonzero(ch == c)
+        out[:, idx] = curve.frequency_at(amp[idx], c)
+    return out
 
 
 def frequency_scale(system, kn: float, u: float, mode: int = 0) -> float:

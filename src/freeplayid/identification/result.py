@@ -251,8 +251,9 @@ class Identification:
             out["validation"] = validation_record(self.validation)
         if self.model_error is not None:
             out["model_error"] = self.model_error.to_dict()
-            if self.model_error.per_hinge and self.model_error.hinge_gaps is not None:
-                out["hinge_gaps"] = self.hinge_gap_records()
+            gaps = self.hinge_gap_records()
+            if gaps:
+                out["hinge_gaps"] = gaps
         if self.replay is not None:
             out["replay"] = self._replay_record()
             out["interval_source"] = self.interval_source
@@ -261,8 +262,9 @@ class Identification:
         return out
 
     def hinge_gap_records(self) -> list[dict]:
-        """Each hinge's half-gap [rad] and 95 % interval (``linear_model.hinge_gaps``), the
-        reported delta taken as the hinges' mean; [] without them."""
+        """Each hinge's half-gap [rad] and 95 % interval (``linear_model.hinge_gaps``: the
+        per-hinge fit moved by the replay's correction of delta,
+        :meth:`~freeplayid.identification.model_error.HingeGaps.half_gaps`); [] without them."""
         err = self.model_error
         per = None if err is None or not err.per_hinge else err.hinge_gaps
         if per is None:

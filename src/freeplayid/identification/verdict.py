@@ -412,13 +412,11 @@ def model_checks(error) -> list[Check]:
     checks = [Check("linear_model", not far, msg, None if upd is None else upd.scale)]
     hg = error.hinge_gaps
     if hg is not None:
-        if hg.common_explains:
-            why = "one common half-gap explains the points: " + hg.test()
-        else:
-            why = ("one common half-gap does not explain the points, the hinges' gaps differ: "
-                   + hg.test() + "; delta is then no hinge's half-gap (it leans to the hinge "
-                   "that turns most) and the replay, which gives every hinge that delta, does "
-                   "not correct it (`linear_model.hinge_gaps=true` reports each hinge's)")
+        why = f"{hg.outcome()}: {hg.test()}"
+        if not hg.common_explains:
+            why += ("; delta is then no hinge's half-gap (it leans to the hinge that turns "
+                    "most) and the replay, which gives every hinge that delta, does not correct "
+                    "it (`linear_model.hinge_gaps=true` reports each hinge's)")
         checks.append(Check("hinge_gaps", hg.common_explains, why, hg.p_common))
     return checks
 
