@@ -1,3 +1,5 @@
+import warnings
+
 import numpy as np
 import pytest
 
@@ -232,3 +234,19 @@ def test_unknown_backbone_method_lists_the_registered_names():
         backbone_curve(two_dof_system(), method="x", kn=1.0, delta=1.0)
     assert str(err.value) == f"`method` must be one of {sorted(BACKBONE_METHODS)}, got 'x'"
     assert "['dfa', 'hb']" in str(err.value)  # the two methods of today, in the message
+
+
+def test_a_mode_whose_hinge_is_at_rest_gives_no_curve_and_no_warning():
+    # found where a fit's lost start ran to kn ~ 3e25 on a hinged beam: the mode's hinge
+    # rotation rounded to zero and numpy warned of 0/0 in the user's console. Here mode 0 is a
+    # mass the hinge does not touch, so its hinge rotation is exactly zero at any kn.
+    from freeplayid.model import FreeplaySystem
+
+    system = FreeplaySystem(M=np.diag([1.0, 1.0, 1.0]), K=np.diag([4.0e4, 0.0, 1.0e2]),
+                            dof_names=("a", "b", "c"), hinge_pairs=(("b", "a"),),
+                            base_influence=[1.0, 1.0, 1.0])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        bc = dfa_backbone(system, kn=1.0e3, delta=1.0e-3, s=np.array([2.0, 3.0]))
+    assert bc.frequency_hz[0] == pytest.approx(np.sqrt(1.0e2) / (2 * np.pi))  # the lone mass
+    assert not np.any(np.isfinite(bc.hinge_amplitude))  # no hinge amplitude sets its scale

@@ -737,6 +737,84 @@ VARIANTS.update({
     "var3_fin_stiff_in_p0.8_ref": _variant(
         lambda **kw: fin_stiffness(shift=0.008, ref=True, **kw), "var3_fin_stiff_in_p0.8_ref"),
 })
+def _beam_band(**beam_kw) -> tuple[dict, float]:
+    """The beam's sweep band set by its own closed mode 1 (the table's beam: 24 -> 46 Hz for
+    46.4 Hz, i.e. 0.52 -> 0.99 of it) and its frequency."""
+    _, st = beam(**beam_kw)
+    f1 = float(np.sqrt(closed_modes(st)[0][0]) / (2 * np.pi))
+    return {"start_hz": round(0.52 * f1, 1), "stop_hz": round(0.99 * f1, 1),
+            "rate_hz_per_s": 0.1}, f1
+
+
+def _var4_beam(**kw) -> CaseSpec:
+    geo = dict(kn=8000.0, delta=1.5e-3, L_in=0.16, L_out=0.26, zeta=0.015,
+               rayleigh_hz=(25.0, 90.0))
+    sweep, _ = _beam_band(**geo)
+    # the table's beam levels scaled with the damping (its 2 %)
+    levels = tuple(round(lv * 0.015 / 0.02, 3) for lv in (1.1, 1.5, 2.0, 2.6, 3.3))
+    return beam_rayleigh(levels=levels, sweep=sweep, **geo, **kw)
+
+
+def _no_c(spec: CaseSpec) -> CaseSpec:
+    spec.model = spec.model.replace(C=None)
+    spec.condition += "; true damping Rayleigh, model file without C"
+    return spec
+
+
+def _also(spec: CaseSpec, text: str) -> CaseSpec:
+    spec.condition += "; " + text
+    return spec
+
+
+def _rayleigh_c(zeta, f_hz):
+    from freeplayid.model import rayleigh_damping
+    return lambda sys: rayleigh_damping(sys.M, sys.closed_stiffness(FIN_KN), f1=f_hz[0],
+                                        f2=f_hz[1], zeta=zeta)
+
+
+FIN_DOWN = {"start_hz": FIN_SWEEP["stop_hz"], "stop_hz": FIN_SWEEP["start_hz"],
+            "rate_hz_per_s": FIN_SWEEP["rate_hz_per_s"]}
+# A fourth set, chosen once (2026-11-29, session 8) before any of its results: another beam
+# (stiffer hinge, smaller gap, the hinge further out, its band set by its own mode), two or
+# three conditions at once (Rayleigh damping without C and a model error with sealed modes,
+# contact damping and a down-sweep, unequal gaps and a down-sweep, a log sweep and a level ramp,
+# a faster sweep and a dip), six levels with a hinge damper, a larger gap at a softer hinge,
+# Rayleigh damping at twice the noise, a small model error without sealed modes.
+# run.py --cases 'var4_*'
+VARIANTS.update({
+    "var4_beam_kn8000_d1.5": _variant(_var4_beam, "var4_beam_kn8000_d1.5"),
+    "var4_fin_rayleigh_stiff_m0.6_ref": _variant(lambda **kw: _no_c(fin_stiffness(
+        shift=-0.006, ref=True, C=_rayleigh_c(0.025, (25.0, 55.0)), **kw)),
+        "var4_fin_rayleigh_stiff_m0.6_ref"),
+    "var4_fin_contact_damping_down": _variant(lambda **kw: _also(fin_contact_damping(
+        added_zeta=0.015, levels=tuple(round(1.5 * lv, 3) for lv in (1.2, 1.5, 1.75, 2.0)),
+        sweep=FIN_DOWN, **kw), "down-sweeps"), "var4_fin_contact_damping_down"),
+    "var4_fin_unequal_down": _variant(lambda **kw: _also(fin_unequal_gaps(
+        deltas=(0.0026, 0.0034), levels=(1.2, 1.5, 1.75, 2.0), sweep=FIN_DOWN, **kw),
+        "down-sweeps"), "var4_fin_unequal_down"),
+    "var4_fin_log_ramp": _variant(
+        lambda **kw: _ramped(fin_log_sweep(octaves_per_min=0.4, **kw), -0.1), "var4_fin_log_ramp"),
+    "var4_fin_fast_dip": _variant(lambda **kw: _also(fin_level_dip(
+        depth=0.35, flat_hz=0.4, taper_hz=0.6, sweep=dict(FIN_SWEEP, rate_hz_per_s=0.2), **kw),
+        "0.2 Hz/s"), "var4_fin_fast_dip"),
+    "var4_fin_damper_six": _variant(lambda **kw: fin_hinge_damper(
+        added_zeta=0.02, levels=tuple(round(lv * (1 + 0.02 / 0.03), 3)
+                                      for lv in (0.5, 0.65, 0.8, 0.95, 1.1, 1.25)), **kw),
+        "var4_fin_damper_six"),  # six levels
+    "var4_fin_kn380_d4": _variant(lambda **kw: _fin_case(
+        "x", "the fin at kn 380 N m/rad and half-gap 4 mrad (control)", kn=380.0, deltas=0.004,
+        **kw), "var4_fin_kn380_d4"),
+    "var4_fin_noisy_rayleigh": _variant(lambda **kw: dataclasses.replace(
+        _also(fin_rayleigh(zeta=0.025, f_hz=(25.0, 70.0), **kw), "0.1 g of noise"), noise_g=0.1),
+        "var4_fin_noisy_rayleigh"),
+    "var4_fin_stiff_out_p0.3": _variant(
+        lambda **kw: fin_stiffness(shift=0.003, part="outboard", **kw), "var4_fin_stiff_out_p0.3"),
+    # chosen after the set's results (the beam's lowest run dropped at Theta/delta 1.4, `suspect`
+    # for the contact margin alone): the fin's lowest runs just above the level that jumps
+    "var4_fin_low_levels": _variant(lambda **kw: _fin_case(
+        "x", "the fin at 0.47-1.0 g: its lowest jumps near contact (control)",
+        levels=(0.47, 0.5, 0.55, 0.65, 0.8, 1.0), **kw), "var4_fin_low_levels"),
+})
 ALL_CASES = {**CONDITIONS, **VARIANTS}
 
 def generate(name: str, out: Path, *, force=False, redraw=False, log=print) -> dict:

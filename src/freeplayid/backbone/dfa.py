@@ -193,8 +193,10 @@ def dfa_backbone(
         lam, psi = np.linalg.eigh(A)
         vec = psi[..., mode]  # (P, n), transformed coordinates
         theta = np.abs(vec @ g)  # (P, h): |b_j^T phi| up to a common scale
-        ratio = theta / theta.max(axis=-1, keepdims=True)
-        with np.errstate(divide="ignore"):
+        # a mode whose hinges are at rest to rounding (kn ~ 1e25, where a fit's lost start
+        # goes) gives NaN, which the caller reads as no curve
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = theta / theta.max(axis=-1, keepdims=True)
             implied = kappa_of_ratio(gap / (s_p[idx, None] * ratio))
         return lam[:, mode], vec, theta, implied
 
@@ -240,9 +242,10 @@ def dfa_backbone(
     converged = converged.reshape(k_, m_)
 
     phi = vec @ Linv  # (k, m, n): back to physical coordinates, phi = L^-T psi
-    scale = s[None, :] / theta.max(axis=-1)  # for delta = 1: Theta_max = s
-    amplitude = np.abs(phi) * scale[..., None] * delta[:, None, None]
-    hinge_amp = theta * scale[..., None] * delta[:, None, None]
+    with np.errstate(divide="ignore", invalid="ignore"):  # hinges at rest: NaN (above)
+        scale = s[None, :] / theta.max(axis=-1)  # for delta = 1: Theta_max = s
+        amplitude = np.abs(phi) * scale[..., None] * delta[:, None, None]
+        hinge_amp = theta * scale[..., None] * delta[:, None, None]
     freq = np.sqrt(np.clip(lam, 0.0, None)) / (2 * np.pi)
     return BackboneCurve(
         frequency_hz=freq,

@@ -320,7 +320,7 @@ def _corrected_result(dataset, system, plain: PlainEstimate, rep, mode: int, t0:
         record_checks(records) + base_level_checks(dataset)
         + (channel_checks(plain.points) if channels is None else [channels])
         + answer_checks(plain.fitting_points(), rep.kn, rep.delta, kn_ci, delta_ci, system,
-                        mode=mode) + ([direction] if direction is not None else [])
+                        mode=mode, replayed=True) + ([direction] if direction is not None else [])
         + replay_checks(rep, down_runs=down_sweep_runs(plain.points))
         + model_checks(error) + validation_checks(validation))
     return dataclasses.replace(
