@@ -322,6 +322,25 @@ def test_a_down_sweeps_answer_resting_on_an_unmeasured_damping_beyond_the_bounds
         assert "up-sweep run" in beyond.message and "replay.damping" in beyond.message
 
 
+
+def test_a_damping_estimated_from_down_sweeps_alone_is_suspect():
+    """Found on the fin swept down with Rayleigh damping and no C in its model file: the replay
+    estimated the damping from runs that never reach the peak and landed at kn -13 to -15 %,
+    `suspect` for misfits that did not name that cause. Every run with points sweeping down and
+    an estimated damping: suspect, naming it; an up-sweep run with points (its peak measures the
+    damping) or a damping not estimated: as before."""
+    from freeplayid.identification.verdict import sweep_direction_check
+    from freeplayid.replay import ReplayDamping
+
+    est = ReplayDamping("estimated", zeta=0.052, zeta_ci95=(0.03, 0.09))
+    down = _points_with_directions({"a": -1, "b": -1})
+    check = sweep_direction_check(down, replayed=True, estimated=est)
+    assert not check.passed and "estimated from them" in check.message
+    assert "zeta 5.2 %" in check.message and "replay.damping" in check.message
+    mixed = _points_with_directions({"up": 1, "down": -1})
+    assert sweep_direction_check(mixed, replayed=True, estimated=est).passed
+    assert sweep_direction_check(down, replayed=True).passed
+
 def test_the_replay_misfit_of_a_down_sweep_names_the_jump_up():
     """A down-sweep run whose replayed jump up misses is named as a jump up, and the causes
     start with the down-sweep's jump-up."""

@@ -313,8 +313,10 @@ def _corrected_result(dataset, system, plain: PlainEstimate, rep, mode: int, t0:
     kn_ci, delta_ci, source = _corrected_intervals(rep)
     kn_ci = widen(kn_ci, rep.kn, error.kn_shift)
     validation = _zero_clearance_check(dataset, system, rep.kn)
+    estimated = rep.damping if getattr(rep.damping, "source", None) == "estimated" else None
     direction = sweep_direction_check(plain.points, replayed=True,
-                                      damping=getattr(rep, "damping_sensitivity", None))
+                                      damping=getattr(rep, "damping_sensitivity", None),
+                                      estimated=estimated)
     channels = replayed_channel_check(rep.resonance or {})
     verdict = make_verdict(
         record_checks(records) + base_level_checks(dataset)

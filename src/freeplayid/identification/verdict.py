@@ -44,7 +44,8 @@ compares the result or the data with a physical limit, never with a value tuned 
   the test does not measure (the model's C, a given ratio), the replay measures how far that
   damping's stated uncertainty (``Replay.damping_uncertainty``, 25 %) moves the answer, and the
   check fails when that move alone exceeds the accuracy bounds (``damping_kn`` 2 %,
-  ``damping_delta`` 1 %): the answer is then only as good as a damping nothing measured.
+  ``damping_delta`` 1 %): the answer is then only as good as a damping nothing measured. Where
+  the replay estimated the damping from such runs alone (no C in the model file), it fails.
 - ``hinge_gaps``: where two or more hinges turn unequally in the identified mode (their rotation
   ratio below 0.9; on the default fin they turn together and the points cannot tell their gaps
   apart), the points fitted with one half-gap per hinge: an F test rejecting one common delta at
@@ -324,14 +325,28 @@ def down_sweep_runs(extraction) -> tuple[str, ...]:
     return tuple(down)
 
 
-def sweep_direction_check(extraction, *, replayed: bool, damping=None) -> Check | None:
+def sweep_direction_check(extraction, *, replayed: bool, damping=None,
+                          estimated=None) -> Check | None:
     """``sweep_direction`` (module docstring): None when every used run sweeps up. With the
     replay, ``damping`` (a :class:`freeplayid.replay.DampingSensitivity`) says how far the
-    damping, which down-sweeps do not measure, moves the answer."""
+    damping, which down-sweeps do not measure, moves the answer; ``estimated`` (the replay's
+    :class:`freeplayid.replay.ReplayDamping` when it estimated the damping from the data) fails
+    the check where every run with points sweeps down: the damping then comes from records that
+    do not measure it."""
     down = down_sweep_runs(extraction)
     if not down:
         return None
     runs = ", ".join(down)
+    used = {p.run for p in extraction.used()}
+    if replayed and estimated is not None and used <= set(down):
+        zeta = "" if estimated.zeta is None else f" (zeta {100 * estimated.zeta:.3g} %)"
+        return Check("sweep_direction", False,
+                     f"run(s) {runs} sweep down and never reach the peak, so they do not measure "
+                     f"the damping, on which where they jump up depends; the replay's damping"
+                     f"{zeta} was estimated from them (the model file has no C, or its replay "
+                     "missed the amplitudes), so the answer rests on a damping nothing measured; "
+                     "give the measured damping (`replay.damping`) or add an up-sweep run (its "
+                     "peak measures the damping)", float(len(down)))
     if replayed:
         text = (f"run(s) {runs} sweep down: their jump-up points lie below the backbone; the "
                 "replay sweeps them down too and matches them as they are")
