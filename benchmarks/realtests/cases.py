@@ -52,6 +52,8 @@ FIN_CHANNELS = {"acc_tl": "uz_top_left", "acc_lr": "uz_lower_right"}
 FIN_LEVELS = (0.4, 0.6, 0.8, 1.0, 1.2)  # [g] at delta 3 mrad (the bundled example's)
 FIN_SWEEP = {"start_hz": 30.0, "stop_hz": 46.5, "rate_hz_per_s": 0.1}
 FIN_KN, FIN_DELTA = 480.0, 0.003
+FIN_DOWN = {"start_hz": FIN_SWEEP["stop_hz"], "stop_hz": FIN_SWEEP["start_hz"],
+            "rate_hz_per_s": FIN_SWEEP["rate_hz_per_s"]}  # the same band swept down
 
 
 @dataclass
@@ -358,15 +360,17 @@ def fin_contact_damping(*, added_zeta=0.02, **kw) -> CaseSpec:
                      params={"contact_damper_Nms_per_rad": c, "added_zeta_mode1": added_zeta}, **kw)
 
 
-def fin_rayleigh(*, zeta=0.03, f_hz=(30.0, 60.0), **kw) -> CaseSpec:
+def _rayleigh_c(zeta, f_hz):
+    """The true damping C(system): Rayleigh on the fin closed at the nominal kn, ``zeta`` at
+    the two frequencies ``f_hz``."""
     from freeplayid.model import rayleigh_damping
+    return lambda sys: rayleigh_damping(sys.M, sys.closed_stiffness(FIN_KN), f1=f_hz[0],
+                                        f2=f_hz[1], zeta=zeta)
 
-    def C(sys):
-        return rayleigh_damping(sys.M, sys.closed_stiffness(FIN_KN), f1=f_hz[0], f2=f_hz[1],
-                                zeta=zeta)
 
+def fin_rayleigh(*, zeta=0.03, f_hz=(30.0, 60.0), **kw) -> CaseSpec:
     spec = _fin_case("fin_rayleigh_noC", f"true damping Rayleigh {100 * zeta:g} % at "
-                     f"{f_hz[0]:g}/{f_hz[1]:g} Hz, model file without C", C=C,
+                     f"{f_hz[0]:g}/{f_hz[1]:g} Hz, model file without C", C=_rayleigh_c(zeta, f_hz),
                      params={"rayleigh_zeta": zeta, "rayleigh_hz": list(f_hz)}, **kw)
     spec.model = spec.model.replace(C=None)
     return spec
@@ -430,10 +434,8 @@ def fin_unequal_gaps(*, deltas=(0.0027, 0.0033), **kw) -> CaseSpec:
 
 
 def fin_down_sweep(*, levels=(1.2, 1.5, 1.75, 2.0), **kw) -> CaseSpec:
-    sweep = {"start_hz": FIN_SWEEP["stop_hz"], "stop_hz": FIN_SWEEP["start_hz"],
-             "rate_hz_per_s": FIN_SWEEP["rate_hz_per_s"]}
     return _fin_case("fin_down_sweep", "down-sweep 46.5 -> 30 Hz, jump-ups in band", levels=levels,
-                     sweep=sweep, **kw)
+                     sweep=dict(FIN_DOWN), **kw)
 
 
 def fin_log_sweep(*, octaves_per_min=0.25, **kw) -> CaseSpec:
@@ -737,6 +739,8 @@ VARIANTS.update({
     "var3_fin_stiff_in_p0.8_ref": _variant(
         lambda **kw: fin_stiffness(shift=0.008, ref=True, **kw), "var3_fin_stiff_in_p0.8_ref"),
 })
+
+
 def _beam_band(**beam_kw) -> tuple[dict, float]:
     """The beam's sweep band set by its own closed mode 1 (the table's beam: 24 -> 46 Hz for
     46.4 Hz, i.e. 0.52 -> 0.99 of it) and its frequency."""
@@ -766,14 +770,7 @@ def _also(spec: CaseSpec, text: str) -> CaseSpec:
     return spec
 
 
-def _rayleigh_c(zeta, f_hz):
-    from freeplayid.model import rayleigh_damping
-    return lambda sys: rayleigh_damping(sys.M, sys.closed_stiffness(FIN_KN), f1=f_hz[0],
-                                        f2=f_hz[1], zeta=zeta)
 
-
-FIN_DOWN = {"start_hz": FIN_SWEEP["stop_hz"], "stop_hz": FIN_SWEEP["start_hz"],
-            "rate_hz_per_s": FIN_SWEEP["rate_hz_per_s"]}
 # A fourth set, chosen once (2026-11-29, session 8) before any of its results: another beam
 # (stiffer hinge, smaller gap, the hinge further out, its band set by its own mode), two or
 # three conditions at once (Rayleigh damping without C and a model error with sealed modes,
