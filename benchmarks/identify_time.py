@@ -8,7 +8,10 @@ as a notebook's second call or ``scripts/identify.py`` after its first run would
 in the same run, per row:
 
 - ``plain fit``: ``replay=None`` (the points and the backbone fit, no bias correction);
-- ``corrected``: the default (the plain fit, then the replays of the test);
+- ``corrected``: the default (the plain fit, then the replays of the test, then the noisy copies
+  of the answer's replay that measure its precision);
+- ``corrected, no precision copies``: ``replay.precision_copies=0`` (the default before the
+  verdict's ``noise_precision``);
 - ``…, one thread``: the same with a replay's runs simulated one after another (the code
   before they ran at once, one per core: ``freeplayid.threads``);
 - ``corrected, nothing kept``: the default with every extraction solved afresh, as before the
@@ -17,7 +20,8 @@ in the same run, per row:
 
 Kept results are dropped before each row, so each row is a first identify of the data. The
 stages: the plain estimate (the test's points and their fit), the replays' simulation, and the
-extraction and fit of the replays (with the test's points for the replays' statistic). Prints a
+extraction and fit of the replays (with the test's points for the replays' statistic), the
+precision's noisy copies (their extraction and fit). Prints a
 Markdown table: wall time (best of ``--repeat``), stages, the answer and the verdict, which do not
 depend on what is kept (checked: the table says if they differ).
 """
@@ -38,6 +42,7 @@ STAGES = {  # (module, function) -> stage name; a call's time counts once (outer
     ("freeplayid.identification.pipeline", "plain_estimate"): "plain estimate",
     ("freeplayid.replay.corrected", "replay_dataset"): "replays: simulate",
     ("freeplayid.replay.corrected", "plain_estimate"): "replays: extract + fit",
+    ("freeplayid.replay.corrected", "precision_by_replay"): "precision copies",
 }
 
 
@@ -107,7 +112,7 @@ def drop_kept() -> None:
 
 
 def run_row(dataset, replay: bool, repeat: int, afresh: bool = False,
-            single: bool = False) -> dict:
+            single: bool = False, options: dict | None = None) -> dict:
     best = None
     for _ in range(repeat):
         drop_kept()
@@ -115,7 +120,8 @@ def run_row(dataset, replay: bool, repeat: int, afresh: bool = False,
         with timed_stages(totals), (nothing_kept() if afresh else _no_op()), \
                 (one_thread() if single else _no_op()):
             t0 = time.perf_counter()
-            res = identify(dataset, progress=False, **({} if replay else {"replay": None}))
+            res = identify(dataset, progress=False,
+                           replay=(options or {}) if replay else None)
             wall = time.perf_counter() - t0
         if best is None or wall < best["wall"]:
             best = {"wall": wall, "stages": totals, "kn": res.kn, "delta": res.delta,
@@ -140,6 +146,8 @@ def main() -> None:
     rows = [("plain fit (replay=None)", run_row(dataset, False, args.repeat)),
             ("plain fit, one thread", run_row(dataset, False, args.repeat, single=True)),
             ("corrected (default)", run_row(dataset, True, args.repeat)),
+            ("corrected, no precision copies",
+             run_row(dataset, True, args.repeat, options={"precision_copies": 0})),
             ("corrected, one thread", run_row(dataset, True, args.repeat, single=True)),
             ("corrected, nothing kept", run_row(dataset, True, args.repeat, afresh=True))]
     names = list(dict.fromkeys(STAGES.values()))
@@ -153,8 +161,12 @@ def main() -> None:
     def same(a, b):
         return all(rows[a][1][k] == rows[b][1][k] for k in ("kn", "delta", "verdict"))
 
+    def same_answer(a, b):
+        return all(rows[a][1][k] == rows[b][1][k] for k in ("kn", "delta"))
+
     print(f"\nthreads: {threads_cores()}; the same answers on one thread: plain {same(0, 1)}, "
-          f"corrected {same(2, 3)}; corrected with and without kept results: {same(2, 4)}")
+          f"corrected {same(2, 4)}; corrected with and without kept results: {same(2, 5)}; "
+          f"with and without the precision copies: kn, delta {same_answer(2, 3)}")
 
 
 def threads_cores() -> int:

@@ -616,3 +616,34 @@ def test_a_point_near_contact_is_suspect_for_the_plain_fit_and_not_for_the_repla
     elif not plain:
         assert "the replay's correction includes" in margin.message
 
+
+
+@pytest.mark.parametrize("delta_hw, kn_hw, passed", [
+    (0.004, 0.002, True),    # the default fin's copies at 0.05 g: no chance to leave 1 %
+    (0.0196, 0.01, False),   # noise alone as wide as twice the bound: 32 % chance
+    (0.004, 0.045, False),   # kn's own bound (2 %)
+])
+def test_an_answer_the_noise_alone_puts_outside_the_bounds_is_suspect(delta_hw, kn_hw, passed):
+    from freeplayid.identification.replay_checks import noise_outside_chance, precision_check
+    from freeplayid.replay import ReplayPrecision
+
+    p = ReplayPrecision(kn_halfwidth=kn_hw, delta_halfwidth=delta_hw, n=8, n_fitted=8,
+                        margin_hz=2.5)
+    check = precision_check(p)
+    assert check.name == "noise_precision" and check.passed is passed
+    # the chance from the normal distribution's tails (scipy), log half-width / 1.96 the sd
+    want = max(2 * scipy.stats.norm.sf(math.log(1.01) / (math.log1p(delta_hw) / 1.96)),
+               2 * scipy.stats.norm.sf(math.log(1.02) / (math.log1p(kn_hw) / 1.96)))
+    assert math.isclose(check.value, want, rel_tol=1e-9)
+    assert math.isclose(noise_outside_chance(0.01, 0.01), 0.05, rel_tol=1e-4)  # z = 1.96
+    if not passed:
+        assert "only as precise as the test's noise" in check.message
+        assert "8 noisy copies" in check.message
+
+
+def test_a_precision_not_measured_is_no_check():
+    from freeplayid.identification.replay_checks import precision_check
+    from freeplayid.replay import ReplayPrecision
+
+    assert precision_check(None) is None
+    assert precision_check(ReplayPrecision(None, None, n=8, n_fitted=2)) is None

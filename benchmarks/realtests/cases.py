@@ -112,18 +112,19 @@ class CaseSpec:
 
 # --------------------------------------------------------------------------- structures
 def fin_truth(*, kn=FIN_KN, deltas=FIN_DELTA, part_scale=None, C=None, hinge_damping=0.0,
-              contact_damping=0.0):
-    """(nominal model file system, true Structure) of the default fin.
+              contact_damping=0.0, config=None):
+    """(nominal model file system, true Structure) of the default fin (``config``: another fin's
+    FinConfig, both the model file's and the true structure's).
 
     part_scale: (part, factor) scales that plate's Young's modulus in the TRUE structure only.
     C: the true damping matrix (default the model's own C); the model file keeps its own C.
     """
     import freeplayid.model as fm
 
-    nominal = fm.default_fin()
+    nominal = fm.default_fin() if config is None else fm.reduce_fin(fm.build_fin_fe(config))
     true_sys = nominal
     if part_scale is not None:
-        cfg = fm.load_fin_config()
+        cfg = fm.load_fin_config() if config is None else config
         part, factor = part_scale
         parts = dict(cfg.parts)
         parts[part] = dataclasses.replace(parts[part], E=parts[part].E * factor)
@@ -163,10 +164,10 @@ def mode1_added_damping(st: es.Structure, c) -> float:
     return float(c * np.sum((st.B.T @ phi[:, 0]) ** 2) / (2 * w))
 
 
-def part_factor_for_shift(part: str, shift: float) -> float:
+def part_factor_for_shift(part: str, shift: float, config=None, kn=FIN_KN) -> float:
     """Young's modulus factor of ``part`` that moves the closed fin's mode 1 by ``shift``."""
     def f1(factor):
-        _, st = fin_truth(part_scale=(part, factor))
+        _, st = fin_truth(part_scale=(part, factor), config=config, kn=kn)
         return math.sqrt(closed_modes(st)[0][0])
 
     base = f1(1.0)
@@ -338,7 +339,7 @@ def beam_two_hinges(*, deltas=(2.0e-3, 3.0e-3), levels=(1.2, 1.6, 2.0, 2.5, 3.0)
 
 
 def fin_hinge_damper(*, added_zeta=0.015, **kw) -> CaseSpec:
-    _, st = fin_truth()
+    _, st = fin_truth(kn=kw.get("kn", FIN_KN), config=kw.get("config"))
     c = added_zeta / mode1_added_damping(st, 1.0)
     kw.setdefault("levels", _damped_levels(added_zeta))
     return _fin_case("fin_hinge_damper", f"viscous damper across each hinge (+{100 * added_zeta:g}"
@@ -360,11 +361,11 @@ def fin_contact_damping(*, added_zeta=0.02, **kw) -> CaseSpec:
                      params={"contact_damper_Nms_per_rad": c, "added_zeta_mode1": added_zeta}, **kw)
 
 
-def _rayleigh_c(zeta, f_hz):
-    """The true damping C(system): Rayleigh on the fin closed at the nominal kn, ``zeta`` at
+def _rayleigh_c(zeta, f_hz, kn=FIN_KN):
+    """The true damping C(system): Rayleigh on the fin closed at the nominal ``kn``, ``zeta`` at
     the two frequencies ``f_hz``."""
     from freeplayid.model import rayleigh_damping
-    return lambda sys: rayleigh_damping(sys.M, sys.closed_stiffness(FIN_KN), f1=f_hz[0],
+    return lambda sys: rayleigh_damping(sys.M, sys.closed_stiffness(kn), f1=f_hz[0],
                                         f2=f_hz[1], zeta=zeta)
 
 
@@ -377,7 +378,7 @@ def fin_rayleigh(*, zeta=0.03, f_hz=(30.0, 60.0), **kw) -> CaseSpec:
 
 
 def fin_stiffness(*, shift=0.005, part="inboard", ref=False, **kw) -> CaseSpec:
-    factor = part_factor_for_shift(part, shift)
+    factor = part_factor_for_shift(part, shift, kw.get("config"), kw.get("kn", FIN_KN))
     tag = f"{'p' if shift > 0 else 'm'}{abs(100 * shift):g}"
     spec = _fin_case(f"fin_stiff_{tag}{'_ref' if ref else ''}",
                      f"true {part} plate E x{factor:.4f}: mode 1 {100 * shift:+g} % off the model"
@@ -819,6 +820,75 @@ VARIANTS.update({
     "var4_fin_rayleigh_down": _variant(lambda **kw: _also(fin_rayleigh(
         zeta=0.03, f_hz=(30.0, 60.0), levels=(1.2, 1.5, 1.75, 2.0), sweep=FIN_DOWN, **kw),
         "down-sweeps"), "var4_fin_rayleigh_down"),
+})
+
+
+def _fin_b():
+    """Another fin (the fifth set): a wider, thinner outboard plate (0.24 x 0.22 m, 5 mm) on a
+    shorter inboard plate (0.06 m), hinges at x 0.04 / 0.12 / 0.20 m; its own model file (the
+    project's plate FE of it, modal 3 %), closed mode 1 at 32.3 Hz at kn 350 N m/rad."""
+    import freeplayid.model as fm
+
+    cfg = fm.load_fin_config()
+    parts = dict(cfg.parts)
+    parts["outboard"] = dataclasses.replace(parts["outboard"], thickness=0.005)
+    return dataclasses.replace(cfg, root_chord=0.24, inboard_span=0.06, outboard_span=0.22,
+                               outboard_chord=0.24, parts=parts, hinge_x=(0.04, 0.12, 0.20),
+                               kn=FIN_B_KN, delta=FIN_B_DELTA, top_left=(0.0, 0.28),
+                               lower_right=(0.24, 0.104), exciting=(0.12, 0.0))
+
+
+FIN_B_KN, FIN_B_DELTA = 350.0, 0.0022
+FIN_B_F1 = 32.33  # [Hz] its closed mode 1 at FIN_B_KN (checked by _fin_b_kw)
+# the default fin's band (0.6 -> 0.93 of its closed mode 1) and levels (0.4 -> 1.2 g at 3 mrad)
+# moved to fin B by its mode 1 and its hinge's resonant rotation per g (2.28 x the default's)
+FIN_B_SWEEP = {"start_hz": round(0.6 * FIN_B_F1, 1), "stop_hz": round(0.93 * FIN_B_F1, 1),
+               "rate_hz_per_s": 0.1}
+FIN_B_LEVELS = tuple(round(lv / 2.28, 3) for lv in FIN_LEVELS)
+
+
+def _fin_b_kw(**kw) -> dict:
+    kw = dict(kw, config=_fin_b(), kn=FIN_B_KN)
+    kw.setdefault("deltas", FIN_B_DELTA)
+    kw.setdefault("sweep", dict(FIN_B_SWEEP))
+    kw.setdefault("levels", FIN_B_LEVELS)
+    return kw
+
+
+def _fin_b_down() -> dict:
+    return {"start_hz": FIN_B_SWEEP["stop_hz"], "stop_hz": FIN_B_SWEEP["start_hz"],
+            "rate_hz_per_s": FIN_B_SWEEP["rate_hz_per_s"]}
+
+
+# A fifth set, chosen once (2026-11-29, session 9) before any of its results: another fin (its
+# geometry, hinge positions, kn, gap, band and levels all other than the default fin's; its own
+# model file), under the conditions the held-out data name: Rayleigh damping without C, a model
+# 1 % off in mode 1 with and without its sealed modes, a level dip at each jump, a hinge damper,
+# down-sweeps, unequal gaps; and a control. run.py --cases 'var5_*'
+VARIANTS.update({
+    "var5_finB_nominal": _variant(lambda **kw: _fin_case(
+        "x", "another fin (fin B), its model exact (control)", **_fin_b_kw(**kw)),
+        "var5_finB_nominal"),
+    "var5_finB_rayleigh": _variant(lambda **kw: _no_c(_fin_case(
+        "x", "fin B", C=_rayleigh_c(0.025, (0.5 * FIN_B_F1, 1.3 * FIN_B_F1), kn=FIN_B_KN),
+        params={"rayleigh_zeta": 0.025, "rayleigh_hz": [0.5 * FIN_B_F1, 1.3 * FIN_B_F1]},
+        **_fin_b_kw(**kw))), "var5_finB_rayleigh"),
+    "var5_finB_stiff_out_m1": _variant(lambda **kw: _also(fin_stiffness(
+        shift=-0.01, part="outboard", **_fin_b_kw(**kw)), "fin B"), "var5_finB_stiff_out_m1"),
+    "var5_finB_stiff_out_m1_ref": _variant(lambda **kw: _also(fin_stiffness(
+        shift=-0.01, part="outboard", ref=True, **_fin_b_kw(**kw)), "fin B"),
+        "var5_finB_stiff_out_m1_ref", clean_from="var5_finB_stiff_out_m1"),
+    "var5_finB_dip": _variant(lambda **kw: _also(fin_level_dip(
+        depth=0.3, src="var5_finB_nominal", **_fin_b_kw(**kw)), "fin B"), "var5_finB_dip"),
+    "var5_finB_damper": _variant(lambda **kw: _also(fin_hinge_damper(
+        added_zeta=0.015, **_fin_b_kw(levels=tuple(round(lv * 1.5, 3) for lv in FIN_B_LEVELS),
+                                      **kw)), "fin B"), "var5_finB_damper"),
+    "var5_finB_down": _variant(lambda **kw: _fin_case(
+        "x", "fin B, down-sweeps, jump-ups in band", **_fin_b_kw(
+            levels=tuple(round(lv / 2.28, 3) for lv in (1.2, 1.5, 1.75, 2.0)), sweep=_fin_b_down(),
+            **kw)), "var5_finB_down"),
+    "var5_finB_unequal": _variant(lambda **kw: _also(fin_unequal_gaps(
+        **_fin_b_kw(deltas=(0.0019, 0.0025), **kw)), "fin B"), "var5_finB_unequal"),
 })
 ALL_CASES = {**CONDITIONS, **VARIANTS}
 

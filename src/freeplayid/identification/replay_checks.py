@@ -21,6 +21,13 @@
   more than ``cross_delta`` / ``cross_kn`` (half the accuracy bounds) and as many standard errors
   as a two-sided ``cross_p`` (3 normal standard errors' 0.27 %) allows at their degrees of
   freedom (Student's t: 6.6 with four).
+- ``noise_precision``: how far the test's noise alone moves the answer, measured on noisy copies
+  of its replay (:class:`freeplayid.replay.ReplayPrecision`: 1.96 standard deviations of their
+  fits): fails where the chance that the noise alone puts delta beyond its accuracy bound
+  (``accuracy_delta``, 1 %) or kn beyond its own (``accuracy_kn``, 2 %) exceeds
+  ``noise_outside`` (20 %), the error taken as normal with the copies' spread. On the default
+  fin at 0.05 g of noise the copies spread by about 0.5 % (sd) in delta (a 5 % chance), on a
+  fin whose responses are three times weaker against the same noise by about 1 % (32 %).
 - ``sweep_law``, ``replay_binding``, ``replay_converged``, ``damping_estimate``: where the laws
   came from, a replayed fit that jumps, convergence and an estimated damping the amplitudes pin
   down (:mod:`freeplayid.identification.verdict`).
@@ -36,7 +43,7 @@ import scipy.stats
 
 from .verdict import LIMITS, Check
 
-__all__ = ["replay_checks"]
+__all__ = ["replay_checks", "precision_check", "noise_outside_chance"]
 
 
 def _causes(replay, down: bool = False) -> str:
@@ -162,7 +169,8 @@ def replay_checks(replay, *, down_runs=()) -> list[Check]:
     misfit = {r: m for r, m in (replay.misfit or {}).items() if math.isfinite(m)}
     checks = [_resonance_check(replay, tuple(down_runs)), _consistency_check(replay),
               _sweep_law_check(replay, misfit, LIMITS["replay_misfit"]),
-              _binding_check(replay.iterations), _converged_check(replay)]
+              _binding_check(replay.iterations), _converged_check(replay),
+              precision_check(getattr(replay, "precision", None))]
     damping = getattr(replay, "damping", None)
     if damping is not None and damping.source == "estimated":
         ci = damping.zeta_ci95
@@ -239,3 +247,33 @@ def _sweep_law_check(replay, misfit: dict, limit: float) -> Check:
                      ": the estimated law may be wrong (give the runs' `sweep` hints)", worst)
     return Check("sweep_law", True, text + "; the replay reproduces them (caution: no hint)",
                  worst)
+
+
+def noise_outside_chance(halfwidth: float, bound: float) -> float:
+    """The chance that an error with the 95 % half-width ``halfwidth`` (relative, normal in
+    log, centred) lies beyond ``bound`` (relative)."""
+    sd = math.log1p(halfwidth) / 1.96
+    if sd <= 0:
+        return 0.0
+    return float(2 * scipy.stats.norm.sf(math.log1p(bound) / sd))
+
+
+def precision_check(precision) -> Check | None:
+    """``noise_precision`` (module docstring); None when not measured (no copies, or fewer
+    than three of them could be fitted)."""
+    if precision is None or precision.delta_halfwidth is None:
+        return None
+    hw = {"delta": precision.delta_halfwidth, "kn": precision.kn_halfwidth}
+    bound = {"delta": LIMITS["accuracy_delta"], "kn": LIMITS["accuracy_kn"]}
+    chance = {k: noise_outside_chance(hw[k], bound[k]) for k in hw}
+    worst = max(chance, key=chance.get)
+    said = (f"{precision.describe()}: a {100 * chance['delta']:.2g} % chance that it puts delta "
+            f"beyond {100 * bound['delta']:g} %, {100 * chance['kn']:.2g} % that it puts kn "
+            f"beyond {100 * bound['kn']:g} %")
+    if chance[worst] <= LIMITS["noise_outside"]:
+        return Check("noise_precision", True, said, chance[worst])
+    return Check("noise_precision", False,
+                 f"{said} (limit {100 * LIMITS['noise_outside']:g} %): the answer is only as "
+                 "precise as the test's noise allows, whatever the intervals; more runs at "
+                 "levels whose jumps lie well inside the band, a slower sweep or less noise "
+                 "would narrow it", chance[worst])

@@ -257,6 +257,9 @@ def _replay(r) -> list[str]:
         lines += ["", f"**The loop stopped** after {len(rep.iterations)} replays: "
                   f"{rep.stopped}; the estimate above is its closest replay's."]
     lines += ["", f"95 % intervals: {r.interval_source}."]
+    precision = getattr(rep, "precision", None)
+    if precision is not None:
+        lines += [f"Precision: {precision.describe()}."]
     boot = rep.bootstrap
     if boot is not None and boot.kn_ci95 is not None:
         lines += [f"Bootstrap by replay alone: kn {format_ci(boot.kn_ci95)}, delta "

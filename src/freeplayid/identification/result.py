@@ -300,6 +300,8 @@ class Identification:
             "level": None if getattr(r, "level", None) is None else r.level.to_dict(),
             "damping_sensitivity": None if getattr(r, "damping_sensitivity", None) is None
             else r.damping_sensitivity.to_dict(),
+            "precision": None if getattr(r, "precision", None) is None
+            else r.precision.to_dict(),
         }
 
     def backbone_overlay(self) -> dict:

@@ -107,6 +107,11 @@ LIMITS = {
     # beyond the accuracy bounds (delta 1 %, kn 2 %) that damping alone could put it outside
     "damping_delta": 1e-2,
     "damping_kn": 2e-2,
+    # the accuracy bounds, and the largest chance that the test's noise alone puts the answer
+    # beyond them (identification.replay_checks' noise_precision)
+    "accuracy_delta": 1e-2,
+    "accuracy_kn": 2e-2,
+    "noise_outside": 0.2,
 }
 
 

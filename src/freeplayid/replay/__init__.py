@@ -55,6 +55,9 @@ whole plain pipeline (extraction and fit); each copy's fit theta_b maps to a cor
 by the binding function's local factor, theta * theta_b / theta_rep, and the 2.5/97.5 %
 percentiles of those are the interval. The bootstrap reuses the last replay's correction factor
 instead of re-running the fixed point per copy (the factor varies much less than the noise).
+The answer's precision (``precision_copies``, by default): a few such copies, each run cut to
+the stretch around its statistic point, give how far the noise alone moves the answer
+(:class:`ReplayPrecision`), which the verdict holds against the accuracy bounds.
 
 Each run's sweep law (linear or logarithmic) is its ``sweep`` hint; a run without one gets the
 law estimated from the base channel when the data set has one, else from its response channels
@@ -67,7 +70,7 @@ solve), ``bootstrap`` (the bootstrap by replay), ``misfit`` (the self-check's cu
 ``corrected`` (:func:`corrected_fit`, :class:`ReplayResult`).
 """
 
-from .bootstrap import ReplayBootstrap
+from .bootstrap import ReplayBootstrap, ReplayPrecision, precision_by_replay, windowed
 from .corrected import (
     CrossCheck,
     DampingSensitivity,
@@ -84,7 +87,8 @@ from .runs import replay_dataset, replay_levels, replay_sweeps
 from .weights import WEIGHT_FLOOR, PointWeight, noise_levels, point_weights
 
 __all__ = ["Replay", "ReplayResult", "ReplayIteration", "PointOffset", "PointWeight",
-           "ReplayBootstrap", "ReplayDamping", "CrossCheck", "LevelSensitivity",
+           "ReplayBootstrap", "ReplayPrecision", "precision_by_replay", "windowed",
+           "ReplayDamping", "CrossCheck", "LevelSensitivity",
            "DampingSensitivity", "replay_sweeps",
            "replay_levels",
            "replay_dataset", "corrected_fit", "curve_misfit", "damped_system", "noise_levels",

@@ -16,7 +16,13 @@ from ..estimate import PlainEstimate, extract_points, plain_estimate, refit, wei
 from ..fit import BackboneModel, FitOptions, FittingPoints, fit_backbone
 from ..progress import progress_bar
 from ..signal import Extraction
-from .bootstrap import ReplayBootstrap, bootstrap_by_replay, noisy_copy
+from .bootstrap import (
+    ReplayBootstrap,
+    ReplayPrecision,
+    bootstrap_by_replay,
+    noisy_copy,
+    precision_by_replay,
+)
 from .broyden import solve_binding
 from .damping_estimate import ZETA_RTOL, ReplayDamping, damped_system, damping_mode, initial_zeta
 from .misfit import offset_noise, resonance_misfits, run_misfits
@@ -225,6 +231,9 @@ class ReplayResult:
         replay could not be), or "": the answer is then the closest replay.
     bootstrap : ReplayBootstrap or None
         The bootstrap by replay (``Replay.n_bootstrap`` copies), when asked for.
+    precision : ReplayPrecision or None
+        How far the test's noise alone moves the answer (``Replay.precision_copies`` noisy
+        copies of its replay); None when not measured.
     weights : tuple of PointWeight or None
         Each point's weight in the statistic's fit; None when every point weighs the same.
     resonance : dict of str -> RunMisfit
@@ -262,6 +271,7 @@ class ReplayResult:
     failure: str = ""
     stopped: str = ""
     bootstrap: ReplayBootstrap | None = None
+    precision: ReplayPrecision | None = None
     weights: tuple | None = None
     resonance: dict = dataclasses.field(default_factory=dict)
     level: LevelSensitivity | None = None
@@ -658,6 +668,7 @@ def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts
     misfits and the bootstrap at the answer's replay (:meth:`_Binding.settle`)."""
     rep, stat = b.rep, b.stat
     offsets, misfit, boot, resonance, cross, level, damped = (), {}, None, {}, None, None, None
+    precision = None
     if rep is not None:
         replayed = {(p.run, p.channel): p for p in rep.points.used()}
         offsets = tuple(PointOffset(p.run, p.channel, q.f_hz / p.f_hz - 1,
@@ -684,6 +695,12 @@ def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts
                 theta_rep=np.array([rep.kn, rep.delta]), n=opts.n_bootstrap, seed=opts.seed,
                 extraction=b.test.extraction, fit=b.test.fit, point_weights=b.weights,
                 progress=progress)
+        if opts.precision_copies > 0 and not b.failure:
+            precision = precision_by_replay(
+                b.rep_ds, system, noise(), points=rep.points.used(),
+                theta_rep=np.array([rep.kn, rep.delta]), n=opts.precision_copies,
+                seed=opts.seed, extraction=b.test.extraction, fit=b.test.fit,
+                point_weights=b.weights, progress=progress)
     return ReplayResult(
         kn=float(theta[0]), delta=float(theta[1]), jump_point=rule,
         kn_statistic=float(stat.kn), delta_statistic=float(stat.delta),
@@ -691,6 +708,7 @@ def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts
         closest_misfit_se=closest, levels=b.test.levels, offsets=offsets,
         curves=tuple(rep.points.curves) if rep is not None else (), misfit=misfit,
         damping=damping, failure=b.failure, stopped=b.stopped, bootstrap=boot,
+        precision=precision,
         weights=b.weight_table or None,
         resonance=resonance, cross=cross, level=level, damping_sensitivity=damped,
         excitation="measured" if b.test.excitations else "law", start=start,

@@ -78,6 +78,11 @@ class Replay:
         damping is taken as exact. An up-sweep run with points needs none: its peak measures
         the damping (the model's C is replaced by an estimated ratio when its replay misses it
         by 5 %).
+    precision_copies : int
+        Noisy copies of the answer's replay that measure how far the test's noise alone moves
+        the answer (:func:`freeplayid.replay.precision_by_replay`; each run only around its
+        statistic point, about a second per copy on the bundled example): the verdict's
+        ``noise_precision`` fails where that exceeds the accuracy bounds. 0: not measured.
     start : {"statistic", "network"}
         Where the replay loop starts: "statistic" (default) the fit of the measured points with
         the replays' rule; "network" the inverse model's estimate (``inverse.checkpoint``), or
@@ -98,6 +103,7 @@ class Replay:
     cross_check: bool = True
     level_uncertainty: float = 0.05
     damping_uncertainty: float = 0.25
+    precision_copies: int = 8
     start: str = "statistic"
 
     def __post_init__(self):
@@ -109,6 +115,7 @@ class Replay:
                              f"got {d!r}")
         check_int("n_bootstrap", self.n_bootstrap, 0)
         check_int("seed", self.seed, 0)
+        check_int("precision_copies", self.precision_copies, 0)
         if self.jump_point is not None and self.jump_point not in ("auto", *JUMP_POINTS):
             raise ValueError(f"`jump_point` must be one of {['auto', *sorted(JUMP_POINTS)]} or "
                              f"None, got {self.jump_point!r}")
