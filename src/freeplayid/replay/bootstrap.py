@@ -146,8 +146,8 @@ class ReplayPrecision:
         if self.kn_halfwidth is None:
             return (f"not measured ({self.n_fitted} of {self.n} noisy copies of the replay "
                     "could be fitted)")
-        return (f"the data's noise alone moves delta by +-{100 * self.delta_halfwidth:.2g} % and "
-                f"kn by +-{100 * self.kn_halfwidth:.2g} % (95 %, {self.n_fitted} noisy copies of "
+        return (f"the data's noise alone moves delta by ±{100 * self.delta_halfwidth:.2g} % and "
+                f"kn by ±{100 * self.kn_halfwidth:.2g} % (95 %, {self.n_fitted} noisy copies of "
                 "the answer's replay)")
 
 
