@@ -73,22 +73,30 @@ def bootstrap_by_replay(replayed, system, noise: dict, *, theta, theta_rep, n: i
     binding function's local factor theta / theta_rep (the factor varies much less than the
     noise, so it is not solved again per copy).
     """
-    rng = np.random.default_rng(seed)
-    samples = []
-    for _ in tqdm(range(n), desc="bootstrap by replay", disable=not progress, leave=False):
-        copy = noisy_copy(replayed, noise, rng)
-        try:
-            est = plain_estimate(copy, system, init=tuple(theta_rep), extraction=extraction,
-                                 fit=fit, point_weights=point_weights)
-        except IdentificationError:
-            continue  # a copy whose noise hides a jump: it adds no sample
-        samples.append(theta * np.array([est.kn, est.delta]) / theta_rep)
+    samples = [theta * np.array([est.kn, est.delta]) / theta_rep for est in _copy_estimates(
+        replayed, system, noise, np.random.default_rng(seed), n=n, theta_rep=theta_rep,
+        extraction=extraction, fit=fit, point_weights=point_weights,
+        desc="bootstrap by replay", progress=progress)]
     kn_ci = delta_ci = None
     if len(samples) >= max(5, n // 2):
         lo, hi = np.percentile(np.asarray(samples), [2.5, 97.5], axis=0)
         kn_ci, delta_ci = (float(lo[0]), float(hi[0])), (float(lo[1]), float(hi[1]))
     return ReplayBootstrap(kn_ci95=kn_ci, delta_ci95=delta_ci, n=int(n), n_fitted=len(samples),
                            noise={k: [float(x) for x in v] for k, v in noise.items()})
+
+
+def _copy_estimates(replayed, system, noise: dict, rng, *, n: int, theta_rep, extraction, fit,
+                    point_weights, desc: str, progress: bool):
+    """The plain estimates of ``n`` noisy copies of ``replayed`` (:func:`noisy_copy`), each
+    fitted from ``theta_rep`` with the statistic's options; a copy whose noise hides a jump
+    (``IdentificationError``) gives none."""
+    for _ in tqdm(range(n), desc=desc, disable=not progress, leave=False):
+        copy = noisy_copy(replayed, noise, rng)
+        try:
+            yield plain_estimate(copy, system, init=tuple(theta_rep), extraction=extraction,
+                                 fit=fit, point_weights=point_weights)
+        except IdentificationError:
+            continue
 
 
 def noisy_copy(replayed, noise: dict, rng):
@@ -195,16 +203,10 @@ def precision_by_replay(replayed, system, noise: dict, *, points, theta_rep, n: 
         replayed = windowed(replayed, {r: float(np.median(f)) for r, f in by_run.items()},
                             margin_hz)
     rng = np.random.default_rng([seed, 2])  # not the bootstrap's or the cross-check's copies
-    logs = []
-    for _ in tqdm(range(n), desc="the answer's precision: noisy copies", disable=not progress,
-                  leave=False):
-        try:
-            est = plain_estimate(noisy_copy(replayed, noise, rng), system, init=tuple(theta_rep),
-                                 extraction=extraction, fit=fit, point_weights=point_weights)
-        except IdentificationError:
-            continue
-        if est.fit.success:
-            logs.append(np.log([est.kn, est.delta]))
+    logs = [np.log([est.kn, est.delta]) for est in _copy_estimates(
+        replayed, system, noise, rng, n=n, theta_rep=theta_rep, extraction=extraction, fit=fit,
+        point_weights=point_weights, desc="the answer's precision: noisy copies",
+        progress=progress) if est.fit.success]
     kn_hw = delta_hw = None
     if len(logs) >= 3:
         sd = np.std(np.asarray(logs), axis=0, ddof=1)
