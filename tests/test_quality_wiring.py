@@ -265,13 +265,17 @@ def test_ctrl_c_ends_identify_with_one_line(tmp_path):
         if proc.poll() is not None:
             pytest.skip("identify ended before it could be interrupted")
         proc.send_signal(signal.SIGINT)
+        sent = time.monotonic()
         out, rest = proc.communicate(timeout=120)
     finally:
         if proc.poll() is None:
             proc.kill()
             proc.wait()
     if proc.returncode == 0:
-        pytest.skip("identify finished before the signal reached it")
+        tail = (err + rest).decode(errors="replace").replace("\r", "\n").strip().splitlines()
+        late = time.monotonic() - sent
+        pytest.skip(f"identify finished before the signal reached it ({late:.1f} s after it "
+                    f"was sent; its last lines: {tail[-3:]})")
     text = (err + rest).decode()
     assert proc.returncode == 130, text[-3000:]
     assert "Traceback" not in text

@@ -890,6 +890,93 @@ VARIANTS.update({
     "var5_finB_unequal": _variant(lambda **kw: _also(fin_unequal_gaps(
         **_fin_b_kw(deltas=(0.0019, 0.0025), **kw)), "fin B"), "var5_finB_unequal"),
 })
+
+def _fin_c():
+    """Another fin (the sixth set): smaller and stiffer than the default fin and fin B (a 0.16 m
+    chord, a 0.10 m inboard plate of 10 mm, a 0.14 m outboard plate of 7 mm), hinges at x 0.025
+    / 0.08 / 0.135 m, a model file with modal 2 % (not 3 %); closed mode 1 at 95.1 Hz at kn 900
+    N m/rad."""
+    import freeplayid.model as fm
+
+    cfg = fm.load_fin_config()
+    parts = dict(cfg.parts)
+    parts["inboard"] = dataclasses.replace(parts["inboard"], thickness=0.010)
+    parts["outboard"] = dataclasses.replace(parts["outboard"], thickness=0.007)
+    return dataclasses.replace(cfg, root_chord=0.16, inboard_span=0.10, outboard_span=0.14,
+                               outboard_chord=0.16, parts=parts, hinge_x=(0.025, 0.08, 0.135),
+                               kn=FIN_C_KN, delta=FIN_C_DELTA, top_left=(0.0, 0.235),
+                               lower_right=(0.16, 0.125), exciting=(0.08, 0.0), zeta=0.02)
+
+
+FIN_C_KN, FIN_C_DELTA = 900.0, 0.0016
+FIN_C_F1 = 95.08  # [Hz] its closed mode 1 at FIN_C_KN
+# the default fin's band (0.6 -> 0.93 of closed mode 1) at 0.2 Hz/s (its bandwidth 2 zeta f1 is
+# 3.8 Hz: 19 s per bandwidth against the default fin's 30 s), and the default fin's levels moved
+# by the hinge's resonant rotation per g (closed mode 1 and its damping: 2.232 x smaller on
+# fin C) and by the gap (``_fin_runs``)
+FIN_C_SWEEP = {"start_hz": round(0.6 * FIN_C_F1, 1), "stop_hz": round(0.93 * FIN_C_F1, 1),
+               "rate_hz_per_s": 0.2}
+FIN_C_LEVELS = tuple(round(lv * 2.232, 3) for lv in FIN_LEVELS)
+
+
+def _fin_c_kw(**kw) -> dict:
+    kw = dict(kw, config=_fin_c(), kn=FIN_C_KN)
+    kw.setdefault("deltas", FIN_C_DELTA)
+    kw.setdefault("sweep", dict(FIN_C_SWEEP))
+    kw.setdefault("levels", FIN_C_LEVELS)
+    return kw
+
+
+def _fin_c_contact_damping(added_zeta: float, **kw) -> CaseSpec:
+    _, st = fin_truth(config=_fin_c(), kn=FIN_C_KN, deltas=FIN_C_DELTA)
+    c = added_zeta / mode1_added_damping(st, 1.0)
+    levels = tuple(round(lv * (1 + added_zeta / 0.02), 3) for lv in FIN_C_LEVELS)
+    return _fin_case("x", f"fin C, extra damping only while in contact (+{100 * added_zeta:g} % "
+                     "in closed mode 1)", contact_damping=c,
+                     params={"contact_damper_Nms_per_rad": c, "added_zeta_mode1": added_zeta},
+                     **_fin_c_kw(levels=levels, **kw))
+
+
+# A sixth set, chosen once (2026-11-29, session 10) before any of its results: a third fin
+# (higher frequency, stiffer hinge, smaller gap, another model damping and sweep rate than
+# either fin before) under the held-out data's conditions at other magnitudes, plus contact
+# damping, a rising-then-falling level and more noise. run.py --cases 'var6_*'
+VARIANTS.update({
+    "var6_finC_nominal": _variant(lambda **kw: _fin_case(
+        "x", "a third fin (fin C), its model exact (control)", **_fin_c_kw(**kw)),
+        "var6_finC_nominal"),
+    "var6_finC_rayleigh": _variant(lambda **kw: _no_c(_fin_case(
+        "x", "fin C", C=_rayleigh_c(0.02, (0.4 * FIN_C_F1, 1.5 * FIN_C_F1), kn=FIN_C_KN),
+        params={"rayleigh_zeta": 0.02, "rayleigh_hz": [0.4 * FIN_C_F1, 1.5 * FIN_C_F1]},
+        **_fin_c_kw(**kw))), "var6_finC_rayleigh"),
+    "var6_finC_contact_damping": _variant(lambda **kw: _fin_c_contact_damping(0.015, **kw),
+                                          "var6_finC_contact_damping"),
+    "var6_finC_dip": _variant(lambda **kw: _also(fin_level_dip(
+        depth=0.4, flat_hz=0.8, taper_hz=0.8, src="var6_finC_nominal", **_fin_c_kw(**kw)),
+        "fin C"), "var6_finC_dip"),
+    "var6_finC_ramp": _variant(lambda **kw: _also(fin_level_ramp(ramp=-0.2, **_fin_c_kw(**kw)),
+                                                  "fin C"), "var6_finC_ramp"),
+    "var6_finC_stiff_in_p0.7_ref": _variant(lambda **kw: _also(fin_stiffness(
+        shift=0.007, part="inboard", ref=True, **_fin_c_kw(**kw)), "fin C"),
+        "var6_finC_stiff_in_p0.7_ref"),
+    "var6_finC_stiff_out_m0.4": _variant(lambda **kw: _also(fin_stiffness(
+        shift=-0.004, part="outboard", **_fin_c_kw(**kw)), "fin C"), "var6_finC_stiff_out_m0.4"),
+    "var6_finC_unequal": _variant(lambda **kw: _also(fin_unequal_gaps(
+        **_fin_c_kw(deltas=(0.0014, 0.0018), **kw)), "fin C"), "var6_finC_unequal"),
+    "var6_finC_log": _variant(lambda **kw: _fin_case(
+        "x", "fin C, log sweep at 0.4 oct/min", **_fin_c_kw(sweep={
+            "start_hz": FIN_C_SWEEP["start_hz"], "stop_hz": FIN_C_SWEEP["stop_hz"],
+            "octaves_per_min": 0.4}, **kw)), "var6_finC_log"),
+    "var6_finC_down": _variant(lambda **kw: _fin_case(
+        "x", "fin C, down-sweeps, jump-ups in band", **_fin_c_kw(
+            levels=tuple(round(lv * 2.232, 3) for lv in (1.2, 1.5, 1.75, 2.0)),
+            sweep={"start_hz": FIN_C_SWEEP["stop_hz"], "stop_hz": FIN_C_SWEEP["start_hz"],
+                   "rate_hz_per_s": FIN_C_SWEEP["rate_hz_per_s"]}, **kw)), "var6_finC_down"),
+    "var6_finC_noisy": _variant(lambda **kw: dataclasses.replace(_fin_case(
+        "x", "fin C at 0.15 g of noise (control)", **_fin_c_kw(**kw)), noise_g=0.15),
+        "var6_finC_noisy"),
+})
+
 ALL_CASES = {**CONDITIONS, **VARIANTS}
 
 def generate(name: str, out: Path, *, force=False, redraw=False, log=print) -> dict:
