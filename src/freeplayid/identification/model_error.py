@@ -89,7 +89,8 @@ class GapSplit:
     scatter : float [-]
         The points' RMS relative frequency residual about the plain fit.
     delta_bias : float [-]
-        The largest |common delta / the hinges' mean - 1| over the splits up to ``split``.
+        |common delta / the hinges' mean - 1| at ``split``: interpolated between the splits
+        tried (the largest move of those up to each), as ``split`` is.
     """
 
     split: float
@@ -429,8 +430,10 @@ def gap_split(system, est: PlainEstimate, mode: int = 0) -> GapSplit | None:
     k = int(np.argmax(shown > scatter)) if not beyond else len(splits) - 1
     split = float(splits[-1]) if beyond else float(
         np.interp(scatter, shown[k - 1: k + 1], splits[k - 1: k + 1]))
-    within = [b for a, b in zip(GAP_SPLITS, bias, strict=True) if a <= split] or bias[:1]
-    return GapSplit(split, beyond, scatter, float(max(within)))
+    # the common delta's move at that split (interpolated as the split is; the largest move of
+    # the splits up to each one, so that it never falls as the split grows)
+    moves = np.maximum.accumulate(np.array((0.0, *bias)))
+    return GapSplit(split, beyond, scatter, float(np.interp(split, splits, moves)))
 
 
 def _at_points(curve, points) -> np.ndarray:
