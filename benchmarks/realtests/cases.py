@@ -823,6 +823,13 @@ VARIANTS.update({
 })
 
 
+def _rayleigh_no_c(fin: str, zeta: float, f_hz: tuple, fin_kw: dict) -> CaseSpec:
+    """Another fin (``fin_kw``: its ``_fin_*_kw``) whose true damping is Rayleigh, ``zeta`` at
+    ``f_hz`` on it closed at its kn, and whose model file has no C."""
+    return _no_c(_fin_case("x", fin, C=_rayleigh_c(zeta, f_hz, kn=fin_kw["kn"]),
+                           params={"rayleigh_zeta": zeta, "rayleigh_hz": list(f_hz)}, **fin_kw))
+
+
 def _fin_b():
     """Another fin (the fifth set): a wider, thinner outboard plate (0.24 x 0.22 m, 5 mm) on a
     shorter inboard plate (0.06 m), hinges at x 0.04 / 0.12 / 0.20 m; its own model file (the
@@ -847,12 +854,18 @@ FIN_B_SWEEP = {"start_hz": round(0.6 * FIN_B_F1, 1), "stop_hz": round(0.93 * FIN
 FIN_B_LEVELS = tuple(round(lv / 2.28, 3) for lv in FIN_LEVELS)
 
 
-def _fin_b_kw(**kw) -> dict:
-    kw = dict(kw, config=_fin_b(), kn=FIN_B_KN)
-    kw.setdefault("deltas", FIN_B_DELTA)
-    kw.setdefault("sweep", dict(FIN_B_SWEEP))
-    kw.setdefault("levels", FIN_B_LEVELS)
+def _another_fin_kw(config, kn, delta, sweep, levels, /, **kw) -> dict:
+    """The case keywords of another fin: its FinConfig and kn, and (unless ``kw`` gives them)
+    its gap, sweep and levels."""
+    kw = dict(kw, config=config, kn=kn)
+    kw.setdefault("deltas", delta)
+    kw.setdefault("sweep", dict(sweep))
+    kw.setdefault("levels", levels)
     return kw
+
+
+def _fin_b_kw(**kw) -> dict:
+    return _another_fin_kw(_fin_b(), FIN_B_KN, FIN_B_DELTA, FIN_B_SWEEP, FIN_B_LEVELS, **kw)
 
 
 def _fin_b_down() -> dict:
@@ -869,10 +882,8 @@ VARIANTS.update({
     "var5_finB_nominal": _variant(lambda **kw: _fin_case(
         "x", "another fin (fin B), its model exact (control)", **_fin_b_kw(**kw)),
         "var5_finB_nominal"),
-    "var5_finB_rayleigh": _variant(lambda **kw: _no_c(_fin_case(
-        "x", "fin B", C=_rayleigh_c(0.025, (0.5 * FIN_B_F1, 1.3 * FIN_B_F1), kn=FIN_B_KN),
-        params={"rayleigh_zeta": 0.025, "rayleigh_hz": [0.5 * FIN_B_F1, 1.3 * FIN_B_F1]},
-        **_fin_b_kw(**kw))), "var5_finB_rayleigh"),
+    "var5_finB_rayleigh": _variant(lambda **kw: _rayleigh_no_c(
+        "fin B", 0.025, (0.5 * FIN_B_F1, 1.3 * FIN_B_F1), _fin_b_kw(**kw)), "var5_finB_rayleigh"),
     "var5_finB_stiff_out_m1": _variant(lambda **kw: _also(fin_stiffness(
         shift=-0.01, part="outboard", **_fin_b_kw(**kw)), "fin B"), "var5_finB_stiff_out_m1"),
     "var5_finB_stiff_out_m1_ref": _variant(lambda **kw: _also(fin_stiffness(
@@ -920,11 +931,7 @@ FIN_C_LEVELS = tuple(round(lv * 2.232, 3) for lv in FIN_LEVELS)
 
 
 def _fin_c_kw(**kw) -> dict:
-    kw = dict(kw, config=_fin_c(), kn=FIN_C_KN)
-    kw.setdefault("deltas", FIN_C_DELTA)
-    kw.setdefault("sweep", dict(FIN_C_SWEEP))
-    kw.setdefault("levels", FIN_C_LEVELS)
-    return kw
+    return _another_fin_kw(_fin_c(), FIN_C_KN, FIN_C_DELTA, FIN_C_SWEEP, FIN_C_LEVELS, **kw)
 
 
 def _fin_c_contact_damping(added_zeta: float, **kw) -> CaseSpec:
@@ -945,10 +952,8 @@ VARIANTS.update({
     "var6_finC_nominal": _variant(lambda **kw: _fin_case(
         "x", "a third fin (fin C), its model exact (control)", **_fin_c_kw(**kw)),
         "var6_finC_nominal"),
-    "var6_finC_rayleigh": _variant(lambda **kw: _no_c(_fin_case(
-        "x", "fin C", C=_rayleigh_c(0.02, (0.4 * FIN_C_F1, 1.5 * FIN_C_F1), kn=FIN_C_KN),
-        params={"rayleigh_zeta": 0.02, "rayleigh_hz": [0.4 * FIN_C_F1, 1.5 * FIN_C_F1]},
-        **_fin_c_kw(**kw))), "var6_finC_rayleigh"),
+    "var6_finC_rayleigh": _variant(lambda **kw: _rayleigh_no_c(
+        "fin C", 0.02, (0.4 * FIN_C_F1, 1.5 * FIN_C_F1), _fin_c_kw(**kw)), "var6_finC_rayleigh"),
     "var6_finC_contact_damping": _variant(lambda **kw: _fin_c_contact_damping(0.015, **kw),
                                           "var6_finC_contact_damping"),
     "var6_finC_dip": _variant(lambda **kw: _also(fin_level_dip(
