@@ -7,6 +7,8 @@ not by the code under test."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 import scipy.linalg
@@ -380,7 +382,7 @@ def test_one_half_gap_per_hinge_where_the_hinges_turn_together():
 def test_a_common_delta_the_points_reject_fails_the_verdict():
     """The verdict's ``hinge_gaps`` check: made only where the per-hinge fit ran, failed when its
     test rejects one common delta, with the residuals and the cause in its message."""
-    from freeplayid.identification.model_error import HingeGaps, ModelError
+    from freeplayid.identification.model_error import GapSplit, HingeGaps, ModelError
     from freeplayid.identification.verdict import model_checks
 
     def error(p):
@@ -393,7 +395,13 @@ def test_a_common_delta_the_points_reject_fails_the_verdict():
     assert not bad.passed and "does not explain" in bad.message and "0.1 %" in bad.message
     assert "replay" in bad.message and "hinge_gaps=true" in bad.message
     good = {c.name: c for c in model_checks(error(0.2))}["hinge_gaps"]
-    assert good.passed and "explains" in good.message
+    assert good.passed and "explains" in good.message and "mean" not in good.message
+    # passed, with a split the points cannot see that moves delta beyond the 1 % bound: said
+    unseen = dataclasses.replace(error(0.2), gaps=GapSplit(0.14, False, 3e-4, 0.0125))
+    said = {c.name: c for c in model_checks(unseen)}["hinge_gaps"]
+    assert said.passed and "±14 %" in said.message and "1.2 % from delta" in said.message
+    small = dataclasses.replace(error(0.2), gaps=GapSplit(0.14, False, 3e-4, 0.006))
+    assert "mean" not in {c.name: c for c in model_checks(small)}["hinge_gaps"].message
     assert error(4e-6).hinge_gaps.shares == pytest.approx((0.84, 1.16))
 
 

@@ -51,7 +51,10 @@ compares the result or the data with a physical limit, never with a value tuned 
   apart), the points fitted with one half-gap per hinge: an F test rejecting one common delta at
   0.1 % fails the check, since delta is then no hinge's half-gap
   and the replay, which gives every hinge that delta, does not correct it
-  (:mod:`freeplayid.identification.model_error`).
+  (:mod:`freeplayid.identification.model_error`). Where it passes but a split of the gaps the
+  points cannot see would put the hinges' mean beyond the delta bound from delta (the gap
+  statement, :func:`~freeplayid.identification.model_error.gap_split`), its message says so:
+  delta is then their common half-gap, weighted towards the hinge that turns most.
 - ``base_level``: the base channel's amplitude against each run's ``level_g``: a factor 9.81,
   1/9.81 or 1000 is a units error, a ratio that varies as a power of the frequency is a quantity
   error (acceleration declared as displacement...).
@@ -466,6 +469,13 @@ def model_checks(error) -> list[Check]:
             why += ("; delta is then no hinge's half-gap (it leans to the hinge that turns "
                     "most) and the replay, which gives every hinge that delta, does not correct "
                     "it (`linear_model.hinge_gaps=true` reports each hinge's)")
+        elif error.gaps is not None and error.gaps.delta_bias > LIMITS["accuracy_delta"]:
+            g = error.gaps  # passed, but a split the points cannot see moves delta that far
+            why += (f"; but gaps split by {'more than' if g.beyond else 'up to'} "
+                    f"±{100 * g.split:.2g} % would not show, and the hinges' mean could then "
+                    f"lie {100 * g.delta_bias:.2g} % from delta (beyond "
+                    f"{100 * LIMITS['accuracy_delta']:g} %): delta is their common half-gap, "
+                    "weighted towards the hinge that turns most")
         checks.append(Check("hinge_gaps", hg.common_explains, why, hg.p_common))
     return checks
 
