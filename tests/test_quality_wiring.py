@@ -254,9 +254,9 @@ def test_ctrl_c_ends_identify_with_one_line(tmp_path):
     one line on stderr besides the progress bar, exit status 130, no result written. Skipped if
     the command finished before the signal reached it."""
     cmd, kw = _script(tmp_path, "plot=false", stdout=subprocess.PIPE, stderr=subprocess.PIPE)
-    # a shell starts the command with Ctrl-C's default action; a test runner's process may have
-    # SIGINT ignored (something it ran set it so), and an ignored signal stays ignored in the
-    # child, which then never sees the Ctrl-C: start it from a handled SIGINT instead
+    # a terminal starts the command with Ctrl-C's default action; a test run started in the
+    # background by a non-interactive shell has SIGINT ignored, and an ignored signal stays
+    # ignored in the child, which then never sees the Ctrl-C: start it from a handled SIGINT
     saved = signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
         proc = subprocess.Popen(cmd, **kw)
