@@ -814,7 +814,7 @@ def test_the_cross_check_reads_the_replay_with_the_tests_noise(measured, system,
 
 
 
-def test_the_answers_precision_is_the_spread_of_independent_noise_draws(system):
+def test_the_answers_precision_is_the_spread_of_independent_noise_draws(measured, system):
     """The precision's noisy copies of the answer's replay (each run cut to the stretch around
     its statistic point) against the spread of the statistic's fit over independent noise draws
     of the reference records themselves (tests/sdof_reference.py, 0.05 g on the responses and
@@ -824,20 +824,16 @@ def test_the_answers_precision_is_the_spread_of_independent_noise_draws(system):
     from freeplayid.fit import FitOptions
     from freeplayid.signal import Extraction
 
-    sweep = Sweep(30.0, 50.0, RATE)
-    hint = {"start_hz": 30.0, "stop_hz": 50.0, "rate_hz_per_s": RATE}
-    clean = [ref.simulate_sdof_sweep(lv, sweep) for lv in LEVELS]
     std = 0.05 * 9.80665
 
-    def draw(seed):
+    def draw(seed):  # the reference records with white noise on the response and the base
         rng = np.random.default_rng(seed)
-        runs = [Run(file=f"s{lv:.1f}.csv", time=np.arange(a.size) / ref.FS,
-                    data=(a + ag)[None, :] + rng.normal(0.0, std, (1, a.size)), level_g=lv,
-                    sweep=hint, base=ag + rng.normal(0.0, std, a.size))
-                for lv, (_, _, a, ag) in zip(LEVELS, clean, strict=True)]
-        return Dataset(name="noisy reference", model=None, quantity="acceleration",
-                       units="m/s^2", sample_rate=ref.FS, channels={"acc": "x"}, runs=tuple(runs),
-                       base_channel="acc_base", truth={"kn": WN * WN, "delta": ref.DELTA})
+        runs = []
+        for r in measured.runs:
+            data = r.data + rng.normal(0.0, std, r.data.shape)
+            runs.append(dataclasses.replace(r, data=data,
+                                            base=r.base + rng.normal(0.0, std, r.base.shape)))
+        return dataclasses.replace(measured, name="noisy reference", runs=tuple(runs))
 
     res = identify(draw(1), system=system, progress=False, fit={"multistart": MULTISTART})
     p = res.replay.precision

@@ -76,6 +76,10 @@ __all__ = ["Check", "Verdict", "LIMITS", "base_level_checks", "answer_checks", "
            "down_sweep_runs", "fit_checks", "interval_check", "make_verdict", "model_checks",
            "replayed_channel_check", "sweep_direction_check", "validation_checks"]
 
+# [-] the accuracy bounds the verdict holds an answer to: delta within 1 %, kn within 2 %; the
+# limits below that are fractions of them are written as such
+ACCURACY_DELTA, ACCURACY_KN = 1e-2, 2e-2
+
 LIMITS = {
     "delta_max_rad": 0.05,  # [rad] largest plausible half-gap
     "min_gap_ratio": MIN_GAP_RATIO,  # [-] lowest point's Theta / delta (DFA error -7 % at 1.5)
@@ -97,23 +101,23 @@ LIMITS = {
     "offset_se": 3.0,  # [-] ... or this many of its standard errors (the data's noise), if more
     # [-] ... unless it is the only run off (of four or more) and the answer without that run
     # moves delta and kn by no more than half the accuracy bounds: the answer does not rest on it
-    "without_delta": 5e-3,
-    "without_kn": 1e-2,
+    "without_delta": ACCURACY_DELTA / 2,
+    "without_kn": ACCURACY_KN / 2,
     "peak_amplitude": 0.05,  # [-] a run's peak: beyond this the report says the damping differs
-    "cross_delta": 5e-3,  # [-] a second statistic's move of delta (half the 1 % bound) ...
-    "cross_kn": 1e-2,  # [-] ... and of kn (half the 2 % bound) ...
+    "cross_delta": ACCURACY_DELTA / 2,  # [-] a second statistic's move of delta (half its bound)
+    "cross_kn": ACCURACY_KN / 2,  # [-] ... and of kn (half its bound) ...
     # [-] ... or, whichever is larger, its standard error times Student's t at this two-sided
     # tail probability (that of 3 normal standard errors) and the error's degrees of freedom
     "cross_p": 0.0027,
     "model_scale": 0.2,  # [-] an update to sealed modes scaling the stiffness by more is no fix
     # [-] the answer's move for the stated uncertainty of a damping down-sweeps do not measure:
     # beyond the accuracy bounds (delta 1 %, kn 2 %) that damping alone could put it outside
-    "damping_delta": 1e-2,
-    "damping_kn": 2e-2,
+    "damping_delta": ACCURACY_DELTA,
+    "damping_kn": ACCURACY_KN,
     # the accuracy bounds, and the largest chance that the test's noise alone puts the answer
     # beyond them (identification.replay_checks' noise_precision)
-    "accuracy_delta": 1e-2,
-    "accuracy_kn": 2e-2,
+    "accuracy_delta": ACCURACY_DELTA,
+    "accuracy_kn": ACCURACY_KN,
     "noise_outside": 0.2,
 }
 
