@@ -33,6 +33,7 @@ class _Records:
     devices = ("cpu",)
     quasi_static = False
     decimates = False
+    differentiates = False
     max_step = staticmethod(rk4_max_step)
     chunks = 0
 
@@ -166,13 +167,13 @@ def test_the_engine_sets_the_step(monkeypatch):
 
     class _Step(_Records):
         @staticmethod
-        def max_step(form, *, sweep, kn_max, omega_dt):
-            asked.append((sweep.stop_hz, kn_max, omega_dt))
+        def max_step(form, *, sweep, kn_max, omega_dt, distinct_kn):
+            asked.append((sweep.stop_hz, kn_max, omega_dt, distinct_kn))
             return 1.0 / (256.0 * 4.5)
 
     monkeypatch.setitem(ENGINES, "step", _Step)
     r = _run("step", steps_per_sample=None, omega_dt=0.7, sweep=Sweep(40.0, 41.0, 0.5))
-    assert asked == [(41.0, 1e18, 0.7)]
+    assert asked == [(41.0, 1e18, 0.7, 2)]  # two distinct kn
     assert r.steps_per_sample == 5 and r.dt == 1.0 / (256.0 * 5)
 
 

@@ -68,13 +68,18 @@ class StepPlan:
 
 def step_plan(system, *, kn_max, sweep, sample_rate, channels, quantity, frame, method,
               cutoff_hz, quasi_static_hz, omega_dt, steps_per_sample, large_mass_ratio,
-              filters: bool = True, max_step=rk4_max_step) -> StepPlan:
+              filters: bool = True, max_step=rk4_max_step, distinct_kn: int = 1,
+              differentiate: bool = False) -> StepPlan:
     """The :class:`StepPlan` of a simulation: the modal form, the step and the step count.
 
     The arguments are those of :func:`.run.simulate_sweeps` (``kn_max``: the batch's largest
     kn). Without ``filters`` no decimator is designed (its length grows with m) and the count
     leaves out the filter look-ahead (a few samples). ``max_step`` is the engine's step rule
-    (``Engine.max_step``; default the RK4 engines' stability rule).
+    (``Engine.max_step``; default the RK4 engines' stability rule), given the batch's
+    ``distinct_kn``. ``differentiate`` (an engine that records velocity and acceleration as
+    derivatives of its displacement, ``Engine.differentiates``): ``taps_d`` is the decimating
+    FIR of that derivative (``resample.derivative_taps``), ``taps`` the same FIR's padded form
+    for the base signals.
     """
     qs = None
     if quasi_static_hz is not None:
@@ -91,8 +96,11 @@ def step_plan(system, *, kn_max, sweep, sample_rate, channels, quantity, frame, 
                                  kn_max=kn_max)
         form = qs.slow
     if steps_per_sample is None:
-        h_max = max_step(form, sweep=sweep, kn_max=kn_max, omega_dt=omega_dt)
-        m = max(1, math.ceil(1.0 / (sample_rate * h_max) - 1e-9))
+        h_max = max_step(form, sweep=sweep, kn_max=kn_max, omega_dt=omega_dt,
+                         distinct_kn=distinct_kn)
+        # a differentiated record needs a decimating FIR (m >= 2): the derivative stencil alone
+        # would pass the displacement's aliased ringing at its full derivative
+        m = max(2 if differentiate else 1, math.ceil(1.0 / (sample_rate * h_max) - 1e-9))
     else:
         if not (isinstance(steps_per_sample, (int, np.integer)) and steps_per_sample >= 1):
             raise ValueError(f"`steps_per_sample` must be an int >= 1, got {steps_per_sample!r}")
@@ -105,8 +113,9 @@ def step_plan(system, *, kn_max, sweep, sample_rate, channels, quantity, frame, 
                          look=0, n_steps=(n_out - 1) * m + 1)
     taps = design_decimator(m)
     taps_d = None
-    if qs is not None and quantity != "displacement":
-        # the fast part's derivative is decimated by the same fused FIR (resample.derivative_taps)
+    if (qs is not None or differentiate) and quantity != "displacement":
+        # the fast part's derivative (or the whole record's, ``differentiate``) is decimated by
+        # the same fused FIR (resample.derivative_taps)
         taps, taps_d = derivative_taps(taps, m, h, 1 if quantity == "velocity" else 2)
     look = (len(taps) - 1) // 2 // m + 1  # filter look-ahead (+1: the polyphase block padding)
     n_steps = (n_out - 1 + look) * m + 1  # recorded step-rate samples t_0 .. t_{n_steps-1}

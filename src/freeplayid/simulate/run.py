@@ -197,7 +197,8 @@ def simulate_sweeps(
                      channels=channels, quantity=quantity, frame=frame, method=method,
                      cutoff_hz=cutoff_hz, quasi_static_hz=quasi_static_hz, omega_dt=omega_dt,
                      steps_per_sample=steps_per_sample, large_mass_ratio=large_mass_ratio,
-                     max_step=engine_cls.max_step)
+                     max_step=engine_cls.max_step, distinct_kn=len(np.unique(kn_a)),
+                     differentiate=engine_cls.differentiates)
     base_state = np.array(sweep.unit_start(), dtype=float)  # unit (u_b, v_b)(0)
     eng = engine_cls(_engine_setup(plan, kn_a, dl_a, lv_a, base_state, quantity=quantity,
                                    dtype=dtype, device=device, cuda_graphs=cuda_graphs))

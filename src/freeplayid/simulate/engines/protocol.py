@@ -41,7 +41,8 @@ class EngineSetup:
         apply it themselves.
     taps_d : ndarray, shape (n_taps,) or None [-]
         With ``quasi_static`` and velocity or acceleration: the FIR of the fast part's
-        derivative (``resample.derivative_taps``); ``taps`` then are the fused ones.
+        derivative (``resample.derivative_taps``); ``taps`` then are the fused ones. For an
+        engine that ``differentiates``: the FIR of the displacement's derivative.
     factor : int
         Steps per output sample (the decimation factor).
     cuda_graphs : bool or None
@@ -82,6 +83,11 @@ class Engine(Protocol):
         completes into the signal array ``out`` in place (the caller then adds the base terms in
         one compiled pass). False: ``run`` returns the chunk's step-rate records, which the
         caller decimates.
+    differentiates : bool
+        True: it records velocity and acceleration as the derivative of its displacement,
+        taken by its decimating FIR (``EngineSetup.taps_d``), so that the fast modes' ringing
+        after each contact switch, which point samples of an acceleration would alias into the
+        band, does not set its step (docs/simulate.md, "Exponential engine").
     record_width : int
         Values held per member and step of a chunk (bounds the steps per chunk in memory).
     """
@@ -89,12 +95,14 @@ class Engine(Protocol):
     devices: ClassVar[tuple[str, ...] | None]
     quasi_static: ClassVar[bool]
     decimates: ClassVar[bool]
+    differentiates: ClassVar[bool] = False
     record_width: int
 
     def __init__(self, setup: EngineSetup) -> None: ...
 
     @staticmethod
-    def max_step(form: ModalForm, *, sweep: Sweep, kn_max: float, omega_dt: float) -> float:
+    def max_step(form: ModalForm, *, sweep: Sweep, kn_max: float, omega_dt: float,
+                 distinct_kn: int = 1) -> float:
         """The largest step [s] this engine takes for ``form`` (its step rule).
 
         ``simulate_sweeps`` runs at the largest whole fraction of the output sample interval
@@ -146,7 +154,8 @@ class Engine(Protocol):
         ...
 
 
-def rk4_max_step(form: ModalForm, *, sweep: Sweep, kn_max: float, omega_dt: float) -> float:
+def rk4_max_step(form: ModalForm, *, sweep: Sweep, kn_max: float, omega_dt: float,
+                 distinct_kn: int = 1) -> float:
     """The RK4 engines' :meth:`Engine.max_step`, set by stability: ``omega_max * dt <= omega_dt``
     of the fastest closed-hinge mode (:func:`..formulation.rk4_step_limit`; ``form.omega_max``
     is that of ``kn_max``, and the sweep does not matter)."""

@@ -23,6 +23,7 @@ class TorchEngine:
     devices = None
     quasi_static = False
     decimates = False
+    differentiates = False
     max_step = staticmethod(rk4_max_step)
 
     def __init__(self, setup: EngineSetup):

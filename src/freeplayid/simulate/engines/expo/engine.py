@@ -13,7 +13,7 @@ from ....sweep import Sweep
 from ...formulation import ModalForm
 from ..numba.engine import NumbaEngine, numba_available
 from ..protocol import EngineSetup
-from .steps import expo_step_limit
+from .steps import MAX_STATE_SETS, expo_step_limit
 
 __all__ = ["ExpoEngine"]
 
@@ -26,22 +26,31 @@ class ExpoEngine(NumbaEngine):
     devices = ("cpu",)
     quasi_static = False
     decimates = True
+    differentiates = True
     name = "expo"
 
     def __init__(self, setup: EngineSetup):
         from .kernel import NumbaExpo
 
         s = setup
+        # velocity and acceleration: the displacement, differentiated by the decimating FIR
+        # (taps_d), so the point samples do not alias the ringing after each switch
+        derived = s.taps_d is not None
         self.kernel = NumbaExpo(s.form, s.kn, s.delta, s.level_g, s.eta0, s.v0, h=s.h,
-                                quantity=s.quantity, dtype=s.dtype, taps=s.taps, factor=s.factor)
+                                quantity="displacement" if derived else s.quantity,
+                                dtype=s.dtype, taps=s.taps_d if derived else s.taps,
+                                factor=s.factor)
         self.record_width = self.kernel.width
 
     @staticmethod
-    def max_step(form: ModalForm, *, sweep: Sweep, kn_max: float, omega_dt: float) -> float:
+    def max_step(form: ModalForm, *, sweep: Sweep, kn_max: float, omega_dt: float,
+                 distinct_kn: int = 1) -> float:
         """:meth:`..protocol.Engine.max_step` by accuracy (:func:`.steps.expo_step_limit`: steps
-        per period of the sweep's top frequency and of the closed-hinge modes that a contact
-        excites); ``omega_dt`` is not used (no stability bound)."""
-        return expo_step_limit(form, top_hz=max(sweep.start_hz, sweep.stop_hz), kn_max=kn_max)
+        per period of the sweep's top frequency, and, where the batch's distinct kn are too many
+        for the exact per-state scheme, of the closed-hinge modes that a contact excites);
+        ``omega_dt`` is not used (no stability bound)."""
+        return expo_step_limit(form, top_hz=max(sweep.start_hz, sweep.stop_hz), kn_max=kn_max,
+                               per_state=distinct_kn <= MAX_STATE_SETS)
 
     @classmethod
     def available(cls) -> bool:

@@ -31,7 +31,7 @@ from ..numba import arith, fir
 from ..numba.arith import FASTMATH, fma
 from ..numba.fir import emitted_outputs, fir_add1, fir_emit1, ring_load1, ring_store1, start_weights
 from ..numba.jit import compile_kernel, float_dtype
-from .steps import discretize, discretize_states, switch_levels
+from .steps import MAX_STATE_SETS, discretize, discretize_states, switch_levels
 
 __all__ = ["NumbaExpo", "expo_chunk", "expo_states_chunk", "INLINED_SHA256", "MAX_ACTIVE_SET",
            "MAX_STATE_SETS"]
@@ -42,9 +42,6 @@ __all__ = ["NumbaExpo", "expo_chunk", "expo_states_chunk", "INLINED_SHA256", "MA
 INLINED_SHA256 = "30521c5fa19c9eb4026374afeccc2d5a7db5fd82c842976bd5b91ddec60e3266"
 _CACHE = cache_unless_stale(__name__, INLINED_SHA256, arith, fir)
 MAX_ACTIVE_SET = 8  # active-set iterations before the exhaustive search
-# per-state propagation for batches with at most this many distinct kn (one matrix set per kn,
-# 3^H states x (levels + 1) sub-steps each); more distinct kn: the linear-hold scheme
-MAX_STATE_SETS = 8
 
 
 @numba.njit(fastmath=FASTMATH, error_model="numpy", inline="never", cache=_CACHE)

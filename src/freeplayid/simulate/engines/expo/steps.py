@@ -31,10 +31,16 @@ With one kn per batch (or a few), the kernel uses the exact step of each contact
 hold only on the sub-step holding a switch.
 
 Step rule (:func:`expo_step_limit`, measured in docs/simulate.md, "Exponential engine"): at least
-``STEPS_PER_SWEEP_PERIOD`` steps per period of the sweep's top frequency and
-``STEPS_PER_RINGING_PERIOD`` per period of the fastest mode that rings with the hinges closed
-(:func:`ringing_hz`; the record is sampled at the step rate); a switch is located to
-``1 / SWITCH_STEPS_PER_RINGING_PERIOD`` of that period (:func:`switch_levels`).
+``STEPS_PER_SWEEP_PERIOD`` steps per period of the sweep's top frequency; a switch is located to
+``1 / SWITCH_STEPS_PER_RINGING_PERIOD`` of the period of the fastest mode that rings with the
+hinges closed (:func:`ringing_hz`, :func:`switch_levels`). The engine records the displacement
+and takes velocity and acceleration as its derivative inside the decimating FIR
+(``resample.derivative_taps``): the 4-9 kHz knuckle ringing after each switch is then a small
+displacement, which the point samples at the step rate do not alias into the band (an
+acceleration point-sampled at that step would, and needed ``STEPS_PER_RINGING_PERIOD`` steps per
+ringing period, four times as many on the default fin). The linear-hold scheme (more distinct kn
+than :data:`MAX_STATE_SETS`) holds the contact moment linear over a whole step, so its step
+keeps that ringing rule.
 """
 
 from __future__ import annotations
@@ -48,13 +54,16 @@ import scipy.linalg
 from ...formulation import ModalForm
 
 __all__ = ["ExpoStep", "StateSteps", "discretize", "discretize_states", "expo_step_limit",
+           "MAX_STATE_SETS",
            "switch_levels", "ringing_hz", "closed_hinge_hz", "contact_states", "state_code",
            "STEPS_PER_SWEEP_PERIOD", "STEPS_PER_RINGING_PERIOD",
            "SWITCH_STEPS_PER_RINGING_PERIOD"]
 
+# per-state propagation for batches with at most this many distinct kn (one matrix set per kn,
+# 3^H states x (levels + 1) sub-steps each); more distinct kn: the linear-hold scheme
+MAX_STATE_SETS = 8
 STEPS_PER_SWEEP_PERIOD = 100  # steps per period of the sweep's top frequency
-# the record is sampled at the step rate: steps per period of the fastest ringing mode (below
-# ~2, the ringing after each switch aliases into the output band of an acceleration record)
+# the linear-hold scheme's steps per period of the fastest ringing mode
 STEPS_PER_RINGING_PERIOD = 2.0
 SWITCH_STEPS_PER_RINGING_PERIOD = 400.0  # switch sub-steps per period of that mode
 
@@ -136,7 +145,8 @@ def ringing_hz(form: ModalForm, kn: float) -> float:
     return float(np.abs(np.linalg.eigvals(A).imag).max(initial=0.0) / (2 * np.pi))
 
 
-def expo_step_limit(form: ModalForm, *, top_hz: float, kn_max: float) -> float:
+def expo_step_limit(form: ModalForm, *, top_hz: float, kn_max: float,
+                    per_state: bool = False) -> float:
     """Largest step [s] of the exponential engine by the accuracy rule (module docstring).
 
     Parameters
@@ -146,10 +156,17 @@ def expo_step_limit(form: ModalForm, *, top_hz: float, kn_max: float) -> float:
         The sweep's top frequency.
     kn_max : float [N m/rad]
         The batch's largest contact stiffness.
+    per_state : bool
+        The batch takes the exact per-state scheme (at most :data:`MAX_STATE_SETS` distinct
+        kn): the sweep's rule alone (its switches are located by halving, its record is the
+        displacement's, differentiated by the decimating FIR). Else the linear-hold scheme,
+        whose contact moment is held linear over a step: also the ringing rule.
     """
     if not (math.isfinite(top_hz) and top_hz > 0):
         raise ValueError(f"`top_hz` must be > 0, got {top_hz!r}")
     h = 1.0 / (STEPS_PER_SWEEP_PERIOD * top_hz)
+    if per_state:
+        return h
     f_ring = ringing_hz(form, kn_max)
     if f_ring > 0:
         h = min(h, 1.0 / (STEPS_PER_RINGING_PERIOD * f_ring))

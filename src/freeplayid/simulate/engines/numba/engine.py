@@ -30,6 +30,7 @@ class NumbaEngine:
     devices = ("cpu",)
     quasi_static = True
     decimates = True
+    differentiates = False
     max_step = staticmethod(rk4_max_step)
     name = "numba"
 
