@@ -850,6 +850,24 @@ def test_the_answers_precision_is_the_spread_of_independent_noise_draws(measured
     assert "Precision: the data's noise alone moves delta" in res.report()
 
 
+def test_the_precision_copies_stop_early_where_the_noise_is_far_below_the_bounds(measured,
+                                                                                system):
+    """On the noise-free reference records the copies' spread is tiny: they stop at the fourth
+    fitted copy, whose upper 95 % bound on the spread is below the settled level (a 1 % chance
+    of leaving the bounds), with the half-widths of exactly those four copies (asked for four);
+    with 0.05 g of noise (the test above) all eight are made."""
+    from freeplayid.identification.replay_checks import settled_sd
+    from freeplayid.replay.bootstrap import PRECISION_MIN_COPIES, sd_upper
+
+    kw = dict(system=system, progress=False, fit={"multistart": MULTISTART})
+    p = identify(measured, **kw).replay.precision
+    assert p.n == p.n_fitted == PRECISION_MIN_COPIES == 4
+    four = identify(measured, replay={"precision_copies": 4}, **kw).replay.precision
+    assert (p.kn_halfwidth, p.delta_halfwidth) == (four.kn_halfwidth, four.delta_halfwidth)
+    sd = np.log1p([p.kn_halfwidth, p.delta_halfwidth]) / 1.96
+    assert np.all(sd_upper(sd, 4) <= np.asarray(settled_sd()))
+
+
 def test_a_precision_copy_keeps_each_run_around_its_point_with_its_sweep_law():
     from freeplayid.replay import windowed
 

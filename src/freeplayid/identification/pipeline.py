@@ -20,7 +20,7 @@ from ..replay import Replay, corrected_fit
 from ..signal import Extraction
 from .model_error import ModelError, model_error, update_model, widen
 from .records import checked_dataset, record_checks, record_options
-from .replay_checks import replay_checks
+from .replay_checks import replay_checks, settled_sd
 from .result import Identification
 from .verdict import (
     Check,
@@ -121,7 +121,8 @@ def identify(dataset, *, system: FreeplaySystem | None = None,
     if replay is None:
         return _plain_result(dataset, system, est, fit.mode, t0, error, checked)
     rep = corrected_fit(dataset, system, est, extraction=extraction, fit=fit, replay=replay,
-                        start=_network_start(est, fit, replay), progress=progress)
+                        start=_network_start(est, fit, replay), precision_settled=settled_sd(),
+                        progress=progress)
     result = _corrected_result(dataset, system, est, rep, fit.mode, t0, error, checked)
     if _statistics_disagree(result, replay):
         result = _on_the_other_statistic(result, dataset, system, est, extraction, fit, replay,
@@ -165,7 +166,8 @@ def _on_the_other_statistic(first: Identification, dataset, system, est, extract
              100 * first.replay.cross.delta_shift, rule)
     other = dataclasses.replace(replay, jump_point=rule)
     rep = corrected_fit(dataset, system, est, extraction=extraction, fit=fit, replay=other,
-                        start=_network_start(est, fit, other), progress=progress)
+                        start=_network_start(est, fit, other), precision_settled=settled_sd(),
+                        progress=progress)
     if rep.failure:
         return first
     second = _corrected_result(dataset, system, est, rep, fit.mode, t0, error, checked)

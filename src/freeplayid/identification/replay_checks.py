@@ -43,7 +43,8 @@ import scipy.stats
 
 from .verdict import LIMITS, Check
 
-__all__ = ["replay_checks", "precision_check", "noise_outside_chance"]
+__all__ = ["replay_checks", "precision_check", "noise_outside_chance", "settled_sd",
+           "SETTLED_CHANCE"]
 
 
 def _causes(replay, down: bool = False) -> str:
@@ -256,6 +257,19 @@ def noise_outside_chance(halfwidth: float, bound: float) -> float:
     if sd <= 0:
         return 0.0
     return float(2 * scipy.stats.norm.sf(math.log1p(bound) / sd))
+
+
+# the chance of leaving the accuracy bounds by noise alone below which the precision's noisy
+# copies may stop early (replay.precision_by_replay): far below ``noise_outside``
+SETTLED_CHANCE = 0.01
+
+
+def settled_sd() -> tuple[float, float]:
+    """The standard deviations of log kn and log delta at which the noise alone leaves kn's and
+    delta's accuracy bounds with a :data:`SETTLED_CHANCE` chance (normal in log, as
+    :func:`noise_outside_chance`): the precision's copies stop early below them."""
+    z = float(scipy.stats.norm.isf(SETTLED_CHANCE / 2))
+    return (math.log1p(LIMITS["accuracy_kn"]) / z, math.log1p(LIMITS["accuracy_delta"]) / z)
 
 
 def precision_check(precision) -> Check | None:

@@ -18,9 +18,11 @@ and 16 copies gave +-1.8 % and +-0.94 %; on the default fin (``fin_nominal``) +-
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.stats
 from tqdm.auto import tqdm
 
 from ..errors import IdentificationError
@@ -28,8 +30,12 @@ from ..estimate import plain_estimate
 from ..sweep import Sweep
 
 __all__ = ["ReplayBootstrap", "ReplayPrecision", "bootstrap_by_replay", "noisy_copy",
-           "precision_by_replay", "windowed", "PRECISION_MARGIN_HZ"]
+           "precision_by_replay", "windowed", "sd_upper", "PRECISION_MARGIN_HZ",
+           "PRECISION_MIN_COPIES"]
 
+# fitted copies before the precision may stop early (``settled_sd``): the chi-square bound on a
+# standard deviation from 4 is 2.92 times it, from 8 1.83 times
+PRECISION_MIN_COPIES = 4
 # [Hz] the stretch of each run a precision copy keeps either side of its statistic point: the
 # point and the jump after it (the quadrature point lies within 1 Hz of the drop on the bundled
 # example), the extraction's trim (1 s) and its bandwidth's memory (1 s at 1 Hz) well inside it
@@ -76,7 +82,7 @@ def bootstrap_by_replay(replayed, system, noise: dict, *, theta, theta_rep, n: i
     samples = [theta * np.array([est.kn, est.delta]) / theta_rep for est in _copy_estimates(
         replayed, system, noise, np.random.default_rng(seed), n=n, theta_rep=theta_rep,
         extraction=extraction, fit=fit, point_weights=point_weights,
-        desc="bootstrap by replay", progress=progress)]
+        desc="bootstrap by replay", progress=progress) if est is not None]
     kn_ci = delta_ci = None
     if len(samples) >= max(5, n // 2):
         lo, hi = np.percentile(np.asarray(samples), [2.5, 97.5], axis=0)
@@ -87,16 +93,16 @@ def bootstrap_by_replay(replayed, system, noise: dict, *, theta, theta_rep, n: i
 
 def _copy_estimates(replayed, system, noise: dict, rng, *, n: int, theta_rep, extraction, fit,
                     point_weights, desc: str, progress: bool):
-    """The plain estimates of ``n`` noisy copies of ``replayed`` (:func:`noisy_copy`), each
-    fitted from ``theta_rep`` with the statistic's options; a copy whose noise hides a jump
-    (``IdentificationError``) gives none."""
+    """The plain estimates of ``n`` noisy copies of ``replayed`` (:func:`noisy_copy`), one at
+    a time, each fitted from ``theta_rep`` with the statistic's options; None for a copy whose
+    noise hides a jump (``IdentificationError``)."""
     for _ in tqdm(range(n), desc=desc, disable=not progress, leave=False):
         copy = noisy_copy(replayed, noise, rng)
         try:
             yield plain_estimate(copy, system, init=tuple(theta_rep), extraction=extraction,
                                  fit=fit, point_weights=point_weights)
         except IdentificationError:
-            continue
+            yield None
 
 
 def noisy_copy(replayed, noise: dict, rng):
@@ -132,7 +138,7 @@ class ReplayPrecision:
         half-width of the answer's error that the noise alone makes (relative). None with
         fewer than three fitted copies.
     n : int
-        Noisy copies of the answer's replay.
+        Noisy copies of the answer's replay made (fewer than asked where they settled early).
     n_fitted : int
         Copies whose points could be fitted (the others' noise hid a jump).
     margin_hz : float or None [Hz]
@@ -189,13 +195,20 @@ def windowed(replayed, centres: dict, margin_hz: float):
 def precision_by_replay(replayed, system, noise: dict, *, points, theta_rep, n: int, seed: int,
                         extraction, fit, point_weights,
                         margin_hz: float | None = PRECISION_MARGIN_HZ,
+                        settled_sd: tuple[float, float] | None = None,
                         progress: bool = False) -> ReplayPrecision:
     """How far the noise alone moves the answer (module docstring): ``n`` noisy copies of the
     answer's replay ``replayed`` (a Dataset; each run cut to ``margin_hz`` either side of its
     statistic point in ``points``, the replay's used points; None keeps the whole records),
     each channel's measured ``noise`` added (:func:`noisy_copy`), their points fitted from
     ``theta_rep`` with the statistic's options; 1.96 standard deviations of their log
-    (kn, delta)."""
+    (kn, delta).
+
+    ``settled_sd`` (log kn, log delta): the copies stop early, from the
+    :data:`PRECISION_MIN_COPIES`-th fitted one on, once the upper 95 % confidence bound of
+    both standard deviations (chi-square, :func:`sd_upper`) lies below these: more copies could
+    only confirm that the noise is far below what matters (the verdict passes
+    ``identification.replay_checks.settled_sd``, a 1 % chance of leaving the accuracy bounds)."""
     if margin_hz is not None:
         by_run: dict = {}
         for p in points:
@@ -203,13 +216,27 @@ def precision_by_replay(replayed, system, noise: dict, *, points, theta_rep, n: 
         replayed = windowed(replayed, {r: float(np.median(f)) for r, f in by_run.items()},
                             margin_hz)
     rng = np.random.default_rng([seed, 2])  # not the bootstrap's or the cross-check's copies
-    logs = [np.log([est.kn, est.delta]) for est in _copy_estimates(
-        replayed, system, noise, rng, n=n, theta_rep=theta_rep, extraction=extraction, fit=fit,
-        point_weights=point_weights, desc="the answer's precision: noisy copies",
-        progress=progress) if est.fit.success]
+    logs, made = [], 0
+    for est in _copy_estimates(
+            replayed, system, noise, rng, n=n, theta_rep=theta_rep, extraction=extraction,
+            fit=fit, point_weights=point_weights, desc="the answer's precision: noisy copies",
+            progress=progress):
+        made += 1
+        if est is not None and est.fit.success:
+            logs.append(np.log([est.kn, est.delta]))
+        if settled_sd is not None and len(logs) >= PRECISION_MIN_COPIES and np.all(
+                sd_upper(np.std(np.asarray(logs), axis=0, ddof=1), len(logs))
+                <= np.asarray(settled_sd)):
+            break
     kn_hw = delta_hw = None
     if len(logs) >= 3:
         sd = np.std(np.asarray(logs), axis=0, ddof=1)
         kn_hw, delta_hw = (float(np.expm1(1.96 * v)) for v in sd)
-    return ReplayPrecision(kn_halfwidth=kn_hw, delta_halfwidth=delta_hw, n=int(n),
+    return ReplayPrecision(kn_halfwidth=kn_hw, delta_halfwidth=delta_hw, n=made,
                            n_fitted=len(logs), margin_hz=margin_hz)
+
+
+def sd_upper(sd, k: int):
+    """Upper 95 % confidence bound of a standard deviation ``sd`` estimated from ``k`` normal
+    samples (``ddof=1``): ``sd * sqrt((k - 1) / chi2_{0.05}(k - 1))`` (2.92 sd from 4)."""
+    return np.asarray(sd) * math.sqrt((k - 1) / scipy.stats.chi2.ppf(0.05, k - 1))

@@ -479,6 +479,7 @@ def stop_reason(theta, err: Exception, test_runs: int) -> str:
 def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extraction,
                   fit: FitOptions, replay: Replay | None = None,
                   start: tuple[float, float] | None = None,
+                  precision_settled: tuple[float, float] | None = None,
                   progress: bool = False) -> ReplayResult:
     """Bias-corrected (kn, delta) by replaying the test (package docstring).
 
@@ -496,6 +497,9 @@ def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extracti
     start : (kn [N m/rad], delta [rad]) or None
         The network's estimate (or the plain fit's given start): the loop's first replay with
         ``replay.start`` "network"; ignored otherwise or when None.
+    precision_settled : (float, float) or None
+        Standard deviations of log kn and log delta below which the precision's noisy copies
+        may stop early (:func:`precision_by_replay`'s ``settled_sd``); None: all of them.
 
     A test that cannot be replayed (no level or sweep law for a run) or a replay that cannot be
     fitted (the replayed fin stays in the gap: a model far from the test) ends with ``failure``
@@ -563,7 +567,7 @@ def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extracti
     return _result(binding, theta, rule, sol, closest,
                    _damping_used(source, zeta, binding.ratios, sol.jacobian, estimate, note,
                                  failed=bool(binding.failure)),
-                   plain, system, opts, progress, start=began)
+                   plain, system, opts, progress, start=began, settled=precision_settled)
 
 
 def _restarts(hat: np.ndarray, origin: np.ndarray):
@@ -663,7 +667,7 @@ def _answer_move(J, half: float) -> np.ndarray | None:
 
 
 def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts,
-            progress, start: str = "statistic") -> ReplayResult:
+            progress, start: str = "statistic", settled=None) -> ReplayResult:
     """The :class:`ReplayResult` of a finished loop (started at ``start``): offsets, curve
     misfits and the bootstrap at the answer's replay (:meth:`_Binding.settle`)."""
     rep, stat = b.rep, b.stat
@@ -700,7 +704,7 @@ def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts
                 b.rep_ds, system, noise(), points=rep.points.used(),
                 theta_rep=np.array([rep.kn, rep.delta]), n=opts.precision_copies,
                 seed=opts.seed, extraction=b.test.extraction, fit=b.test.fit,
-                point_weights=b.weights, progress=progress)
+                point_weights=b.weights, settled_sd=settled, progress=progress)
     return ReplayResult(
         kn=float(theta[0]), delta=float(theta[1]), jump_point=rule,
         kn_statistic=float(stat.kn), delta_statistic=float(stat.delta),

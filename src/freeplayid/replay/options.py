@@ -81,8 +81,10 @@ class Replay:
     precision_copies : int
         Noisy copies of the answer's replay that measure how far the test's noise alone moves
         the answer (:func:`freeplayid.replay.precision_by_replay`; each run only around its
-        statistic point, about a second per copy on the bundled example): the verdict's
-        ``noise_precision`` fails where that exceeds the accuracy bounds. 0: not measured.
+        statistic point, about half a second per copy on the bundled example): the verdict's
+        ``noise_precision`` fails where that exceeds the accuracy bounds. At most this many:
+        they stop after four where even the upper 95 % bound of their spread gives a chance
+        below 1 % of leaving the bounds (a quiet test). 0: not measured.
     start : {"statistic", "network"}
         Where the replay loop starts: "statistic" (default) the fit of the measured points with
         the replays' rule; "network" the inverse model's estimate (``inverse.checkpoint``), or
