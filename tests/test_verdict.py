@@ -548,7 +548,8 @@ def test_a_failed_cross_check_reports_the_other_statistics_answer(monkeypatch):
     first = Answer(4274.4, 2.078e-3, failed, Rep("drop", cross))
     asked = []
 
-    def fake_fit(dataset, system, est, *, extraction, fit, replay, start, progress):
+    def fake_fit(dataset, system, est, *, extraction, fit, replay, start, precision_settled,
+                 progress):
         asked.append(replay.jump_point)
         return Rep(replay.jump_point, failure=fake_fit.failure)
 
