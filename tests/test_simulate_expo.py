@@ -217,6 +217,7 @@ def test_contact_solve_matches_the_exhaustive_search():
 
 @needs_numba
 @pytest.mark.parametrize("quantity, frame", [("displacement", "relative"),
+                                             ("velocity", "absolute"),
                                              ("acceleration", "absolute")])
 def test_two_hinge_fin_matches_rk4(quantity, frame):
     # default fin (two hinges, dense modal damping, knuckle modes to 9 kHz in the hinge
@@ -224,10 +225,10 @@ def test_two_hinge_fin_matches_rk4(quantity, frame):
     # jump of both channels vs RK4 at omega_dt 0.5 (8.7 us), whose record is the quantity itself.
     # The linear-hold scheme erred 1e-2 here at 43 us. Level 1.2 g (a lower level rattles before
     # the jump: there RK4 at two small steps differs by ~1e-3 itself). The acceleration is the
-    # replay's record: the engine takes it as the displacement's second derivative inside its
-    # decimating FIR, so the ringing after each switch does not set the step; point samples of
-    # the acceleration at this step alias that ringing into the band (first harmonic 6 % off,
-    # docs/simulate.md)
+    # replay's record: the engine takes it (and the velocity) as the displacement's derivative
+    # inside its decimating FIR, so the ringing after each switch does not set the step; point
+    # samples of the acceleration at this step alias that ringing into the band (first
+    # harmonic 6 % off, docs/simulate.md)
     from freeplayid.model import default_fin
 
     fin = default_fin()
