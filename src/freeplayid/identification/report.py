@@ -250,7 +250,9 @@ def _replay(r) -> list[str]:
         lines += [f"Damping of the down-sweeps ({', '.join(damped.runs)}), which they do not "
                   f"measure: {100 * damped.uncertainty:g} % more of it moves kn by "
                   f"{100 * damped.kn_shift:.2g} % and delta by {100 * damped.delta_shift:.2g} % "
-                  "(in the intervals)."]
+                  "(in the intervals)" + ("." if damped.converged else
+                                          "; its replays did not converge: their closest's "
+                                          "move, not a measured one.")]
     if rep.failure:
         lines += ["", f"**Replay failed:** {rep.failure}; the estimate above is the plain fit's."]
     elif getattr(rep, "stopped", ""):

@@ -368,6 +368,17 @@ def sweep_direction_check(extraction, *, replayed: bool, damping=None,
                     damping.delta_shift / LIMITS["damping_delta"])
         moves = (f"the replay's damping {100 * damping.uncertainty:g} % higher moves kn by "
                  f"{100 * damping.kn_shift:.2g} % and delta by {100 * damping.delta_shift:.2g} %")
+        if not damping.converged:
+            return Check("sweep_direction", False,
+                         f"run(s) {runs} sweep down and never reach the peak, so they do not "
+                         "measure the damping, on which where they jump up depends, and the "
+                         f"replays at a damping {100 * damping.uncertainty:g} % higher did not "
+                         "converge: how far that damping moves the answer is not measured (their "
+                         f"closest replay: kn {100 * damping.kn_shift:.2g} %, delta "
+                         f"{100 * damping.delta_shift:.2g} %), so the answer is only as good as "
+                         "the replay's damping (the model file's C or the given ratio); add an "
+                         "up-sweep run (its peak measures the damping) or give the measured "
+                         "damping (`replay.damping`)", max(ratio, 1.0))
         if ratio <= 1:
             return Check("sweep_direction", True, text + "; where they jump up depends on the "
                          "damping, which they do not measure (they never reach the peak): "

@@ -157,12 +157,16 @@ class LevelSensitivity:
         quadrature.
     runs : tuple of str
         The runs whose levels came from ``level_g``.
+    converged : bool
+        Whether that solve converged; else the shifts are those of its closest replay, not a
+        measured move.
     """
 
     uncertainty: float
     kn_shift: float
     delta_shift: float
     runs: tuple
+    converged: bool = True
 
     def to_dict(self) -> dict:
         return {**dataclasses.asdict(self), "runs": list(self.runs)}
@@ -184,6 +188,8 @@ class DampingSensitivity(LevelSensitivity):
         half-widths in quadrature.
     runs : tuple of str
         The replayed runs that sweep down.
+    converged : bool
+        Whether that solve converged (else the closest replay's shifts).
     """
 
 
@@ -749,7 +755,7 @@ def _level_sensitivity(b: _Binding, sol, u: float,
     up = b.sibling(dataclasses.replace(t, levels=levels), (b.source, b.zeta),
                    f"replay at levels x{1 + u:g}")
     shift = _moved(b, up, sol, progress)
-    return None if shift is None else LevelSensitivity(float(u), *shift, runs)
+    return None if shift is None else LevelSensitivity(float(u), *shift[:2], runs, shift[2])
 
 
 def _damping_sensitivity(b: _Binding, sol, u: float,
@@ -771,12 +777,13 @@ def _damping_sensitivity(b: _Binding, sol, u: float,
     else:
         up = b.sibling(b.test, (b.source, (1 + u) * b.zeta), label)
     shift = _moved(b, up, sol, progress)
-    return None if shift is None else DampingSensitivity(float(u), *shift, runs)
+    return None if shift is None else DampingSensitivity(float(u), *shift[:2], runs, shift[2])
 
 
-def _moved(b: _Binding, up: _Binding, sol, progress: bool) -> tuple[float, float] | None:
+def _moved(b: _Binding, up: _Binding, sol, progress: bool) -> tuple[float, float, bool] | None:
     """|log| move of (kn, delta) of the binding ``up`` (``b``'s statistic under another
-    replay) solved from ``b``'s answer with its Jacobian; None when a replay fails."""
+    replay) solved from ``b``'s answer with its Jacobian, and whether that solve converged (else
+    its closest replay's move); None when a replay fails."""
     tol = [np.log1p(b.opts.rtol)] * 2 + ([np.log1p(ZETA_RTOL)] if sol.u.size == 3 else [])
     with _replay_bar(b.opts.max_iter, up.label, progress) as up.bar:
         moved = solve_binding(up, sol.u, sol.jacobian, max_iter=b.opts.max_iter,
@@ -784,7 +791,7 @@ def _moved(b: _Binding, up: _Binding, sol, progress: bool) -> tuple[float, float
     if up.failure:
         return None
     shift = np.abs(moved.u[:2] - sol.u[:2])
-    return float(shift[0]), float(shift[1])
+    return float(shift[0]), float(shift[1]), bool(moved.converged)
 
 
 def _matters(m) -> bool:
