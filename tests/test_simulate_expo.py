@@ -337,10 +337,10 @@ def test_members_do_not_depend_on_the_batch(scheme, monkeypatch):
     # per_state: 3 distinct kn (a matrix set each); linear_hold: the fallback for batches with
     # more distinct kn than MAX_STATE_SETS (forced here for all)
     from freeplayid.model import default_fin
-    from freeplayid.simulate.engines.expo import kernel as kernel_expo
+    from freeplayid.simulate.engines.expo import steps as steps_expo
 
     if scheme == "linear_hold":
-        monkeypatch.setattr(kernel_expo, "MAX_STATE_SETS", 0)
+        monkeypatch.setattr(steps_expo, "MAX_STATE_SETS", 0)
     fin = default_fin()
     sw = Sweep(40.0, 40.5, 1.0)
     rng = np.random.default_rng(0)

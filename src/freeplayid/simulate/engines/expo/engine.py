@@ -13,7 +13,7 @@ from ....sweep import Sweep
 from ...formulation import ModalForm
 from ..numba.engine import NumbaEngine, numba_available
 from ..protocol import EngineSetup
-from .steps import MAX_STATE_SETS, expo_step_limit
+from .steps import expo_step_limit, per_state_scheme
 
 __all__ = ["ExpoEngine"]
 
@@ -50,7 +50,7 @@ class ExpoEngine(NumbaEngine):
         for the exact per-state scheme, of the closed-hinge modes that a contact excites);
         ``omega_dt`` is not used (no stability bound)."""
         return expo_step_limit(form, top_hz=max(sweep.start_hz, sweep.stop_hz), kn_max=kn_max,
-                               per_state=distinct_kn <= MAX_STATE_SETS)
+                               per_state=per_state_scheme(distinct_kn))
 
     @classmethod
     def available(cls) -> bool:

@@ -31,7 +31,7 @@ from ..numba import arith, fir
 from ..numba.arith import FASTMATH, fma
 from ..numba.fir import emitted_outputs, fir_add1, fir_emit1, ring_load1, ring_store1, start_weights
 from ..numba.jit import compile_kernel, float_dtype
-from .steps import MAX_STATE_SETS, discretize, discretize_states, switch_levels
+from .steps import MAX_STATE_SETS, discretize, discretize_states, per_state_scheme, switch_levels
 
 __all__ = ["NumbaExpo", "expo_chunk", "expo_states_chunk", "INLINED_SHA256", "MAX_ACTIVE_SET",
            "MAX_STATE_SETS"]
@@ -422,7 +422,7 @@ class NumbaExpo:
         kn_u, kset = np.unique(np.asarray(kn, float).reshape(B), return_inverse=True)
         # the scheme depends on the batch's distinct kn only, each set on its kn only: a
         # member's result is the same in every batch that takes the same scheme
-        self.per_state = len(kn_u) <= MAX_STATE_SETS
+        self.per_state = per_state_scheme(len(kn_u))
         if self.per_state:
             self._state_sets(form, h, kn_u, kset)
         st = discretize(form, h)

@@ -54,7 +54,7 @@ import scipy.linalg
 from ...formulation import ModalForm
 
 __all__ = ["ExpoStep", "StateSteps", "discretize", "discretize_states", "expo_step_limit",
-           "MAX_STATE_SETS",
+           "MAX_STATE_SETS", "per_state_scheme",
            "switch_levels", "ringing_hz", "closed_hinge_hz", "contact_states", "state_code",
            "STEPS_PER_SWEEP_PERIOD", "STEPS_PER_RINGING_PERIOD",
            "SWITCH_STEPS_PER_RINGING_PERIOD"]
@@ -143,6 +143,12 @@ def ringing_hz(form: ModalForm, kn: float) -> float:
     A = state_matrix(form)
     A[N:, :N] -= kn * form.D @ form.D.T
     return float(np.abs(np.linalg.eigvals(A).imag).max(initial=0.0) / (2 * np.pi))
+
+
+def per_state_scheme(distinct_kn: int) -> bool:
+    """Whether a batch with ``distinct_kn`` distinct contact stiffnesses takes the exact
+    per-state scheme (else the linear-hold one): the kernel's choice and the step rule's."""
+    return distinct_kn <= MAX_STATE_SETS
 
 
 def expo_step_limit(form: ModalForm, *, top_hz: float, kn_max: float,
