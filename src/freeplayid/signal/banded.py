@@ -145,7 +145,20 @@ def _smoothing_factor(n: int, beta: float) -> np.ndarray:
 
 @numba.njit(nogil=True, cache=True)
 def _factor(ab):  # pragma: no cover (compiled)
-    kd, n = ab.shape[0] - 1, ab.shape[1]
+    kd = ab.shape[0] - 1
+    if kd == 4:  # the demodulation's band, its width then a constant of the compiled loop
+        return _factor_kd(ab, 4)
+    return _factor_kd(ab, kd)
+
+
+# Row by row, for ``kd`` super-diagonals. Inlined where ``kd`` is a literal (above), so the
+# compiler unrolls the inner loops of the interior rows (their bounds are then constants); the
+# operations and their order are those of the generic loop, so the factor is the same to the
+# last bit: 1.7x faster for kd = 4 on 24 000 unknowns (benchmarks/banded_solves.py; the solves
+# and kd = 2 gain nothing from it).
+@numba.njit(inline="always")
+def _factor_kd(ab, kd):  # pragma: no cover (compiled)
+    n = ab.shape[1]
     for j in range(n):
         # row j of U: U[j, j], then U[j, i] for i = j+1 .. j+kd (band storage ab[kd+j-i, i])
         s = ab[kd, j]
@@ -156,11 +169,19 @@ def _factor(ab):  # pragma: no cover (compiled)
             return j + 1
         d = math.sqrt(s)
         ab[kd, j] = d
-        for i in range(j + 1, min(n, j + kd + 1)):
-            s = ab[kd + j - i, i]
-            for k in range(max(0, i - kd), j):
-                s -= ab[kd + k - j, j] * ab[kd + k - i, i]
-            ab[kd + j - i, i] = s / d
+        if j >= kd and j + kd < n:  # interior: kd rows, row j + m with kd - m earlier terms
+            for m in range(1, kd + 1):
+                i = j + m
+                s = ab[kd - m, i]
+                for k in range(i - kd, j):
+                    s -= ab[kd + k - j, j] * ab[kd + k - i, i]
+                ab[kd - m, i] = s / d
+        else:
+            for i in range(j + 1, min(n, j + kd + 1)):
+                s = ab[kd + j - i, i]
+                for k in range(max(0, i - kd), j):
+                    s -= ab[kd + k - j, j] * ab[kd + k - i, i]
+                ab[kd + j - i, i] = s / d
     return 0
 
 
