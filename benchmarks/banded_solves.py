@@ -9,7 +9,9 @@ bundled example's windowed records (N = 12 000 samples at the working rate): the
 inner loops unrolled), the same loops with the band width a run-time number (the code before,
 compiled here), and ``scipy.linalg.solveh_banded`` (LAPACK ``pbsv``). Prints a Markdown table of
 the median wall time per call and whether the library's result equals the generic loops' to the
-last bit. One thread (BLAS limited before NumPy is imported).
+last bit. A last row times ACMP's whole mode update (``demodulate_into``: the band assembled,
+factored and solved in one pass) against the same three steps one after another with the
+generic loops (the code before). One thread (BLAS limited before NumPy is imported).
 """
 
 import os
@@ -25,7 +27,12 @@ import numba  # noqa: E402
 import numpy as np  # noqa: E402
 from scipy.linalg import solveh_banded  # noqa: E402
 
-from freeplayid.signal.banded import cholesky_banded, solve_factored  # noqa: E402
+from freeplayid.signal.banded import (  # noqa: E402
+    cholesky_banded,
+    demodulate_into,
+    second_difference_gram,
+    solve_factored,
+)
 
 
 @numba.njit(nogil=True)
@@ -65,6 +72,45 @@ def generic_solve(u, b):
     return x
 
 
+@numba.njit(nogil=True)
+def generic_demodulate(x, phase, alpha, p0, p1, p2, ab, u, v):  # assemble, factor, solve
+    n = x.shape[0]
+    inv = 1.0 / alpha
+    rhs = np.empty(2 * n)
+    for k in range(n):
+        ck, sk = math.cos(phase[k]), math.sin(phase[k])
+        j = 2 * k
+        ab[4, j], ab[4, j + 1] = ck * ck + inv * p0[k], sk * sk + inv * p0[k]
+        ab[3, j], ab[3, j + 1] = 0.0, ck * sk
+        ab[1, j], ab[1, j + 1] = 0.0, 0.0
+        q1 = inv * p1[k - 1] if k >= 1 else 0.0
+        ab[2, j], ab[2, j + 1] = q1, q1
+        q2 = inv * p2[k - 2] if k >= 2 else 0.0
+        ab[0, j], ab[0, j + 1] = q2, q2
+        rhs[j], rhs[j + 1] = ck * x[k], sk * x[k]
+    generic_factor(ab)
+    y = generic_solve(ab, rhs)
+    for k in range(n):
+        u[k], v[k] = y[2 * k], y[2 * k + 1]
+
+
+def demodulate_row(n: int, repeat: int) -> str:
+    """The mode update of ``n`` samples (2n unknowns): the library's one pass against the
+    generic three steps."""
+    rng = np.random.default_rng(2)
+    x, phase = rng.normal(size=n), np.cumsum(np.full(n, 0.3))
+    p = second_difference_gram(n)
+    lib = [np.empty((5, 2 * n)), np.empty(n), np.empty(n), np.empty(n), np.empty(n)]
+    gen = [np.empty((5, 2 * n)), np.empty(n), np.empty(n)]
+    demodulate_into(x, phase, 1e-6, *p, *lib)
+    generic_demodulate(x, phase, 1e-6, *p, *gen)
+    same = np.array_equal(lib[3], gen[1]) and np.array_equal(lib[4], gen[2])
+    t_lib = median_ms(lambda: demodulate_into(x, phase, 1e-6, *p, *lib), repeat)
+    t_gen = median_ms(lambda: generic_demodulate(x, phase, 1e-6, *p, *gen), repeat)
+    return (f"| 4 | {2 * n} | mode update (assemble, factor, solve) | {t_lib:.3f} | "
+            f"{t_gen:.3f} | – | {same} |")
+
+
 def band_matrix(kd: int, n: int, seed: int = 0) -> np.ndarray:
     rng = np.random.default_rng(seed)
     ab = 0.3 * rng.normal(size=(kd + 1, n))
@@ -93,6 +139,7 @@ def main() -> None:
     for kd, n in ((4, 24_000), (2, 12_000)):
         for row in band_rows(kd, n, args.repeat):
             print(row)
+    print(demodulate_row(12_000, args.repeat))
 
 
 def band_rows(kd: int, n: int, repeat: int) -> list[str]:

@@ -83,6 +83,37 @@ def test_demodulate_matches_dense_solve():
     np.testing.assert_allclose(np.concatenate([u, v]), y, rtol=1e-9, atol=1e-12)
 
 
+@pytest.mark.parametrize("n", [4, 5, 8, 41, 5_000])
+def test_demodulate_is_the_band_factored_then_solved_to_the_bit(n):
+    # the one-pass demodulation (assembly ahead of the factorisation, the forward solve behind
+    # it) against its composition: the band assembled in numpy from the docstring's matrix,
+    # cholesky_banded, solve_factored; the same operations in the same order, so the same bits
+    # (and against LAPACK within rounding)
+    from scipy.linalg import solveh_banded
+
+    from freeplayid.signal.banded import cholesky_banded, second_difference_gram, solve_factored
+
+    rng = np.random.default_rng(n)
+    x, phase = rng.normal(size=n), np.cumsum(rng.uniform(0.1, 0.5, size=n))
+    alpha = 0.5 if n < 8 else 0.05
+    p0, p1, p2 = second_difference_gram(n)
+    c, s_ = np.cos(phase), np.sin(phase)
+    ab = np.zeros((5, 2 * n))  # upper form: ab[4 + i - j, j] = A[i, j], y = [u0, v0, u1, ...]
+    inv = 1.0 / alpha
+    ab[4, 0::2], ab[4, 1::2] = c * c + inv * p0, s_ * s_ + inv * p0
+    ab[3, 1::2] = c * s_
+    ab[2, 2::2] = ab[2, 3::2] = inv * p1
+    ab[0, 4::2] = ab[0, 5::2] = inv * p2
+    rhs = np.empty(2 * n)
+    rhs[0::2], rhs[1::2] = c * x, s_ * x
+    y = solve_factored(cholesky_banded(ab.copy()), rhs)
+    u, v = demodulate(x, phase, alpha)
+    assert np.array_equal(u, y[0::2]) and np.array_equal(v, y[1::2])
+    ref = solveh_banded(ab, rhs)
+    np.testing.assert_allclose(np.concatenate([u, v]), np.concatenate([ref[0::2], ref[1::2]]),
+                               rtol=1e-9, atol=1e-12 * np.max(np.abs(ref)))
+
+
 def test_smoothing_matches_dense_and_passes_lines():
     rng = np.random.default_rng(1)
     n, beta = 30, 0.01
