@@ -5,9 +5,10 @@
 Per band width (4 super-diagonals: the demodulation's 2N unknowns; 2: the smoothing's N), on a
 random symmetric positive definite band matrix of the size one ACMP iteration solves on the
 bundled example's windowed records (N = 12 000 samples at the working rate): the library's
-``cholesky_banded`` + ``solve_factored`` (the band width a constant of the compiled loop, its
-inner loops unrolled), the same loops with the band width a run-time number (the code before,
-compiled here), and ``scipy.linalg.solveh_banded`` (LAPACK ``pbsv``). Prints a Markdown table of
+``cholesky_banded`` (the band width a constant of the compiled loop, its inner loops unrolled)
+against the same loop with the band width a run-time number (the code before, compiled here),
+then with ``solve_factored`` (the triangular solves, unchanged) beside
+``scipy.linalg.solveh_banded`` (LAPACK ``pbsv``). Prints a Markdown table of
 the median wall time per call and whether the library's result equals the generic loops' to the
 last bit. A last row times ACMP's whole mode update (``demodulate_into``: the band assembled,
 factored and solved in one pass) against the same three steps one after another with the
@@ -56,24 +57,7 @@ def generic_factor(ab):  # the loops before: kd read at run time, bounds by max/
 
 
 @numba.njit(nogil=True)
-def generic_solve(u, b):
-    kd, n = u.shape[0] - 1, u.shape[1]
-    x = b.copy()
-    for j in range(n):
-        s = x[j]
-        for k in range(max(0, j - kd), j):
-            s -= u[kd + k - j, j] * x[k]
-        x[j] = s / u[kd, j]
-    for j in range(n - 1, -1, -1):
-        s = x[j]
-        for i in range(j + 1, min(n, j + kd + 1)):
-            s -= u[kd + j - i, i] * x[i]
-        x[j] = s / u[kd, j]
-    return x
-
-
-@numba.njit(nogil=True)
-def generic_demodulate(x, phase, alpha, p0, p1, p2, ab, u, v):  # assemble, factor, solve
+def assemble(x, phase, alpha, p0, p1, p2, ab):  # the band and right-hand side, as before
     n = x.shape[0]
     inv = 1.0 / alpha
     rhs = np.empty(2 * n)
@@ -88,10 +72,14 @@ def generic_demodulate(x, phase, alpha, p0, p1, p2, ab, u, v):  # assemble, fact
         q2 = inv * p2[k - 2] if k >= 2 else 0.0
         ab[0, j], ab[0, j + 1] = q2, q2
         rhs[j], rhs[j + 1] = ck * x[k], sk * x[k]
+    return rhs
+
+
+def generic_demodulate(x, phase, alpha, p0, p1, p2, ab, u, v):  # assemble, factor, solve
+    rhs = assemble(x, phase, alpha, p0, p1, p2, ab)
     generic_factor(ab)
-    y = generic_solve(ab, rhs)
-    for k in range(n):
-        u[k], v[k] = y[2 * k], y[2 * k + 1]
+    y = solve_factored(ab, rhs)  # the triangular solves: the library's, unchanged
+    u[:], v[:] = y[0::2], y[1::2]
 
 
 def demodulate_row(n: int, repeat: int) -> str:
@@ -148,14 +136,12 @@ def band_rows(kd: int, n: int, repeat: int) -> list[str]:
     b = np.random.default_rng(1).normal(size=n)
     lib_u, gen_u = cholesky_banded(ab.copy()), _factored(ab)
     same_u = np.array_equal(lib_u, gen_u)
-    same_x = np.array_equal(solve_factored(lib_u, b), generic_solve(gen_u, b))
+    same_x = np.array_equal(solve_factored(lib_u, b), solve_factored(gen_u, b))
     rows = {
         "factor": (lambda: cholesky_banded(ab.copy()), lambda: generic_factor(ab.copy()), None,
                    same_u),
-        "solve": (lambda: solve_factored(lib_u, b), lambda: generic_solve(gen_u, b), None,
-                  same_x),
         "factor + solve": (lambda: solve_factored(cholesky_banded(ab.copy()), b),
-                           lambda: generic_solve(_factored(ab), b),
+                           lambda: solve_factored(_factored(ab), b),
                            lambda: solveh_banded(ab, b), same_x),
     }
     out = []
