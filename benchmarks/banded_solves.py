@@ -8,11 +8,12 @@ bundled example's windowed records (N = 12 000 samples at the working rate): the
 ``cholesky_banded`` (the band width a constant of the compiled loop, its inner loops unrolled)
 against the same loop with the band width a run-time number (the code before, compiled here),
 then with ``solve_factored`` (the triangular solves, unchanged) beside
-``scipy.linalg.solveh_banded`` (LAPACK ``pbsv``). Prints a Markdown table of
-the median wall time per call and whether the library's result equals the generic loops' to the
-last bit. A last row times ACMP's whole mode update (``demodulate_into``: the band assembled,
-factored and solved in one pass) against the same three steps one after another with the
-generic loops (the code before). One thread (BLAS limited before NumPy is imported).
+``scipy.linalg.solveh_banded`` (LAPACK ``pbsv``). Prints a Markdown table of the median wall
+time per call (a row's functions called in turn, so the host's drift touches each alike) and
+whether the library's result equals the generic loops' to the last bit. A last row times
+ACMP's whole mode update (``demodulate_into``: the band assembled, factored and solved in one
+pass) against the same three steps one after another with the generic loops (the code
+before). One thread (BLAS limited before NumPy is imported).
 """
 
 import os
@@ -93,8 +94,8 @@ def demodulate_row(n: int, repeat: int) -> str:
     demodulate_into(x, phase, 1e-6, *p, *lib)
     generic_demodulate(x, phase, 1e-6, *p, *gen)
     same = np.array_equal(lib[3], gen[1]) and np.array_equal(lib[4], gen[2])
-    t_lib = median_ms(lambda: demodulate_into(x, phase, 1e-6, *p, *lib), repeat)
-    t_gen = median_ms(lambda: generic_demodulate(x, phase, 1e-6, *p, *gen), repeat)
+    t_lib, t_gen = median_ms([lambda: demodulate_into(x, phase, 1e-6, *p, *lib),
+                              lambda: generic_demodulate(x, phase, 1e-6, *p, *gen)], repeat)
     return (f"| 4 | {2 * n} | mode update (assemble, factor, solve) | {t_lib:.3f} | "
             f"{t_gen:.3f} | – | {same} |")
 
@@ -108,13 +109,16 @@ def band_matrix(kd: int, n: int, seed: int = 0) -> np.ndarray:
     return ab
 
 
-def median_ms(fn, repeat: int) -> float:
-    times = []
+def median_ms(fns, repeat: int) -> list[float]:
+    """Median wall time [ms] of each of ``fns``, called in turn ``repeat`` times (so a host's
+    drift touches each alike)."""
+    times = [[] for _ in fns]
     for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return 1e3 * float(np.median(times))
+        for fn, t in zip(fns, times, strict=True):
+            t0 = time.perf_counter()
+            fn()
+            t.append(time.perf_counter() - t0)
+    return [1e3 * float(np.median(t)) for t in times]
 
 
 def main() -> None:
@@ -146,9 +150,9 @@ def band_rows(kd: int, n: int, repeat: int) -> list[str]:
     }
     out = []
     for step, (lib, gen, ref, same) in rows.items():
-        scipy_ms = "–" if ref is None else f"{median_ms(ref, repeat):.3f}"
-        out.append(f"| {kd} | {n} | {step} | {median_ms(lib, repeat):.3f} | "
-                   f"{median_ms(gen, repeat):.3f} | {scipy_ms} | {same} |")
+        ms = median_ms([lib, gen] + ([] if ref is None else [ref]), repeat)
+        scipy_ms = "–" if ref is None else f"{ms[2]:.3f}"
+        out.append(f"| {kd} | {n} | {step} | {ms[0]:.3f} | {ms[1]:.3f} | {scipy_ms} | {same} |")
     return out
 
 

@@ -790,16 +790,15 @@ def test_the_cross_check_reads_the_replay_with_the_tests_noise(measured, system,
     (each at the noise level measured against the replay), and their standard errors are
     finite; a noisy copy has the asked noise level."""
     import freeplayid.replay.corrected as corrected
-    from freeplayid.replay.bootstrap import each_copy, noisy_copy
+    from freeplayid.replay.bootstrap import noisy_copy
 
     copies = []
 
-    def counted(work, replayed, noise, rng, *, n, desc, progress):
-        if desc.startswith("cross-check"):
-            copies.extend({k: np.asarray(v).copy() for k, v in noise.items()} for _ in range(n))
-        yield from each_copy(work, replayed, noise, rng, n=n, desc=desc, progress=progress)
+    def counted(ds, noise, rng):
+        copies.append({k: np.asarray(v).copy() for k, v in noise.items()})
+        return noisy_copy(ds, noise, rng)
 
-    monkeypatch.setattr(corrected, "each_copy", counted)
+    monkeypatch.setattr(corrected, "noisy_copy", counted)
     res = identify(measured, system=system, progress=False, fit={"multistart": MULTISTART},
                    replay={"jump_point": "drop", **QUICK})
     cross = res.replay.cross
@@ -867,35 +866,6 @@ def test_the_precision_copies_stop_early_where_the_noise_is_far_below_the_bounds
     assert (p.kn_halfwidth, p.delta_halfwidth) == (four.kn_halfwidth, four.delta_halfwidth)
     sd = np.log1p([p.kn_halfwidth, p.delta_halfwidth]) / 1.96
     assert np.all(sd_upper(sd, 4) <= np.asarray(settled_sd()))
-
-
-def test_noisy_copies_read_at_once_are_those_of_one_at_a_time(measured, monkeypatch):
-    """The copies run several at a time on threads (one per core), in batches; the noise is
-    drawn copy after copy as one at a time draws it, the results come back in order, and an
-    ``each`` inside a copy's work (its runs) runs on that copy's worker, not on threads of its
-    own."""
-    import threading
-
-    import freeplayid.threads as threads
-    from freeplayid.replay.bootstrap import each_copy
-
-    noise = {r.file: np.array([0.3, 0.2]) for r in measured.runs}
-
-    def work(copy):  # the copy's records and the threads its runs were read on
-        names = threads.each(lambda run: threading.current_thread().name, copy.runs)
-        return [np.asarray(r.data).copy() for r in copy.runs], names
-
-    got = {}
-    for cores in (1, 3):
-        monkeypatch.setattr(threads, "cores", lambda cores=cores: cores)
-        got[cores] = list(each_copy(work, measured, noise, np.random.default_rng(7), n=6,
-                                    desc="copies", progress=False))
-    assert len(got[1]) == len(got[3]) == 6
-    for (a, _), (b, names) in zip(got[1], got[3], strict=True):
-        assert all(np.array_equal(x, y) for x, y in zip(a, b, strict=True))
-        assert len(set(names)) == 1 and names[0].startswith("copy")  # its own worker only
-    assert not any(np.array_equal(got[3][0][0][0], c[0][0]) for c in got[3][1:])
-    assert all(n == threading.current_thread().name for n in got[1][0][1])  # one core: here
 
 
 def test_a_precision_copy_keeps_each_run_around_its_point_with_its_sweep_law():

@@ -3,24 +3,18 @@
 A replay's runs are independent: each is simulated alone (the exponential engine's numba
 kernels, which release the GIL), with the same arithmetic on any thread, so doing them at once
 changes no number. So are a test's runs for the extraction (ACMP's pursuit is one compiled loop
-that releases the GIL), and the noisy copies of a replay that the verdict reads. :func:`each`
-does that on up to :func:`cores` threads; an :func:`each` inside one of its own workers (the runs
-of one noisy copy, while the copies run at once) runs its items one after another on that
-worker, so the cores are shared out once, at the outer level.
+that releases the GIL). :func:`each` does that on up to :func:`cores` threads.
 """
 
 from __future__ import annotations
 
 import os
-import threading
 
 __all__ = ["cores", "each"]
 
 # a process told to use one thread per library (as `benchmarks/realtests/run.py --jobs N` users
 # do, to share the cores between N processes) uses one for this too
 THREAD_LIMITS = ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS")
-
-_worker = threading.local()  # .busy: this thread is one of each()'s workers
 
 
 def cores() -> int:
@@ -40,20 +34,13 @@ def cores() -> int:
 
 def each(work, items, *, name: str = "worker", workers: int | None = None) -> list:
     """``[work(item) for item in items]``, on up to ``workers`` threads (default
-    :func:`cores`; one, on the calling thread, inside another :func:`each`'s worker). An
-    exception is raised as the serial loop would raise it (the first failing item's)."""
+    :func:`cores`). An exception is raised as the serial loop would raise it (the first failing
+    item's)."""
     items = list(items)
     n = min(len(items), cores() if workers is None else workers)
-    if n < 2 or getattr(_worker, "busy", False):
+    if n < 2:
         return [work(item) for item in items]
     from concurrent.futures import ThreadPoolExecutor
 
-    def marked(item):
-        _worker.busy = True
-        try:
-            return work(item)
-        finally:
-            _worker.busy = False
-
     with ThreadPoolExecutor(n, thread_name_prefix=name) as pool:
-        return [future.result() for future in [pool.submit(marked, item) for item in items]]
+        return [future.result() for future in [pool.submit(work, item) for item in items]]

@@ -25,13 +25,12 @@ import numpy as np
 import scipy.stats
 from tqdm.auto import tqdm
 
-from .. import threads
 from ..errors import IdentificationError
 from ..estimate import plain_estimate
 from ..sweep import Sweep
 
-__all__ = ["ReplayBootstrap", "ReplayPrecision", "bootstrap_by_replay", "each_copy",
-           "noisy_copy", "precision_by_replay", "windowed", "sd_upper", "PRECISION_MARGIN_HZ",
+__all__ = ["ReplayBootstrap", "ReplayPrecision", "bootstrap_by_replay", "noisy_copy",
+           "precision_by_replay", "windowed", "sd_upper", "PRECISION_MARGIN_HZ",
            "PRECISION_MIN_COPIES"]
 
 # fitted copies before the precision may stop early (``settled_sd``): the chi-square bound on a
@@ -94,39 +93,16 @@ def bootstrap_by_replay(replayed, system, noise: dict, *, theta, theta_rep, n: i
 
 def _copy_estimates(replayed, system, noise: dict, rng, *, n: int, theta_rep, extraction, fit,
                     point_weights, desc: str, progress: bool):
-    """The plain estimates of ``n`` noisy copies of ``replayed`` (:func:`noisy_copy`), in
-    order (:func:`each_copy`), each fitted from ``theta_rep`` with the statistic's options;
-    None for a copy whose noise hides a jump (``IdentificationError``)."""
-    def estimate(copy):
+    """The plain estimates of ``n`` noisy copies of ``replayed`` (:func:`noisy_copy`), one at
+    a time, each fitted from ``theta_rep`` with the statistic's options; None for a copy whose
+    noise hides a jump (``IdentificationError``)."""
+    for _ in tqdm(range(n), desc=desc, disable=not progress, leave=False):
+        copy = noisy_copy(replayed, noise, rng)
         try:
-            return plain_estimate(copy, system, init=tuple(theta_rep), extraction=extraction,
-                                  fit=fit, point_weights=point_weights)
+            yield plain_estimate(copy, system, init=tuple(theta_rep), extraction=extraction,
+                                 fit=fit, point_weights=point_weights)
         except IdentificationError:
-            return None
-
-    yield from each_copy(estimate, replayed, noise, rng, n=n, desc=desc, progress=progress)
-
-
-def each_copy(work, replayed, noise: dict, rng, *, n: int, desc: str, progress: bool):
-    """``work(copy)`` of ``n`` noisy copies of ``replayed`` (:func:`noisy_copy`), yielded in
-    order; :func:`freeplayid.threads.cores` copies at a time on threads (the runs of each on
-    its thread, :func:`freeplayid.threads.each`), which keeps every core busy where the runs of
-    one copy (five on two cores) would leave one idle. The noise is drawn from ``rng`` copy
-    after copy, as one at a time would draw it, and each copy is read with the same
-    arithmetic on any thread, so the results are those of one thread; a caller that stops
-    early leaves at most a batch's last copies unread."""
-    batch = max(1, threads.cores())
-    with tqdm(total=n, desc=desc, disable=not progress, leave=False) as bar:
-        for start in range(0, n, batch):
-            copies = [noisy_copy(replayed, noise, rng) for _ in range(min(batch, n - start))]
-
-            def one(copy):
-                try:
-                    return work(copy)
-                finally:
-                    bar.update()
-
-            yield from threads.each(one, copies, name="copy")
+            yield None
 
 
 def noisy_copy(replayed, noise: dict, rng):

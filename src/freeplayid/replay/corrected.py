@@ -20,7 +20,7 @@ from .bootstrap import (
     ReplayBootstrap,
     ReplayPrecision,
     bootstrap_by_replay,
-    each_copy,
+    noisy_copy,
     precision_by_replay,
 )
 from .broyden import solve_binding
@@ -809,9 +809,12 @@ def _offset_noise(b: _Binding, resonance: dict, noise, backbone_f,
     if not any(_matters(m) for m in resonance.values()):
         return resonance
     rng = np.random.default_rng([b.opts.seed, 1])  # not the cross-check's copies
-    copies = list(each_copy(lambda copy: extract_points(copy, extraction=b.test.extraction)[0]
-                            .used(), b.rep_ds, noise(), rng, n=OFFSET_COPIES,
-                            desc="the offsets' noise: noisy copies", progress=progress))
+    copies = []
+    for _ in progress_bar(range(OFFSET_COPIES), desc="the offsets' noise: noisy copies",
+                          unit="copy", show=progress, leave=False):
+        pts, _ = extract_points(noisy_copy(b.rep_ds, noise(), rng),
+                                extraction=b.test.extraction)
+        copies.append(pts.used())
     se, n = offset_noise(b.rep.points.used(), copies, backbone_f)
     return {run: dataclasses.replace(m, offset_se=se, offset_se_samples=n)
             for run, m in resonance.items()}
@@ -867,11 +870,10 @@ def _cross_check(b: _Binding, theta, rule: str, noise: dict,
         test = plain_estimate(t.dataset, b.system, init=tuple(theta), extraction=extraction,
                               fit=t.fit, progress=progress, desc=f"cross-check: the test's "
                               f"{rule} points")
-        reps = list(each_copy(
-            lambda copy: plain_estimate(copy, b.system, init=tuple(theta),
-                                        extraction=extraction, fit=t.fit),
-            b.rep_ds, noise, rng, n=CROSS_COPIES,
-            desc=f"cross-check: the replay's {rule} points, noisy copies", progress=progress))
+        reps = [plain_estimate(noisy_copy(b.rep_ds, noise, rng), b.system, init=tuple(theta),
+                               extraction=extraction, fit=t.fit, progress=progress,
+                               desc=f"cross-check: the replay's {rule} points, copy {k + 1}")
+                for k in range(CROSS_COPIES)]
     except IdentificationError:
         return None  # the second statistic's points cannot be fitted: nothing to compare
     logs = np.array([np.log([r.kn, r.delta]) for r in reps])

@@ -168,6 +168,8 @@ def _factor(ab):  # pragma: no cover (compiled)
     kd = ab.shape[0] - 1
     if kd == 4:  # the demodulation's band, its width then a constant of the compiled loop
         return _factor_kd(ab, 4)
+    if kd == 2:  # the smoothing's
+        return _factor_kd(ab, 2)
     return _factor_kd(ab, kd)
 
 
