@@ -176,8 +176,8 @@ def _factor(ab):  # pragma: no cover (compiled)
 # Row by row, for ``kd`` super-diagonals. Inlined where ``kd`` is a literal (above), so the
 # compiler unrolls the inner loops of the interior rows (their bounds are then constants); the
 # operations and their order are those of the generic loop, so the factor is the same to the
-# last bit: 1.3-1.85x faster for kd = 4 on 24 000 unknowns (benchmarks/banded_solves.py; kd = 2
-# gains nothing from it, the triangular solves were no faster so).
+# last bit: 1.3-1.85x faster for kd = 4 on 24 000 unknowns (benchmarks/banded_solves.py). It
+# gains nothing for kd = 2, nor did the triangular solves written so, which stay generic.
 @numba.njit(inline="always")
 def _factor_kd(ab, kd):  # pragma: no cover (compiled)
     n = ab.shape[1]
