@@ -109,17 +109,19 @@ def test_corrected_metrics_count_ok_outside_the_bounds_and_intervals_holding_the
     from freeplayid.studies.comparison import Comparison
     from freeplayid.studies.methods import summarise
 
-    def row(case, method, d_err, k_err, verdict, holds):
+    def row(case, method, d_err, k_err, verdict, holds, checks=""):
         return {"case": case, "method": method, "axis_value": 0.3, "delta_error": d_err,
                 "kn_error": k_err, "n_evaluations": 10, "wall_s": 1.0, "converged": True,
-                "n_replays": 3, "verdict": verdict, "ci_holds": holds}
+                "n_replays": 3, "verdict": verdict, "ci_holds": holds, "failed_checks": checks}
 
     rows = [row(0, "multi-start+corrected", 0.012, 0.001, "ok", True),    # ok, outside, holds
             row(1, "multi-start+corrected", 0.015, 0.001, "ok", False),   # ok, outside
-            row(2, "multi-start+corrected", 0.002, 0.025, "suspect", False),  # not ok
+            row(2, "multi-start+corrected", 0.002, 0.025, "suspect", False,  # not ok, outside
+                "replay;noise"),
             row(3, "multi-start+corrected", 0.002, 0.001, "ok", True),    # inside
-            row(0, "network+corrected", 0.001, 0.001, "ok", True),
-            row(1, "network+corrected", 0.001, 0.0199, "ok", False)]      # inside (kn < 2 %)
+            row(0, "network+corrected", 0.001, 0.001, "suspect", True,  # suspect, inside
+                "replay;noise"),
+            row(1, "network+corrected", 0.001, 0.0199, "suspect", False, "noise")]  # inside
     rows += [dict(r, method=m, verdict="", ci_holds=False) for r in rows[:4]
              for m in ("network", "network+fit", "single-start", "multi-start")]
     summary = summarise(rows)
@@ -128,3 +130,7 @@ def test_corrected_metrics_count_ok_outside_the_bounds_and_intervals_holding_the
     assert c["ok_outside"] == {"network+corrected": 0, "multi-start+corrected": 2}
     assert c["ok_outside_ci_holds"] == {"network+corrected": 0, "multi-start+corrected": 1}
     assert c["ci_holds"] == {"network+corrected": 0.5, "multi-start+corrected": 0.5}
+    # a suspect answer inside the bounds (kn 1.99 % < 2 %) counts its failed checks; one
+    # outside them (case 2: kn 2.5 %) does not
+    assert c["suspect_inside_checks"] == {"network+corrected": {"noise": 2, "replay": 1},
+                                          "multi-start+corrected": {}}

@@ -41,6 +41,15 @@ def _mean(values) -> float:
     return float(np.mean(v)) if v else float("nan")
 
 
+def _check_counts(rows) -> dict[str, int]:
+    """How often each of the verdict's checks failed in ``rows`` (their ``failed_checks``)."""
+    counts: dict[str, int] = {}
+    for r in rows:
+        for name in filter(None, str(r.get("failed_checks", "")).split(";")):
+            counts[name] = counts.get(name, 0) + 1
+    return dict(sorted(counts.items()))
+
+
 @dataclass(frozen=True)
 class Comparison:
     """The outcome of :func:`compare_methods`.
@@ -124,13 +133,22 @@ class Comparison:
             "ok_outside": {m: int(sum(self._ok_outside(r) for r in by[m])) for m in CORRECTED},
             "ok_outside_ci_holds": {m: int(sum(self._ok_outside(r) and r["ci_holds"]
                                                for r in by[m])) for m in CORRECTED},
+            # `suspect` on an answer inside the bounds: how often each check failed there
+            "suspect_inside_checks": {m: _check_counts(r for r in by[m] if self._suspect_inside(r))
+                                      for m in CORRECTED},
         }
+
+    def _inside(self, row: dict) -> bool:
+        return (abs(row["delta_error"]) < self.bounds["delta"]
+                and abs(row["kn_error"]) < self.bounds["kn"])
+
+    def _suspect_inside(self, row: dict) -> bool:
+        """A `suspect` verdict on an answer inside the success bounds."""
+        return row["verdict"] == "suspect" and self._inside(row)
 
     def _ok_outside(self, row: dict) -> bool:
         """An `ok` verdict on an answer outside the success bounds."""
-        inside = (abs(row["delta_error"]) < self.bounds["delta"]
-                  and abs(row["kn_error"]) < self.bounds["kn"])
-        return row["verdict"] == "ok" and not inside
+        return row["verdict"] == "ok" and not self._inside(row)
 
     def markdown(self) -> str:
         """The summary table, and every method on the corrected cases alone."""

@@ -129,8 +129,8 @@ def fit_cases(
 
 def _corrected_one(dataset, system, init, fit: FitOptions, extraction: Extraction):
     """(kn, delta, evaluations, wall [s], replay converged, replays, verdict, failure, kn_ci95,
-    delta_ci95) of one case's corrected fit; a case that cannot be identified gives NaN
-    estimates and intervals, verdict "failed" and the reason."""
+    delta_ci95, failed checks) of one case's corrected fit; a case that cannot be identified
+    gives NaN estimates and intervals, verdict "failed", the reason and no failed check."""
     t0 = time.perf_counter()
     try:
         # from the network: its estimate starts the plain fit and the replays
@@ -139,12 +139,13 @@ def _corrected_one(dataset, system, init, fit: FitOptions, extraction: Extractio
                        fit=dataclasses.replace(fit, init=init), replay=replay, progress=False)
     except ValueError as err:  # IdentificationError, or every start diverged: a failed case
         nan = (np.nan, np.nan)
-        return np.nan, np.nan, 0, time.perf_counter() - t0, False, 0, "failed", str(err), nan, nan
+        return (np.nan, np.nan, 0, time.perf_counter() - t0, False, 0, "failed", str(err), nan,
+                nan, "")
     rep = res.replay
     n_eval = res.plain_fit.n_evaluations + sum(it.n_evaluations for it in rep.iterations)
     return (res.kn, res.delta, n_eval, time.perf_counter() - t0, bool(rep.converged),
             len(rep.iterations), res.verdict.status, rep.failure, tuple(res.kn_ci95),
-            tuple(res.delta_ci95))
+            tuple(res.delta_ci95), ";".join(c.name for c in res.verdict.checks if not c.passed))
 
 
 def corrected_cases(
@@ -191,10 +192,12 @@ def corrected_cases(
         index into ``ps``, plus ``n_replays`` (simulated replays), ``verdict`` ("ok",
         "suspect", or "failed" when the case could not be identified: NaN estimates, 0
         evaluations), ``failure`` (why it failed, why a replay could not be fitted, or ""),
-        the answer's 95 % intervals (``kn_ci95_low``, ``kn_ci95_high``, ``delta_ci95_low``,
-        ``delta_ci95_high``; NaN when failed) and ``ci_holds`` (both hold the truth);
-        ``converged`` says whether the replay loop converged and ``n_evaluations`` is the
-        plain fit's objective evaluations plus those of every replay's refit.
+        ``failed_checks`` (the names of the verdict's failed checks, ";"-joined; "" when ``ok``
+        or failed), the answer's 95 % intervals (``kn_ci95_low``, ``kn_ci95_high``,
+        ``delta_ci95_low``, ``delta_ci95_high``; NaN when failed) and ``ci_holds`` (both hold
+        the truth); ``converged`` says whether the replay loop converged and
+        ``n_evaluations`` is the plain fit's objective evaluations plus those of every
+        replay's refit.
 
     Raises
     ------
@@ -221,11 +224,12 @@ def corrected_cases(
                                        show=progress)
     )
     rows = []
-    for (i, m, _), (kn, delta, n_eval, wall, conv, n_rep, verdict, why, kci, dci) in zip(
+    for (i, m, _), (kn, delta, n_eval, wall, conv, n_rep, verdict, why, kci, dci, checks) in zip(
             jobs, out, strict=True):
         row = _row(ps, i, m, kn, delta, n_eval, wall, conv)
         holds = bool(kci[0] <= ps.kn[i] <= kci[1] and dci[0] <= ps.delta[i] <= dci[1])
         row.update(n_replays=int(n_rep), verdict=str(verdict), failure=str(why),
+                   failed_checks=str(checks),
                    kn_ci95_low=float(kci[0]), kn_ci95_high=float(kci[1]),
                    delta_ci95_low=float(dci[0]), delta_ci95_high=float(dci[1]), ci_holds=holds)
         rows.append(row)

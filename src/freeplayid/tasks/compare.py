@@ -184,7 +184,8 @@ def _log_metrics(metrics: dict, n_corrected: int) -> None:
         for m in ("network+corrected", "multi-start+corrected"):
             log.info(f"{m}: `ok` outside the bounds {c['ok_outside'][m]} (intervals holding the "
                      f"truth in {c['ok_outside_ci_holds'][m]} of them); both intervals hold the "
-                     f"truth in {100 * c['ci_holds'][m]:.0f} % of the cases")
+                     f"truth in {100 * c['ci_holds'][m]:.0f} % of the cases; `suspect` inside "
+                     f"the bounds, by failed check: {c['suspect_inside_checks'][m] or 'none'}")
 
 
 def _log_corrected(test, picked: np.ndarray, axis: str) -> None:
