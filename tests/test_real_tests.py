@@ -8,6 +8,7 @@ not by the code under test."""
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 import pytest
@@ -427,3 +428,15 @@ def test_identify_reports_each_hinges_half_gap_on_request(tmp_path):
     plain = freeplayid.identify(example, replay=None, progress=False)
     assert plain.model_error.hinge_gaps is None and plain.hinge_gap_records() == []
     assert "hinge_gaps" not in [c.name for c in plain.verdict.checks]
+
+
+def test_widen_adds_a_relative_move_to_the_log_half_widths_in_quadrature():
+    """An interval widened by a 95 % relative move: each side's log half-width and the move in
+    quadrature, by hand; no move leaves the interval as it is."""
+    from freeplayid.identification.model_error import widen
+
+    lo, hi = widen((2.7e-3, 3.4e-3), 3e-3, 0.02)
+    assert math.log(3e-3 / lo) == pytest.approx(math.sqrt(math.log(3 / 2.7) ** 2 + 0.02 ** 2))
+    assert math.log(hi / 3e-3) == pytest.approx(math.sqrt(math.log(3.4 / 3) ** 2 + 0.02 ** 2))
+    assert widen((2.7e-3, 3.4e-3), 3e-3, 0.0) == pytest.approx((2.7e-3, 3.4e-3), rel=1e-14)
+    assert widen((0.0, math.inf), 3e-3, 0.02) == (0.0, math.inf)
