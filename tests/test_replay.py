@@ -893,3 +893,39 @@ def test_a_precision_copy_keeps_each_run_around_its_point_with_its_sweep_law():
     np.testing.assert_allclose(law.frequency(k / fs), 30.0 + 0.1 * (i0 + k) / fs, rtol=1e-12)
     assert b is runs[1]  # no hint: the whole record
     assert math.isclose(c.sweep["stop_hz"], 46.5)  # clipped to the band's end
+
+
+def test_a_replay_that_gives_points_in_fewer_runs_is_matched_on_the_runs_both_share(measured,
+                                                                                    system):
+    """A replay whose run at the edge of jumping gave no points (as a replay near the answer
+    can, where the test's did) is compared with the test's statistic refitted on the runs both
+    share, not on all of the test's: that refit is the plain fit of the test without that run
+    (extracted anew), so the same data with a run left out match to the fit's tolerance, where
+    against all runs they differ by the run's bias. A replay with the test's runs is left as
+    it is (no refit: None)."""
+    from types import SimpleNamespace
+
+    from freeplayid.estimate import plain_estimate
+    from freeplayid.fit import FitOptions
+    from freeplayid.replay.corrected import _Binding
+    from freeplayid.signal import Extraction
+
+    rng = np.random.default_rng(5)
+    noisy = dataclasses.replace(measured, runs=tuple(
+        dataclasses.replace(r, data=r.data + 1.0 * rng.standard_normal(r.data.shape))
+        for r in measured.runs))
+    fit, ext = FitOptions(), Extraction(jump_point="quadrature")
+    stat = plain_estimate(noisy, system, extraction=ext, fit=fit, init=(WN * WN, ref.DELTA))
+    runs = sorted({p.run for p in stat.points.used()})
+    assert len(runs) >= 3
+    less = dataclasses.replace(noisy, runs=tuple(r for r in noisy.runs if r.file != runs[0]))
+    lost = plain_estimate(less, system, extraction=ext, fit=fit, init=(stat.kn, stat.delta))
+    b = _Binding.__new__(_Binding)
+    b.stat, b.system, b.test, b.weights, b._hats = stat, system, SimpleNamespace(fit=fit), None, {}
+    matched, hat = b.like_for_like(lost)
+    assert matched is lost and hat is not None
+    assert np.allclose(hat, [lost.kn, lost.delta], rtol=1e-6, atol=0)
+    moved = abs(math.log(lost.delta / stat.delta))
+    assert moved > 1e-4  # what the binding read before: the left-out run's bias
+    same, none = b.like_for_like(stat)
+    assert same is stat and none is None

@@ -243,9 +243,17 @@ def plain_estimate(dataset, system, *, extraction: Extraction, fit: FitOptions, 
 
 
 def refit(est: PlainEstimate, system, fit: FitOptions, *,
-          point_weights: Mapping | None = None) -> PlainEstimate:
+          point_weights: Mapping | None = None, runs=None) -> PlainEstimate:
     """``est`` fitted again to its own points (the extraction does not depend on the model)
-    against ``system``, started from its estimate, with ``point_weights``."""
+    against ``system``, started from its estimate, with ``point_weights``; with ``runs`` (a
+    collection of run names) to the used points of those runs only, the others marked unused
+    in the returned estimate's points."""
+    if runs is not None:
+        keep = frozenset(runs)
+        points = tuple(p if p.run in keep or not p.used else
+                       dataclasses.replace(p, used=False, reason="run left out")
+                       for p in est.points.points)
+        est = dataclasses.replace(est, points=dataclasses.replace(est.points, points=points))
     pts = est.fitting_points()
     result = fit_backbone(pts, system, init=(est.kn, est.delta), init_label=est.fit.init,
                           backbone=fit.backbone, mode=fit.mode,
