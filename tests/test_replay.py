@@ -765,11 +765,12 @@ def test_levels_from_level_g_widen_the_intervals_by_what_their_error_moves(measu
     # at these levels the whole identification does not converge: its later steps oscillate
     # or a replay cannot be fitted, and which of the two depends on the last bits of the
     # extraction (8 replays, or a failed 6th replay and the plain fit reported); either way
-    # `suspect` or not converged, and its last replay shows where the binding goes
+    # `suspect` or not converged, and its closest replay shows where the binding goes (not
+    # its last: a last step that loses the top run's drop lands far off, -5.6 % in kn)
     assert high.verdict.status == "suspect" or not high.replay.converged
-    last = high.replay.iterations[-1]
+    closest = min(high.replay.iterations, key=lambda it: it.misfit_se)
     for name, shift in (("kn", level.kn_shift), ("delta", level.delta_shift)):
-        moved = abs(math.log(getattr(last, name) / getattr(res, name)))
+        moved = abs(math.log(getattr(closest, name) / getattr(res, name)))
         # the whole identification also re-weights its points by the first replay's misfit,
         # which the level moves too: the binding's own move is the larger part of it
         assert 0.4 * moved <= shift <= 2.0 * moved
