@@ -10,6 +10,7 @@ grid, their records rebuilt from the bank (:mod:`.compare`).
 from __future__ import annotations
 
 import time
+from collections import Counter
 from dataclasses import dataclass
 
 import numpy as np
@@ -43,10 +44,8 @@ def _mean(values) -> float:
 
 def _check_counts(rows) -> dict[str, int]:
     """How often each of the verdict's checks failed in ``rows`` (their ``failed_checks``)."""
-    counts: dict[str, int] = {}
-    for r in rows:
-        for name in filter(None, str(r.get("failed_checks", "")).split(";")):
-            counts[name] = counts.get(name, 0) + 1
+    counts = Counter(name for r in rows
+                     for name in str(r.get("failed_checks", "")).split(";") if name)
     return dict(sorted(counts.items()))
 
 
@@ -139,6 +138,7 @@ class Comparison:
         }
 
     def _inside(self, row: dict) -> bool:
+        """An answer inside the success bounds (|delta| and |kn| errors)."""
         return (abs(row["delta_error"]) < self.bounds["delta"]
                 and abs(row["kn_error"]) < self.bounds["kn"])
 
