@@ -440,3 +440,24 @@ def test_widen_adds_a_relative_move_to_the_log_half_widths_in_quadrature():
     assert math.log(hi / 3e-3) == pytest.approx(math.sqrt(math.log(3.4 / 3) ** 2 + 0.02 ** 2))
     assert widen((2.7e-3, 3.4e-3), 3e-3, 0.0) == pytest.approx((2.7e-3, 3.4e-3), rel=1e-14)
     assert widen((0.0, math.inf), 3e-3, 0.02) == (0.0, math.inf)
+
+
+def test_intervals_stretch_where_the_answer_moves_further_than_its_statistic():
+    """The precision's copies spread the statistic's delta by +-1 % and, carried through the
+    binding's slope, the answer's by +-2 %: delta's log half-widths double (by hand), kn's
+    (the same spread) stay; a slope that would narrow them, or no slope, leaves them."""
+    from freeplayid.identification.pipeline import _further, _stretched
+    from freeplayid.replay import ReplayPrecision
+
+    p = ReplayPrecision(kn_halfwidth=0.005, delta_halfwidth=0.02, n=8, n_fitted=8,
+                        statistic_halfwidths=(0.005, 0.01))
+    kn_f, delta_f = _further(p)
+    assert kn_f == 1.0 and delta_f == pytest.approx(math.log(1.02) / math.log(1.01))
+    lo, hi = _stretched((2.9e-3, 3.05e-3), 3e-3, delta_f)
+    assert math.log(3e-3 / lo) == pytest.approx(delta_f * math.log(3 / 2.9))
+    assert math.log(hi / 3e-3) == pytest.approx(delta_f * math.log(3.05 / 3))
+    narrower = ReplayPrecision(kn_halfwidth=0.004, delta_halfwidth=0.008, n=8, n_fitted=8,
+                               statistic_halfwidths=(0.005, 0.01))
+    assert _further(narrower) is None
+    assert _further(dataclasses.replace(p, statistic_halfwidths=None)) is None
+    assert _further(None) is None

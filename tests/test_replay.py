@@ -843,12 +843,85 @@ def test_the_answers_precision_is_the_spread_of_independent_noise_draws(measured
         plain_estimate(draw(s), system, extraction=Extraction(jump_point="quadrature"),
                        fit=FitOptions(), init=(res.kn, res.delta)) for s in range(2, 14))]
     spread = np.expm1(1.96 * np.std(logs, axis=0, ddof=1))
-    ratio = np.array([p.kn_halfwidth, p.delta_halfwidth]) / spread
+    # the copies' own fits against the statistic's scatter (the answer's is carried through
+    # the binding's slope where the loop measured one: the next tests)
+    own = p.statistic_halfwidths or (p.kn_halfwidth, p.delta_halfwidth)
+    ratio = np.array(own) / spread
     assert np.all((ratio > 0.5) & (ratio < 2.0)), (ratio, spread)
     check = {c.name: c for c in res.verdict.checks}["noise_precision"]
     assert check.passed and "noisy copies of the answer's replay" in check.message
     assert res.to_dict()["replay"]["precision"]["n_fitted"] == 8
     assert "Precision: the data's noise alone moves delta" in res.report()
+
+
+def test_the_answers_precision_carries_each_copy_through_the_bindings_slope(measured, system):
+    """The answer moves with the statistic by the binding's slope S: each noisy copy's
+    log (kn, delta) is carried through it, so (same copies, same seed) S = diag(1, 2) doubles
+    delta's log spread and keeps kn's, S = [[1, 0], [10, 0]] (delta moving with the statistic's
+    kn alone) gives delta ten times kn's own spread, and a slope that would narrow them,
+    diag(0.5, 0.5), leaves the copies' own; that is reported beside it."""
+    from freeplayid.estimate import plain_estimate
+    from freeplayid.fit import FitOptions
+    from freeplayid.replay import precision_by_replay
+    from freeplayid.signal import Extraction
+
+    ext = Extraction(jump_point="quadrature")
+    est = plain_estimate(measured, system, extraction=ext, fit=FitOptions(),
+                         init=(WN * WN, ref.DELTA))
+    noise = {r.file: [0.05 * 9.80665, 0.05 * 9.80665] for r in measured.runs}
+
+    def run(slope):
+        p = precision_by_replay(measured, system, noise, points=est.points.used(),
+                                theta_rep=np.array([est.kn, est.delta]), n=4, seed=3,
+                                extraction=ext, fit=FitOptions(), point_weights=None,
+                                binding_slope=slope)
+        return np.log1p([p.kn_halfwidth, p.delta_halfwidth]), p
+
+    plain, p0 = run(None)
+    assert p0.slope is None and p0.statistic_halfwidths is None and np.all(plain > 0)
+    doubled, p2 = run(np.diag([1.0, 2.0]))
+    np.testing.assert_allclose(doubled, [plain[0], 2 * plain[1]], rtol=1e-9)
+    np.testing.assert_allclose(np.log1p(p2.statistic_halfwidths), plain, rtol=1e-9)
+    assert p2.slope == ((1.0, 0.0), (0.0, 2.0))
+    crossed, _ = run(np.array([[1.0, 0.0], [10.0, 0.0]]))
+    np.testing.assert_allclose(crossed, [plain[0], max(10 * plain[0], plain[1])], rtol=1e-9)
+    narrowed, _ = run(np.diag([0.5, 0.5]))
+    np.testing.assert_allclose(narrowed, plain, rtol=1e-9)
+
+
+def test_the_answers_slope_inverts_the_bindings_jacobian_and_holds_the_damping_equation():
+    """answer_slope: the inverse of a 2 x 2 Jacobian (by the cofactor formula); with the
+    estimated damping's third equation, the answer's move with its amplitude equation held, by
+    eliminating that equation (Schur complement); a direction the binding hardly follows is
+    capped at MAX_SLOPE."""
+    from freeplayid.replay.bootstrap import MAX_SLOPE, answer_slope
+
+    a, b, c, d = 0.89, -0.18, -0.25, 0.52
+    np.testing.assert_allclose(answer_slope(np.array([[a, b], [c, d]])),
+                               np.array([[d, -b], [-c, a]]) / (a * d - b * c), rtol=1e-12)
+    A = np.array([[0.9, 0.1], [-0.2, 0.6]])
+    col, row, e = np.array([0.3, -0.1]), np.array([0.05, 0.2]), -1.1
+    J = np.block([[A, col[:, None]], [row[None, :], np.array([[e]])]])
+    np.testing.assert_allclose(answer_slope(J), np.linalg.inv(A - np.outer(col, row) / e),
+                               rtol=1e-10)
+    np.testing.assert_allclose(answer_slope(np.diag([1.0, 1e-3])), np.diag([1.0, MAX_SLOPE]))
+    assert answer_slope(np.zeros((2, 2))) is None
+
+
+def test_the_bindings_jacobian_is_regressed_on_the_loops_replays():
+    """Replays of an affine binding in log, log rep = c + J log theta with a hand-picked J,
+    give J back; fewer than four replays, or replays that moved along one line only, give
+    None (the loop did not measure the slope)."""
+    from freeplayid.replay.bootstrap import history_jacobian
+
+    J = np.array([[0.9, -0.2], [-0.25, 0.5]])
+    theta = np.array([[480.0, 3.0e-3], [500.0, 3.1e-3], [470.0, 2.9e-3], [490.0, 2.95e-3],
+                      [485.0, 3.05e-3]])
+    rep = np.exp(np.log(theta) @ J.T + np.log([1.07, 1.12]))
+    np.testing.assert_allclose(history_jacobian(theta, rep), J, rtol=1e-9)
+    assert history_jacobian(theta[:3], rep[:3]) is None
+    line = theta[0] * np.exp(np.outer(np.linspace(0.0, 0.05, 5), [1.0, 0.5]))
+    assert history_jacobian(line, np.exp(np.log(line) @ J.T)) is None
 
 
 def test_the_precision_copies_stop_early_where_the_noise_is_far_below_the_bounds(measured,

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import math
 import os
 import time
 from collections.abc import Mapping
@@ -264,17 +265,46 @@ def _plain_result(dataset, system, est: PlainEstimate, mode: int, t0: float,
     )
 
 
+def _further(precision) -> tuple[float, float] | None:
+    """How many times further the answer moves than its statistic under the same noise (kn,
+    delta; each at least 1): the precision's half-widths carried through the binding's slope
+    over the copies' own (:class:`freeplayid.replay.ReplayPrecision`). None where it was not
+    measured or neither exceeds 1 (a slope that would narrow the intervals is not trusted to:
+    it is learnt from a few replays)."""
+    own = getattr(precision, "statistic_halfwidths", None)
+    if own is None or precision.kn_halfwidth is None:
+        return None
+    hw = (precision.kn_halfwidth, precision.delta_halfwidth)
+    ratio = tuple(max(1.0, math.log1p(h) / math.log1p(o)) if o > 0 else 1.0
+                  for h, o in zip(hw, own))
+    return ratio if max(ratio) > 1.0 else None
+
+
+def _stretched(ci: tuple, value: float, factor: float) -> tuple:
+    """``ci`` of ``value`` with both log half-widths times ``factor``."""
+    lo, hi = ci
+    return (value * (lo / value) ** factor if lo > 0 else lo, value * (hi / value) ** factor)
+
+
 def _corrected_intervals(rep) -> tuple[tuple, tuple, str]:
     """The corrected estimate's intervals: the Jacobian ones of the statistic's fit (the points
     the replays match, each run's points one observation) moved with the estimate (same
-    relative width); with the bootstrap by replay, the smallest interval holding both; widened
-    by the answer's move for the levels' uncertainty where they came from ``level_g``, for the
-    damping's where down-sweeps rest on one they do not measure, and for an estimated damping's."""
+    relative width) and stretched where the answer moves further than its statistic (the
+    binding's slope, :func:`_further`); with the bootstrap by replay, the smallest interval
+    holding both; widened by the answer's move for the levels' uncertainty where they came from
+    ``level_g``, for the damping's where down-sweeps rest on one they do not measure, and for an
+    estimated damping's."""
     (kn_ci, delta_ci) = rep.statistic_ci95
     sk, sd = rep.kn / rep.kn_statistic, rep.delta / rep.delta_statistic
     kn_ci = tuple(v * sk for v in kn_ci)
     delta_ci = tuple(v * sd for v in delta_ci)
     source = "Jacobian (moved with the estimate)"
+    further = _further(getattr(rep, "precision", None))
+    if further is not None:  # the answer moves further than its statistic
+        kn_ci = _stretched(kn_ci, rep.kn, further[0])
+        delta_ci = _stretched(delta_ci, rep.delta, further[1])
+        source += (f" and stretched {further[0]:.3g}x (kn), {further[1]:.3g}x (delta): the "
+                   "answer moves that much further than its statistic")
     boot = rep.bootstrap
     if boot is not None and boot.kn_ci95 is not None:
         kn_ci = (min(kn_ci[0], boot.kn_ci95[0]), max(kn_ci[1], boot.kn_ci95[1]))

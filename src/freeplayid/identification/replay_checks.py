@@ -23,9 +23,10 @@
   freedom (Student's t: 6.6 with four).
 - ``noise_precision``: how far the test's noise alone moves the answer, measured on noisy copies
   of its replay (:class:`freeplayid.replay.ReplayPrecision`: 1.96 standard deviations of their
-  fits): fails where the chance that the noise alone puts delta beyond its accuracy bound
-  (``accuracy_delta``, 1 %) or kn beyond its own (``accuracy_kn``, 2 %) exceeds
-  ``noise_outside`` (20 %), the error taken as normal with the copies' spread. On the default
+  fits, carried to the answer through the binding's slope): fails where the chance that the
+  noise alone puts delta beyond its accuracy bound (``accuracy_delta``, 1 %) or kn beyond its
+  own (``accuracy_kn``, 2 %) exceeds ``noise_outside`` (20 %), the error taken as normal with
+  that spread. On the default
   fin at 0.05 g of noise the copies spread by about 0.5 % (sd) in delta (a 5 % chance), on a
   fin whose responses are three times weaker against the same noise by about 1 % (32 %).
 - ``sweep_law``, ``replay_binding``, ``replay_converged``, ``damping_estimate``: where the laws

@@ -56,8 +56,11 @@ by the binding function's local factor, theta * theta_b / theta_rep, and the 2.5
 percentiles of those are the interval. The bootstrap reuses the last replay's correction factor
 instead of re-running the fixed point per copy (the factor varies much less than the noise).
 The answer's precision (``precision_copies``, by default): a few such copies, each run cut to
-the stretch around its statistic point, give how far the noise alone moves the answer
-(:class:`ReplayPrecision`), which the verdict holds against the accuracy bounds.
+the stretch around its statistic point, give how far the noise alone moves the statistic;
+carried through the binding's slope (the inverse of the loop's Jacobian: the answer moves as
+far as the replayed statistic must to follow the test's), how far it moves the answer
+(:class:`ReplayPrecision`), which the verdict holds against the accuracy bounds. The bootstrap
+carries its copies through the same slope.
 
 Each run's sweep law (linear or logarithmic) is its ``sweep`` hint; a run without one gets the
 law estimated from the base channel when the data set has one, else from its response channels

@@ -5,8 +5,11 @@ measured on noisy copies of the answer's replay (each channel's measured noise a
 channel's too), each read as the test was (the statistic's points, fitted from the replay's
 estimate). The copies need only the stretch of each run around its statistic point
 (``PRECISION_MARGIN_HZ`` either side, :func:`windowed`), which makes a copy about 2.5 times
-cheaper than the whole record; 1.96 standard deviations of the copies' log kn and log delta are
-the 95 % half-widths that noise alone gives. Against an independent reference (the SDOF
+cheaper than the whole record; 1.96 standard deviations of the copies' log kn and log delta,
+each copy's move carried to the answer through the binding's slope (:func:`answer_slope`: the
+answer makes its replay's statistic equal the test's, so where the replayed statistic follows
+delta at half its rate the answer moves twice as far as the statistic), are the 95 %
+half-widths that noise alone gives. Against an independent reference (the SDOF
 reference's records, 0.05 g of noise, tests/test_replay.py): 8 copies +-1.2 % in delta and
 +-0.21 % in kn, 12 independent noise draws of the records themselves +-1.46 % and +-0.23 %. On
 another fin whose responses are three times weaker against the same 0.05 g (realtests
@@ -30,8 +33,8 @@ from ..estimate import plain_estimate
 from ..sweep import Sweep
 
 __all__ = ["ReplayBootstrap", "ReplayPrecision", "bootstrap_by_replay", "noisy_copy",
-           "precision_by_replay", "windowed", "sd_upper", "PRECISION_MARGIN_HZ",
-           "PRECISION_MIN_COPIES"]
+           "precision_by_replay", "windowed", "sd_upper", "answer_slope", "history_jacobian",
+           "PRECISION_MARGIN_HZ", "PRECISION_MIN_COPIES", "MAX_SLOPE", "MIN_SPREAD"]
 
 # fitted copies before the precision may stop early (``settled_sd``): the chi-square bound on a
 # standard deviation from 4 is 2.92 times it, from 8 1.83 times
@@ -67,7 +70,8 @@ class ReplayBootstrap:
 
 
 def bootstrap_by_replay(replayed, system, noise: dict, *, theta, theta_rep, n: int, seed: int,
-                        extraction, fit, point_weights, progress: bool = False):
+                        extraction, fit, point_weights, binding_slope=None,
+                        progress: bool = False):
     """Percentile 95 % intervals of theta * theta_b / theta_rep over ``n`` noisy copies of the
     replayed test ``replayed`` (a Dataset): a :class:`ReplayBootstrap`.
 
@@ -77,9 +81,16 @@ def bootstrap_by_replay(replayed, system, noise: dict, *, theta, theta_rep, n: i
     replayed phase a little off as noise) and passes through the plain
     estimate with the statistic's options; its fit theta_b maps to a corrected estimate by the
     binding function's local factor theta / theta_rep (the factor varies much less than the
-    noise, so it is not solved again per copy).
+    noise, so it is not solved again per copy), its move carried through ``binding_slope``
+    where given (:func:`precision_by_replay`): theta * exp(S log(theta_b / theta_rep)).
     """
-    samples = [theta * np.array([est.kn, est.delta]) / theta_rep for est in _copy_estimates(
+    slope = None if binding_slope is None else np.asarray(binding_slope, float)
+
+    def corrected(est):
+        moved = np.array([est.kn, est.delta]) / theta_rep
+        return theta * (moved if slope is None else np.exp(slope @ np.log(moved)))
+
+    samples = [corrected(est) for est in _copy_estimates(
         replayed, system, noise, np.random.default_rng(seed), n=n, theta_rep=theta_rep,
         extraction=extraction, fit=fit, point_weights=point_weights,
         desc="bootstrap by replay", progress=progress) if est is not None]
@@ -144,6 +155,12 @@ class ReplayPrecision:
     margin_hz : float or None [Hz]
         The stretch of each run kept either side of its statistic point (None: the whole
         records).
+    statistic_halfwidths : (float, float) or None [-]
+        The same of the copies' own fits (kn, delta): the replayed statistic's scatter, before
+        it is carried to the answer through ``slope``; None without a slope (the same).
+    slope : ((float, float), (float, float)) or None
+        How the answer moves with the statistic (:func:`answer_slope`), through which the
+        copies' spread was carried; None: the identity.
     """
 
     kn_halfwidth: float | None
@@ -151,18 +168,28 @@ class ReplayPrecision:
     n: int
     n_fitted: int
     margin_hz: float | None = None
+    statistic_halfwidths: tuple | None = None
+    slope: tuple | None = None
 
     def to_dict(self) -> dict:
         return {"kn_halfwidth": self.kn_halfwidth, "delta_halfwidth": self.delta_halfwidth,
-                "n": self.n, "n_fitted": self.n_fitted, "margin_hz": self.margin_hz}
+                "n": self.n, "n_fitted": self.n_fitted, "margin_hz": self.margin_hz,
+                "statistic_halfwidths": None if self.statistic_halfwidths is None
+                else list(self.statistic_halfwidths),
+                "slope": None if self.slope is None else [list(r) for r in self.slope]}
 
     def describe(self) -> str:
         if self.kn_halfwidth is None:
             return (f"not measured ({self.n_fitted} of {self.n} noisy copies of the replay "
                     "could be fitted)")
+        via, own = "", self.statistic_halfwidths
+        if own is not None and own[1] > 0 and abs(self.delta_halfwidth / own[1] - 1) > 0.1:
+            via = (f"; their fits scatter delta by ±{100 * own[1]:.2g} %, and the answer, "
+                   "which makes its replay's fit match the test's, moves "
+                   f"{self.delta_halfwidth / own[1]:.2g} times as far")
         return (f"the data's noise alone moves delta by ±{100 * self.delta_halfwidth:.2g} % and "
                 f"kn by ±{100 * self.kn_halfwidth:.2g} % (95 %, {self.n_fitted} noisy copies of "
-                "the answer's replay)")
+                f"the answer's replay{via})")
 
 
 def windowed(replayed, centres: dict, margin_hz: float):
@@ -196,13 +223,22 @@ def precision_by_replay(replayed, system, noise: dict, *, points, theta_rep, n: 
                         extraction, fit, point_weights,
                         margin_hz: float | None = PRECISION_MARGIN_HZ,
                         settled_sd: tuple[float, float] | None = None,
-                        progress: bool = False) -> ReplayPrecision:
+                        binding_slope=None, progress: bool = False) -> ReplayPrecision:
     """How far the noise alone moves the answer (module docstring): ``n`` noisy copies of the
     answer's replay ``replayed`` (a Dataset; each run cut to ``margin_hz`` either side of its
     statistic point in ``points``, the replay's used points; None keeps the whole records),
     each channel's measured ``noise`` added (:func:`noisy_copy`), their points fitted from
     ``theta_rep`` with the statistic's options; 1.96 standard deviations of their log
-    (kn, delta).
+    (kn, delta) carried to the answer.
+
+    ``binding_slope`` (2, 2), optional: how the answer moves with the statistic, d log
+    (kn, delta) of the answer per d log (kn, delta) of the statistic (the inverse of the
+    binding function's Jacobian, :func:`answer_slope`). The answer solves replay(answer) =
+    statistic, so a statistic moved by the noise moves the answer by this matrix times that
+    move: where the replayed statistic follows delta at half its rate, the answer scatters twice
+    as far as the statistic (measured on the noise study's cases: up to 3.7 times). Each copy's
+    deviation from the copies' mean is carried through it, so the copies' correlation of kn and
+    delta counts; None: the identity (the answer as noisy as the statistic).
 
     ``settled_sd`` (log kn, log delta): the copies stop early, from the
     :data:`PRECISION_MIN_COPIES`-th fitted one on, once the upper 95 % confidence bound of
@@ -216,7 +252,8 @@ def precision_by_replay(replayed, system, noise: dict, *, points, theta_rep, n: 
         replayed = windowed(replayed, {r: float(np.median(f)) for r, f in by_run.items()},
                             margin_hz)
     rng = np.random.default_rng([seed, 2])  # not the bootstrap's or the cross-check's copies
-    logs, made = [], 0
+    slope = np.eye(2) if binding_slope is None else np.asarray(binding_slope, float)
+    logs, made = [], 0  # each copy's log (kn, delta)
     for est in _copy_estimates(
             replayed, system, noise, rng, n=n, theta_rep=theta_rep, extraction=extraction,
             fit=fit, point_weights=point_weights, desc="the answer's precision: noisy copies",
@@ -225,15 +262,72 @@ def precision_by_replay(replayed, system, noise: dict, *, points, theta_rep, n: 
         if est is not None and est.fit.success:
             logs.append(np.log([est.kn, est.delta]))
         if settled_sd is not None and len(logs) >= PRECISION_MIN_COPIES and np.all(
-                sd_upper(np.std(np.asarray(logs), axis=0, ddof=1), len(logs))
+                sd_upper(np.std(np.asarray(logs) @ slope.T, axis=0, ddof=1), len(logs))
                 <= np.asarray(settled_sd)):
             break
-    kn_hw = delta_hw = None
+    kn_hw = delta_hw = own = None
     if len(logs) >= 3:
-        sd = np.std(np.asarray(logs), axis=0, ddof=1)
-        kn_hw, delta_hw = (float(np.expm1(1.96 * v)) for v in sd)
-    return ReplayPrecision(kn_halfwidth=kn_hw, delta_halfwidth=delta_hw, n=made,
-                           n_fitted=len(logs), margin_hz=margin_hz)
+        # the answer's scatter: each copy's log (kn, delta) carried through the slope, never
+        # below the copies' own (a slope learnt from a few replays is not trusted to narrow it)
+        own = _halfwidths(np.asarray(logs))
+        kn_hw, delta_hw = np.maximum(_halfwidths(np.asarray(logs) @ slope.T), own).tolist()
+    return ReplayPrecision(
+        kn_halfwidth=kn_hw, delta_halfwidth=delta_hw, n=made, n_fitted=len(logs),
+        margin_hz=margin_hz, statistic_halfwidths=None if binding_slope is None else own,
+        slope=None if binding_slope is None else tuple(tuple(float(v) for v in r) for r in slope))
+
+
+def _halfwidths(logs: np.ndarray) -> tuple[float, float]:
+    """1.96 standard deviations of the rows' log kn and log delta, relative (kn, delta)."""
+    sd = np.std(logs, axis=0, ddof=1)
+    return float(np.expm1(1.96 * sd[0])), float(np.expm1(1.96 * sd[1]))
+
+
+# [-] the largest factor by which the answer's scatter may exceed the statistic's through the
+# binding's slope (:func:`answer_slope`); a loop's learnt Jacobian flatter than this in some
+# direction is taken as this flat (an answer 10 times noisier than its statistic already fails
+# the verdict's ``noise_precision`` on any test with noise)
+MAX_SLOPE = 10.0
+
+
+# [-] the least spread (smallest singular value of the centred log (kn, delta), in log units) of
+# the loop's replays from which their regression gives the binding's slope (history_jacobian):
+# four times the loop's tolerance (``Replay.rtol``, 5e-4), so the replays' steps, not their last
+# digits, set it
+MIN_SPREAD = 2e-3
+
+
+def history_jacobian(theta: np.ndarray, rep: np.ndarray) -> np.ndarray | None:
+    """The binding function's Jacobian d log rep / d log theta regressed on the loop's replays
+    (``theta``, ``rep``: (n, 2) replayed (kn, delta) and their fits), an affine least-squares
+    fit over all of them rather than Broyden's rank-one updates from the identity (which learn
+    only the directions stepped along, and on the noise study's cases put the slope up to 3
+    times off that regression). None with fewer than four replays or where they spread less
+    than :data:`MIN_SPREAD` in some direction."""
+    x, y = np.log(np.asarray(theta, float)), np.log(np.asarray(rep, float))
+    if x.shape[0] < 4 or not (np.all(np.isfinite(x)) and np.all(np.isfinite(y))):
+        return None
+    xc = x - x.mean(axis=0)
+    if np.linalg.svd(xc, compute_uv=False).min() < MIN_SPREAD:
+        return None
+    coef, *_ = np.linalg.lstsq(xc, y - y.mean(axis=0), rcond=None)
+    return coef.T
+
+
+def answer_slope(jacobian) -> np.ndarray | None:
+    """d log (kn, delta) of the answer per d log (kn, delta) of the statistic: the first two
+    rows and columns of the inverse of the binding function's Jacobian ``jacobian`` (the replay
+    loop's, (2, 2), or (3, 3) with the estimated damping's equation, which then stays solved);
+    its singular values are capped at :data:`MAX_SLOPE`. None where it cannot be inverted."""
+    J = np.asarray(jacobian, float)
+    try:
+        inv = np.linalg.inv(J)[:2, :2]
+    except np.linalg.LinAlgError:
+        return None
+    if not np.all(np.isfinite(inv)):
+        return None
+    u, s, vt = np.linalg.svd(inv)
+    return (u * np.minimum(s, MAX_SLOPE)) @ vt
 
 
 def sd_upper(sd, k: int):

@@ -19,7 +19,9 @@ from ..signal import Extraction
 from .bootstrap import (
     ReplayBootstrap,
     ReplayPrecision,
+    answer_slope,
     bootstrap_by_replay,
+    history_jacobian,
     noisy_copy,
     precision_by_replay,
 )
@@ -711,6 +713,11 @@ def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts
     rep, stat = b.rep, b.stat
     offsets, misfit, boot, resonance, cross, level, damped = (), {}, None, {}, None, None, None
     precision = None
+    # how the answer moves with the statistic: the binding's slope regressed on the replays
+    # (not where the damping moved between them: the regression does not separate it)
+    J = None if len({i.zeta for i in b.history}) > 1 else history_jacobian(
+        [(i.kn, i.delta) for i in b.history], [(i.kn_rep, i.delta_rep) for i in b.history])
+    slope = None if J is None else answer_slope(J)
     if rep is not None:
         replayed = {(p.run, p.channel): p for p in rep.points.used()}
         offsets = tuple(PointOffset(p.run, p.channel, q.f_hz / p.f_hz - 1,
@@ -736,13 +743,14 @@ def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts
                 b.rep_ds, system, noise(), theta=theta,
                 theta_rep=np.array([rep.kn, rep.delta]), n=opts.n_bootstrap, seed=opts.seed,
                 extraction=b.test.extraction, fit=b.test.fit, point_weights=b.weights,
-                progress=progress)
+                binding_slope=slope, progress=progress)
         if opts.precision_copies > 0 and not b.failure:
             precision = precision_by_replay(
                 b.rep_ds, system, noise(), points=rep.points.used(),
                 theta_rep=np.array([rep.kn, rep.delta]), n=opts.precision_copies,
                 seed=opts.seed, extraction=b.test.extraction, fit=b.test.fit,
-                point_weights=b.weights, settled_sd=settled, progress=progress)
+                point_weights=b.weights, settled_sd=settled,
+                binding_slope=slope, progress=progress)
     return ReplayResult(
         kn=float(theta[0]), delta=float(theta[1]), jump_point=rule,
         kn_statistic=float(stat.kn), delta_statistic=float(stat.delta),
