@@ -262,7 +262,7 @@ def precision_by_replay(replayed, system, noise: dict, *, points, theta_rep, n: 
         if est is not None and est.fit.success:
             logs.append(np.log([est.kn, est.delta]))
         if settled_sd is not None and len(logs) >= PRECISION_MIN_COPIES and np.all(
-                sd_upper(np.std(np.asarray(logs) @ slope.T, axis=0, ddof=1), len(logs))
+                sd_upper(_answer_sd(np.asarray(logs), slope), len(logs))
                 <= np.asarray(settled_sd)):
             break
     kn_hw = delta_hw = own = None
@@ -270,11 +270,17 @@ def precision_by_replay(replayed, system, noise: dict, *, points, theta_rep, n: 
         # the answer's scatter: each copy's log (kn, delta) carried through the slope, never
         # below the copies' own (a slope learnt from a few replays is not trusted to narrow it)
         own = _halfwidths(np.asarray(logs))
-        kn_hw, delta_hw = np.maximum(_halfwidths(np.asarray(logs) @ slope.T), own).tolist()
+        kn_hw, delta_hw = (float(np.expm1(1.96 * v)) for v in _answer_sd(np.asarray(logs), slope))
     return ReplayPrecision(
         kn_halfwidth=kn_hw, delta_halfwidth=delta_hw, n=made, n_fitted=len(logs),
         margin_hz=margin_hz, statistic_halfwidths=None if binding_slope is None else own,
         slope=None if binding_slope is None else tuple(tuple(float(v) for v in r) for r in slope))
+
+
+def _answer_sd(logs: np.ndarray, slope: np.ndarray) -> np.ndarray:
+    """Standard deviations of log kn and log delta of the copies' fits ``logs`` (k, 2) carried
+    through ``slope``, never below their own."""
+    return np.maximum(np.std(logs @ slope.T, axis=0, ddof=1), np.std(logs, axis=0, ddof=1))
 
 
 def _halfwidths(logs: np.ndarray) -> tuple[float, float]:
