@@ -269,8 +269,8 @@ def precision_by_replay(replayed, system, noise: dict, *, points, theta_rep, n: 
     if len(logs) >= 3:
         # the answer's scatter: each copy's log (kn, delta) carried through the slope, never
         # below the copies' own (a slope learnt from a few replays is not trusted to narrow it)
-        own = _halfwidths(np.asarray(logs))
-        kn_hw, delta_hw = (float(np.expm1(1.96 * v)) for v in _answer_sd(np.asarray(logs), slope))
+        own = _halfwidths(np.std(np.asarray(logs), axis=0, ddof=1))
+        kn_hw, delta_hw = _halfwidths(_answer_sd(np.asarray(logs), slope))
     return ReplayPrecision(
         kn_halfwidth=kn_hw, delta_halfwidth=delta_hw, n=made, n_fitted=len(logs),
         margin_hz=margin_hz, statistic_halfwidths=None if binding_slope is None else own,
@@ -283,9 +283,9 @@ def _answer_sd(logs: np.ndarray, slope: np.ndarray) -> np.ndarray:
     return np.maximum(np.std(logs @ slope.T, axis=0, ddof=1), np.std(logs, axis=0, ddof=1))
 
 
-def _halfwidths(logs: np.ndarray) -> tuple[float, float]:
-    """1.96 standard deviations of the rows' log kn and log delta, relative (kn, delta)."""
-    sd = np.std(logs, axis=0, ddof=1)
+def _halfwidths(sd) -> tuple[float, float]:
+    """The relative 95 % half-widths (kn, delta) of standard deviations ``sd`` of log kn and
+    log delta: expm1(1.96 sd)."""
     return float(np.expm1(1.96 * sd[0])), float(np.expm1(1.96 * sd[1]))
 
 
