@@ -66,6 +66,9 @@ def identify_case(path: str, corrected: bool) -> dict:
                               if getattr(m, "offset_se_samples", 0)},
                 "without": {run: list(m.without) for run, m in (rep.resonance or {}).items()
                             if getattr(m, "without", None) is not None},
+                # the noise's move of the answer (noisy copies, through the binding's slope)
+                "precision": None if getattr(rep, "precision", None) is None
+                else rep.precision.to_dict(),
                 # the answer's move for a damping the down-sweeps do not measure
                 "damping_sensitivity": None if getattr(rep, "damping_sensitivity", None) is None
                 else rep.damping_sensitivity.to_dict()},
