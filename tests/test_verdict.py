@@ -328,6 +328,16 @@ def test_a_down_sweeps_answer_resting_on_an_unmeasured_damping_beyond_the_bounds
     assert not unsettled.passed and unsettled.value == 1.0
     assert "did not converge" in unsettled.message and "not measured" in unsettled.message
     assert "replay.damping" in unsettled.message
+    # unconverged, but its closest replay within the statistics' noise (as the answer's own
+    # loop is taken): a measured move, judged against the bounds as a converged one
+    noise = LIMITS["binding_noise"]
+    for close, shifts, passed in ((0.5 * noise, (0.6 * kn, 0.3 * dl), True),
+                                  (0.5 * noise, (1.2 * kn, 0.3 * dl), False),
+                                  (2.0 * noise, (0.6 * kn, 0.3 * dl), False)):
+        c = sweep_direction_check(mixed, replayed=True, damping=DampingSensitivity(
+            0.25, *shifts, ("down",), converged=False, closest_misfit_se=close))
+        assert c.passed is passed
+        assert ("not measured" in c.message) is (close > noise)
 
 
 

@@ -5,6 +5,8 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
+from .verdict import LIMITS
+
 __all__ = ["render_report", "render_summary", "validation_record", "format_ci", "format_sig",
            "delta_text", "fit_kind", "play_deg"]
 
@@ -250,9 +252,7 @@ def _replay(r) -> list[str]:
         lines += [f"Damping of the down-sweeps ({', '.join(damped.runs)}), which they do not "
                   f"measure: {100 * damped.uncertainty:g} % more of it moves kn by "
                   f"{100 * damped.kn_shift:.2g} % and delta by {100 * damped.delta_shift:.2g} % "
-                  "(in the intervals)" + ("." if damped.converged else
-                                          "; its replays did not converge: their closest's "
-                                          "move, not a measured one.")]
+                  "(in the intervals)" + _settled(damped)]
     if rep.failure:
         lines += ["", f"**Replay failed:** {rep.failure}; the estimate above is the plain fit's."]
     elif getattr(rep, "stopped", ""):
@@ -318,3 +318,16 @@ def _sweep_text(sw: dict) -> str:
     rate = (f"{sw['rate_hz_per_s']:.4g} Hz/s" if sw.get("rate_hz_per_s") is not None else
             f"{sw['octaves_per_min']:.4g} octaves/min")
     return f"{sw['start_hz']:.5g} -> {sw['stop_hz']:.5g} Hz at {rate}"
+
+
+def _settled(damped) -> str:
+    """How the damping's move was measured, for the report: its solve converged, or its closest
+    replay within the statistics' noise (as the verdict takes it), or neither."""
+    if damped.converged:
+        return "."
+    close = getattr(damped, "closest_misfit_se", None)
+    if close is not None and close <= LIMITS["binding_noise"]:
+        return (f"; its replays did not converge, their closest within {close:.2g} of the "
+                "statistics' standard error.")
+    return "; its replays did not converge: their closest's move, not a measured one."
+

@@ -44,8 +44,11 @@ compares the result or the data with a physical limit, never with a value tuned 
   the test does not measure (the model's C, a given ratio), the replay measures how far that
   damping's stated uncertainty (``Replay.damping_uncertainty``, 25 %) moves the answer, and the
   check fails when that move alone exceeds the accuracy bounds (``damping_kn`` 2 %,
-  ``damping_delta`` 1 %): the answer is then only as good as a damping nothing measured. Where
-  the replay estimated the damping from such runs alone (no C in the model file), it fails.
+  ``damping_delta`` 1 %): the answer is then only as good as a damping nothing measured. That
+  move is the binding solved afresh at that damping, as the answer's loop was; where that solve
+  does not converge and its closest replay misses the statistics by more than ``binding_noise``
+  of their standard error, the move is not measured and the check fails. Where the replay
+  estimated the damping from such runs alone (no C in the model file), it fails.
 - ``hinge_gaps``: where two or more hinges turn unequally in the identified mode (their rotation
   ratio below 0.9; on the default fin they turn together and the points cannot tell their gaps
   apart), the points fitted with one half-gap per hinge: an F test rejecting one common delta at
@@ -368,7 +371,9 @@ def sweep_direction_check(extraction, *, replayed: bool, damping=None,
                     damping.delta_shift / LIMITS["damping_delta"])
         moves = (f"the replay's damping {100 * damping.uncertainty:g} % higher moves kn by "
                  f"{100 * damping.kn_shift:.2g} % and delta by {100 * damping.delta_shift:.2g} %")
-        if not damping.converged:
+        close = getattr(damping, "closest_misfit_se", None)
+        if not damping.converged and not (close is not None
+                                          and close <= LIMITS["binding_noise"]):
             return Check("sweep_direction", False,
                          f"run(s) {runs} sweep down and never reach the peak, so they do not "
                          "measure the damping, on which where they jump up depends, and the "
