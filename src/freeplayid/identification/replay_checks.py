@@ -42,7 +42,7 @@ import math
 
 import scipy.stats
 
-from .verdict import LIMITS, Check
+from .verdict import LIMITS, Check, within_binding_noise
 
 __all__ = ["replay_checks", "precision_check", "noise_outside_chance", "settled_sd",
            "SETTLED_CHANCE"]
@@ -194,7 +194,7 @@ def _converged_check(replay) -> Check:
         return Check("replay_converged", True, f"the corrected fit converged in {n} replays")
     close = getattr(replay, "closest_misfit_se", None)
     stopped = getattr(replay, "stopped", "")
-    if close is not None and close <= LIMITS["binding_noise"]:
+    if within_binding_noise(close):
         return Check("replay_converged", True,
                      f"the corrected fit did not converge in {n} replays"
                      + (" (the loop stopped where a step could not be replayed)" if stopped

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
-from .verdict import LIMITS
+from .verdict import within_binding_noise
 
 __all__ = ["render_report", "render_summary", "validation_record", "format_ci", "format_sig",
            "delta_text", "fit_kind", "play_deg"]
@@ -326,8 +326,7 @@ def _settled(damped) -> str:
     if damped.converged:
         return "."
     close = getattr(damped, "closest_misfit_se", None)
-    if close is not None and close <= LIMITS["binding_noise"]:
+    if within_binding_noise(close):
         return (f"; its replays did not converge, their closest within {close:.2g} of the "
                 "statistics' standard error.")
     return "; its replays did not converge: their closest's move, not a measured one."
-

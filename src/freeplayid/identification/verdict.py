@@ -328,6 +328,13 @@ def replayed_channel_check(resonance: dict) -> Check | None:
                  "the wrong DOF)", max(diff.values()))
 
 
+def within_binding_noise(misfit_se: float | None) -> bool:
+    """Whether an unconverged replay loop's closest replay, missing the test's statistics by
+    ``misfit_se`` of their standard errors, counts as solving it (``binding_noise``): for the
+    answer's own loop and for the down-sweeps' damping move alike."""
+    return misfit_se is not None and misfit_se <= LIMITS["binding_noise"]
+
+
 def down_sweep_runs(extraction) -> tuple[str, ...]:
     """The runs with a used point whose analysed curve sweeps down (frequency falling)."""
     used = {p.run for p in extraction.used()}
@@ -371,9 +378,8 @@ def sweep_direction_check(extraction, *, replayed: bool, damping=None,
                     damping.delta_shift / LIMITS["damping_delta"])
         moves = (f"the replay's damping {100 * damping.uncertainty:g} % higher moves kn by "
                  f"{100 * damping.kn_shift:.2g} % and delta by {100 * damping.delta_shift:.2g} %")
-        close = getattr(damping, "closest_misfit_se", None)
-        if not damping.converged and not (close is not None
-                                          and close <= LIMITS["binding_noise"]):
+        if not damping.converged and not within_binding_noise(
+                getattr(damping, "closest_misfit_se", None)):
             return Check("sweep_direction", False,
                          f"run(s) {runs} sweep down and never reach the peak, so they do not "
                          "measure the damping, on which where they jump up depends, and the "

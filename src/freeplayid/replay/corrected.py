@@ -830,11 +830,8 @@ def _damping_sensitivity(b: _Binding, sol, u: float,
         up.system = b.system.replace(C=(1 + u) * np.asarray(b.system.C))
     else:
         up = b.sibling(b.test, (b.source, (1 + u) * b.zeta), label)
-    tol = [np.log1p(b.opts.rtol)] * 2
-    with _replay_bar(b.opts.max_iter, up.label, progress) as up.bar:
-        first = b.history[0]
-        moved = solve_binding(up, np.log([first.kn, first.delta]), np.eye(2),
-                              max_iter=b.opts.max_iter, tolerances=tol)
+    first = b.history[0]
+    moved = _solve(up, np.log([first.kn, first.delta]), progress, up.label)
     if not up.history:
         return None
     shift = np.abs(moved.u[:2] - sol.u[:2])
