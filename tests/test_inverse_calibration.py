@@ -323,3 +323,65 @@ def test_the_clustered_rank_test_holds_its_level_where_cases_share_a_kn():
     assert design_effect(same, np.linspace(-0.5, 99.5, 11), cl) == pytest.approx(m, rel=0.15)
     with pytest.raises(ValueError, match="one label per rank"):
         design_effect(ranks, np.linspace(-0.5, 99.5, 11), cl[:-1])
+
+
+def _trained_on(**bank):
+    """An object with a network's stored training data set (``extra``) for ``sweep_outside``."""
+    from types import SimpleNamespace
+
+    from freeplayid.inverse import InverseModel
+
+    holder = SimpleNamespace(extra={"dataset": {"bank": bank}})
+    return lambda sweeps: InverseModel.sweep_outside(holder, sweeps)
+
+
+def test_sweeps_unlike_the_training_sweeps_are_named():
+    """Direction and rate at the point against the training's (a quarter either way)."""
+    from freeplayid.simulate import Sweep
+
+    one_rate = _trained_on(sweep={"start_hz": 30.0, "stop_hz": 56.0, "rate_hz_per_s": 0.1})
+    assert one_rate([("a", Sweep(30.0, 50.0, 0.1), 42.0), ("b", Sweep(30.0, 50.0, 0.12), 44.0)]) \
+        == ""
+    why = one_rate([("a", Sweep(30.0, 50.0, 0.1), 42.0), ("fast", Sweep(30.0, 50.0, 0.5), 44.0)])
+    assert why.startswith("run fast sweeps at 0.5 Hz/s at its point (44 Hz)") and "0.1 Hz/s" in why
+    assert "run down sweeps down" in one_rate([("down", Sweep(50.0, 30.0, 0.1), 42.0)])
+    # a log sweep's rate at its point: 2 octaves/min at 45 Hz is 1.04 Hz/s
+    assert "1.04 Hz/s" in one_rate([("log", Sweep(30.0, 60.0, octaves_per_min=2.0), 45.0)])
+    drawn = _trained_on(sweep={"start_hz": 30.0, "stop_hz": 56.0, "rate_hz_per_s": 0.1},
+                        rate_range=[0.5, 5.0])
+    assert drawn([("fast", Sweep(30.0, 50.0, 0.5), 44.0)]) == ""
+    assert "0.05-0.5 Hz/s" in drawn([("faster", Sweep(30.0, 50.0, 1.0), 44.0)])
+    assert _trained_on()([("fast", Sweep(30.0, 50.0, 0.5), 44.0)]) == ""  # nothing recorded
+
+
+def test_the_fit_from_a_network_warns_of_sweeps_it_was_not_trained_on():
+    """plain_estimate with a network as its start: the bundled example (0.1 Hz/s) against a
+    network trained at 0.5 Hz/s is warned of and recorded in the estimate; at 0.1 Hz/s not."""
+    from freeplayid.estimate import plain_estimate
+    from freeplayid.fit import FitOptions
+    from freeplayid.io import read_dataset
+    from freeplayid.io.dataset_files import bundled_example
+    from freeplayid.model import load_system
+    from freeplayid.signal.options import Extraction
+
+    class Network:
+        def __init__(self, rate):
+            self.sweep_outside = _trained_on(
+                sweep={"start_hz": 30.0, "stop_hz": 56.0, "rate_hz_per_s": rate})
+
+        def predict_points(self, points):
+            return 480.0, 3e-3, 0.05, 0.05
+
+    ds = read_dataset(bundled_example())
+    system = load_system(ds.model)
+    ds = dataclasses.replace(ds, runs=ds.runs[1:3])  # two runs with points: enough here
+    kw = dict(extraction=Extraction(), fit=FitOptions())
+    with pytest.warns(InverseDomainWarning, match=r"runs sweep_0.60g.csv.gz, sweep_0.80g.csv.gz "
+                      r"sweep at 0.1 Hz/s at their points \(40.1\d-42.4\d Hz\)"):
+        est = plain_estimate(ds, system, init=Network(0.5), **kw)
+    assert "the network was trained on 0.5 Hz/s" in est.inverse_estimate["outside"]
+    assert est.fit.kn == pytest.approx(480.0, rel=0.05)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", InverseDomainWarning)
+        est = plain_estimate(ds, system, init=Network(0.1), **kw)
+    assert est.inverse_estimate["outside"] == ""

@@ -296,3 +296,40 @@ def test_bank_damping_range_draws_a_damping_per_kn(system, tmp_path):
         simulate_bank(system.replace(C=None), spec, cache_dir=tmp_path, progress=False)
     with pytest.raises(ValueError, match="damping_range"):
         _spec(damping_range=(2.0, 0.5))
+
+
+def test_bank_rate_range_draws_a_sweep_rate_per_kn(system, tmp_path):
+    """Each kn's sweeps are swept at the bank's rate times its drawn factor, as long as that
+    sweep lasts (zero after); the draws before it and with the damping are unchanged; cases and
+    rebuilt records carry each kn's own sweep."""
+    spec = _spec(rate_range=(0.5, 2.0), damping_range=(0.5, 2.0))
+    b = simulate_bank(system, spec, cache_dir=tmp_path, progress=False)
+    damped = _spec(damping_range=(0.5, 2.0))
+    plain_kn, plain_ratio, plain_damping, ones = damped._draw()
+    np.testing.assert_array_equal(b.kn, plain_kn)
+    np.testing.assert_array_equal(b.ratio, plain_ratio)
+    np.testing.assert_array_equal(b.damping, plain_damping)
+    assert np.all(ones == 1.0) and spec.key(system) != damped.key(system)
+    assert np.all((b.rate >= 0.5) & (b.rate <= 2.0)) and np.ptp(np.log(b.rate)) > 0.3
+    for k in range(4):
+        sweep = Sweep(SWEEP.start_hz, SWEEP.stop_hz, SWEEP.rate_hz_per_s * b.rate[k])
+        assert b.sweep(k) == sweep
+        ref = simulate_sweeps(sdof_system(mass=MASS, damping=b.damping[k] * DAMPING),
+                              kn=b.kn[k], delta=DELTA_REF, level_g=b.ratio[k] * DELTA_REF,
+                              sweep=sweep, channels=["x"], frame="relative", sample_rate=256.0,
+                              dtype=torch.float64, progress=False)
+        n = ref.signals.shape[-1]
+        assert b.n_samples[k] == n and abs(n / 256.0 - sweep.duration) < 1 / 256.0
+        np.testing.assert_allclose(b.records(k, slice(None)), ref.signals, rtol=0,
+                                   atol=1e-6 * np.abs(ref.signals).max())
+        assert not b.signals[k, :, :, n:].any()
+    ps = build_cases(b, CaseSpec(axis="delta", values=(2.5e-3,), cases_per_value=1,
+                                 runs=(3, 3), n_jobs=1), cache_dir=tmp_path, progress=False)
+    np.testing.assert_array_equal(ps.meta["rate"], b.rate[ps.meta["kn_index"]])
+    case = ds.rebuild_case(b, CaseSpec(axis="delta", values=(2.5e-3,), cases_per_value=1,
+                                       runs=(3, 3), n_jobs=1), ps, 0)
+    k = int(ps.meta["kn_index"][0])
+    assert Sweep(**case.runs[0].sweep) == b.sweep(k)
+    assert case.runs[0].data.shape[-1] == b.n_samples[k] == case.runs[0].time.size
+    with pytest.raises(ValueError, match="rate_range"):
+        _spec(rate_range=(2.0, 0.5))

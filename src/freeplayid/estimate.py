@@ -13,16 +13,18 @@ this estimate one layer up.
 from __future__ import annotations
 
 import dataclasses
+import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import IdentificationError
+from .errors import IdentificationError, InverseDomainWarning
 from .fit import (
     FitOptions,
     FitResult,
     FittingPoints,
+    Start,
     count_resonances,
     fit_backbone,
     resolve_start,
@@ -234,12 +236,40 @@ def plain_estimate(dataset, system, *, extraction: Extraction, fit: FitOptions, 
     check_enough(pts, rejected, where)
     points = FittingPoints.from_extraction(pts, dofs=dataset.channels)
     start = resolve_start(init, points, multistart=fit.multistart)
+    if start.inverse is not None and hasattr(init, "sweep_outside"):
+        start = _sweep_domain(start, init, dataset, pts, extraction)
     result = fit_backbone(points, system, init=start.points, init_label=start.label,
                           backbone=fit.backbone, mode=fit.mode, n_bootstrap=fit.n_bootstrap,
                           seed=fit.seed, weights=weights_of(points, point_weights),
                           progress=progress)
     return PlainEstimate(points=pts, rejected_runs=tuple(rejected.items()), fit=result,
                          dofs=dict(dataset.channels), inverse_estimate=start.inverse)
+
+
+def _sweep_domain(start: Start, model, dataset, pts, extraction: Extraction) -> Start:
+    """``start`` with the runs whose sweep at their point lies outside the network's training
+    (:meth:`freeplayid.inverse.InverseModel.sweep_outside`) added to its estimate's
+    ``outside`` and warned of (:class:`InverseDomainWarning`), as points outside its domain
+    are, before the estimate starts the fit."""
+    at = {}
+    for p in pts.used():
+        at.setdefault(p.run, []).append(p.f_hz)
+    sweeps = []
+    for run in dataset.runs:
+        if run.file in at:
+            try:
+                sweep = run_sweep_law(dataset, run, use_hint=extraction.use_sweep_hint)[0]
+            except ValueError:  # no law: the extraction found its points without one
+                continue
+            sweeps.append((run.file, sweep, float(np.median(at[run.file]))))
+    why = model.sweep_outside(sweeps)
+    if not why:
+        return start
+    warnings.warn(why + "; the fit starts from its estimate all the same", InverseDomainWarning,
+                  stacklevel=3)
+    inverse = dict(start.inverse)
+    inverse["outside"] = "; ".join(w for w in (inverse.get("outside"), why) if w)
+    return dataclasses.replace(start, inverse=inverse)
 
 
 def refit(est: PlainEstimate, system, fit: FitOptions, *,

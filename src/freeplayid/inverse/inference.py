@@ -32,6 +32,10 @@ __all__ = ["InverseModelError", "InverseDomainWarning", "InversePrediction", "In
            "load_inverse_model", "calibrate_checkpoint"]
 
 _CALIBRATION_KEY = "freeplayid_calibration"  # the checkpoint's Calibration.to_dict()
+# [-] a test's sweep rate at its point may differ from the training's rates by this factor
+# either way before :meth:`InverseModel.sweep_outside` names it: a quarter, where the drop
+# point's lag behind the backbone (which grows with the rate) changes little
+RATE_TOLERANCE = 1.25
 
 
 @dataclass(frozen=True)
@@ -153,6 +157,54 @@ class InverseModel:
                                  log_kn_std=log_std[:, 0] * cal.std_scale[0],
                                  log_delta_std=log_std[:, 1] * cal.std_scale[1], outside=outside)
 
+    def sweep_outside(self, sweeps) -> str:
+        """Why sweeps of a test lie outside those the network was trained on ('' inside, or
+        when the checkpoint records no training data set).
+
+        ``sweeps``: (run, Sweep, f [Hz]) of each run with a point, f the point's frequency. A
+        point's drop depends on the sweep there: its direction and its rate at f. The training
+        swept up or down, at the bank's rate at f times ``rate_range`` (one rate without it);
+        a run sweeping the other way, or at a rate beyond that range by more than
+        :data:`RATE_TOLERANCE`, is named (the points alone do not show it: a fast sweep's drop
+        points lie near the backbone, later on it).
+        """
+        from ..sweep import Sweep
+
+        bank = ((self.extra or {}).get("dataset") or {}).get("bank") or {}
+        if not bank.get("sweep"):
+            return ""
+        trained = Sweep(**bank["sweep"])
+        lo, hi = bank.get("rate_range") or (1.0, 1.0)
+        up = trained.stop_hz > trained.start_hz
+        f_lo, f_hi = sorted((trained.start_hz, trained.stop_hz))
+        other_way, off = [], []
+        for run, sweep, f in sweeps:
+            if (sweep.stop_hz > sweep.start_hz) != up:
+                other_way.append(run)
+                continue
+            at = float(np.clip(f, f_lo, f_hi))
+            rate = abs(float(sweep.rate(sweep.time_at(np.array([f]))[0])))
+            base = abs(float(trained.rate(trained.time_at(np.array([at]))[0])))
+            if not base * lo / RATE_TOLERANCE <= rate <= base * hi * RATE_TOLERANCE:
+                off.append((run, rate, f, base))
+        why = []
+        if other_way:
+            why.append(f"run{'s' if len(other_way) > 1 else ''} {', '.join(other_way)} "
+                       f"sweep{'' if len(other_way) > 1 else 's'} {'down' if up else 'up'}; "
+                       f"the network was trained on {'up' if up else 'down'}-sweeps "
+                       f"({trained.describe()})")
+        if off:
+            runs, rates, fs, bases = zip(*off)
+            b = float(np.median(bases))  # the training's rate at the points (log: it varies)
+            trained_at = f"{b * lo:.3g} Hz/s" if lo == hi else f"{b * lo:.3g}-{b * hi:.3g} Hz/s"
+            many = len(runs) > 1
+            why.append(f"run{'s' if many else ''} {', '.join(runs)} sweep{'' if many else 's'} "
+                       f"at {_span(rates, '.3g')} Hz/s at {'their points' if many else 'its point'}"
+                       f" ({_span(fs, '.4g')} Hz); the network was trained on {trained_at} there "
+                       f"({trained.describe()}" + ("" if lo == hi else f", rates x {lo:g}-{hi:g}")
+                       + ")")
+        return "; ".join(why)
+
     def predict_points(self, points: FittingPoints) -> tuple[float, float, float, float]:
         """One case from its fitting points (the start of ``fit_backbone(..., init=model)``).
 
@@ -188,6 +240,12 @@ class InverseModel:
         """
         p = self.predict(point_sets_from_records(records, self.channels))
         return float(p.kn[0]), float(p.delta[0]), float(p.log_kn_std[0]), float(p.log_delta_std[0])
+
+
+def _span(values, fmt: str) -> str:
+    """"a" or "a-b" of the values' range, formatted."""
+    a, b = f"{min(values):{fmt}}", f"{max(values):{fmt}}"
+    return a if a == b else f"{a}-{b}"
 
 
 def load_inverse_model(path: str | os.PathLike, *, system=None, rtol: float = 1e-8,

@@ -83,6 +83,12 @@ class BankSpec:
         the ratios, so those draws are the same with or without it): the training data then
         span a damping the test may not share (a real test's damping is never the model's
         exactly). None: the model's C for every sweep.
+    rate_range : (float, float) or None [-]
+        A factor on the sweep's rate (``rate_hz_per_s``, or ``octaves_per_min`` of a log sweep)
+        per kn, drawn log-uniform in it after the damping (so the earlier draws are the same
+        with or without it): the drop points of a faster sweep lie later and higher on the
+        upper branch, which a bank at one rate never shows. The records then differ in length:
+        each kn's are ``SweepBank.n_samples[k]`` long, zero after. None: ``sweep`` for every kn.
     """
 
     sweep: Sweep
@@ -97,6 +103,7 @@ class BankSpec:
     chunk_sweeps: int = 512
     quasi_static_hz: float | None = None
     damping_range: tuple | None = None
+    rate_range: tuple | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "kn_range", check_pair("kn_range", self.kn_range))
@@ -119,6 +126,8 @@ class BankSpec:
         if self.damping_range is not None:
             object.__setattr__(self, "damping_range",
                                check_pair("damping_range", self.damping_range))
+        if self.rate_range is not None:
+            object.__setattr__(self, "rate_range", check_pair("rate_range", self.rate_range))
 
     def key(self, system: FreeplaySystem) -> str:
         """Cache key: this spec, the model fingerprint and the cache format."""
@@ -128,8 +137,9 @@ class BankSpec:
             d.pop("quasi_static_hz")
         if d["sweep"].get("octaves_per_min") is None:  # linear: keys of banks before log sweeps
             d["sweep"].pop("octaves_per_min", None)
-        if d["damping_range"] is None:  # the model's damping: keys of banks before the option
-            d.pop("damping_range")
+        for name in ("damping_range", "rate_range"):  # off: the keys of banks before them
+            if d[name] is None:
+                d.pop(name)
         return digest({"bank": d, "model": system.fingerprint(), "format": CACHE_FORMAT})
 
     def draw(self) -> tuple[np.ndarray, np.ndarray]:
@@ -137,17 +147,39 @@ class BankSpec:
         return self._draw()[:2]
 
     def _draw(self):
-        """kn, ratios and the factor on the model's C of each kn (ones without
-        ``damping_range``), from ``seed``."""
+        """kn, ratios, the factor on the model's C and the factor on the sweep's rate of each
+        kn (ones without ``damping_range`` / ``rate_range``), from ``seed``."""
         rng = np.random.default_rng(self.seed)
         lk = np.log(self.kn_range)
         lr = np.log(self.ratio_range)
         kn = np.exp(rng.uniform(lk[0], lk[1], self.n_kn))
         ratio = np.sort(np.exp(rng.uniform(lr[0], lr[1], (self.n_kn, self.n_ratios))), axis=1)
-        if self.damping_range is None:
-            return kn, ratio, np.ones(self.n_kn)
-        ld = np.log(self.damping_range)
-        return kn, ratio, np.exp(rng.uniform(ld[0], ld[1], self.n_kn))
+        factors = []
+        for span in (self.damping_range, self.rate_range):  # in this order: earlier draws stay
+            if span is None:
+                factors.append(np.ones(self.n_kn))
+            else:
+                ld = np.log(span)
+                factors.append(np.exp(rng.uniform(ld[0], ld[1], self.n_kn)))
+        return kn, ratio, *factors
+
+    def sweep_of(self, rate: float) -> Sweep:
+        """``sweep`` with its rate times ``rate`` (a factor of :meth:`_draw`)."""
+        return scaled_sweep(self.sweep, rate)
+
+
+def scaled_sweep(sweep: Sweep, rate: float) -> Sweep:
+    """``sweep`` with its rate (Hz/s, or octaves/min of a log sweep) times ``rate``."""
+    if rate == 1.0:
+        return sweep
+    key = "rate_hz_per_s" if sweep.law == "linear" else "octaves_per_min"
+    return Sweep(**{**sweep.to_dict(), key: float(getattr(sweep, key)) * float(rate)})
+
+
+def record_samples(sweep: Sweep, sample_rate: float) -> int:
+    """Samples of a record covering [0, ``sweep.duration``] at ``sample_rate`` (as the
+    simulator writes it)."""
+    return int(math.floor(sweep.duration * sample_rate + 1e-9)) + 1
 
 
 @dataclass(frozen=True)
@@ -166,6 +198,11 @@ class SweepBank:
     diverged : ndarray, shape (K, R) bool
     damping : ndarray, shape (K,) [-]
         The factor on the model's C of each kn's sweeps (ones: the model's damping).
+    rate : ndarray, shape (K,) [-]
+        The factor on the sweep's rate of each kn's sweeps (ones: ``spec.sweep``).
+    n_samples : ndarray, shape (K,) of int
+        Samples of each kn's records (``T`` for all without ``spec.rate_range``; the rest of
+        ``signals`` is zero).
     """
 
     spec: BankSpec
@@ -176,6 +213,16 @@ class SweepBank:
     signals: np.ndarray
     diverged: np.ndarray
     damping: np.ndarray
+    rate: np.ndarray
+    n_samples: np.ndarray
+
+    def sweep(self, k: int) -> Sweep:
+        """The sweep of kn ``k``'s records."""
+        return self.spec.sweep_of(float(self.rate[k]))
+
+    def records(self, k: int, runs) -> np.ndarray:
+        """kn ``k``'s records of the sweeps ``runs`` (runs, C, n_samples[k]) [m/s^2]."""
+        return self.signals[k, runs, :, :int(self.n_samples[k])]
 
 
 def simulate_bank(
@@ -209,7 +256,8 @@ def simulate_bank(
     folder.mkdir(parents=True, exist_ok=True)
     spec_json = {"spec": asdict(spec), "model": system.fingerprint(), "delta_ref": DELTA_REF}
     (folder / "spec.json").write_text(json.dumps(spec_json, indent=2, default=float))
-    kn, ratio, damping = spec._draw()
+    kn, ratio, damping, rate = spec._draw()
+    lengths = np.array([record_samples(spec.sweep_of(float(r)), spec.sample_rate) for r in rate])
     flat_kn = np.repeat(kn, spec.n_ratios)
     flat_s = ratio.reshape(-1)
     n = flat_kn.size
@@ -228,30 +276,32 @@ def simulate_bank(
                   quantity="acceleration", frame="relative", sample_rate=spec.sample_rate,
                   dtype=dtype, device=device, progress=progress,
                   quasi_static_hz=spec.quasi_static_hz)
-        if spec.damping_range is None:
+        if spec.damping_range is None and spec.rate_range is None:
             res = simulate_sweeps(system, kn=flat_kn[sl], level_g=flat_s[sl] * DELTA_REF, **kw)
-            time, sig, div = res.time, res.signals, res.diverged
-        else:  # one damping per kn: a call per kn of the chunk
-            parts = []
+            sig, div = res.signals, res.diverged
+        else:  # one damping and one sweep per kn: a call per kn of the chunk
+            sig = np.zeros((size, len(spec.channels), lengths.max()), np.float32)
+            div = np.zeros(size, bool)
             for k in np.unique(np.arange(n)[sl] // spec.n_ratios):
                 js = np.arange(max(sl.start, k * spec.n_ratios),
                                min(sl.stop, (k + 1) * spec.n_ratios))
-                res = simulate_sweeps(system.replace(C=damping[k] * np.asarray(system.C)),
-                                      kn=flat_kn[js], level_g=flat_s[js] * DELTA_REF, **kw)
-                parts.append(res)
-            time = parts[0].time
-            sig = np.concatenate([r.signals for r in parts])
-            div = np.concatenate([r.diverged for r in parts])
+                system_k = (system if spec.damping_range is None else
+                            system.replace(C=damping[k] * np.asarray(system.C)))
+                res = simulate_sweeps(system_k, kn=flat_kn[js], level_g=flat_s[js] * DELTA_REF,
+                                      **{**kw, "sweep": spec.sweep_of(float(rate[k]))})
+                sig[js - sl.start, :, :res.signals.shape[-1]] = res.signals
+                div[js - sl.start] = res.diverged
         # a per-process temporary name: parallel jobs (a joblib multirun) may build one chunk
         with atomic_path(folder / f"chunk-{i:04d}.npz") as tmp:
-            np.savez(tmp, time=time, signals=sig.astype(np.float32), diverged=div)
+            np.savez(tmp, signals=sig.astype(np.float32), diverged=div)
         bar.update(size)
     bar.close()
     parts = [np.load(folder / f"chunk-{i:04d}.npz") for i in range(len(cuts))]
     signals = np.concatenate([p["signals"] for p in parts])
     diverged = np.concatenate([p["diverged"] for p in parts])
-    time = parts[0]["time"]
+    time = np.arange(signals.shape[-1]) / spec.sample_rate
     k, r = spec.n_kn, spec.n_ratios
     return SweepBank(spec=spec, key=key, kn=kn, ratio=ratio, time=time,
                      signals=signals.reshape(k, r, *signals.shape[1:]),
-                     diverged=diverged.reshape(k, r), damping=damping)
+                     diverged=diverged.reshape(k, r), damping=damping, rate=rate,
+                     n_samples=lengths)

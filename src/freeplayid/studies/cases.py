@@ -229,7 +229,8 @@ def build_cases(
     PointSets
         The kept cases; ``meta`` holds per case ``kn_index`` (index into ``bank.kn``),
         ``axis_value``, ``noise_g`` [g], ``n_runs``, ``level_max_g`` [g], ``damping`` (the
-        bank's factor on the model's C) and ``plan_index``
+        bank's factor on the model's C), ``rate`` (its factor on the sweep's rate; cases
+        cached before it was stored lack it) and ``plan_index``
         (its entry of :func:`plan_cases`, for :func:`rebuild_case`; cases cached before it
         was stored lack it); ``noise_db`` each point's noise floor relative to it [dB].
     """
@@ -242,7 +243,7 @@ def build_cases(
         return PointSets.load(final)
     folder.mkdir(parents=True, exist_ok=True)
     chans = bank.spec.channels
-    fs, sweep = bank.spec.sample_rate, bank.spec.sweep
+    fs = bank.spec.sample_rate
     plan = plan_cases(bank, spec)
 
     # Noise-free extraction: once per sweep (at DELTA_REF), scaled per case.
@@ -253,8 +254,8 @@ def build_cases(
     else:
         need = sorted({(c.kn_index, int(r)) for c in plan if c.noise_g == 0 for r in c.runs})
         out = Parallel(n_jobs=spec.n_jobs, batch_size=16)(
-            delayed(_extract)(bank.signals[k, r][None], fs, sweep, chans, spec.extraction,
-                              [f"k{k}s{r}"])
+            delayed(_extract)(bank.records(k, [r]), fs, bank.sweep(k), chans,
+                              spec.extraction, [f"k{k}s{r}"])
             for k, r in progress_bar(need, desc="clean points", unit="sweep",
                                      show=progress and bool(need))
         )
@@ -273,10 +274,10 @@ def build_cases(
         if not path.is_file():
             noisy = [i for i, c in enumerate(block) if c.noise_g > 0]
             got = Parallel(n_jobs=spec.n_jobs, batch_size=4)(
-                delayed(_noisy_case)(bank.signals[block[i].kn_index, block[i].runs],
+                delayed(_noisy_case)(bank.records(block[i].kn_index, block[i].runs),
                                      block[i].delta / DELTA_REF, block[i].noise_g * G,
-                                     block[i].seed,
-                                     fs, sweep, chans, spec.extraction)
+                                     block[i].seed, fs, bank.sweep(block[i].kn_index), chans,
+                                     spec.extraction)
                 for i in noisy
             )
             pts = dict(zip(noisy, got, strict=True))
@@ -310,6 +311,7 @@ def build_cases(
         "n_runs": np.array([len(c.runs) for c in plan]),
         "level_max_g": np.array([bank.ratio[c.kn_index, c.runs].max() * c.delta for c in plan]),
         "damping": np.array([bank.damping[c.kn_index] for c in plan]),
+        "rate": np.array([bank.rate[c.kn_index] for c in plan]),
         "plan_index": np.arange(len(plan)),
     }
     ps = PointSets(
@@ -383,11 +385,12 @@ def rebuild_case(bank: SweepBank, spec: CaseSpec, ps: PointSets, i: int, *,
         raise ValueError(f"case {i}: the plan's entry {j} has another kn or delta than the "
                          "stored case; the cases come from another bank or spec")
     k = case.kn_index
-    x = _case_records(bank.signals[k, case.runs], case.delta / DELTA_REF, case.noise_g * G,
+    x = _case_records(bank.records(k, case.runs), case.delta / DELTA_REF, case.noise_g * G,
                       case.seed)
-    hint = bank.spec.sweep.to_dict()
+    hint = bank.sweep(k).to_dict()
+    time = np.asarray(bank.time[:x.shape[-1]], dtype=float)
     runs = tuple(
-        Run(file=f"k{k}s{int(r)}", time=np.asarray(bank.time, dtype=float), data=x[m],
+        Run(file=f"k{k}s{int(r)}", time=time, data=x[m],
             level_g=float(bank.ratio[k, r] * case.delta), sweep=dict(hint))
         for m, r in enumerate(case.runs)
     )

@@ -228,6 +228,7 @@ def _train() -> dict[str, Rule]:
         "dataset.bank.chunk_sweeps": integer(1),
         "dataset.bank.quasi_static_hz": optional(positive()),
         "dataset.bank.damping_range": optional(numbers(positive(), length=2, increasing=True)),
+        "dataset.bank.rate_range": optional(numbers(positive(), length=2, increasing=True)),
         "dataset.cases.axis": choice("noise_g", "delta"),
         "dataset.cases.values": numbers(number(0.0)), "dataset.cases.noise_g": number(0.0),
         "dataset.cases.delta_range": numbers(positive(), length=2, increasing=True),
