@@ -21,7 +21,7 @@ from .formulation import ModalForm, build_modal_form
 from .quasistatic import QuasiStaticForm, condense_modal_form
 from .resample import derivative_taps, design_decimator
 
-__all__ = ["StepPlan", "step_plan", "rk4_step_count", "DEFAULT_OMEGA_DT"]
+__all__ = ["StepPlan", "step_plan", "output_samples", "rk4_step_count", "DEFAULT_OMEGA_DT"]
 
 # omega_max * dt of the fastest closed-hinge mode. Measured on the 12-DOF test fin (3 kHz top
 # mode, docs/simulate.md): at 1.5 the linear response is within ~3e-7 of the matrix-exponential
@@ -66,6 +66,11 @@ class StepPlan:
     n_steps: int
 
 
+def output_samples(sweep, sample_rate: float) -> int:
+    """Samples of a simulated record: [0, ``sweep.duration``] at ``sample_rate``."""
+    return int(math.floor(sweep.duration * sample_rate + 1e-9)) + 1
+
+
 def step_plan(system, *, kn_max, sweep, sample_rate, channels, quantity, frame, method,
               cutoff_hz, quasi_static_hz, omega_dt, steps_per_sample, large_mass_ratio,
               filters: bool = True, max_step=rk4_max_step, distinct_kn: int = 1,
@@ -107,7 +112,7 @@ def step_plan(system, *, kn_max, sweep, sample_rate, channels, quantity, frame, 
         m = int(steps_per_sample)
     h = 1.0 / (sample_rate * m)
 
-    n_out = int(math.floor(sweep.duration * sample_rate + 1e-9)) + 1
+    n_out = output_samples(sweep, sample_rate)
     if not filters:
         return StepPlan(form=form, qs=qs, m=m, h=h, taps=None, taps_d=None, n_out=n_out,
                          look=0, n_steps=(n_out - 1) * m + 1)

@@ -176,12 +176,6 @@ def scaled_sweep(sweep: Sweep, rate: float) -> Sweep:
     return Sweep(**{**sweep.to_dict(), key: float(getattr(sweep, key)) * float(rate)})
 
 
-def record_samples(sweep: Sweep, sample_rate: float) -> int:
-    """Samples of a record covering [0, ``sweep.duration``] at ``sample_rate`` (as the
-    simulator writes it)."""
-    return int(math.floor(sweep.duration * sample_rate + 1e-9)) + 1
-
-
 @dataclass(frozen=True)
 class SweepBank:
     """Simulated records at the reference gap.
@@ -243,6 +237,7 @@ def simulate_bank(
     import torch
 
     from ..simulate import simulate_sweeps
+    from ..simulate.plan import output_samples
 
     missing = [c for c in spec.channels if c not in system.dof_names]
     if missing:
@@ -257,7 +252,7 @@ def simulate_bank(
     spec_json = {"spec": asdict(spec), "model": system.fingerprint(), "delta_ref": DELTA_REF}
     (folder / "spec.json").write_text(json.dumps(spec_json, indent=2, default=float))
     kn, ratio, damping, rate = spec._draw()
-    lengths = np.array([record_samples(spec.sweep_of(float(r)), spec.sample_rate) for r in rate])
+    lengths = np.array([output_samples(spec.sweep_of(float(r)), spec.sample_rate) for r in rate])
     flat_kn = np.repeat(kn, spec.n_ratios)
     flat_s = ratio.reshape(-1)
     n = flat_kn.size
