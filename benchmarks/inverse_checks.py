@@ -75,7 +75,7 @@ def other_noise(models: dict, values: list[float], cache: str) -> None:
 
 
 def independent(models: dict, folder: str) -> None:
-    from freeplayid.estimate import extract_points
+    from freeplayid.estimate import extract_points, point_rates, run_sweeps
     from freeplayid.fit import FittingPoints
     from freeplayid.inverse import point_sets_from_records
     from freeplayid.io.dataset_files import read_dataset
@@ -96,12 +96,14 @@ def independent(models: dict, folder: str) -> None:
             continue
         if set(fp.channel) - chans:
             continue
+        rate = point_rates(fp, run_sweeps(ds, pts, Extraction()))  # for a rate-input network
         kn, delta = ds.truth["kn"], ds.truth["delta"]
         cells = []
         for name, m in models.items():
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                p = m.predict(point_sets_from_records(fp, m.channels))
+                p = m.predict(point_sets_from_records(fp, m.channels,
+                                                      rate=rate if m.uses_rate else None))
             e = (p.delta[0] / delta - 1, p.kn[0] / kn - 1)
             z = (np.log(delta / p.delta[0]) / p.log_delta_std[0],
                  np.log(kn / p.kn[0]) / p.log_kn_std[0])

@@ -42,7 +42,7 @@ from .sweep import Sweep
 from .threads import each
 
 __all__ = ["PlainEstimate", "plain_estimate", "refit", "extract_points", "run_sweep_law",
-           "weights_of"]
+           "run_sweeps", "point_rates", "weights_of"]
 
 
 @dataclass(frozen=True)
@@ -235,9 +235,12 @@ def plain_estimate(dataset, system, *, extraction: Extraction, fit: FitOptions, 
     pts, rejected = extract_points(dataset, extraction=extraction, progress=progress, desc=desc)
     check_enough(pts, rejected, where)
     points = FittingPoints.from_extraction(pts, dofs=dataset.channels)
-    start = resolve_start(init, points, multistart=fit.multistart)
-    if start.inverse is not None and hasattr(init, "sweep_outside"):
-        start = _sweep_domain(start, init, dataset, pts, extraction)
+    sweeps = (run_sweeps(dataset, pts, extraction) if hasattr(init, "predict_points")
+              and hasattr(init, "sweep_outside") else None)
+    start = resolve_start(init, points, multistart=fit.multistart,
+                          rate=None if sweeps is None else point_rates(points, sweeps))
+    if sweeps is not None:
+        start = _sweep_domain(start, init, sweeps)
     result = fit_backbone(points, system, init=start.points, init_label=start.label,
                           backbone=fit.backbone, mode=fit.mode, n_bootstrap=fit.n_bootstrap,
                           seed=fit.seed, weights=weights_of(points, point_weights),
@@ -246,22 +249,39 @@ def plain_estimate(dataset, system, *, extraction: Extraction, fit: FitOptions, 
                          dofs=dict(dataset.channels), inverse_estimate=start.inverse)
 
 
-def _sweep_domain(start: Start, model, dataset, pts, extraction: Extraction) -> Start:
-    """``start`` with the runs whose sweep at their point lies outside the network's training
-    (:meth:`freeplayid.inverse.InverseModel.sweep_outside`) added to its estimate's
-    ``outside`` and warned of (:class:`InverseDomainWarning`), as points outside its domain
-    are, before the estimate starts the fit."""
+def run_sweeps(dataset, pts, extraction: Extraction) -> list:
+    """(run, Sweep, median frequency of its points [Hz]) of each run with used points of the
+    extraction ``pts`` (:func:`run_sweep_law`: its hint, else its estimated law; a run
+    without one is left out)."""
     at = {}
     for p in pts.used():
         at.setdefault(p.run, []).append(p.f_hz)
-    sweeps = []
+    out = []
     for run in dataset.runs:
         if run.file in at:
             try:
                 sweep = run_sweep_law(dataset, run, use_hint=extraction.use_sweep_hint)[0]
             except ValueError:  # no law: the extraction found its points without one
                 continue
-            sweeps.append((run.file, sweep, float(np.median(at[run.file]))))
+            out.append((run.file, sweep, float(np.median(at[run.file]))))
+    return out
+
+
+def point_rates(points: FittingPoints, sweeps) -> np.ndarray | None:
+    """Each point's sweep rate [Hz/s] at its frequency, from ``sweeps`` (:func:`run_sweeps`);
+    None when a point's run has no law (or the points no runs)."""
+    law = {run: sweep for run, sweep, _ in sweeps}
+    if points.run is None or any(r not in law for r in points.run):
+        return None
+    return np.array([abs(float(law[r].rate(law[r].time_at(np.array([f]))[0])))
+                     for r, f in zip(points.run, points.f_hz, strict=True)])
+
+
+def _sweep_domain(start: Start, model, sweeps) -> Start:
+    """``start`` with the runs whose sweep at their point lies outside the network's training
+    (:meth:`freeplayid.inverse.InverseModel.sweep_outside`; ``sweeps`` of :func:`run_sweeps`)
+    added to its estimate's ``outside`` and warned of (:class:`InverseDomainWarning`), as
+    points outside its domain are, before the estimate starts the fit."""
     why = model.sweep_outside(sweeps)
     if not why:
         return start

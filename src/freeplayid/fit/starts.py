@@ -35,14 +35,17 @@ class Start:
     inverse: dict | None = None
 
 
-def _inverse_estimate(model, points) -> dict:
-    """The inverse model's estimate of (kn, delta) from the fitting points; ``outside``: the
-    model's warning when the points lie outside its training domain (warned again here, before
-    the estimate starts the fit), else ''."""
+def _inverse_estimate(model, points, rate=None) -> dict:
+    """The inverse model's estimate of (kn, delta) from the fitting points (and each point's
+    sweep rate ``rate`` [Hz/s], for a network that reads it); ``outside``: the model's warning
+    when the points lie outside its training domain (warned again here, before the estimate
+    starts the fit), else ''."""
     try:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", InverseDomainWarning)
-            kn, delta, s_kn, s_delta = model.predict_points(points)
+            kn, delta, s_kn, s_delta = (model.predict_points(points, rate=rate)
+                                        if getattr(model, "uses_rate", False) else
+                                        model.predict_points(points))
     except ValueError as exc:  # e.g. a channel the network was not trained on
         raise InverseModelError(f"{getattr(model, 'path', 'inverse model')}: {exc}") from None
     outside = [str(w.message) for w in caught if issubclass(w.category, InverseDomainWarning)]
@@ -57,13 +60,14 @@ def _inverse_estimate(model, points) -> dict:
 
 
 def resolve_start(init, points, *, label: str | None = None,
-                  multistart: MultiStart | None = None) -> Start:
+                  multistart: MultiStart | None = None, rate=None) -> Start:
     """The start(s) of a fit of ``points`` from ``init``.
 
     ``init``: an object with ``predict_points(points) -> (kn, delta, log-stds...)`` (a
     :class:`freeplayid.inverse.InverseModel`: one start at its estimate, label "inverse"),
     one (kn, delta) or a sequence of them (label ``label``, else "given" for one and
     "multistart" for several), or None (``multistart``'s grid, default :class:`MultiStart`).
+    ``rate``: each point's sweep rate [Hz/s], for an inverse model that reads it.
 
     Raises
     ------
@@ -73,7 +77,7 @@ def resolve_start(init, points, *, label: str | None = None,
         The inverse model cannot take these points.
     """
     if hasattr(init, "predict_points"):
-        est = _inverse_estimate(init, points)
+        est = _inverse_estimate(init, points, rate)
         return Start([(est["kn"], est["delta"])], label or "inverse", est)
     if init is None:
         return Start((multistart or MultiStart()).starts(), "multistart")

@@ -101,8 +101,14 @@ class InverseModel:
         Raises
         ------
         ValueError
-            ``ps.channels`` differ from the model's, or cases have no points (named).
+            ``ps.channels`` differ from the model's, or cases have no points (named), or the
+            network reads the points' sweep rates (:attr:`uses_rate`) and ``ps`` has none.
         """
+        if self.uses_rate and ps.rate is None:
+            raise ValueError(f"inverse model {self.path or ''}: this network reads each point's "
+                             "sweep rate [Hz/s] and the points have none (give them: "
+                             "predict_points(points, rate=...), point_sets_from_records(..., "
+                             "rate=...))")
         if ps.channels != self.channels:
             raise ValueError(f"`ps.channels` must be the model's channels {list(self.channels)}, "
                              f"got {list(ps.channels)}")
@@ -205,8 +211,15 @@ class InverseModel:
                        + ")")
         return "; ".join(why)
 
-    def predict_points(self, points: FittingPoints) -> tuple[float, float, float, float]:
-        """One case from its fitting points (the start of ``fit_backbone(..., init=model)``).
+    @property
+    def uses_rate(self) -> bool:
+        """Whether the network reads each point's sweep rate (trained with the rate input)."""
+        return self.norm.uses_rate
+
+    def predict_points(self, points: FittingPoints, *,
+                       rate=None) -> tuple[float, float, float, float]:
+        """One case from its fitting points (the start of ``fit_backbone(..., init=model)``);
+        ``rate``: each point's sweep rate [Hz/s] (needed when :attr:`uses_rate`, else unused).
 
         Returns
         -------
@@ -222,12 +235,14 @@ class InverseModel:
         if not isinstance(points, FittingPoints):
             raise TypeError(f"`points` must be a freeplayid.fit.FittingPoints, got "
                             f"{type(points).__name__} (records: use predict_records)")
-        p = self.predict(point_sets_from_records(points, self.channels))
+        p = self.predict(point_sets_from_records(points, self.channels,
+                                                 rate=rate if self.uses_rate else None))
         return float(p.kn[0]), float(p.delta[0]), float(p.log_kn_std[0]), float(p.log_delta_std[0])
 
-    def predict_records(self, records: Sequence[dict]) -> tuple[float, float, float, float]:
+    def predict_records(self, records: Sequence[dict], *,
+                        rate=None) -> tuple[float, float, float, float]:
         """One case from point records (``channel``, ``amplitude_m``, ``f_hz``; ``used``), as
-        :meth:`predict_points` (one used record suffices here).
+        :meth:`predict_points` (one used record suffices here; ``rate`` for its used ones).
 
         Returns
         -------
@@ -238,7 +253,8 @@ class InverseModel:
         ValueError
             A record's channel is not one of :attr:`channels` (listed), or no point is used.
         """
-        p = self.predict(point_sets_from_records(records, self.channels))
+        p = self.predict(point_sets_from_records(records, self.channels,
+                                                 rate=rate if self.uses_rate else None))
         return float(p.kn[0]), float(p.delta[0]), float(p.log_kn_std[0]), float(p.log_delta_std[0])
 
 

@@ -33,7 +33,9 @@ __all__ = ["InverseModule", "PointSetDataModule", "train_inverse_model", "gaussi
            "make_logger", "LOGGERS"]
 
 _CKPT_KEY = "freeplayid_inverse"  # marks our checkpoints; the value is the format version
-_CKPT_VERSION = 2  # 2: the normalisation may carry the noise input's (2026-11-29)
+# 2: the normalisation may carry the noise input's (2026-11-29), and the rate input's
+# (2026-11-30; a checkpoint without it reads as before)
+_CKPT_VERSION = 2
 # the linear structure (FreeplaySystem.structure()) the cases came from: compared with a model's
 # within a relative tolerance on loading (the fingerprint alone is exact to 12 decimals)
 _STRUCTURE_KEY = "freeplayid_structure"
@@ -123,7 +125,8 @@ class InverseModule(pl.LightningModule):
             "schedule": schedule, "extra": _plain(extra),
         })
         self.net = InverseNet(len(channels), hidden=hidden, depth=depth, activation=activation,
-                              noise_input=self._norm.uses_noise)
+                              noise_input=self._norm.uses_noise,
+                              rate_input=self._norm.uses_rate)
 
     @property
     def channels(self) -> tuple[str, ...]:
@@ -238,11 +241,13 @@ class PointSetDataModule(pl.LightningDataModule):
     The normalisation comes from ``train`` only and is ``dm.norm``. Every case must have its
     truth and at least one point. ``num_workers=0``: collating a batch takes microseconds.
     ``noise_input``: whether the network reads each point's noise floor (``noise_db``; None:
-    when every point of ``train`` has a finite one).
+    when every point of ``train`` has a finite one); ``rate_input``: its sweep's rate
+    (``rate``).
     """
 
     def __init__(self, train: PointSets, val: PointSets, test: PointSets | None = None, *,
-                 batch_size: int = 64, noise_input: bool | None = None):
+                 batch_size: int = 64, noise_input: bool | None = None,
+                 rate_input: bool = False):
         super().__init__()
         for name, ps in (("train", train), ("val", val), ("test", test)):
             if ps is not None:
@@ -254,7 +259,7 @@ class PointSetDataModule(pl.LightningDataModule):
             raise ValueError(f"`batch_size` must be >= 1, got {batch_size!r}")
         self.train_set, self.val_set, self.test_set = train, val, test
         self.batch_size = int(batch_size)
-        self.norm = Normalisation.from_point_sets(train, noise=noise_input)
+        self.norm = Normalisation.from_point_sets(train, noise=noise_input, rate=rate_input)
 
     def _loader(self, ps: PointSets, *, shuffle: bool) -> torch.utils.data.DataLoader:
         return torch.utils.data.DataLoader(
@@ -390,7 +395,7 @@ def train_inverse_model(
     accelerator: str = "auto", enable_progress_bar: bool = True,
     logger: bool | str = True, log_dir: str | os.PathLike | None = None,
     early_stopping: Mapping | None = None, trainer_kwargs: Mapping | None = None,
-    noise_input: bool | None = None,
+    noise_input: bool | None = None, rate_input: bool = False,
 ) -> tuple[InverseModule, pl.Trainer, dict[str, list]]:
     """Seeded training of an :class:`InverseModule` on ``train``, validated on ``val``.
 
@@ -428,6 +433,8 @@ def train_inverse_model(
     noise_input : bool, optional
         Whether each point's noise floor (``noise_db``) is a network input (None: when every
         training point has a finite one; :class:`PointSetDataModule`).
+    rate_input : bool
+        Whether each point's sweep rate (``rate``) is a network input.
 
     Returns
     -------
@@ -442,7 +449,8 @@ def train_inverse_model(
         raise ValueError(f"`channels` must equal `train.channels` {list(train.channels)}, "
                          f"got {list(channels)}")
     pl.seed_everything(seed, workers=True, verbose=False)
-    dm = PointSetDataModule(train, val, batch_size=batch_size, noise_input=noise_input)
+    dm = PointSetDataModule(train, val, batch_size=batch_size, noise_input=noise_input,
+                            rate_input=rate_input)
     module = InverseModule(channels=channels, fingerprint=fingerprint, norm=dm.norm,
                            hidden=hidden, depth=depth, activation=activation, lr=lr,
                            weight_decay=weight_decay, schedule=schedule, extra=extra,

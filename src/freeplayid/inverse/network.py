@@ -64,6 +64,9 @@ class Normalisation:
     noise_db_mean, noise_db_std : float or None [dB]
         Of the points' noise floor relative to them over all training points; None: the
         network has no noise input (trained without it).
+    log_rate_mean, log_rate_std : float or None [log(Hz/s)]
+        Of ``log`` of the sweep's rate at each training point; None: the network has no rate
+        input (trained without it).
     """
 
     log_amplitude_mean: float
@@ -76,23 +79,32 @@ class Normalisation:
     log_delta_std: float
     noise_db_mean: float | None = None
     noise_db_std: float | None = None
+    log_rate_mean: float | None = None
+    log_rate_std: float | None = None
 
     @property
     def uses_noise(self) -> bool:
         """Whether the network reads each point's noise floor (a third point feature)."""
         return self.noise_db_mean is not None
 
+    @property
+    def uses_rate(self) -> bool:
+        """Whether the network reads each point's sweep rate (the feature after the noise)."""
+        return self.log_rate_mean is not None
+
     @classmethod
-    def from_point_sets(cls, ps: PointSets, *, noise: bool | None = None) -> Normalisation:
+    def from_point_sets(cls, ps: PointSets, *, noise: bool | None = None,
+                        rate: bool = False) -> Normalisation:
         """Statistics of the training set ``ps``: features over its points, targets over its cases
         with known truth (finite, > 0 kn and delta); with ``noise``, the points' ``noise_db``
-        too (the network then reads it; None: when every point has a finite one).
+        too (the network then reads it; None: when every point has a finite one); with
+        ``rate``, the log of the points' sweep rates (``ps.rate``; the network then reads it).
 
         Raises
         ------
         ValueError
             ``ps`` has no points, or no case with known truth, or ``noise`` and ``ps`` has no
-            finite ``noise_db`` for every point.
+            finite ``noise_db`` for every point, or ``rate`` and ``ps`` has no ``rate``.
         """
         if ps.case.size == 0:
             raise ValueError("`ps` must contain points to normalise by, got 0 points")
@@ -114,6 +126,12 @@ class Normalisation:
                                  "set network.noise_input=false)")
             extra = {"noise_db_mean": float(ps.noise_db.mean()),
                      "noise_db_std": _spread(ps.noise_db)}
+        if rate:
+            if ps.rate is None:
+                raise ValueError("`ps` must have each point's sweep rate to train the rate input "
+                                 "(or set network.rate_input=false)")
+            log_rate = np.log(ps.rate)
+            extra.update(log_rate_mean=float(log_rate.mean()), log_rate_std=_spread(log_rate))
         return cls(
             log_amplitude_mean=float(log_a.mean()), log_amplitude_std=_spread(log_a),
             frequency_mean=float(ps.frequency.mean()), frequency_std=_spread(ps.frequency),
@@ -123,8 +141,8 @@ class Normalisation:
         )
 
     def as_dict(self) -> dict[str, float]:
-        """Plain ``{name: float}`` (what a checkpoint stores; the noise's entries only when the
-        network reads it)."""
+        """Plain ``{name: float}`` (what a checkpoint stores; the noise's and the rate's entries
+        only when the network reads them)."""
         return {k: float(v) for k, v in asdict(self).items() if v is not None}
 
     @classmethod
@@ -133,15 +151,17 @@ class Normalisation:
         if isinstance(d, Normalisation):
             return d
         names = [f.name for f in fields(cls)]
-        base = names[:-2]  # without the noise's pair (checkpoints trained without it)
-        if not isinstance(d, Mapping) or set(d) not in (set(names), set(base)):
+        base, noise, rate = names[:-4], names[-4:-2], names[-2:]  # the inputs' pairs optional
+        allowed = [set(base + n + r) for n in ([], noise) for r in ([], rate)]
+        if not isinstance(d, Mapping) or set(d) not in allowed:
             got = sorted(d) if isinstance(d, Mapping) else type(d).__name__
             raise ValueError(f"`norm` must be a mapping with exactly the keys {names} (or "
-                             f"without the last two), got {got}")
+                             f"without the noise's or the rate's pair), got {got}")
         out = cls(**{k: float(d[k]) for k in names if k in d})
         if not all(math.isfinite(v) for v in out.as_dict().values()) or min(
             out.log_amplitude_std, out.frequency_std, out.log_kn_std, out.log_delta_std,
-            out.noise_db_std if out.uses_noise else 1.0
+            out.noise_db_std if out.uses_noise else 1.0,
+            out.log_rate_std if out.uses_rate else 1.0,
         ) <= 0:
             raise ValueError(f"`norm` must have finite means and stds > 0, got {out}")
         return out
@@ -179,9 +199,10 @@ def collate_point_sets(
     -------
     dict with
         ``x`` : Tensor, shape (batch, max_points, n_features) float32 -- features
-        ``[(log A - m) / s, (f - m) / s, (noise_db - m) / s, one-hot channel]`` (the noise only
-        when ``norm.uses_noise``; a point without one gets the training mean, 0), zero on
-        padding; ``n_features = 2 + norm.uses_noise + n_channels``;
+        ``[(log A - m) / s, (f - m) / s, (noise_db - m) / s, (log rate - m) / s, one-hot
+        channel]`` (the noise only when ``norm.uses_noise``, a point without one getting the
+        training mean, 0; the rate only when ``norm.uses_rate``, which needs ``ps.rate``), zero
+        on padding; ``n_features = 2 + norm.uses_noise + norm.uses_rate + n_channels``;
         ``mask`` : Tensor, shape (batch, max_points) bool -- True on real points;
         ``y`` : Tensor, shape (batch, 2) float32 -- normalised (log kn, log delta), NaN where the
         truth is unknown;
@@ -189,6 +210,9 @@ def collate_point_sets(
         ``max_points`` is at least 1 so that a batch of empty sets still has a point axis.
     """
     norm = Normalisation.from_dict(norm)
+    if norm.uses_rate and ps.rate is None:
+        raise ValueError("this network reads each point's sweep rate, and the points have none "
+                         "(give `rate`: point_sets_from_records(..., rate=...))")
     n_all = ps.n_points
     idx = np.arange(ps.n_cases) if cases is None else np.asarray(cases, dtype=np.int64).ravel()
     if idx.size and (idx.min() < 0 or idx.max() >= ps.n_cases):
@@ -202,7 +226,7 @@ def collate_point_sets(
     rows = starts[idx][batch_of] + pos if idx.size else np.zeros(0, np.int64)
 
     n_ch = len(ps.channels)
-    first = 2 + int(norm.uses_noise)  # column of the one-hot channel's first entry
+    first = 2 + int(norm.uses_noise) + int(norm.uses_rate)  # the one-hot channel's first column
     x = np.zeros((idx.size, max(int(lengths.max(initial=0)), 1), first + n_ch), np.float32)
     x[batch_of, pos, 0] = (np.log(ps.amplitude[rows]) - norm.log_amplitude_mean) / (
         norm.log_amplitude_std
@@ -211,6 +235,9 @@ def collate_point_sets(
     if norm.uses_noise and ps.noise_db is not None:
         z = (ps.noise_db[rows] - norm.noise_db_mean) / norm.noise_db_std
         x[batch_of, pos, 2] = np.where(np.isfinite(z), z, 0.0)
+    if norm.uses_rate:
+        x[batch_of, pos, first - 1] = (np.log(ps.rate[rows]) - norm.log_rate_mean) / (
+            norm.log_rate_std)
     x[batch_of, pos, first + ps.channel[rows]] = 1.0
     mask = np.zeros(x.shape[:2], bool)
     mask[batch_of, pos] = True
@@ -252,10 +279,12 @@ class InverseNet(nn.Module):
     noise_input : bool
         Whether each point carries its noise floor as a third feature
         (:func:`collate_point_sets`).
+    rate_input : bool
+        Whether each point carries its sweep's rate (log) as the feature after the noise.
     """
 
     def __init__(self, n_channels: int, *, hidden: int = 64, depth: int = 3,
-                 activation: str = "silu", noise_input: bool = False):
+                 activation: str = "silu", noise_input: bool = False, rate_input: bool = False):
         super().__init__()
         if int(n_channels) < 1:
             raise ValueError(f"`n_channels` must be >= 1, got {n_channels!r}")
@@ -264,7 +293,7 @@ class InverseNet(nn.Module):
         if activation not in _ACTIVATIONS:
             raise ValueError(f"`activation` must be one of {sorted(_ACTIVATIONS)}, "
                              f"got {activation!r}")
-        self.n_features = 2 + int(bool(noise_input)) + int(n_channels)
+        self.n_features = 2 + int(bool(noise_input)) + int(bool(rate_input)) + int(n_channels)
         self.phi = _mlp(self.n_features, [hidden] * depth, activation, last_activation=True)
         self.rho = _mlp(2 * hidden + 1, [hidden] * max(depth - 1, 1) + [4], activation,
                         last_activation=False)

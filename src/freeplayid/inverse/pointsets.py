@@ -8,6 +8,7 @@ with a ``case`` index, sorted by case, the layout a set network pads per batch.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -44,6 +45,9 @@ class PointSets:
     noise_db : ndarray, shape (P,) [dB], or None
         Each point's record's noise floor relative to the point (``noise_db`` of
         :class:`freeplayid.signal.BackbonePoint`), NaN where not measured; None: none recorded.
+    rate : ndarray, shape (P,) [Hz/s], or None
+        The sweep's rate at each point (its magnitude, > 0; a log sweep's grows with the
+        frequency); None: none recorded.
     """
 
     channels: tuple
@@ -55,14 +59,15 @@ class PointSets:
     delta: np.ndarray
     meta: dict = field(default_factory=dict)
     noise_db: np.ndarray | None = None
+    rate: np.ndarray | None = None
 
     def __post_init__(self):
         n = self.kn.shape[0]
         p = self.case.shape[0]
         if self.delta.shape != (n,):
             raise ValueError(f"`delta` must have shape ({n},), got {self.delta.shape}")
-        for name in ("channel", "amplitude", "frequency") + (
-                ("noise_db",) if self.noise_db is not None else ()):
+        for name in ("channel", "amplitude", "frequency") + tuple(
+                k for k in ("noise_db", "rate") if getattr(self, k) is not None):
             if getattr(self, name).shape != (p,):
                 got = getattr(self, name).shape
                 raise ValueError(f"`{name}` must have shape ({p},), got {got}")
@@ -72,6 +77,8 @@ class PointSets:
             raise ValueError(f"`channel` indices must lie in [0, {len(self.channels)})")
         if np.any(~(self.amplitude > 0)) or np.any(~(self.frequency > 0)):
             raise ValueError("point amplitudes and frequencies must be finite and > 0")
+        if self.rate is not None and np.any(~(self.rate > 0)):
+            raise ValueError("point sweep rates must be finite and > 0")
         for k, v in self.meta.items():
             if np.shape(v)[:1] != (n,):
                 raise ValueError(f"meta[{k!r}] must have {n} entries, got shape {np.shape(v)}")
@@ -103,7 +110,12 @@ class PointSets:
             frequency=self.frequency[rows], kn=self.kn[idx], delta=self.delta[idx],
             meta={k: np.asarray(v)[idx] for k, v in self.meta.items()},
             noise_db=None if self.noise_db is None else self.noise_db[rows],
+            rate=None if self.rate is None else self.rate[rows],
         )
+
+    def with_rate(self, rate) -> PointSets:
+        """These point sets with each point's sweep rate ``rate`` (P,) [Hz/s]."""
+        return dataclasses.replace(self, rate=np.asarray(rate, dtype=float).reshape(-1))
 
     def fitting_points(self, i: int) -> FittingPoints:
         """Case ``i`` as :class:`~freeplayid.fit.FittingPoints` (for ``fit_backbone``).
@@ -146,6 +158,8 @@ class PointSets:
             meta={k: np.concatenate([np.asarray(p.meta[k]) for p in parts]) for k in keys},
             noise_db=None if any(p.noise_db is None for p in parts) else
             np.concatenate([p.noise_db for p in parts]),
+            rate=None if any(p.rate is None for p in parts) else
+            np.concatenate([p.rate for p in parts]),
         )
 
     def save(self, path) -> None:
@@ -157,6 +171,7 @@ class PointSets:
                      kn=self.kn, delta=self.delta,
                      meta_keys=np.array(sorted(self.meta), dtype=str),
                      **({} if self.noise_db is None else {"noise_db": self.noise_db}),
+                     **({} if self.rate is None else {"rate": self.rate}),
                      **{f"meta_{k}": np.asarray(v) for k, v in self.meta.items()})
 
     @staticmethod
@@ -168,14 +183,16 @@ class PointSets:
                 kn=z["kn"], delta=z["delta"],
                 meta={str(k): z[f"meta_{k}"] for k in z["meta_keys"]},
                 noise_db=z["noise_db"] if "noise_db" in z.files else None,
+                rate=z["rate"] if "rate" in z.files else None,
             )
 
 
 def point_sets_from_records(records: FittingPoints | Sequence[dict],
-                            channels: Sequence[str]) -> PointSets:
+                            channels: Sequence[str], *, rate=None) -> PointSets:
     """One case from fitting points: a :class:`~freeplayid.fit.FittingPoints`, or point records
     (``channel`` DOF name, ``amplitude_m``, ``f_hz``; ``used``, ``noise_db``; one point suffices
-    here). ``noise_db`` is kept where every point has it.
+    here). ``noise_db`` is kept where every point has it; ``rate``: each (used) point's sweep
+    rate [Hz/s], optional.
 
     Raises
     ------
@@ -209,4 +226,5 @@ def point_sets_from_records(records: FittingPoints | Sequence[dict],
         amplitude=amplitude.reshape(n), frequency=frequency.reshape(n),
         kn=np.array([np.nan]), delta=np.array([np.nan]),
         noise_db=None if noise is None else np.array(noise, dtype=float).reshape(n),
+        rate=None if rate is None else np.array(rate, dtype=float).reshape(n),
     )

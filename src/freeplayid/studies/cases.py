@@ -232,7 +232,8 @@ def build_cases(
         bank's factor on the model's C), ``rate`` (its factor on the sweep's rate; cases
         cached before it was stored lack it) and ``plan_index``
         (its entry of :func:`plan_cases`, for :func:`rebuild_case`; cases cached before it
-        was stored lack it); ``noise_db`` each point's noise floor relative to it [dB].
+        was stored lack it); ``noise_db`` each point's noise floor relative to it [dB]; ``rate``
+        each point's sweep rate there [Hz/s].
     """
     from joblib import Parallel, delayed
 
@@ -240,7 +241,7 @@ def build_cases(
     folder = Path(cache_dir) / f"cases-{key}"
     final = folder / "cases.npz"
     if final.is_file():
-        return PointSets.load(final)
+        return _with_rates(PointSets.load(final), bank)
     folder.mkdir(parents=True, exist_ok=True)
     chans = bank.spec.channels
     fs = bank.spec.sample_rate
@@ -324,7 +325,19 @@ def build_cases(
             "n_cases": ps.n_cases, "n_dropped": int((~keep).sum())}
     (folder / "spec.json").write_text(json.dumps(info, indent=2, default=float))
     ps.save(final)
-    return ps
+    return _with_rates(ps, bank)
+
+
+def _with_rates(ps: PointSets, bank: SweepBank) -> PointSets:
+    """``ps`` with each point's sweep rate (its case's kn's sweep at the point's frequency),
+    from the bank, not the cache (cases cached before it was recorded get it too)."""
+    kn_index = np.asarray(ps.meta["kn_index"])[ps.case]
+    rate = np.empty(ps.case.size)
+    for k in np.unique(kn_index):
+        sel = kn_index == k
+        sweep = bank.sweep(int(k))
+        rate[sel] = np.abs(sweep.rate(sweep.time_at(ps.frequency[sel])))
+    return ps.with_rate(rate)
 
 
 def require_plan_index(bank: SweepBank, spec: CaseSpec, ps: PointSets) -> None:

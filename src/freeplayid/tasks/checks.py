@@ -239,6 +239,7 @@ def _train() -> dict[str, Rule]:
         "dataset.split": numbers(number(0.0, 1.0, open_lo=True), length=3),
         "network.hidden": integer(1), "network.depth": integer(1),
         "network.noise_input": optional(boolean()),
+        "network.rate_input": boolean(),
         "trainer.max_epochs": integer(1), "trainer.accelerator": text(),
         "training.batch_size": integer(1),
         "training.lr": positive(), "training.weight_decay": number(0.0),

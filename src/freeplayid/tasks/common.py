@@ -143,7 +143,8 @@ def train_network(cfg: DictConfig, data: StudyData, out: Path) -> tuple[Path, di
     return train_study_network(
         data, out, extra={"dataset": OmegaConf.to_container(cfg.dataset, resolve=True)},
         hidden=int(cfg.network.hidden), depth=int(cfg.network.depth),
-        noise_input=cfg.network.get("noise_input"), lr=float(t.lr),
+        noise_input=cfg.network.get("noise_input"),
+        rate_input=bool(cfg.network.get("rate_input", False)), lr=float(t.lr),
         weight_decay=float(t.weight_decay), batch_size=int(t.batch_size),
         max_epochs=max_epochs, seed=int(cfg.seed), accelerator=accelerator,
         logger=str(cfg.logger.kind), trainer_kwargs=trainer,
