@@ -38,7 +38,7 @@ from .signal import (
     estimate_sweep,
     extract_backbone_points,
 )
-from .sweep import Sweep
+from .sweep import Sweep, rate_at
 from .threads import each
 
 __all__ = ["PlainEstimate", "plain_estimate", "refit", "extract_points", "run_sweep_law",
@@ -273,8 +273,8 @@ def point_rates(points: FittingPoints, sweeps) -> np.ndarray | None:
     law = {run: sweep for run, sweep, _ in sweeps}
     if points.run is None or any(r not in law for r in points.run):
         return None
-    return np.array([abs(float(law[r].rate(law[r].time_at(np.array([f]))[0])))
-                     for r, f in zip(points.run, points.f_hz, strict=True)])
+    return np.array([float(rate_at(law[r], f)) for r, f in zip(points.run, points.f_hz,
+                                                               strict=True)])
 
 
 def _sweep_domain(start: Start, model, sweeps) -> Start:

@@ -9,7 +9,7 @@ import numpy as np
 
 from .quantity import G
 
-__all__ = ["Sweep", "MeasuredSweep", "SWEEP_LAWS"]
+__all__ = ["Sweep", "MeasuredSweep", "SWEEP_LAWS", "rate_at"]
 
 SWEEP_LAWS = ("linear", "log")
 
@@ -334,3 +334,11 @@ class MeasuredSweep:
             return (f"the measured excitation has {np.asarray(self.phase_samples).size} samples at "
                     f"{self.sample_rate:g} Hz, the record {n_samples} at {sample_rate:g} Hz")
         return ""
+
+
+def rate_at(sweep, freq_hz) -> np.ndarray:
+    """The magnitude of the sweep's rate |df/dt| [Hz/s] where ``sweep`` (a :class:`Sweep` or
+    :class:`MeasuredSweep`) passes ``freq_hz``: a linear sweep's rate, a log sweep's at that
+    frequency."""
+    return np.abs(np.asarray(sweep.rate(sweep.time_at(np.asarray(freq_hz, dtype=float))),
+                             dtype=float))

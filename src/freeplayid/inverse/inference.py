@@ -174,7 +174,7 @@ class InverseModel:
         :data:`RATE_TOLERANCE`, is named (the points alone do not show it: a fast sweep's drop
         points lie near the backbone, later on it).
         """
-        from ..sweep import Sweep
+        from ..sweep import Sweep, rate_at
 
         bank = ((self.extra or {}).get("dataset") or {}).get("bank") or {}
         if not bank.get("sweep"):
@@ -189,8 +189,7 @@ class InverseModel:
                 other_way.append(run)
                 continue
             at = float(np.clip(f, f_lo, f_hi))
-            rate = abs(float(sweep.rate(sweep.time_at(np.array([f]))[0])))
-            base = abs(float(trained.rate(trained.time_at(np.array([at]))[0])))
+            rate, base = float(rate_at(sweep, f)), float(rate_at(trained, at))
             if not base * lo / RATE_TOLERANCE <= rate <= base * hi * RATE_TOLERANCE:
                 off.append((run, rate, f, base))
         why = []

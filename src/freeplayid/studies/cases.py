@@ -32,6 +32,7 @@ from ..atomic import atomic_path
 from ..inverse.pointsets import PointSets
 from ..progress import progress_bar
 from ..quantity import G
+from ..sweep import rate_at
 from .bank import CACHE_FORMAT, DELTA_REF, SweepBank, check_pair, digest
 
 __all__ = ["CaseSpec", "AXES", "PlannedCase", "plan_cases", "build_cases", "rebuild_case",
@@ -335,8 +336,7 @@ def _with_rates(ps: PointSets, bank: SweepBank) -> PointSets:
     rate = np.empty(ps.case.size)
     for k in np.unique(kn_index):
         sel = kn_index == k
-        sweep = bank.sweep(int(k))
-        rate[sel] = np.abs(sweep.rate(sweep.time_at(ps.frequency[sel])))
+        rate[sel] = rate_at(bank.sweep(int(k)), ps.frequency[sel])
     return ps.with_rate(rate)
 
 
