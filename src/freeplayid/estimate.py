@@ -235,8 +235,8 @@ def plain_estimate(dataset, system, *, extraction: Extraction, fit: FitOptions, 
     pts, rejected = extract_points(dataset, extraction=extraction, progress=progress, desc=desc)
     check_enough(pts, rejected, where)
     points = FittingPoints.from_extraction(pts, dofs=dataset.channels)
-    sweeps = (run_sweeps(dataset, pts, extraction) if hasattr(init, "predict_points")
-              and hasattr(init, "sweep_outside") else None)
+    # a network's start: its input may take each point's rate, its domain the runs' sweeps
+    sweeps = run_sweeps(dataset, pts, extraction) if hasattr(init, "sweep_outside") else None
     start = resolve_start(init, points, multistart=fit.multistart,
                           rate=None if sweeps is None else point_rates(points, sweeps))
     if sweeps is not None:

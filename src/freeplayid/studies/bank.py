@@ -164,16 +164,12 @@ class BankSpec:
         return kn, ratio, *factors
 
     def sweep_of(self, rate: float) -> Sweep:
-        """``sweep`` with its rate times ``rate`` (a factor of :meth:`_draw`)."""
-        return scaled_sweep(self.sweep, rate)
-
-
-def scaled_sweep(sweep: Sweep, rate: float) -> Sweep:
-    """``sweep`` with its rate (Hz/s, or octaves/min of a log sweep) times ``rate``."""
-    if rate == 1.0:
-        return sweep
-    key = "rate_hz_per_s" if sweep.law == "linear" else "octaves_per_min"
-    return Sweep(**{**sweep.to_dict(), key: float(getattr(sweep, key)) * float(rate)})
+        """``sweep`` with its rate (Hz/s, or octaves/min of a log sweep) times ``rate`` (a
+        factor of :meth:`_draw`)."""
+        if rate == 1.0:
+            return self.sweep
+        key = "rate_hz_per_s" if self.sweep.law == "linear" else "octaves_per_min"
+        return Sweep(**{**self.sweep.to_dict(), key: float(getattr(self.sweep, key)) * rate})
 
 
 @dataclass(frozen=True)
