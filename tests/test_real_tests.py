@@ -461,3 +461,26 @@ def test_intervals_stretch_where_the_answer_moves_further_than_its_statistic():
     assert _further(narrower) is None
     assert _further(dataclasses.replace(p, statistic_halfwidths=None)) is None
     assert _further(None) is None
+
+
+def test_intervals_are_never_narrower_than_the_noise_moves_the_answer():
+    """A Jacobian interval of +-0.25 % (four runs that happen to agree) under copies that spread
+    delta by +-1.2 %: delta's interval becomes +-1.2 % about the answer (by hand); kn's, already
+    wider than its copies' spread, stays; without copies nothing changes."""
+    from types import SimpleNamespace
+
+    from freeplayid.identification.pipeline import _corrected_intervals
+    from freeplayid.replay import ReplayPrecision
+
+    p = ReplayPrecision(kn_halfwidth=0.006, delta_halfwidth=0.012, n=8, n_fitted=8)
+    rep = SimpleNamespace(statistic_ci95=((460.0, 500.0), (2.9925e-3, 3.0075e-3)), kn=480.0,
+                          delta=3e-3, kn_statistic=480.0, delta_statistic=3e-3, precision=p,
+                          bootstrap=None, level=None, damping_sensitivity=None, damping=None)
+    kn_ci, delta_ci, source = _corrected_intervals(rep)
+    assert kn_ci == pytest.approx((460.0, 500.0), rel=1e-14)
+    assert delta_ci == pytest.approx((3e-3 / 1.012, 3e-3 * 1.012), rel=1e-12)
+    assert "noise alone" in source
+    kn_ci, delta_ci, source = _corrected_intervals(SimpleNamespace(**{**vars(rep),
+                                                                     "precision": None}))
+    assert delta_ci == pytest.approx((2.9925e-3, 3.0075e-3), rel=1e-14)
+    assert "noise alone" not in source
