@@ -344,6 +344,24 @@ def test_a_model_c_that_misses_the_amplitudes_is_replaced_by_an_estimate(measure
     assert forced.replay.damping.source == "model"
 
 
+def test_a_model_c_that_cannot_replay_the_test_is_replaced_by_an_estimate(measured):
+    """The model file's C at 30 % of the reference's damping: every replay with it jumps past
+    the band (no point to fit), so the damping is estimated instead, recovers the reference's
+    zeta and the answer (the reference oscillator, not the project's simulator), and the report
+    says why; forcing the model's C keeps the failure and the suspect verdict."""
+    light = sdof_system(mass=1.0, damping=0.3 * 2 * ref.ZETA * WN)
+    res = identify(measured, system=light, progress=False, fit={"multistart": MULTISTART})
+    d = res.replay.damping
+    assert not res.replay.failure
+    assert d.source == "estimated" and "the model file's C could not replay the test" in d.note
+    assert d.zeta == pytest.approx(ref.ZETA, rel=0.05)
+    assert abs(res.truth_error["delta"]) < 0.01 and abs(res.truth_error["kn"]) < 0.01
+    assert d.note in res.report()
+    forced = identify(measured, system=light, progress=False, fit={"multistart": MULTISTART},
+                      replay={"damping": "model"})
+    assert forced.replay.failure and not forced.verdict.ok
+
+
 def test_a_given_damping_ratio_overrides_the_model(measured, system):
     res = identify(measured, system=system, progress=False, fit={"multistart": MULTISTART},
                    replay={"damping": 0.04})

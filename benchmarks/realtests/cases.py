@@ -290,7 +290,7 @@ def fin_nominal(**kw) -> CaseSpec:
 
 def fin_no_base(*, declared_scale=1.0, name="fin_no_base", src="fin_nominal") -> CaseSpec:
     """The ``src`` records without the base channel; level_g = true level x declared_scale."""
-    spec = CONDITIONS[src]()
+    spec = ALL_CASES[src]()
     spec.name, spec.clean_from, spec.base_channel = name, src, False
     spec.profile_of_run = None
     for run in spec.runs:
@@ -980,6 +980,44 @@ VARIANTS.update({
     "var6_finC_noisy": _variant(lambda **kw: dataclasses.replace(_fin_case(
         "x", "fin C at 0.15 g of noise (control)", **_fin_c_kw(**kw)), noise_g=0.15),
         "var6_finC_noisy"),
+})
+
+
+# A seventh set, chosen once (2026-11-30, session 17) before any of its results: two conditions
+# at once on the three fins at magnitudes not used before (Rayleigh and a rising level on fin B;
+# contact damping and a falling level; a model off with sealed modes under a ramp), a hinge
+# damper and a model off without sealed modes on fin C, down-sweeps of a Rayleigh-damped fin C,
+# a deeper and wider dip, wider unequal gaps, a noisy log sweep on fin B, and fin C without its
+# base channel and a level 4 % low. run.py --cases 'var7_*'
+VARIANTS.update({
+    "var7_finB_rayleigh_ramp": _variant(lambda **kw: _ramped(_rayleigh_no_c(
+        "fin B", 0.025, (0.7 * FIN_B_F1, 1.8 * FIN_B_F1), _fin_b_kw(**kw)), 0.12),
+        "var7_finB_rayleigh_ramp"),
+    "var7_finC_hinge_damper": _variant(lambda **kw: _also(fin_hinge_damper(
+        added_zeta=0.02, **_fin_c_kw(levels=tuple(round(2.0 * lv, 3) for lv in FIN_C_LEVELS),
+                                     **kw)), "fin C"), "var7_finC_hinge_damper"),
+    "var7_fin_stiff_in_m0.8_ref_ramp": _variant(lambda **kw: _ramped(fin_stiffness(
+        shift=-0.008, part="inboard", ref=True, **kw), -0.1), "var7_fin_stiff_in_m0.8_ref_ramp"),
+    "var7_finC_stiff_out_p0.6": _variant(lambda **kw: _also(fin_stiffness(
+        shift=0.006, part="outboard", **_fin_c_kw(**kw)), "fin C"), "var7_finC_stiff_out_p0.6"),
+    "var7_finB_unequal_wide": _variant(lambda **kw: _also(fin_unequal_gaps(
+        **_fin_b_kw(deltas=(0.0018, 0.0026), **kw)), "fin B"), "var7_finB_unequal_wide"),
+    "var7_finC_down_rayleigh": _variant(lambda **kw: _rayleigh_no_c(
+        "fin C, down-sweeps, jump-ups in band", 0.02, (0.5 * FIN_C_F1, 1.2 * FIN_C_F1),
+        _fin_c_kw(levels=tuple(round(lv * 2.232, 3) for lv in (1.2, 1.5, 1.75, 2.0)),
+                  sweep={"start_hz": FIN_C_SWEEP["stop_hz"], "stop_hz": FIN_C_SWEEP["start_hz"],
+                         "rate_hz_per_s": FIN_C_SWEEP["rate_hz_per_s"]}, **kw)),
+        "var7_finC_down_rayleigh"),
+    "var7_fin_dip_deep": _variant(lambda **kw: fin_level_dip(
+        depth=0.45, flat_hz=0.3, taper_hz=1.0, **kw), "var7_fin_dip_deep"),
+    "var7_finB_log_noisy": _variant(lambda **kw: dataclasses.replace(_fin_case(
+        "x", "fin B, log sweep at 0.3 oct/min, 0.1 g of noise", **_fin_b_kw(sweep={
+            "start_hz": FIN_B_SWEEP["start_hz"], "stop_hz": FIN_B_SWEEP["stop_hz"],
+            "octaves_per_min": 0.3}, **kw)), noise_g=0.1), "var7_finB_log_noisy"),
+    "var7_fin_contact_damping_ramp": _variant(lambda **kw: _ramped(fin_contact_damping(
+        added_zeta=0.025, **kw), -0.12), "var7_fin_contact_damping_ramp"),
+    "var7_finC_no_base_level_off": lambda **kw: fin_no_base(
+        declared_scale=0.96, name="var7_finC_no_base_level_off", src="var6_finC_nominal"),
 })
 
 ALL_CASES = {**CONDITIONS, **VARIANTS}

@@ -574,25 +574,26 @@ def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extracti
 
     binding = _Binding(test, system, (source, zeta), opts)
     hat = binding.hat
-    origin = _first_replay(hat, start, opts.start)
-    failure = ""  # why the statistic's own fit could not be replayed
-    for k, (theta0, began) in enumerate([(origin, "statistic" if origin is hat else "network"),
-                                         *_restarts(hat, origin)]):
-        if k:
-            # the first replay could not be identified: it stays in the gap or loses jumps the
-            # test has (a network far off; a down-sweep's jump-ups, whose plain fit lies tens of
-            # % above the gap): start again from the statistic's fit, then with a smaller gap
-            log.info("replay: the start %s could not be replayed (%s); starting again from %s",
-                     np.round(origin, 6).tolist(), binding.failure, began)
-            binding, origin = _Binding(test, system, (source, zeta), opts), theta0
-        sol = _solve(binding, unknowns(theta0), progress, "replay")
-        if binding.history or not binding.failure:
-            break
-        failure = binding.failure if began == "statistic" else failure
-    else:
-        binding.failure = failure or binding.failure  # the statistic's own fit's reason
-    binding.settle(sol)
+    binding, sol, began = _first_solution(binding, hat, _first_replay(hat, start, opts.start),
+                                          unknowns, progress)
     note = ""
+    if binding.failure and source == "model" and opts.damping is None:
+        # the model's C cannot replay the test at all (with too little damping the replayed
+        # jumps run past the band): estimate the damping, from the statistic's fit
+        failed = binding.failure
+        zeta_e = initial_zeta(system, test.statistic.points.used(), test.levels,
+                              float(plain.kn), test.statistic.dofs, fit.mode)
+        other = _Binding(test, system, ("estimated", zeta_e), opts)
+        other, sol_e, began_e = _first_solution(
+            other, hat, hat, lambda theta: np.log(np.append(theta, zeta_e)), progress)
+        if not other.failure:
+            log.info("replay: the model file's C could not replay the test (%s); the damping "
+                     "is estimated", failed)
+            binding, sol, began = other, sol_e, began_e
+            source, estimate, zeta = "estimated", True, zeta_e
+            note = (f"the model file's C could not replay the test ({failed}); the damping was "
+                    "estimated")
+    binding.settle(sol)
     mismatch = _model_damping_mismatch(binding) if opts.damping is None else 0.0
     if source == "model" and abs(mismatch) > DAMPING_MISMATCH:
         # the model's C does not reproduce the test's amplitudes where the answer rests:
@@ -620,6 +621,33 @@ def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extracti
                    _damping_used(source, zeta, binding.ratios, sol.jacobian, estimate, note,
                                  failed=bool(binding.failure)),
                    plain, system, opts, progress, start=began, settled=precision_settled)
+
+
+def _first_solution(binding: _Binding, hat: np.ndarray, origin: np.ndarray, unknowns,
+                    progress: bool):
+    """The loop of ``binding`` from ``origin`` (the statistic's fit ``hat`` itself, or the
+    network's estimate), started again (:func:`_restarts`) where its first replay cannot be
+    identified; (binding, solution, where it began). Where no start could be replayed the
+    binding's ``failure`` is the statistic's own fit's reason."""
+    test, system, opts = binding.test, binding.system, binding.opts
+    damping = (binding.source, binding.zeta)
+    failure = ""  # why the statistic's own fit could not be replayed
+    for k, (theta0, began) in enumerate([(origin, "statistic" if origin is hat else "network"),
+                                         *_restarts(hat, origin)]):
+        if k:
+            # the first replay could not be identified: it stays in the gap or loses jumps the
+            # test has (a network far off; a down-sweep's jump-ups, whose plain fit lies tens of
+            # % above the gap): start again from the statistic's fit, then with a smaller gap
+            log.info("replay: the start %s could not be replayed (%s); starting again from %s",
+                     np.round(origin, 6).tolist(), binding.failure, began)
+            binding, origin = _Binding(test, system, damping, opts), theta0
+        sol = _solve(binding, unknowns(theta0), progress, "replay")
+        if binding.history or not binding.failure:
+            break
+        failure = binding.failure if began == "statistic" else failure
+    else:
+        binding.failure = failure or binding.failure  # the statistic's own fit's reason
+    return binding, sol, began
 
 
 def _restarts(hat: np.ndarray, origin: np.ndarray):

@@ -30,9 +30,10 @@ class Replay:
     damping : None, "model", "estimate" or float
         None: the model file's C when it has one and its replay at the answer reproduces the
         test's amplitudes at the matched points (within ``DAMPING_MISMATCH``, 5 %), else one
-        modal damping ratio estimated from those amplitudes (solved again from the answer);
-        "model" / "estimate" force either; a float in (0, 1) fixes the modal damping ratio of
-        every closed-hinge mode.
+        modal damping ratio estimated from those amplitudes (solved again from the answer; from
+        the statistic's fit where no replay with the file's C could be fitted at all, its
+        jumps run past the band); "model" / "estimate" force either; a float in (0, 1) fixes
+        the modal damping ratio of every closed-hinge mode.
     n_bootstrap : int
         Noisy copies of the final replay for bootstrap intervals that see the bias (0: none;
         the intervals are then the Jacobian ones, moved with the estimate).
