@@ -1020,6 +1020,54 @@ VARIANTS.update({
         declared_scale=0.96, name="var7_finC_no_base_level_off", src="var6_finC_nominal"),
 })
 
+
+def _var8_beam(**kw) -> CaseSpec:
+    geo = dict(kn=6000.0, delta=2.2e-3, zeta=0.02, rayleigh_hz=(15.0, 60.0))
+    sweep, _ = _beam_band(**geo)
+    return _ramped(beam_rayleigh(sweep=sweep, **geo, **kw), 0.15)
+
+
+# An eighth set, chosen once (2026-11-30, session 17) before any of its results: a beam of
+# another kn and gap under a rising level; stronger Rayleigh damping; a log down-sweep; unequal
+# gaps under Rayleigh damping; a ramp that no base channel records; a larger gap; a fast log
+# sweep on fin C; contact damping under more noise; fin B with a quieter accelerometer (its
+# control, and a plate off with sealed modes); a plate 1.2 % off with sealed modes.
+# run.py --cases 'var8_*'
+VARIANTS.update({
+    "var8_beam_kn6000_ramp": _variant(_var8_beam, "var8_beam_kn6000_ramp"),
+    "var8_fin_rayleigh_strong": _variant(lambda **kw: fin_rayleigh(
+        zeta=0.04, f_hz=(20.0, 70.0), levels=tuple(round(1.2 * lv, 3) for lv in FIN_LEVELS),
+        **kw), "var8_fin_rayleigh_strong"),
+    "var8_fin_down_log": _variant(lambda **kw: _fin_case(
+        "x", "log down-sweeps 46.5 -> 30 Hz at 0.25 oct/min, jump-ups in band",
+        levels=(1.2, 1.5, 1.75, 2.0), sweep={"start_hz": 46.5, "stop_hz": 30.0,
+                                             "octaves_per_min": 0.25}, **kw),
+        "var8_fin_down_log"),
+    "var8_fin_unequal_rayleigh": _variant(lambda **kw: _no_c(fin_unequal_gaps(
+        deltas=(0.0026, 0.0034), C=_rayleigh_c(0.03, (30.0, 60.0)), **kw)),
+        "var8_fin_unequal_rayleigh"),
+    "var8_fin_no_base_ramp": lambda **kw: fin_no_base(name="var8_fin_no_base_ramp",
+                                                      src="fin_level_ramp"),
+    "var8_fin_gap4.5_kn600": _variant(lambda **kw: _fin_case(
+        "x", "the fin at kn 600 N m/rad and half-gap 4.5 mrad (control)", kn=600.0,
+        deltas=0.0045, **kw), "var8_fin_gap4.5_kn600"),
+    "var8_finC_log_fast": _variant(lambda **kw: _fin_case(
+        "x", "fin C, log sweep at 1 oct/min", **_fin_c_kw(sweep={
+            "start_hz": FIN_C_SWEEP["start_hz"], "stop_hz": FIN_C_SWEEP["stop_hz"],
+            "octaves_per_min": 1.0}, **kw)), "var8_finC_log_fast"),
+    "var8_fin_contact_damping_noisy": _variant(lambda **kw: dataclasses.replace(_also(
+        fin_contact_damping(added_zeta=0.01, **kw), "0.1 g of noise"), noise_g=0.1),
+        "var8_fin_contact_damping_noisy"),
+    "var8_finB_quiet": _variant(lambda **kw: dataclasses.replace(_fin_case(
+        "x", "fin B at 0.02 g of noise (control)", **_fin_b_kw(**kw)), noise_g=0.02),
+        "var8_finB_quiet"),
+    "var8_finB_quiet_stiff_in_p1_ref": _variant(lambda **kw: dataclasses.replace(_also(
+        fin_stiffness(shift=0.01, part="inboard", ref=True, **_fin_b_kw(**kw)),
+        "fin B at 0.02 g of noise"), noise_g=0.02), "var8_finB_quiet_stiff_in_p1_ref"),
+    "var8_fin_stiff_out_p1.2_ref": _variant(lambda **kw: fin_stiffness(
+        shift=0.012, part="outboard", ref=True, **kw), "var8_fin_stiff_out_p1.2_ref"),
+})
+
 ALL_CASES = {**CONDITIONS, **VARIANTS}
 
 def generate(name: str, out: Path, *, force=False, redraw=False, log=print) -> dict:
