@@ -577,16 +577,17 @@ def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extracti
     binding, sol, began = _first_solution(binding, hat, _first_replay(hat, start, opts.start),
                                           unknowns, progress)
     note = ""
-    if binding.failure and source == "model" and opts.damping is None:
-        # the model's C cannot replay the test at all (with too little damping the replayed
-        # jumps run past the band): estimate the damping, from the statistic's fit
+    if binding.failure and not binding.history and source == "model" and opts.damping is None:
+        # no replay with the model's C could be identified at all (with too little damping the
+        # replayed jumps run past the band): estimate the damping, from the statistic's fit (a
+        # loop that replayed before a step failed is settled as before, from its closest replay)
         failed = binding.failure
         zeta_e = initial_zeta(system, test.statistic.points.used(), test.levels,
                               float(plain.kn), test.statistic.dofs, fit.mode)
         other = _Binding(test, system, ("estimated", zeta_e), opts)
         other, sol_e, began_e = _first_solution(
             other, hat, hat, lambda theta: np.log(np.append(theta, zeta_e)), progress)
-        if not other.failure:
+        if other.history:
             log.info("replay: the model file's C could not replay the test (%s); the damping "
                      "is estimated", failed)
             binding, sol, began = other, sol_e, began_e
