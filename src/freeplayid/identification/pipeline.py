@@ -294,7 +294,7 @@ def _noise_floor(precision) -> tuple[float, float] | None:
     one observation, so with three or four runs its scatter is estimated from one or two degrees
     of freedom and can come out several times narrower than the noise makes the answer move (on
     the realtests records, exact integrator: 25 of 176 delta intervals, 6 of which then missed
-    the truth by up to 2.3 of the copies' standard deviations)."""
+    a truth that lay within the copies' spread)."""
     if precision is None or precision.kn_halfwidth is None or precision.delta_halfwidth is None:
         return None
     return math.log1p(precision.kn_halfwidth), math.log1p(precision.delta_halfwidth)
