@@ -565,10 +565,13 @@ def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extracti
     if isinstance(test, str):
         return ReplayResult(kn=float(plain.kn), delta=float(plain.delta), jump_point=rule,
                             failure=test)
+    def zeta_at(kn: float) -> float:  # the first guess of an estimated damping, at kn
+        return initial_zeta(system, test.statistic.points.used(), test.levels, float(kn),
+                            test.statistic.dofs, fit.mode)
+
     estimate = source == "estimated"
     if estimate:
-        zeta = initial_zeta(system, test.statistic.points.used(), test.levels, float(plain.kn),
-                            test.statistic.dofs, fit.mode)
+        zeta = zeta_at(plain.kn)
     def unknowns(theta):  # log (kn, delta[, zeta]) of the loop's first replay
         return np.log(np.append(theta, zeta) if estimate else theta)
 
@@ -582,8 +585,7 @@ def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extracti
         # replayed jumps run past the band): estimate the damping, from the statistic's fit (a
         # loop that replayed before a step failed is settled as before, from its closest replay)
         failed = binding.failure
-        zeta_e = initial_zeta(system, test.statistic.points.used(), test.levels,
-                              float(plain.kn), test.statistic.dofs, fit.mode)
+        zeta_e = zeta_at(plain.kn)
         other = _Binding(test, system, ("estimated", zeta_e), opts)
         other, sol_e, began_e = _first_solution(
             other, hat, hat, lambda theta: np.log(np.append(theta, zeta_e)), progress)
@@ -602,8 +604,7 @@ def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extracti
         # file does not know)
         source, estimate = "estimated", True
         theta = np.exp(sol.u[:2])
-        zeta = initial_zeta(system, test.statistic.points.used(), test.levels, float(theta[0]),
-                            test.statistic.dofs, fit.mode)
+        zeta = zeta_at(theta[0])
         first = binding
         binding = first.sibling(test, (source, zeta), "replay, damping estimated")
         sol = _solve(binding, np.append(sol.u[:2], np.log(zeta)), progress,
