@@ -19,6 +19,7 @@ import numpy as np
 from ..quantity import check_quantity
 from .acmp import ChirpMode
 from .jump import REASON_FAILED, REASON_NOISY, find_jump_peak, reason_dead
+from .level import quiet_base
 from .options import EXTRACTION_METHODS, Extraction, with_options
 from .peak import JUMP_POINTS, NEEDS_BASE
 from .sweeplaw import estimate_sweep
@@ -415,8 +416,9 @@ def _sweep_band(x, fs, n, sl, ti, *, sweep, run_opts, quantity):
     return None, rate, (float(f_init[sl][0]), float(f_init[sl][-1]))
 
 
-def _first_harmonic(x, fs, *, trim, sweep, opts: Extraction, quantity):
-    """(mode, law, rate [Hz/s] per analysed sample, band [Hz], bandwidth [Hz]) of one record."""
+def _first_harmonic(x, fs, *, trim, sweep, opts: Extraction, quantity, band_scale=1.0):
+    """(mode, law, rate [Hz/s] per analysed sample, band [Hz], bandwidth [Hz]) of one record;
+    ``band_scale`` scales the bandwidth the mode is extracted over (not the one returned)."""
     n = x.shape[0]
     if np.ptp(x) == 0:
         raise _ExtractionError("constant signal")
@@ -427,15 +429,24 @@ def _first_harmonic(x, fs, *, trim, sweep, opts: Extraction, quantity):
                                   quantity=quantity)
     bw = max(1.0, 2.0 * float(np.median(np.abs(rate)))) if opts.bandwidth_hz is None \
         else opts.bandwidth_hz
-    mode: ChirpMode = EXTRACTION_METHODS[opts.method](x, fs, sweep=sweep, bandwidth_hz=bw,
-                                                      **run_opts)
+    mode: ChirpMode = EXTRACTION_METHODS[opts.method](x, fs, sweep=sweep,
+                                                      bandwidth_hz=band_scale * bw, **run_opts)
     return mode, law, rate, band, bw
 
 
 def _base_phase(base, fs, *, trim, sweep, opts: Extraction, quantity) -> np.ndarray:
     """The base channel's first-harmonic phase [rad] at every sample (the quadrature rule's
-    reference), extracted as the responses are."""
-    return _first_harmonic(base, fs, trim=trim, sweep=sweep, opts=opts, quantity=quantity)[0].phase
+    reference), extracted as the responses are, over the band the replay's excitation is read
+    over (:func:`.level.quiet_base`: a quarter of the responses' where the base is noisy)."""
+    wide, _, _, _, bw = _first_harmonic(base, fs, trim=trim, sweep=sweep, opts=opts,
+                                        quantity=quantity)
+
+    def extract(band_hz):
+        return wide if band_hz == bw else _first_harmonic(
+            base, fs, trim=trim, sweep=sweep, opts=opts, quantity=quantity,
+            band_scale=band_hz / bw)[0]
+
+    return quiet_base(extract, bw).phase
 
 
 def noise_floor(residual, fs: float) -> float:
