@@ -91,8 +91,9 @@ def main(argv=None) -> None:
 
     import contextlib
 
-    from freeplayid.io import read_dataset
     from tqdm import tqdm
+
+    from freeplayid.io import read_dataset
 
     cases = [c for c in args.cases.split(",") if c]
     levels = [float(v) for v in args.noise.split(",")]
