@@ -68,7 +68,7 @@ def _first_reading():
     @contextlib.contextmanager
     def ctx():
         saved = extract.quiet_base, peak._fitted_crossing
-        extract.quiet_base = lambda read, band_hz: read(band_hz)
+        extract.quiet_base = lambda wide, narrow: wide
         peak._fitted_crossing = lambda c, first, **_: first
         try:
             yield

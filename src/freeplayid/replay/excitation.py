@@ -42,7 +42,8 @@ def measured_sweep(dataset, run, law) -> tuple[MeasuredSweep, float]:
     x = dataset.to_si(run.base)
     t = np.arange(x.shape[0]) / fs
     bw = max(1.0, 2.0 * float(np.median(np.abs(law.rate(t)))))
-    mode = quiet_base(lambda b: acmp(x, fs, sweep=law, bandwidth_hz=b), bw)
+    mode = quiet_base(acmp(x, fs, sweep=law, bandwidth_hz=bw),
+                      acmp(x, fs, sweep=law, bandwidth_hz=NARROW_BASE * bw))
     w = 2 * np.pi * np.clip(mode.frequency, 1e-6, None)
     amp = mode.amplitude * w ** (2 - order)  # [m/s^2]
     if not np.all(np.isfinite(amp)) or np.median(amp) <= 0:

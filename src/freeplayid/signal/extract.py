@@ -19,7 +19,7 @@ import numpy as np
 from ..quantity import check_quantity
 from .acmp import ChirpMode
 from .jump import REASON_FAILED, REASON_NOISY, find_jump_peak, reason_dead
-from .level import quiet_base
+from .level import NARROW_BASE, quiet_base
 from .options import EXTRACTION_METHODS, Extraction, with_options
 from .peak import JUMP_POINTS, NEEDS_BASE
 from .sweeplaw import estimate_sweep
@@ -438,15 +438,10 @@ def _base_phase(base, fs, *, trim, sweep, opts: Extraction, quantity) -> np.ndar
     """The base channel's first-harmonic phase [rad] at every sample (the quadrature rule's
     reference), extracted as the responses are, over the band the replay's excitation is read
     over (:func:`.level.quiet_base`: a quarter of the responses' where the base is noisy)."""
-    wide, _, _, _, bw = _first_harmonic(base, fs, trim=trim, sweep=sweep, opts=opts,
-                                        quantity=quantity)
-
-    def extract(band_hz):
-        return wide if band_hz == bw else _first_harmonic(
-            base, fs, trim=trim, sweep=sweep, opts=opts, quantity=quantity,
-            band_scale=band_hz / bw)[0]
-
-    return quiet_base(extract, bw).phase
+    wide, narrow = (_first_harmonic(base, fs, trim=trim, sweep=sweep, opts=opts,
+                                    quantity=quantity, band_scale=scale)[0]
+                    for scale in (1.0, NARROW_BASE))
+    return quiet_base(wide, narrow).phase
 
 
 def noise_floor(residual, fs: float) -> float:

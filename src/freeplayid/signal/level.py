@@ -69,24 +69,12 @@ def window_amplitudes(x, fs, sweep=None, *, n_windows: int = 16):
     return np.array(f_out), np.array(a_out)
 
 
-def quiet_base(extract, bandwidth_hz: float):
-    """The base record's first harmonic over ``bandwidth_hz``, or over :data:`NARROW_BASE` of it
-    where the wide band's envelope is noisier than :data:`ENVELOPE_NOISE` (:func:`envelope_noise`).
-
-    Parameters
-    ----------
-    extract : callable
-        ``extract(bandwidth_hz) -> ChirpMode``: the base record's first harmonic over a band.
-    bandwidth_hz : float [Hz]
-        The response extraction's bandwidth (the wide band).
-
-    Returns
-    -------
-    ChirpMode
-    """
-    mode = extract(bandwidth_hz)
-    narrow = extract(NARROW_BASE * bandwidth_hz)
-    return narrow if envelope_noise(mode.amplitude, narrow.amplitude) > ENVELOPE_NOISE else mode
+def quiet_base(wide, narrow):
+    """Of the base record's first harmonic over the response extraction's band (``wide``) and
+    over :data:`NARROW_BASE` of it (``narrow``), the one to read the base by: ``narrow`` where
+    ``wide``'s envelope is noisier than :data:`ENVELOPE_NOISE` (:func:`envelope_noise`), else
+    ``wide`` (ChirpMode each)."""
+    return narrow if envelope_noise(wide.amplitude, narrow.amplitude) > ENVELOPE_NOISE else wide
 
 
 def envelope_noise(wide, narrow) -> float:

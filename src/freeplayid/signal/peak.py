@@ -260,12 +260,13 @@ def _quadrature_point(k, *, x, fs, mode, trim, xi, ratio, steep_after, bandwidth
     start, _ = _lobe(xi, k, ratio)
     n = xi.shape[0]
     delta = mode.phase[trim : trim + n] - np.asarray(base_phase)[trim : trim + n]
-    c = np.cos(delta[start : int(math.floor(c0)) + 1])
+    cos_lag = np.cos(delta)
+    c = cos_lag[start : int(math.floor(c0)) + 1]
     flip = np.nonzero(np.sign(c[1:]) != np.sign(c[0]))[0] if c.size >= 2 else np.zeros(0)
     if not flip.size:
         return drop()
     i = int(flip[0])
-    crossing = _fitted_crossing(np.cos(delta), start + i + float(c[i] / (c[i] - c[i + 1])),
+    crossing = _fitted_crossing(cos_lag, start + i + float(c[i] / (c[i] - c[i + 1])),
                                 lo=start, hi=c0, half=fs / bandwidth_hz)
     amp = one_sided_amplitude(x, mode.phase, fs, sigma_s=gaussian_sigma(bandwidth_hz),
                               center=trim + crossing, edge=trim + c0)
