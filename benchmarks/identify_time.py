@@ -12,6 +12,8 @@ in the same run, per row:
   of the answer's replay that measure its precision);
 - ``corrected, no precision copies``: ``replay.precision_copies=0`` (the default before the
   verdict's ``noise_precision``);
+- ``corrected, no excitation copies``: ``replay.excitation_copies=0`` (the default before the
+  base channel's noise entered the intervals, 2026-11-30);
 - ``…, one thread``: the same with a replay's runs simulated one after another (the code
   before they ran at once, one per core: ``freeplayid.threads``);
 - ``corrected, nothing kept``: the default with every extraction solved afresh, as before the
@@ -21,7 +23,8 @@ in the same run, per row:
 Kept results are dropped before each row, so each row is a first identify of the data. The
 stages: the plain estimate (the test's points and their fit), the replays' simulation, and the
 extraction and fit of the replays (with the test's points for the replays' statistic), the
-precision's noisy copies (their extraction and fit). Prints a
+precision's noisy copies (their extraction and fit), the excitation copies (their replays,
+extraction and fit). Prints a
 Markdown table: wall time (best of ``--repeat``), stages, the answer and the verdict, which do not
 depend on what is kept (checked: the table says if they differ).
 """
@@ -43,23 +46,28 @@ STAGES = {  # (module, function) -> stage name; a call's time counts once (outer
     ("freeplayid.replay.corrected", "replay_dataset"): "replays: simulate",
     ("freeplayid.replay.corrected", "plain_estimate"): "replays: extract + fit",
     ("freeplayid.replay.corrected", "precision_by_replay"): "precision copies",
+    ("freeplayid.replay.corrected", "_excitation_noise"): "excitation copies",
 }
 
 
 @contextmanager
 def timed_stages(totals: dict):
     """Adds each stage's wall time to ``totals`` while the block runs."""
-    saved = []
+    saved, active = [], []
     for (mod_name, fn_name), stage in STAGES.items():
         mod = importlib.import_module(mod_name)
         fn = getattr(mod, fn_name)
         saved.append((mod, fn_name, fn))
 
         def wrapper(*a, _fn=fn, _stage=stage, **k):
+            if active:  # inside another stage (the excitation copies' replays): its time
+                return _fn(*a, **k)
+            active.append(_stage)
             t0 = time.perf_counter()
             try:
                 return _fn(*a, **k)
             finally:
+                active.pop()
                 totals[_stage] = totals.get(_stage, 0.0) + time.perf_counter() - t0
 
         setattr(mod, fn_name, wrapper)
@@ -148,6 +156,8 @@ def main() -> None:
             ("corrected (default)", run_row(dataset, True, args.repeat)),
             ("corrected, no precision copies",
              run_row(dataset, True, args.repeat, options={"precision_copies": 0})),
+            ("corrected, no excitation copies",
+             run_row(dataset, True, args.repeat, options={"excitation_copies": 0})),
             ("corrected, one thread", run_row(dataset, True, args.repeat, single=True)),
             ("corrected, nothing kept", run_row(dataset, True, args.repeat, afresh=True))]
     names = list(dict.fromkeys(STAGES.values()))

@@ -683,6 +683,11 @@ def test_the_example_replays_within_its_noise(example):
     assert res.verdict.ok, res.verdict.reasons
     assert max(res.replay.misfit.values()) < 0.005
     assert abs(res.truth_error["kn"]) < 0.01 and abs(res.truth_error["delta"]) < 0.01
+    # its base channel's 0.05 g of noise, read as the replays' excitation, in the intervals
+    exc = res.replay.excitation_noise
+    assert exc.n_fitted >= 2 and 0 < exc.delta_halfwidth < 0.02
+    assert 0.001 < max(exc.reading_sd.values()) < 0.02
+    assert "base channel's noise" in res.interval_source
 
 
 def test_a_model_with_twice_the_stiffness_is_suspect(example):

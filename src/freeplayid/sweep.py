@@ -225,11 +225,22 @@ class MeasuredSweep:
         The phase of ``sin`` at the samples ``n / sample_rate`` (unwrapped).
     envelope : ndarray, shape (N,) [-], > 0
         The first harmonic's amplitude relative to its median.
+    reading_sd : float [-], >= 0
+        The envelope's reading noise: the standard deviation of its relative error that the
+        record's noise makes (0: taken as exact).
+    reading_band_hz : float [Hz], >= 0
+        The band it was read over, which sets how fast that error changes
+        (:func:`freeplayid.replay.excitation.read_again`).
+    reading_steps : int
+        The sharpening steps of that reading (:func:`freeplayid.signal.level.sharpened`).
     """
 
     sample_rate: float
     phase_samples: np.ndarray
     envelope_samples: np.ndarray
+    reading_sd: float = 0.0
+    reading_band_hz: float = 0.0
+    reading_steps: int = 0
 
     def __post_init__(self) -> None:
         import scipy.interpolate
@@ -243,6 +254,10 @@ class MeasuredSweep:
         if not (np.all(np.isfinite(ph)) and np.all(np.isfinite(env)) and np.all(env > 0)):
             raise ValueError("MeasuredSweep `phase_samples` must be finite and "
                              "`envelope_samples` finite and > 0")
+        for name in ("reading_sd", "reading_band_hz"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v >= 0):
+                raise ValueError(f"MeasuredSweep `{name}` must be a finite number >= 0, got {v!r}")
         t = np.arange(ph.size) / float(self.sample_rate)
         object.__setattr__(self, "_phase", scipy.interpolate.CubicSpline(t, ph))
         object.__setattr__(self, "_env", scipy.interpolate.CubicSpline(t, env))

@@ -314,7 +314,8 @@ def _corrected_intervals(rep) -> tuple[tuple, tuple, str]:
     holding both; never narrower than the spread the noise alone gives the answer
     (:func:`_noise_floor`); widened by the answer's move for the levels' uncertainty where they
     came from ``level_g``, for the damping's where down-sweeps rest on one they do not measure,
-    and for an estimated damping's."""
+    for an estimated damping's, and for the base channel's noise that the replays' measured
+    excitation carries."""
     (kn_ci, delta_ci) = rep.statistic_ci95
     sk, sd = rep.kn / rep.kn_statistic, rep.delta / rep.delta_statistic
     kn_ci = tuple(v * sk for v in kn_ci)
@@ -343,6 +344,11 @@ def _corrected_intervals(rep) -> tuple[tuple, tuple, str]:
         delta_ci = widen(delta_ci, rep.delta, level.delta_shift)
         source += (f", with the levels' {100 * level.uncertainty:g} % uncertainty (no base "
                    "channel)")
+    excited = getattr(rep, "excitation_noise", None)
+    if excited is not None and excited.delta_halfwidth is not None:  # the base's noise
+        kn_ci = widen(kn_ci, rep.kn, math.log1p(excited.kn_halfwidth))
+        delta_ci = widen(delta_ci, rep.delta, math.log1p(excited.delta_halfwidth))
+        source += ", with the base channel's noise in the replays' excitation"
     damped = getattr(rep, "damping_sensitivity", None)
     if damped is not None:  # a damping the down-sweeps do not measure
         kn_ci = widen(kn_ci, rep.kn, damped.kn_shift)

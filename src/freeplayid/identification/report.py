@@ -242,6 +242,11 @@ def _replay(r) -> list[str]:
         "each run's base channel as measured (its level profile, sweep law and direction)"
         if getattr(rep, "excitation", "law") == "measured" else "each run's sweep law at one "
         "level") + "."]
+    excited = getattr(rep, "excitation_noise", None)
+    if excited is not None:
+        said = excited.describe()
+        lines += [said[0].upper() + said[1:]
+                  + (", in the intervals." if excited.delta_halfwidth is not None else ".")]
     level = getattr(rep, "level", None)
     if level is not None:
         lines += [f"Levels from `level_g` ({', '.join(level.runs)}): a {100 * level.uncertainty:g} "

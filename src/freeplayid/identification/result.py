@@ -302,6 +302,8 @@ class Identification:
             else r.damping_sensitivity.to_dict(),
             "precision": None if getattr(r, "precision", None) is None
             else r.precision.to_dict(),
+            "excitation_noise": None if getattr(r, "excitation_noise", None) is None
+            else r.excitation_noise.to_dict(),
         }
 
     def backbone_overlay(self) -> dict:

@@ -77,6 +77,7 @@ from .bootstrap import ReplayBootstrap, ReplayPrecision, precision_by_replay, wi
 from .corrected import (
     CrossCheck,
     DampingSensitivity,
+    ExcitationNoise,
     LevelSensitivity,
     PointOffset,
     ReplayIteration,
@@ -91,7 +92,7 @@ from .weights import WEIGHT_FLOOR, PointWeight, noise_levels, point_weights
 
 __all__ = ["Replay", "ReplayResult", "ReplayIteration", "PointOffset", "PointWeight",
            "ReplayBootstrap", "ReplayPrecision", "precision_by_replay", "windowed",
-           "ReplayDamping", "CrossCheck", "LevelSensitivity",
+           "ReplayDamping", "CrossCheck", "LevelSensitivity", "ExcitationNoise",
            "DampingSensitivity", "replay_sweeps",
            "replay_levels",
            "replay_dataset", "corrected_fit", "curve_misfit", "damped_system", "noise_levels",

@@ -2,16 +2,28 @@
 
 from __future__ import annotations
 
+import dataclasses
+import math
+
 import numpy as np
 
 from ..quantity import G, check_quantity
 from ..signal import acmp
-from ..signal.level import ENVELOPE_NOISE, NARROW_BASE, envelope_noise, quiet_base
+from ..signal.level import (
+    ENVELOPE_NOISE,
+    NARROW_BASE,
+    SHARPEN_STEPS,
+    envelope_noise,
+    quiet_base,
+    reading_sd,
+    rounds,
+    sharpened,
+)
 from ..sweep import MeasuredSweep
 
 # the band the base is read over is chosen in freeplayid.signal.level (the quadrature point's
 # phase reference is read the same way); its names are kept here for the callers of this module
-__all__ = ["measured_sweep", "envelope_noise", "NARROW_BASE", "ENVELOPE_NOISE"]
+__all__ = ["measured_sweep", "read_again", "envelope_noise", "NARROW_BASE", "ENVELOPE_NOISE"]
 
 
 def measured_sweep(dataset, run, law) -> tuple[MeasuredSweep, float]:
@@ -20,9 +32,14 @@ def measured_sweep(dataset, run, law) -> tuple[MeasuredSweep, float]:
     The base record's first harmonic (:func:`freeplayid.signal.acmp`, started on ``law``, the
     run's sweep law, over the band :func:`freeplayid.signal.level.quiet_base` picks from the
     extraction's default bandwidth ``max(1 Hz, 2 s x rate)``: a quarter of it where the
-    envelope is noisy) gives its amplitude and phase at every sample; amplitudes in the
+    envelope is noisy, its amplitude then :func:`freeplayid.signal.level.sharpened` where the
+    reading shows a profile the band rounds, :func:`freeplayid.signal.level.rounds`: a dip
+    shorter than the band's time) gives its amplitude and phase at
+    every sample; amplitudes in the
     data's quantity become accelerations (``A w^(2 - order)``). The level is their median [g];
-    the envelope the amplitude over it.
+    the envelope the amplitude over it; its reading noise (:func:`freeplayid.signal.level.
+    reading_sd`) and band go with it (``MeasuredSweep.reading_sd``, ``reading_band_hz``: the
+    replay's excitation copies, :func:`read_again`).
     So a replay driven by it has the test's level profile (a force-limited dip, a ramp, a
     controller's notch), its sweep law and its direction, as they happened.
 
@@ -42,14 +59,42 @@ def measured_sweep(dataset, run, law) -> tuple[MeasuredSweep, float]:
     x = dataset.to_si(run.base)
     t = np.arange(x.shape[0]) / fs
     bw = max(1.0, 2.0 * float(np.median(np.abs(law.rate(t)))))
-    mode = quiet_base(acmp(x, fs, sweep=law, bandwidth_hz=bw),
-                      acmp(x, fs, sweep=law, bandwidth_hz=NARROW_BASE * bw))
+    wide = acmp(x, fs, sweep=law, bandwidth_hz=bw)
+    narrow = acmp(x, fs, sweep=law, bandwidth_hz=NARROW_BASE * bw)
+    mode = quiet_base(wide, narrow)
+    # sharpened where the narrow band rounds a level profile the reading shows
+    steps = SHARPEN_STEPS if mode is narrow and rounds(
+        narrow, fs, law, reading_sd(wide, narrow, narrow)) else 0
     w = 2 * np.pi * np.clip(mode.frequency, 1e-6, None)
-    amp = mode.amplitude * w ** (2 - order)  # [m/s^2]
+    amp = (sharpened(mode, fs, law, steps) if steps else mode.amplitude) * w ** (2 - order)
     if not np.all(np.isfinite(amp)) or np.median(amp) <= 0:
         raise ValueError(f"run {run.file}: the base channel has no usable first harmonic")
     level = float(np.median(amp))
     env = np.maximum(amp / level, 1e-6)
     # x = A cos(psi): the simulator's excitation is A sin(phase), phase = psi + pi / 2
-    return MeasuredSweep(fs, mode.phase + np.pi / 2, env), level / G
+    return MeasuredSweep(fs, mode.phase + np.pi / 2, env,
+                         reading_sd=reading_sd(wide, narrow, mode, steps),
+                         reading_band_hz=float(mode.bandwidth_hz), reading_steps=steps), level / G
 
+
+
+def read_again(sweep: MeasuredSweep, rng) -> MeasuredSweep:
+    """``sweep`` (a measured excitation) with its envelope read again under fresh noise: times
+    ``1 + e(t)``, ``e`` the relative amplitude error of a reading over ``reading_band_hz``
+    (:func:`freeplayid.signal.acmp`, its band as adapted, kept; sharpened as it was) of this
+    excitation's unit sine plus white noise from ``rng``, scaled to the standard deviation
+    ``reading_sd``: the reading's own noise, its spectrum included. The phase is kept. ``sweep``
+    itself where ``reading_sd`` or ``reading_band_hz`` is 0."""
+    if sweep.reading_sd <= 0 or sweep.reading_band_hz <= 0:
+        return sweep
+    fs = float(sweep.sample_rate)
+    phase = np.asarray(sweep.phase_samples, dtype=float)
+    # small enough to read linearly (about 1 % of the amplitude); scaled below
+    noise = 0.01 * math.sqrt(fs / (2.0 * sweep.reading_band_hz))
+    x = np.sin(phase) + noise * rng.standard_normal(phase.size)
+    read = acmp(x, fs, sweep=sweep, bandwidth_hz=sweep.reading_band_hz, adapt=False)
+    e = (sharpened(read, fs, sweep, sweep.reading_steps) if sweep.reading_steps else
+         read.amplitude) - 1.0
+    e = (e - np.mean(e)) * (sweep.reading_sd / max(float(np.std(e)), 1e-300))
+    env = np.maximum(np.asarray(sweep.envelope_samples) * (1.0 + e), 1e-6)
+    return dataclasses.replace(sweep, envelope_samples=env)

@@ -86,6 +86,13 @@ class Replay:
         ``noise_precision`` fails where that exceeds the accuracy bounds. At most this many:
         they stop after four where even the upper 95 % bound of their spread gives a chance
         below 1 % of leaving the bounds (a quiet test). 0: not measured.
+    excitation_copies : int
+        Replays at the answer driven by the measured excitation read again under fresh noise of
+        the base record's level (:class:`freeplayid.replay.ExcitationNoise`): how far the base
+        channel's noise, which the replays' excitation carries, moves the answer; added to the
+        intervals. Only with a measured excitation read with noise; one replay each (about 2.2 s
+        on the bundled example: two keep it under 15 s; the root mean square of two moves is
+        known to about 50 %, of four to 35 %). 0: not measured.
     start : {"statistic", "network"}
         Where the replay loop starts: "statistic" (default) the fit of the measured points with
         the replays' rule; "network" the inverse model's estimate (``inverse.checkpoint``), or
@@ -107,6 +114,7 @@ class Replay:
     level_uncertainty: float = 0.05
     damping_uncertainty: float = 0.25
     precision_copies: int = 8
+    excitation_copies: int = 2
     start: str = "statistic"
 
     def __post_init__(self):
@@ -119,6 +127,7 @@ class Replay:
         check_int("n_bootstrap", self.n_bootstrap, 0)
         check_int("seed", self.seed, 0)
         check_int("precision_copies", self.precision_copies, 0)
+        check_int("excitation_copies", self.excitation_copies, 0)
         if self.jump_point is not None and self.jump_point not in ("auto", *JUMP_POINTS):
             raise ValueError(f"`jump_point` must be one of {['auto', *sorted(JUMP_POINTS)]} or "
                              f"None, got {self.jump_point!r}")
