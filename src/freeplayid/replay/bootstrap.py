@@ -33,6 +33,7 @@ from ..estimate import plain_estimate
 from ..sweep import Sweep
 
 __all__ = ["ReplayBootstrap", "ReplayPrecision", "bootstrap_by_replay", "noisy_copy",
+           "answer_sd", "point_centres",
            "precision_by_replay", "windowed", "sd_upper", "answer_slope", "history_jacobian",
            "PRECISION_MARGIN_HZ", "PRECISION_MIN_COPIES", "MAX_SLOPE", "MIN_SPREAD"]
 
@@ -246,11 +247,7 @@ def precision_by_replay(replayed, system, noise: dict, *, points, theta_rep, n: 
     only confirm that the noise is far below what matters (the verdict passes
     ``identification.replay_checks.settled_sd``, a 1 % chance of leaving the accuracy bounds)."""
     if margin_hz is not None:
-        by_run: dict = {}
-        for p in points:
-            by_run.setdefault(p.run, []).append(p.f_hz)
-        replayed = windowed(replayed, {r: float(np.median(f)) for r, f in by_run.items()},
-                            margin_hz)
+        replayed = windowed(replayed, point_centres(points), margin_hz)
     rng = np.random.default_rng([seed, 2])  # not the bootstrap's or the cross-check's copies
     slope = np.eye(2) if binding_slope is None else np.asarray(binding_slope, float)
     logs, made = [], 0  # each copy's log (kn, delta)
@@ -262,7 +259,7 @@ def precision_by_replay(replayed, system, noise: dict, *, points, theta_rep, n: 
         if est is not None and est.fit.success:
             logs.append(np.log([est.kn, est.delta]))
         if settled_sd is not None and len(logs) >= PRECISION_MIN_COPIES and np.all(
-                sd_upper(_answer_sd(np.asarray(logs), slope), len(logs))
+                sd_upper(answer_sd(np.asarray(logs), slope), len(logs))
                 <= np.asarray(settled_sd)):
             break
     kn_hw = delta_hw = own = None
@@ -270,17 +267,36 @@ def precision_by_replay(replayed, system, noise: dict, *, points, theta_rep, n: 
         # the answer's scatter: each copy's log (kn, delta) carried through the slope, never
         # below the copies' own (a slope learnt from a few replays is not trusted to narrow it)
         own = _halfwidths(np.std(np.asarray(logs), axis=0, ddof=1))
-        kn_hw, delta_hw = _halfwidths(_answer_sd(np.asarray(logs), slope))
+        kn_hw, delta_hw = _halfwidths(answer_sd(np.asarray(logs), slope))
     return ReplayPrecision(
         kn_halfwidth=kn_hw, delta_halfwidth=delta_hw, n=made, n_fitted=len(logs),
         margin_hz=margin_hz, statistic_halfwidths=None if binding_slope is None else own,
         slope=None if binding_slope is None else tuple(tuple(float(v) for v in r) for r in slope))
 
 
-def _answer_sd(logs: np.ndarray, slope: np.ndarray) -> np.ndarray:
+def answer_sd(logs: np.ndarray, slope, about=None) -> np.ndarray:
     """Standard deviations of log kn and log delta of the copies' fits ``logs`` (k, 2) carried
-    through ``slope``, never below their own."""
-    return np.maximum(np.std(logs @ slope.T, axis=0, ddof=1), np.std(logs, axis=0, ddof=1))
+    through ``slope`` (None: the identity), never below their own: about their mean, or with
+    ``about`` (2,) the root mean square of their moves from it (a known centre)."""
+    logs = np.asarray(logs, float)
+    slope = np.eye(2) if slope is None else np.asarray(slope, float)
+
+    def spread(x):
+        if about is None:
+            return np.std(x, axis=0, ddof=1)
+        return np.sqrt(np.mean(x ** 2, axis=0))
+
+    moves = logs if about is None else logs - np.asarray(about, float)
+    return np.maximum(spread(moves @ slope.T), spread(moves))
+
+
+def point_centres(points) -> dict:
+    """Per run: the median frequency [Hz] of its ``points`` (the runs' statistic points, where
+    the copies cut each run: :func:`windowed`)."""
+    by_run: dict = {}
+    for p in points:
+        by_run.setdefault(p.run, []).append(p.f_hz)
+    return {r: float(np.median(f)) for r, f in by_run.items()}
 
 
 def _halfwidths(sd) -> tuple[float, float]:

@@ -20,10 +20,12 @@ from .bootstrap import (
     PRECISION_MARGIN_HZ,
     ReplayBootstrap,
     ReplayPrecision,
+    answer_sd,
     answer_slope,
     bootstrap_by_replay,
     history_jacobian,
     noisy_copy,
+    point_centres,
     precision_by_replay,
     windowed,
 )
@@ -952,10 +954,7 @@ def _excitation_noise(b: _Binding, sol, theta, slope, n: int,
         return None
     zeta = float(np.exp(sol.u[2])) if sol.u.size == 3 else b.zeta
     t = b.test
-    by_run: dict = {}
-    for p in b.rep.points.used():
-        by_run.setdefault(p.run, []).append(p.f_hz)
-    centres = {r: float(np.median(f)) for r, f in by_run.items()}
+    centres = point_centres(b.rep.points.used())
     levels = {r: lv for r, lv in t.levels.items() if r in centres}  # the runs with points
 
     def fitted(ds):  # each run read only around its point, as the precision copies are
@@ -983,9 +982,7 @@ def _excitation_noise(b: _Binding, sol, theta, slope, n: int,
             continue
     kn_hw = delta_hw = None
     if len(moves) >= 2:
-        m = np.asarray(moves)
-        s = np.eye(2) if slope is None else np.asarray(slope, float)
-        rms = np.maximum(np.sqrt(np.mean((m @ s.T) ** 2, axis=0)), np.sqrt(np.mean(m ** 2, axis=0)))
+        rms = answer_sd(np.asarray(moves), slope, about=np.zeros(2))
         kn_hw, delta_hw = (float(v) for v in np.expm1(1.96 * rms))
     return ExcitationNoise(kn_hw, delta_hw, sds, int(n), len(moves))
 

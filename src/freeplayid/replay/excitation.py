@@ -18,6 +18,7 @@ from ..signal.level import (
     reading_sd,
     rounds,
     sharpened,
+    sharpened_gain,
 )
 from ..sweep import MeasuredSweep
 
@@ -62,9 +63,9 @@ def measured_sweep(dataset, run, law) -> tuple[MeasuredSweep, float]:
     wide = acmp(x, fs, sweep=law, bandwidth_hz=bw)
     narrow = acmp(x, fs, sweep=law, bandwidth_hz=NARROW_BASE * bw)
     mode = quiet_base(wide, narrow)
+    noise = reading_sd(wide, narrow, mode)
     # sharpened where the narrow band rounds a level profile the reading shows
-    steps = SHARPEN_STEPS if mode is narrow and rounds(
-        narrow, fs, law, reading_sd(wide, narrow, narrow)) else 0
+    steps = SHARPEN_STEPS if mode is narrow and rounds(narrow, fs, law, noise) else 0
     w = 2 * np.pi * np.clip(mode.frequency, 1e-6, None)
     amp = (sharpened(mode, fs, law, steps) if steps else mode.amplitude) * w ** (2 - order)
     if not np.all(np.isfinite(amp)) or np.median(amp) <= 0:
@@ -73,7 +74,7 @@ def measured_sweep(dataset, run, law) -> tuple[MeasuredSweep, float]:
     env = np.maximum(amp / level, 1e-6)
     # x = A cos(psi): the simulator's excitation is A sin(phase), phase = psi + pi / 2
     return MeasuredSweep(fs, mode.phase + np.pi / 2, env,
-                         reading_sd=reading_sd(wide, narrow, mode, steps),
+                         reading_sd=noise * sharpened_gain(steps),
                          reading_band_hz=float(mode.bandwidth_hz), reading_steps=steps), level / G
 
 

@@ -112,21 +112,25 @@ def envelope_noise(wide, narrow) -> float:
     return float(1.4826 * np.median(np.abs(d - np.median(d))) / level)
 
 
+def _read_again(a, narrow, sample_rate: float, law) -> np.ndarray:
+    """The amplitude ``a`` (at ``narrow``'s phase) read again over ``narrow``'s band as it was
+    adapted (:func:`freeplayid.signal.acmp`, ``law`` its hint)."""
+    from .acmp import acmp
+
+    return acmp(a * np.cos(narrow.phase), sample_rate, sweep=law,
+                bandwidth_hz=float(narrow.bandwidth_hz), adapt=False).amplitude
+
+
 def sharpened(narrow, sample_rate: float, law, steps: int = SHARPEN_STEPS) -> np.ndarray:
     """The amplitude of ``narrow`` (a ChirpMode of a record read over a narrow band) with the
     band's rounding of the level profile undone by ``steps`` Van Cittert steps
-    (:data:`SHARPEN_STEPS`): each reads ``a cos(phase)`` again over the band as it was adapted
-    (:func:`freeplayid.signal.acmp`, ``law`` its hint) and adds what that reading lost. A level
-    that varies slower than the band passes unchanged; the noise grows by
-    :func:`sharpened_gain`."""
-    from .acmp import acmp
-
+    (:data:`SHARPEN_STEPS`): each reads the amplitude again over the band (``law`` its hint)
+    and adds what that reading lost. A level that varies slower than the band passes unchanged;
+    the noise grows by :func:`sharpened_gain`."""
     a0 = np.asarray(narrow.amplitude, dtype=float)
     a = a0
     for _ in range(steps):
-        again = acmp(a * np.cos(narrow.phase), sample_rate, sweep=law,
-                     bandwidth_hz=float(narrow.bandwidth_hz), adapt=False).amplitude
-        a = a + (a0 - again)
+        a = a + (a0 - _read_again(a, narrow, sample_rate, law))
     return a
 
 
@@ -134,47 +138,44 @@ def rounds(narrow, sample_rate: float, law, noise_sd: float) -> bool:
     """Whether the reading ``narrow`` (a ChirpMode) shows a level profile its band rounds: the
     first sharpening step's correction, relative to the median level, exceeds
     :data:`SHARPEN_FROM` times its noise-alone standard deviation (``noise_sd``, the reading's
-    relative noise, times :func:`_gain` of that step) somewhere away from the record's ends
-    (1.25 / band seconds, where the extraction's own edges are)."""
-    from .acmp import acmp
-
+    relative noise, times the step's gain, :func:`_noise_gain`) somewhere away from the
+    record's ends (1.25 / band seconds, where the extraction's own edges are)."""
     if noise_sd <= 0:
         return True
     a0 = np.asarray(narrow.amplitude, dtype=float)
-    again = acmp(a0 * np.cos(narrow.phase), sample_rate, sweep=law,
-                 bandwidth_hz=float(narrow.bandwidth_hz), adapt=False).amplitude
     trim = int(1.25 / float(narrow.bandwidth_hz) * sample_rate)
-    step = (a0 - again)[trim:a0.size - trim] / float(np.median(a0))
+    step = (a0 - _read_again(a0, narrow, sample_rate, law))[trim:a0.size - trim]
     if step.size == 0:
         return False
-    return float(np.max(np.abs(step))) > SHARPEN_FROM * noise_sd * _gain(-1)
-
-
-def sharpened_gain(steps: int = SHARPEN_STEPS) -> float:
-    """How much :func:`sharpened` multiplies a reading's white-noise standard deviation:
-    ``sqrt(int F^2 / int H^2)``, ``F = 1 - (1 - H)^(steps + 1)``, ``H(f) = 1 / (1 + f^4)``
-    (1.22 for two steps)."""
-    return _gain(steps)
+    gain = _noise_gain(lambda h: h * (1.0 - h))
+    return float(np.max(np.abs(step))) / float(np.median(a0)) > SHARPEN_FROM * noise_sd * gain
 
 
 @functools.lru_cache(maxsize=8)
-def _gain(steps: int) -> float:
-    """``sqrt(int F^2 / int H^2)`` of the response ``F = 1 - (1 - H)^(steps + 1)`` (a reading
-    sharpened by ``steps``), or with ``steps`` = -1 of ``F = H (1 - H)`` (the first step's
-    correction), ``H(f) = 1 / (1 + f^4)``."""
+def sharpened_gain(steps: int = SHARPEN_STEPS) -> float:
+    """How much :func:`sharpened` multiplies a reading's white-noise standard deviation: the
+    gain of ``F = 1 - (1 - H)^(steps + 1)`` (:func:`_noise_gain`; 1.22 for two steps)."""
+    return _noise_gain(lambda h: 1.0 - (1.0 - h) ** (steps + 1))
+
+
+def _low_pass(f, corner: float = 1.0):
+    """The extraction's low-pass ``H(f) = 1 / (1 + (f / corner)^4)``."""
+    return 1.0 / (1.0 + (f / corner) ** 4)
+
+
+def _noise_gain(response) -> float:
+    """``sqrt(int F(H)^2 / int H^2)``: how much the response ``F`` of the reading ``H``
+    (:func:`_low_pass`) multiplies its white-noise standard deviation."""
     import scipy.integrate
 
-    def h(f):
-        return 1.0 / (1.0 + f ** 4)
+    def integral(g):
+        return scipy.integrate.quad(g, 0.0, np.inf)[0]
 
-    def response(f):
-        return h(f) * (1.0 - h(f)) if steps < 0 else 1.0 - (1.0 - h(f)) ** (steps + 1)
-
-    num = scipy.integrate.quad(lambda f: response(f) ** 2, 0, np.inf)[0]
-    return math.sqrt(num / scipy.integrate.quad(lambda f: h(f) ** 2, 0, np.inf)[0])
+    return math.sqrt(integral(lambda f: response(_low_pass(f)) ** 2)
+                     / integral(lambda f: _low_pass(f) ** 2))
 
 
-def reading_sd(wide, narrow, chosen, steps: int = 0) -> float:
+def reading_sd(wide, narrow, chosen) -> float:
     """The relative noise of the envelope ``chosen`` (``wide`` or ``narrow``, the ChirpModes
     :func:`quiet_base` chose between), from their difference's (:func:`envelope_noise`).
 
@@ -188,18 +189,15 @@ def reading_sd(wide, narrow, chosen, steps: int = 0) -> float:
     r = min(max(float(narrow.bandwidth_hz) / float(wide.bandwidth_hz), 1e-3), 0.9)
     share = 1.0 + r - 2.0 * _shared(r) * r
     sd_wide = envelope_noise(wide.amplitude, narrow.amplitude) / math.sqrt(max(share, 1e-3))
-    sd = sd_wide * math.sqrt(r) * sharpened_gain(steps) if chosen is narrow else sd_wide
+    sd = sd_wide * math.sqrt(r) if chosen is narrow else sd_wide
     return sd if sd >= EXACT_READING else 0.0
 
 
 @functools.lru_cache(maxsize=64)
 def _shared(r: float) -> float:
-    """``int H_1 H_r / int H_r^2`` of the low-passes ``H_c(f) = 1 / (1 + (f / c)^4)``."""
+    """``int H_1 H_r / int H_r^2`` of the low-passes :func:`_low_pass` at corners 1 and r."""
     import scipy.integrate
 
-    def h(f, c):
-        return 1.0 / (1.0 + (f / c) ** 4)
-
-    both = scipy.integrate.quad(lambda f: h(f, 1.0) * h(f, r), 0.0, np.inf)[0]
-    own = scipy.integrate.quad(lambda f: h(f, r) ** 2, 0.0, np.inf)[0]
+    both = scipy.integrate.quad(lambda f: _low_pass(f) * _low_pass(f, r), 0.0, np.inf)[0]
+    own = scipy.integrate.quad(lambda f: _low_pass(f, r) ** 2, 0.0, np.inf)[0]
     return both / own
