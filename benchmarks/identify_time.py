@@ -160,6 +160,7 @@ def main() -> None:
              run_row(dataset, True, args.repeat, options={"excitation_copies": 0})),
             ("corrected, one thread", run_row(dataset, True, args.repeat, single=True)),
             ("corrected, nothing kept", run_row(dataset, True, args.repeat, afresh=True))]
+    row = {label: r for label, r in rows}
     names = list(dict.fromkeys(STAGES.values()))
     print("| identify | wall [s] | " + " | ".join(f"{n} [s]" for n in names)
           + " | kn [N·m/rad] | delta [mrad] | verdict |")
@@ -168,15 +169,15 @@ def main() -> None:
         stages = " | ".join(f"{r['stages'].get(n, 0.0):.1f}" for n in names)
         print(f"| {label} | {r['wall']:.1f} | {stages} | {r['kn']:.5g} | "
               f"{1e3 * r['delta']:.5g} | {r['verdict']} |")
-    def same(a, b):
-        return all(rows[a][1][k] == rows[b][1][k] for k in ("kn", "delta", "verdict"))
+    def same(a, b, keys=("kn", "delta", "verdict")):
+        return all(row[a][k] == row[b][k] for k in keys)
 
-    def same_answer(a, b):
-        return all(rows[a][1][k] == rows[b][1][k] for k in ("kn", "delta"))
-
-    print(f"\nthreads: {threads_cores()}; the same answers on one thread: plain {same(0, 1)}, "
-          f"corrected {same(2, 4)}; corrected with and without kept results: {same(2, 5)}; "
-          f"with and without the precision copies: kn, delta {same_answer(2, 3)}")
+    c = "corrected (default)"
+    print(f"\nthreads: {threads_cores()}; the same answers on one thread: plain "
+          f"{same('plain fit (replay=None)', 'plain fit, one thread')}, corrected "
+          f"{same(c, 'corrected, one thread')}; corrected with and without kept results: "
+          f"{same(c, 'corrected, nothing kept')}; kn, delta with and without the precision "
+          f"copies: {same(c, 'corrected, no precision copies', ('kn', 'delta'))}")
 
 
 def threads_cores() -> int:

@@ -652,3 +652,65 @@ def test_only_a_reading_that_shows_a_rounded_profile_is_sharpened():
         ds = Dataset(name="r", model=None, quantity="acceleration", units="g", sample_rate=FS,
                      channels={"a": "dof"}, runs=(run,), base_channel="acc_base")
         assert measured_sweep(ds, run, law)[0].reading_steps == (2 if seen else 0)
+
+
+def test_two_runs_take_their_intervals_from_the_noisy_copies():
+    """Two runs fit exactly, so the statistic's Jacobian interval is (0, inf); eight noisy
+    copies that spread delta by +-0.6 % (1.96 sd) give the answer +-0.6 % x t_0.975(7) / 1.96
+    (by hand: 2.3646 / 1.96), kn alike, and the interval check passes; with fewer than three
+    fitted copies, or none, the interval stays unbounded and the check names the two runs."""
+    from types import SimpleNamespace
+
+    from freeplayid.identification.pipeline import _corrected_intervals
+    from freeplayid.identification.verdict import interval_check
+    from freeplayid.replay import ReplayPrecision
+
+    p = ReplayPrecision(kn_halfwidth=0.005, delta_halfwidth=0.006, n=8, n_fitted=8)
+    rep = SimpleNamespace(statistic_ci95=((0.0, math.inf), (0.0, math.inf)), kn=600.0,
+                          delta=4.5e-3, kn_statistic=598.0, delta_statistic=4.49e-3,
+                          precision=p, bootstrap=None, level=None, damping_sensitivity=None,
+                          damping=None, excitation_noise=None)
+    kn_ci, delta_ci, source = _corrected_intervals(rep)
+    t = 2.364624251592785 / 1.96  # scipy-free: t_0.975 at 7 degrees of freedom
+    assert math.log(delta_ci[1] / 4.5e-3) == pytest.approx(t * math.log(1.006), rel=1e-6)
+    assert math.log(4.5e-3 / delta_ci[0]) == pytest.approx(t * math.log(1.006), rel=1e-6)
+    assert math.log(kn_ci[1] / 600.0) == pytest.approx(t * math.log(1.005), rel=1e-6)
+    assert "noisy copies" in source and "two runs" in source
+    assert interval_check(600.0, 4.5e-3, kn_ci, delta_ci, n_runs=2).passed
+    for few in (dataclasses.replace(p, n_fitted=2), None):
+        kn_ci, delta_ci, _ = _corrected_intervals(SimpleNamespace(**{**vars(rep),
+                                                                     "precision": few}))
+        assert math.isinf(delta_ci[1])
+        check = interval_check(600.0, 4.5e-3, kn_ci, delta_ci, n_runs=2)
+        assert not check.passed and "only 2 runs gave points" in check.message
+
+
+def test_an_unconverged_answer_passes_only_where_its_intervals_reach_the_solution():
+    """A loop that stopped 0.35 standard errors from the test's statistics (as two accurate
+    contact-damping answers did after 8 replays): its intervals are joined with themselves
+    moved to where the binding's slope puts the solution (by hand: delta's upper end times
+    exp(0.004), the lower end kept; kn's lower end times exp(-0.002)), and the convergence check
+    passes and says where; 1.5 standard errors away, or without the offset, it fails."""
+    from types import SimpleNamespace
+
+    from freeplayid.identification.pipeline import _corrected_intervals
+    from freeplayid.identification.replay_checks import _converged_check
+
+    rep = SimpleNamespace(statistic_ci95=((470.0, 490.0), (2.97e-3, 3.03e-3)), kn=480.0,
+                          delta=3e-3, kn_statistic=480.0, delta_statistic=3e-3, precision=None,
+                          bootstrap=None, level=None, damping_sensitivity=None, damping=None,
+                          excitation_noise=None, converged=False,
+                          unconverged_offset=(0.002, -0.004), closest_misfit_se=0.35,
+                          iterations=(None,) * 8, stopped="")
+    kn_ci, delta_ci, source = _corrected_intervals(rep)
+    assert kn_ci == pytest.approx((470.0 * math.exp(-0.002), 490.0), rel=1e-12)
+    assert delta_ci == pytest.approx((2.97e-3, 3.03e-3 * math.exp(0.004)), rel=1e-12)
+    assert "unconverged loop's solution" in source
+    check = _converged_check(rep)
+    assert check.passed and "did not converge in 8 replays" in check.message
+    assert "delta +0.4 %" in check.message and "kn -0.2 %" in check.message
+    far = SimpleNamespace(**{**vars(rep), "closest_misfit_se": 1.5})
+    assert not _converged_check(far).passed
+    blind = SimpleNamespace(**{**vars(rep), "unconverged_offset": None})
+    assert not _converged_check(blind).passed
+    assert _corrected_intervals(blind)[1] == pytest.approx((2.97e-3, 3.03e-3), rel=1e-14)

@@ -10,6 +10,7 @@ import time
 from collections.abc import Mapping
 
 import numpy as np
+import scipy.stats
 
 from ..errors import DatasetError, IdentificationError
 from ..estimate import PlainEstimate, plain_estimate
@@ -300,6 +301,31 @@ def _noise_floor(precision) -> tuple[float, float] | None:
     return math.log1p(precision.kn_halfwidth), math.log1p(precision.delta_halfwidth)
 
 
+def _reaching(ci: tuple, move: float) -> tuple:
+    """``ci`` joined with itself moved by ``move`` in log: the interval of an answer and of
+    the solution ``answer * exp(move)`` alike."""
+    lo, hi = ci
+    return lo * math.exp(min(0.0, move)), hi * math.exp(max(0.0, move))
+
+
+def _bounded(*cis) -> bool:
+    """Whether every interval is finite with a positive lower end."""
+    return all(ci[0] > 0 and math.isfinite(ci[1]) for ci in cis)
+
+
+def _copies_interval(precision) -> tuple[float, float] | None:
+    """The log half-widths (kn, delta) of a 95 % interval made of the noisy copies' spread
+    alone (:class:`freeplayid.replay.ReplayPrecision`): their 1.96 standard deviations taken
+    to Student's t at the copies' degrees of freedom (2.36 / 1.96 from eight). For the answer
+    whose statistic's fit measures no scatter (two runs, two parameters); None where the
+    copies were not measured."""
+    floor = _noise_floor(precision)
+    if floor is None or precision.n_fitted < 3:
+        return None
+    t = float(scipy.stats.t.ppf(0.975, precision.n_fitted - 1)) / 1.96
+    return floor[0] * t, floor[1] * t
+
+
 def _at_least(ci: tuple, value: float, half: float) -> tuple:
     """``ci`` of ``value`` with each log half-width at least ``half``."""
     lo, hi = ci
@@ -309,18 +335,27 @@ def _at_least(ci: tuple, value: float, half: float) -> tuple:
 def _corrected_intervals(rep) -> tuple[tuple, tuple, str]:
     """The corrected estimate's intervals: the Jacobian ones of the statistic's fit (the points
     the replays match, each run's points one observation) moved with the estimate (same
-    relative width) and stretched where the answer moves further than its statistic (the
-    binding's slope, :func:`_further`); with the bootstrap by replay, the smallest interval
-    holding both; never narrower than the spread the noise alone gives the answer
-    (:func:`_noise_floor`); widened by the answer's move for the levels' uncertainty where they
-    came from ``level_g``, for the damping's where down-sweeps rest on one they do not measure,
-    for an estimated damping's, and for the base channel's noise that the replays' measured
-    excitation carries."""
+    relative width; where two runs fit exactly and measure no scatter, the noisy copies'
+    spread, :func:`_copies_interval`) and stretched where the answer moves further than its
+    statistic (the binding's slope, :func:`_further`); with the bootstrap by replay, the
+    smallest interval holding both; where the loop did not converge, reaching to where the
+    binding's slope puts its solution (:func:`_reaching`); never narrower than the spread the
+    noise alone gives the answer (:func:`_noise_floor`); widened by the answer's move for the
+    levels' uncertainty where they came from ``level_g``, for the damping's where down-sweeps
+    rest on one they do not measure, for an estimated damping's, and for the base channel's
+    noise that the replays' measured excitation carries."""
     (kn_ci, delta_ci) = rep.statistic_ci95
     sk, sd = rep.kn / rep.kn_statistic, rep.delta / rep.delta_statistic
     kn_ci = tuple(v * sk for v in kn_ci)
     delta_ci = tuple(v * sd for v in delta_ci)
     source = "Jacobian (moved with the estimate)"
+    copies = _copies_interval(getattr(rep, "precision", None))
+    if copies is not None and not _bounded(kn_ci, delta_ci):
+        # two runs fit exactly: no scatter to measure, but the noisy copies measured the noise
+        kn_ci, delta_ci = (_at_least((v, v), v, h) for v, h in zip((rep.kn, rep.delta), copies))
+        source = (f"the spread of {rep.precision.n_fitted} noisy copies of the answer's replay "
+                  "(Student's t; the points of two runs fit exactly, so their scatter measures "
+                  "nothing)")
     further = _further(getattr(rep, "precision", None))
     if further is not None:  # the answer moves further than its statistic
         kn_ci = _stretched(kn_ci, rep.kn, further[0])
@@ -332,6 +367,10 @@ def _corrected_intervals(rep) -> tuple[tuple, tuple, str]:
         kn_ci = (min(kn_ci[0], boot.kn_ci95[0]), max(kn_ci[1], boot.kn_ci95[1]))
         delta_ci = (min(delta_ci[0], boot.delta_ci95[0]), max(delta_ci[1], boot.delta_ci95[1]))
         source = f"bootstrap by replay ({boot.n} copies) joined with the Jacobian interval"
+    offset = getattr(rep, "unconverged_offset", None)
+    if offset is not None and not rep.converged:  # the solution lies a step from the answer
+        kn_ci, delta_ci = _reaching(kn_ci, -offset[0]), _reaching(delta_ci, -offset[1])
+        source += ", reaching to where the binding's slope puts the unconverged loop's solution"
     floor = _noise_floor(getattr(rep, "precision", None))
     if floor is not None:  # never narrower than the noise alone moves the answer
         kn_ci, delta_ci = (_at_least(ci, v, h) for ci, v, h in

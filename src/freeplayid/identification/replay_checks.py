@@ -188,7 +188,9 @@ def replay_checks(replay, *, down_runs=()) -> list[Check]:
 
 
 def _converged_check(replay) -> Check:
-    """``replay_converged``: converged, or the closest replay within the statistics' noise."""
+    """``replay_converged``: converged, or the closest replay within a quarter of the
+    statistics' standard error (``binding_noise``), or within one (``binding_reach``) where the
+    intervals reach to the solution that the binding's slope puts a step away."""
     n = len(replay.iterations)
     if replay.converged:
         return Check("replay_converged", True, f"the corrected fit converged in {n} replays")
@@ -201,6 +203,16 @@ def _converged_check(replay) -> Check:
                         else "")
                      + f", but its closest replay matches the test's statistics within "
                      f"{close:.2g} of their standard error", close)
+    offset = getattr(replay, "unconverged_offset", None)
+    if close is not None and offset is not None and close <= LIMITS["binding_reach"]:
+        return Check("replay_converged", True,
+                     f"the corrected fit did not converge in {n} replays"
+                     + (" (the loop stopped where a step could not be replayed)" if stopped
+                        else "")
+                     + f"; its closest replay, the answer, misses the test's statistics by "
+                     f"{close:.2g} of their standard error, and the intervals reach to where the "
+                     f"binding's slope puts the solution (kn {100 * math.expm1(-offset[0]):+.2g} "
+                     f"%, delta {100 * math.expm1(-offset[1]):+.2g} %)", close)
     return Check("replay_converged", False,
                  f"the corrected fit did not converge in {n} replays"
                  + ("" if close is None else

@@ -192,6 +192,15 @@ def _model(r) -> list[str]:
     return lines
 
 
+def _offset_text(rep) -> str:
+    """Where the binding's slope puts the solution of an unconverged loop, or ""."""
+    off = getattr(rep, "unconverged_offset", None)
+    if rep.converged or off is None:
+        return ""
+    return (f"; the binding's slope puts the solution at kn {100 * math.expm1(-off[0]):+.2g} %, "
+            f"delta {100 * math.expm1(-off[1]):+.2g} % from it, which the intervals reach")
+
+
 def _replay_lead(r) -> str:
     """The replay section's first paragraph: plain and corrected estimates, convergence, the
     statistic and its weights."""
@@ -203,6 +212,7 @@ def _replay_lead(r) -> str:
             + ("" if rep.converged or rep.closest_misfit_se is None else
                f"; the closest replay misses the test's statistics by "
                f"{rep.closest_misfit_se:.2g} of their standard error")
+            + _offset_text(rep)
             + "). The replays match the fit of the points "
             f"taken with jump point `{rep.jump_point}`: kn = {rep.kn_statistic:.5g}, "
             f"delta = {rep.delta_statistic:.5g}"

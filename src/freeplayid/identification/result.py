@@ -279,6 +279,8 @@ class Identification:
         return {
             "kn_fit": self.plain_fit.kn, "delta_fit": self.plain_fit.delta,
             "converged": r.converged, "closest_misfit_se": r.closest_misfit_se,
+            "unconverged_offset": None if getattr(r, "unconverged_offset", None) is None
+            else list(r.unconverged_offset),
             "jump_point": r.jump_point, "kn_statistic": r.kn_statistic,
             "delta_statistic": r.delta_statistic,
             "weights": None if not r.weights else [vars(w) for w in r.weights],

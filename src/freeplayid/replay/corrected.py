@@ -284,6 +284,11 @@ class ReplayResult:
         Without convergence: how far the answer's replay (the one closest to the test) missed
         the test's statistics, in their standard errors (None when converged or when nothing
         measures the noise: two runs).
+    unconverged_offset : (float, float) or None
+        Without convergence: how far the answer lies from the binding's solution, log (kn,
+        delta): the closest replay's miss of the test's statistics carried through the
+        binding's slope (the identity where the replays did not measure it), so that the
+        solution lies near ``answer * exp(-offset)``. None when converged or without a replay.
     levels : dict of str -> (float, str)
         Each replayed run's level [g] and where it came from ("base channel" or "level_g").
     sweeps : dict of str -> dict
@@ -341,6 +346,7 @@ class ReplayResult:
     iterations: tuple = ()
     converged: bool = False
     closest_misfit_se: float | None = None
+    unconverged_offset: tuple | None = None
     levels: dict = dataclasses.field(default_factory=dict)
     sweeps: dict | None = None
     offsets: tuple = ()
@@ -827,6 +833,12 @@ def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts
     J = None if len({i.zeta for i in b.history}) > 1 else history_jacobian(
         [(i.kn, i.delta) for i in b.history], [(i.kn_rep, i.delta_rep) for i in b.history])
     slope = None if J is None else answer_slope(J)
+    offset = None
+    if not sol.converged and sol.closest is not None and not b.failure:
+        # one Newton step from the closest replay, not taken: where the solution lies
+        it = b.history[sol.closest]
+        miss = np.log([it.kn_rep, it.delta_rep]) - np.log(b.hat)
+        offset = tuple(float(v) for v in (np.eye(2) if slope is None else slope) @ miss)
     if rep is not None:
         replayed = {(p.run, p.channel): p for p in rep.points.used()}
         offsets = tuple(PointOffset(p.run, p.channel, q.f_hz / p.f_hz - 1,
@@ -866,7 +878,8 @@ def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts
         kn=float(theta[0]), delta=float(theta[1]), jump_point=rule,
         kn_statistic=float(stat.kn), delta_statistic=float(stat.delta),
         statistic_ci95=b.stat_ci95, iterations=tuple(b.history), converged=sol.converged,
-        closest_misfit_se=closest, levels=b.test.levels, offsets=offsets,
+        closest_misfit_se=closest, unconverged_offset=offset, levels=b.test.levels,
+        offsets=offsets,
         curves=tuple(rep.points.curves) if rep is not None else (), misfit=misfit,
         damping=damping, failure=b.failure, stopped=b.stopped, bootstrap=boot,
         precision=precision,
