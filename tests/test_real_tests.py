@@ -695,6 +695,7 @@ def test_an_unconverged_answer_passes_only_where_its_intervals_reach_the_solutio
 
     from freeplayid.identification.pipeline import _corrected_intervals
     from freeplayid.identification.replay_checks import _converged_check
+    from freeplayid.identification.report import _offset_text
 
     rep = SimpleNamespace(statistic_ci95=((470.0, 490.0), (2.97e-3, 3.03e-3)), kn=480.0,
                           delta=3e-3, kn_statistic=480.0, delta_statistic=3e-3, precision=None,
@@ -713,4 +714,8 @@ def test_an_unconverged_answer_passes_only_where_its_intervals_reach_the_solutio
     assert not _converged_check(far).passed
     blind = SimpleNamespace(**{**vars(rep), "unconverged_offset": None})
     assert not _converged_check(blind).passed
+    said = _offset_text(rep)  # the report's replay paragraph says the same
+    assert "kn -0.2 %" in said and "delta +0.4 %" in said and "intervals reach" in said
+    assert _offset_text(blind) == "" and _offset_text(SimpleNamespace(**{**vars(rep),
+                                                                       "converged": True})) == ""
     assert _corrected_intervals(blind)[1] == pytest.approx((2.97e-3, 3.03e-3), rel=1e-14)
