@@ -187,6 +187,13 @@ def replay_checks(replay, *, down_runs=()) -> list[Check]:
     return [c for c in checks if c is not None]
 
 
+def solution_move(offset) -> str:
+    """Where an unconverged loop's solution lies from its answer (``unconverged_offset``, log
+    kn and log delta), in %."""
+    return (f"kn {100 * math.expm1(-offset[0]):+.2g} %, "
+            f"delta {100 * math.expm1(-offset[1]):+.2g} %")
+
+
 def _converged_check(replay) -> Check:
     """``replay_converged``: converged, or the closest replay within a quarter of the
     statistics' standard error (``binding_noise``), or within one (``binding_reach``) where the
@@ -211,8 +218,7 @@ def _converged_check(replay) -> Check:
                         else "")
                      + f"; its closest replay, the answer, misses the test's statistics by "
                      f"{close:.2g} of their standard error, and the intervals reach to where the "
-                     f"binding's slope puts the solution (kn {100 * math.expm1(-offset[0]):+.2g} "
-                     f"%, delta {100 * math.expm1(-offset[1]):+.2g} %)", close)
+                     f"binding's slope puts the solution ({solution_move(offset)})", close)
     return Check("replay_converged", False,
                  f"the corrected fit did not converge in {n} replays"
                  + ("" if close is None else

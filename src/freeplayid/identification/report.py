@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
+from .replay_checks import solution_move
 from .verdict import within_binding_noise
 
 __all__ = ["render_report", "render_summary", "validation_record", "format_ci", "format_sig",
@@ -197,8 +198,8 @@ def _offset_text(rep) -> str:
     off = getattr(rep, "unconverged_offset", None)
     if rep.converged or off is None:
         return ""
-    return (f"; the binding's slope puts the solution at kn {100 * math.expm1(-off[0]):+.2g} %, "
-            f"delta {100 * math.expm1(-off[1]):+.2g} % from it, which the intervals reach")
+    return (f"; the binding's slope puts the solution at {solution_move(off)} from it, which "
+            "the intervals reach")
 
 
 def _replay_lead(r) -> str:

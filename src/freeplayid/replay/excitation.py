@@ -78,7 +78,6 @@ def measured_sweep(dataset, run, law) -> tuple[MeasuredSweep, float]:
                          reading_band_hz=float(mode.bandwidth_hz), reading_steps=steps), level / G
 
 
-
 def read_again(sweep: MeasuredSweep, rng) -> MeasuredSweep:
     """``sweep`` (a measured excitation) with its envelope read again under fresh noise: times
     ``1 + e(t)``, ``e`` the relative amplitude error of a reading over ``reading_band_hz``

@@ -163,16 +163,18 @@ def _low_pass(f, corner: float = 1.0):
     return 1.0 / (1.0 + (f / corner) ** 4)
 
 
+def _integral(g) -> float:
+    """``int_0^inf g(f) df``."""
+    import scipy.integrate
+
+    return float(scipy.integrate.quad(g, 0.0, np.inf)[0])
+
+
 def _noise_gain(response) -> float:
     """``sqrt(int F(H)^2 / int H^2)``: how much the response ``F`` of the reading ``H``
     (:func:`_low_pass`) multiplies its white-noise standard deviation."""
-    import scipy.integrate
-
-    def integral(g):
-        return scipy.integrate.quad(g, 0.0, np.inf)[0]
-
-    return math.sqrt(integral(lambda f: response(_low_pass(f)) ** 2)
-                     / integral(lambda f: _low_pass(f) ** 2))
+    return math.sqrt(_integral(lambda f: response(_low_pass(f)) ** 2)
+                     / _integral(lambda f: _low_pass(f) ** 2))
 
 
 def reading_sd(wide, narrow, chosen) -> float:
@@ -196,8 +198,5 @@ def reading_sd(wide, narrow, chosen) -> float:
 @functools.lru_cache(maxsize=64)
 def _shared(r: float) -> float:
     """``int H_1 H_r / int H_r^2`` of the low-passes :func:`_low_pass` at corners 1 and r."""
-    import scipy.integrate
-
-    both = scipy.integrate.quad(lambda f: _low_pass(f) * _low_pass(f, r), 0.0, np.inf)[0]
-    own = scipy.integrate.quad(lambda f: _low_pass(f, r) ** 2, 0.0, np.inf)[0]
-    return both / own
+    return (_integral(lambda f: _low_pass(f) * _low_pass(f, r))
+            / _integral(lambda f: _low_pass(f, r) ** 2))
