@@ -4,7 +4,13 @@ import numpy as np
 import pytest
 
 from freeplayid.backbone import dfa_backbone, hb_backbone
-from freeplayid.fit import FittingPoints, fit_backbone, multistart_grid
+from freeplayid.fit import (
+    BackboneModel,
+    FittingPoints,
+    fit_backbone,
+    jacobian_intervals,
+    multistart_grid,
+)
 from freeplayid.model import two_dof_system
 
 KN, DELTA = 2.0e4, 1.0e-3
@@ -212,7 +218,6 @@ def test_fit_backbone_takes_fitting_points_or_an_extraction_and_nothing_else():
 
 def test_unknown_fit_backbone_lists_the_registered_methods():
     from freeplayid.backbone import BACKBONE_METHODS
-    from freeplayid.fit import BackboneModel
 
     pts = FittingPoints(channel=["uz_in", "uz_in"], amplitude_m=[1e-3, 2e-3], f_hz=[5.0, 6.0])
     msg = f"`backbone` must be one of {sorted(BACKBONE_METHODS)}, got 'ihb'"
@@ -266,6 +271,23 @@ def test_weights_count_a_point_as_often_as_its_weight_squared():
     # the reported residuals are the unweighted ones
     np.testing.assert_allclose(weighted.residuals, plain.residuals[np.r_[0, np.cumsum(reps)[:-1]]],
                                rtol=1e-5, atol=1e-9)
+    # the weighted Jacobian and the weights it keeps give back its per-point intervals
+    # (jacobian_intervals' own formula); the Jacobian agrees with central differences of the
+    # weighted residuals (an independent reference)
+    x = np.log([weighted.kn, weighted.delta])
+    kn_ci, delta_ci = jacobian_intervals(x, weighted.weights * weighted.residuals,
+                                         weighted.jacobian)
+    np.testing.assert_allclose(kn_ci, weighted.kn_ci95, rtol=1e-9)
+    np.testing.assert_allclose(weighted.weights, np.sqrt(reps))
+    model = BackboneModel(sys_, list(pts.channel), backbone="dfa")
+    cidx = np.array([model.channels.index(c) for c in pts.channel])
+
+    def r(xx):
+        f = model.frequency(pts.amplitude_m, cidx, *np.exp(xx))
+        return np.sqrt(reps) * (f - pts.f_hz) / pts.f_hz
+
+    fd = np.stack([(r(x + e) - r(x - e)) / 2e-5 for e in np.eye(2) * 1e-5], axis=1)
+    np.testing.assert_allclose(weighted.jacobian, fd, rtol=1e-3, atol=1e-6)
     for bad in ([1.0] * 3, [0.0] + [1.0] * 9, [np.nan] + [1.0] * 9):
         with pytest.raises(ValueError, match="`weights` must be 10 finite numbers > 0"):
             fit_backbone(pts, sys_, init=(1.5e4, 1.2e-3), weights=bad)

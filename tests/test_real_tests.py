@@ -719,3 +719,89 @@ def test_an_unconverged_answer_passes_only_where_its_intervals_reach_the_solutio
     assert _offset_text(blind) == "" and _offset_text(SimpleNamespace(**{**vars(rep),
                                                                        "converged": True})) == ""
     assert _corrected_intervals(blind)[1] == pytest.approx((2.97e-3, 3.03e-3), rel=1e-14)
+
+
+class _Points:
+    """Fitting points as :func:`replayed_intervals` reads them: runs and channels."""
+
+    def __init__(self, run, channel):
+        self.run, self.channel = list(run), list(channel)
+
+    def __len__(self):
+        return len(self.run)
+
+
+def _estimate(run, channel, residuals, *, jacobian=None, weights=None, kn=480.0, delta=3e-3):
+    from types import SimpleNamespace
+
+    r = np.asarray(residuals, float)
+    fit = SimpleNamespace(kn=kn, delta=delta, residuals=r, jacobian=jacobian,
+                          weights=np.ones(r.size) if weights is None else np.asarray(weights))
+    return SimpleNamespace(fit=fit, fitting_points=lambda: _Points(run, channel))
+
+
+def test_intervals_come_from_the_residuals_the_replay_does_not_reproduce():
+    """Four runs of two channels whose points lie off the backbone by -1.0 ... +1.5 % (a
+    down-sweep's jump-ups), which the replay reproduces to within 0.02-0.05 %: the intervals
+    are the by-run Gauss-Newton ones (by hand: run means, s^2 over 2 degrees of freedom,
+    t_0.975(2) = 4.3027) of the measured less the replayed residuals, weighted, about the
+    statistic's fit; a point the replay lacks is left out; with two runs matched, a repeated
+    (run, channel) or no Jacobian there are none."""
+    from freeplayid.replay import replayed_intervals
+
+    run = ["a", "a", "b", "b", "c", "c", "d", "d"]
+    ch = ["tip", "root"] * 4
+    systematic = np.array([-0.010, -0.011, 0.004, 0.005, 0.015, 0.013, -0.006, -0.004])
+    noise = np.array([2e-4, 3e-4, -4e-4, -2e-4, 5e-4, 1e-4, -1e-4, -3e-4])
+    J = np.array([[0.2, -0.9], [0.25, -0.85], [0.4, -0.6], [0.45, -0.55],
+                  [0.6, -0.35], [0.62, -0.3], [0.8, -0.15], [0.85, -0.1]])
+    w = np.array([1.0, 0.5, 1.0, 0.5, 1.0, 0.5, 1.0, 0.5])
+    measured = _estimate(run, ch, systematic + noise, jacobian=J, weights=w)
+    # the replay lists its points in another order and has one more (not matched)
+    order = [7, 6, 5, 4, 3, 2, 1, 0]
+    replayed = _estimate([run[i] for i in order] + ["e"], [ch[i] for i in order] + ["tip"],
+                         list(systematic[order]) + [0.0])
+    kn_ci, delta_ci = replayed_intervals(measured, replayed)
+    d = w * noise
+    rm = np.array([d[2 * k: 2 * k + 2].mean() for k in range(4)])
+    Jm = np.array([J[2 * k: 2 * k + 2].mean(axis=0) for k in range(4)])
+    cov = float(rm @ rm) / 2 * np.linalg.inv(Jm.T @ Jm)
+    half = 4.302652729911275 * np.sqrt(np.diag(cov))
+    assert math.log(kn_ci[1] / 480.0) == pytest.approx(half[0], rel=1e-9)
+    assert math.log(480.0 / kn_ci[0]) == pytest.approx(half[0], rel=1e-9)
+    assert math.log(delta_ci[1] / 3e-3) == pytest.approx(half[1], rel=1e-9)
+    # the measured residuals' own scatter gives intervals many times wider
+    own = w * (systematic + noise)
+    ro = np.array([own[2 * k: 2 * k + 2].mean() for k in range(4)])
+    assert float(ro @ ro) > 100 * float(rm @ rm)
+    # a point the replay lacks is left out: run d on one channel
+    lacking = _estimate(run[:7], ch[:7], systematic[:7])
+    kn_7, _ = replayed_intervals(measured, lacking)
+    assert kn_7 != pytest.approx(kn_ci, rel=1e-6)
+    two = _estimate(run[:4], ch[:4], systematic[:4])
+    assert replayed_intervals(measured, two) is None
+    repeated = _estimate(run, ["tip"] * 8, systematic + noise, jacobian=J, weights=w)
+    assert replayed_intervals(repeated, replayed) is None
+    assert replayed_intervals(_estimate(run, ch, systematic + noise), replayed) is None
+
+
+def test_the_reported_intervals_start_from_the_replayed_residuals():
+    """With ``replayed_ci95`` the corrected intervals are those, moved with the estimate (the
+    statistic's own, +-4 %, are not used); without, the statistic's own."""
+    from types import SimpleNamespace
+
+    from freeplayid.identification.pipeline import _corrected_intervals
+
+    rep = SimpleNamespace(statistic_ci95=((460.0, 500.0), (2.88e-3, 3.12e-3)),
+                          replayed_ci95=((475.0, 485.0), (2.98e-3, 3.02e-3)), kn=490.0,
+                          delta=3.03e-3, kn_statistic=480.0, delta_statistic=3e-3,
+                          precision=None, bootstrap=None, level=None,
+                          damping_sensitivity=None, damping=None, excitation_noise=None)
+    kn_ci, delta_ci, source = _corrected_intervals(rep)
+    assert kn_ci == pytest.approx((475.0 * 490 / 480, 485.0 * 490 / 480), rel=1e-14)
+    assert delta_ci == pytest.approx((2.98e-3 * 1.01, 3.02e-3 * 1.01), rel=1e-14)
+    assert "does not reproduce" in source
+    kn_ci, _, source = _corrected_intervals(SimpleNamespace(**{**vars(rep),
+                                                               "replayed_ci95": None}))
+    assert kn_ci == pytest.approx((460.0 * 490 / 480, 500.0 * 490 / 480), rel=1e-14)
+    assert "does not reproduce" not in source

@@ -124,6 +124,11 @@ def test_corrected_fit_reports_its_iterations(measured, system):
     assert abs(res.truth_error["delta"]) < 0.02 and abs(res.truth_error["kn"]) < 0.01
     rec = res.to_dict()["replay"]
     assert rec["kn_fit"] == res.plain_fit.kn and len(rec["iterations"]) == len(r.iterations)
+    # up-sweeps: the intervals start from the statistic's own residuals (its points lie near
+    # the backbone), not from what the replay does not reproduce (down-sweeps, below)
+    assert r.replayed_ci95 is None and rec["replayed_ci95"] is None
+    assert rec["statistic_ci95"] == [list(ci) for ci in r.statistic_ci95]
+    assert "does not reproduce" not in res.interval_source
     assert "## Replay" in res.report()
     # the self-check: measured and replayed curves agree, the verdict says so
     assert max(r.misfit.values()) < 0.02
@@ -600,6 +605,9 @@ def test_an_up_sweep_among_the_down_sweeps_measures_the_damping(down_sweeps, mea
     res = identify(mixed, system=system, progress=False, fit={"multistart": MULTISTART})
     assert "s0.8.csv" in {p.run for p in res.points.used()}
     assert res.replay.damping_sensitivity is None and not res.replay.failure
+    # a run with points that sweeps down: the intervals start from what the replay does not
+    # reproduce (its jump-up lies off the backbone by what the replay does)
+    assert res.replay.replayed_ci95 is not None
 
 
 def test_a_down_sweep_whose_first_replay_loses_its_jump_ups_starts_at_a_smaller_gap(
@@ -618,6 +626,13 @@ def test_a_down_sweep_whose_first_replay_loses_its_jump_ups_starts_at_a_smaller_
     assert res.kn == pytest.approx(WN * WN, rel=0.01)
     assert res.delta == pytest.approx(ref.DELTA, rel=0.01)
     assert "loop started at that fit with delta x" in res.report()
+    # the jump-ups lie off the backbone by what the replay reproduces: the intervals start from
+    # what it does not, narrower than the statistic's own residuals make them, and hold
+    assert r.replayed_ci95 is not None and "does not reproduce" in res.interval_source
+    own, rep = (math.log(ci[1] / ci[0]) for ci in (r.statistic_ci95[1], r.replayed_ci95[1]))
+    assert rep < own / 3  # 0.047 % against 1.1 % here
+    assert res.delta_ci95[0] < ref.DELTA < res.delta_ci95[1]
+    assert res.kn_ci95[0] < WN * WN < res.kn_ci95[1]
 
 
 def test_an_unknown_replay_jump_point_fails_before_any_work(measured, system):

@@ -70,6 +70,11 @@ class FitResult:
         The Jacobian intervals with each run's points taken as one observation
         (:func:`.uncertainty.jacobian_intervals` with ``groups``): the points of one run share
         its jump, so their residuals are not independent. None when the points have no runs.
+    jacobian : ndarray, shape (p, 2) or None [-]
+        d (weighted residuals) / d (ln kn, ln delta) at the optimum, for intervals from other
+        residuals at the same points (:func:`freeplayid.replay.replayed_intervals`).
+    weights : ndarray, shape (p,) or None [-]
+        The points' weights (all 1 when the fit was unweighted).
     """
 
     kn: float
@@ -91,6 +96,8 @@ class FitResult:
     starts: list = field(default_factory=list)
     kn_ci95_by_run: tuple | None = None
     delta_ci95_by_run: tuple | None = None
+    jacobian: np.ndarray | None = None
+    weights: np.ndarray | None = None
 
 
 def _as_fitting_points(points) -> FittingPoints:
@@ -276,5 +283,5 @@ def _result(obj: _Objective, sol, points, active, label, best, runs, n_bootstrap
         runtime_s=time.perf_counter() - t0, success=bool(sol.success), message=str(sol.message),
         kn_ci95_bootstrap=boot_kn, delta_ci95_bootstrap=boot_delta,
         kn_ci95_by_run=kn_ci_run, delta_ci95_by_run=delta_ci_run,
-        starts=tried,
+        starts=tried, jacobian=np.asarray(sol.jac, float), weights=np.asarray(w, float),
     )

@@ -334,7 +334,9 @@ def _at_least(ci: tuple, value: float, half: float) -> tuple:
 
 def _corrected_intervals(rep) -> tuple[tuple, tuple, str]:
     """The corrected estimate's intervals: the Jacobian ones of the statistic's fit (the points
-    the replays match, each run's points one observation) moved with the estimate (same
+    the replays match, each run's points one observation; where a run with points sweeps
+    down, with the residuals the answer's replay does not reproduce, ``replayed_ci95``: the
+    measured points' less the replayed ones') moved with the estimate (same
     relative width; where two runs fit exactly and measure no scatter, the noisy copies'
     spread, :func:`_copies_interval`) and stretched where the answer moves further than its
     statistic (the binding's slope, :func:`_further`); with the bootstrap by replay, the
@@ -344,11 +346,14 @@ def _corrected_intervals(rep) -> tuple[tuple, tuple, str]:
     levels' uncertainty where they came from ``level_g``, for the damping's where down-sweeps
     rest on one they do not measure, for an estimated damping's, and for the base channel's
     noise that the replays' measured excitation carries."""
-    (kn_ci, delta_ci) = rep.statistic_ci95
+    replayed = getattr(rep, "replayed_ci95", None)
+    (kn_ci, delta_ci) = rep.statistic_ci95 if replayed is None else replayed
     sk, sd = rep.kn / rep.kn_statistic, rep.delta / rep.delta_statistic
     kn_ci = tuple(v * sk for v in kn_ci)
     delta_ci = tuple(v * sd for v in delta_ci)
-    source = "Jacobian (moved with the estimate)"
+    source = "Jacobian (moved with the estimate)" if replayed is None else \
+        ("Jacobian of the residuals the answer's replay does not reproduce (moved with the "
+         "estimate)")
     copies = _copies_interval(getattr(rep, "precision", None))
     if copies is not None and not _bounded(kn_ci, delta_ci):
         # two runs fit exactly: no scatter to measure, but the noisy copies measured the noise

@@ -283,6 +283,8 @@ class Identification:
             else list(r.unconverged_offset),
             "jump_point": r.jump_point, "kn_statistic": r.kn_statistic,
             "delta_statistic": r.delta_statistic,
+            "statistic_ci95": _pairs(r.statistic_ci95),
+            "replayed_ci95": _pairs(getattr(r, "replayed_ci95", None)),
             "weights": None if not r.weights else [vars(w) for w in r.weights],
             "iterations": [it.to_dict() for it in r.iterations],
             "offsets": [vars(o) for o in r.offsets],
@@ -377,3 +379,8 @@ class Identification:
         """``report.md``: the data set, the result, the verdict, the replay, the fitting points,
         the rejected runs, the zero-clearance check and the figures."""
         return render_report(self, figures)
+
+
+def _pairs(intervals) -> list | None:
+    """(kn, delta) intervals as JSON lists ([[lo, hi], [lo, hi]]), None where absent."""
+    return None if intervals is None else [list(ci) for ci in intervals]

@@ -31,7 +31,9 @@ any 1e-9 change of the parameters, and a statistic that saw it made the binding 
 jitter by 0.1-0.2 % (benchmarks/binding_jitter.py). The measured data are extracted once
 more with that rule; the plain fit stays what it was (``kn_fit``, ``delta_fit``). The Jacobian
 intervals moved with the estimate are the statistic fit's, with each run's points counted as
-one observation (the channels of a run share its jump).
+one observation (the channels of a run share its jump); where a run with points sweeps down,
+from the residuals that the answer's replay does not reproduce (:func:`replayed_intervals`,
+``ReplayResult.replayed_ci95``: its jump-ups lie off the backbone by what the replay does).
 
 Weights (``weighted``): the statistic's fit weights each point by the inverse of the frequency
 residual its amplitude noise makes (:func:`point_weights`): the noise level measured against the
@@ -88,6 +90,7 @@ from .damping_estimate import ZETA_RTOL, ZETA_START, ReplayDamping, damped_syste
 from .misfit import curve_misfit
 from .options import Replay
 from .runs import replay_dataset, replay_levels, replay_sweeps
+from .statistic import replayed_intervals
 from .weights import WEIGHT_FLOOR, PointWeight, noise_levels, point_weights
 
 __all__ = ["Replay", "ReplayResult", "ReplayIteration", "PointOffset", "PointWeight",
@@ -96,4 +99,5 @@ __all__ = ["Replay", "ReplayResult", "ReplayIteration", "PointOffset", "PointWei
            "DampingSensitivity", "replay_sweeps",
            "replay_levels",
            "replay_dataset", "corrected_fit", "curve_misfit", "damped_system", "noise_levels",
-           "initial_zeta", "point_weights", "WEIGHT_FLOOR", "ZETA_START", "ZETA_RTOL"]
+           "initial_zeta", "point_weights", "replayed_intervals", "WEIGHT_FLOOR", "ZETA_START",
+           "ZETA_RTOL"]
