@@ -911,12 +911,12 @@ def _swept_down(b: _Binding) -> bool:
     """Whether a run with points sweeps down: its jump-up lies where the lower branch ends, off
     the backbone by an amount that changes from run to run with the level and that the replay
     reproduces, so the statistic's own residuals overstate its noise many times (three runs of
-    the default fin swept down: intervals of +-48-69 % where noisy copies moved the answer by
-    +-1-2 %); the reported intervals then start from :func:`.statistic.replayed_intervals`.
+    the default fin swept down: delta's intervals +-29-63 % where noisy copies moved the answer
+    by +-1-2 %); the reported intervals then start from :func:`.statistic.replayed_intervals`.
     Up-sweeps keep the statistic's own: their points lie near the backbone, and on the realtests
     records (exact integrator, 218 answers) the two agreed in median width while the own ones
-    held the truth in two biased answers the replayed ones missed (a Rayleigh-damped beam
-    without base channel, fin C's unequal gaps)."""
+    held the truth in three biased answers the replayed ones missed (a Rayleigh-damped beam
+    without base channel, both draws; fin C's unequal gaps)."""
     with_points = {p.run for p in b.stat.points.used()}
     return any(sw.stop_hz < sw.start_hz for r, (sw, _, _) in b.test.sweeps.items()
                if r in with_points)
