@@ -917,9 +917,17 @@ def _swept_down(b: _Binding) -> bool:
     records (exact integrator, 218 answers) the two agreed in median width while the own ones
     held the truth in three biased answers the replayed ones missed (a Rayleigh-damped beam
     without base channel, both draws; fin C's unequal gaps)."""
-    with_points = {p.run for p in b.stat.points.used()}
-    return any(sw.stop_hz < sw.start_hz for r, (sw, _, _) in b.test.sweeps.items()
-               if r in with_points)
+    return bool(_with_points(b) & _down_runs(b))
+
+
+def _with_points(b: _Binding) -> set:
+    """The runs with a used point of the statistic."""
+    return {p.run for p in b.stat.points.used()}
+
+
+def _down_runs(b: _Binding) -> set:
+    """The replayed runs that sweep down (their law's stop below its start)."""
+    return {r for r, (sw, _, _) in b.test.sweeps.items() if sw.stop_hz < sw.start_hz}
 
 
 def _backbone_at(b: _Binding, theta):
@@ -962,8 +970,7 @@ def _damping_sensitivity(b: _Binding, sol, u: float,
     damping (its own interval counts), with u = 0, when no replayed run sweeps down, when a
     run with points sweeps up (its peak measures the damping: the model's C is replaced where
     the replay misses it), or when its first replay fails."""
-    with_points = {p.run for p in b.stat.points.used()}
-    down = {r for r, (sw, _, _) in b.test.sweeps.items() if sw.stop_hz < sw.start_hz}
+    with_points, down = _with_points(b), _down_runs(b)
     runs = tuple(r for r in b.test.sweeps if r in down)
     if not (runs and u > 0 and b.history) or b.source == "estimated" or with_points - down:
         return None

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.stats
 
-from ..fit import jacobian_halfwidths
+from ..fit import jacobian_intervals
 
 __all__ = ["amplitude_ratios", "by_run_intervals", "median_se", "misfit_in_se",
            "replayed_intervals"]
@@ -31,11 +31,12 @@ def replayed_intervals(estimate, replayed) -> tuple | None:
     the latter moves the corrected answer, while a run-to-run scatter of the former made the
     intervals of the runs' own residuals up to 30 times wider than the noise moves the answer
     (down-sweeps, three runs). ``estimate`` and ``replayed`` are
-    :class:`freeplayid.estimate.PlainEstimate`; None where a fit lacks its Jacobian or weights,
+    :class:`freeplayid.estimate.PlainEstimate`; None where the statistic's fit lacks its Jacobian
+    or weights,
     the points have no runs or repeat a (run, channel), or fewer than three runs are matched
     (two runs fit exactly and measure nothing)."""
     fs, fr = estimate.fit, replayed.fit
-    if fs.jacobian is None or fs.weights is None or fr.weights is None:
+    if fs.jacobian is None or fs.weights is None:
         return None
     ps, pr = estimate.fitting_points(), replayed.fitting_points()
     if ps.run is None or pr.run is None or len(ps) != fs.residuals.size or \
@@ -50,12 +51,9 @@ def replayed_intervals(estimate, replayed) -> tuple | None:
         return None
     w = fs.weights[keep]
     d = w * (fs.residuals[keep] - np.array([rep[keys[i]] for i in keep]))
-    half = jacobian_halfwidths(d, fs.jacobian[keep], [keys[i][0] for i in keep])
-    if not np.all(np.isfinite(half)):
-        return None
-    kn, delta = fs.kn, fs.delta
-    return ((float(kn * np.exp(-half[0])), float(kn * np.exp(half[0]))),
-            (float(delta * np.exp(-half[1])), float(delta * np.exp(half[1]))))
+    cis = jacobian_intervals(np.log([fs.kn, fs.delta]), d, fs.jacobian[keep],
+                             [keys[i][0] for i in keep])
+    return cis if all(lo > 0 and np.isfinite(hi) for lo, hi in cis) else None
 
 
 def amplitude_ratios(measured_points, replayed_points) -> np.ndarray:
