@@ -157,6 +157,47 @@ def test_drop_point_at_the_analytic_cliff(up):
     assert abs(old.time_s - half) > 0.01 and old.amplitude_m / float(np.max(env)) - 1 > 0.01
 
 
+@pytest.mark.parametrize("up", [True, False])
+@pytest.mark.parametrize("window", [1.0, 3.0])
+def test_drop_window_reads_the_envelope_that_far_ahead(up, window):
+    # `drop_window` w: the amplitude w filter times towards the top, over a Gaussian w times as
+    # wide; on the quadratic top 1 - 0.02 (t - t_top)^2 the Gaussian-weighted mean adds
+    # -0.02 (w sigma)^2 (its second moment); the drop's time and frequency do not move
+    fs, sweep, t_top, t_cliff = _cliff_sweep(up)
+    _, x = _cliff_chirp(sweep, fs, t_top, t_cliff)
+    p = extract_backbone_points(x[None, None], fs, quantity="displacement", sweep=sweep,
+                                method="lockin", jump_point="drop",
+                                drop_window=window).points[0]
+    assert p.used, p.reason
+    half = t_cliff + (0.03 * math.log(5 / 3) if up else -0.03 * math.log(5 / 3))
+    assert abs(p.time_s - half) < 0.005
+    t_ahead = p.time_s - 0.5 * window if up else p.time_s + 0.5 * window
+    sigma = window * gaussian_sigma(2.0)  # the lock-in's bandwidth here: 2 s x 1 Hz/s
+    expected = 1.0 - 0.02 * (t_ahead - t_top) ** 2 - 0.02 * sigma**2
+    assert p.amplitude_m == pytest.approx(expected, rel=5e-4)
+
+
+def test_drop_window_averages_the_noise_it_should():
+    # white noise of std s on the record: the amplitude's standard deviation is
+    # s sqrt(2 / N) with N = 2 sqrt(pi) sigma fs the Gaussian's effective samples (theory, not
+    # the code's); a window 4 times as long halves it
+    fs, sweep, t_top, t_cliff = _cliff_sweep(True)
+    _, x = _cliff_chirp(sweep, fs, t_top, t_cliff)
+    s = 0.05
+    amps = {1.0: [], 4.0: []}
+    for seed in range(40):
+        xn = x + s * np.random.default_rng(seed).standard_normal(x.shape)
+        for w, out in amps.items():
+            out.append(extract_backbone_points(
+                xn[None, None], fs, quantity="displacement", sweep=sweep, method="lockin",
+                jump_point="drop", drop_window=w).points[0].amplitude_m)
+    sd = {w: float(np.std(a, ddof=1)) for w, a in amps.items()}
+    for w in amps:
+        theory = s * math.sqrt(2.0 / (2.0 * math.sqrt(math.pi) * w * gaussian_sigma(2.0) * fs))
+        assert sd[w] == pytest.approx(theory, rel=0.3)
+    assert 0.35 < sd[4.0] / sd[1.0] < 0.7
+
+
 def _transient(t, t_drop, seed):
     """Bursts of oscillation 0.1-0.6 s after ``t_drop`` (time runs the other way for t < 0),
     10-30 % of the top each: a stand-in for the grazing contacts after a freeplay drop."""
@@ -205,3 +246,10 @@ def test_drop_point_frequency_is_steady_in_noise(sdof):
             moved[jp].append(abs(p.f_hz - clean[jp].f_hz))
     assert max(moved["drop"]) < 0.005
     assert max(moved["windowed"]) > 0.01
+
+
+def test_drop_window_below_one_is_refused():
+    from freeplayid.signal import Extraction
+
+    with pytest.raises(ValueError, match="`drop_window` must be a finite number >= 1"):
+        Extraction(drop_window=0.5)

@@ -491,7 +491,7 @@ def _channel_point(x, fs, names, *, sweep, trim, opts: Extraction, quantity,
     kp, xp = JUMP_POINTS[opts.jump_point](
         k, x=x, fs=fs, mode=mode, trim=trim, xi=xi, ratio=opts.jump_ratio,
         bandwidth_hz=bw, to_disp=lambda a, f: to_displacement(a, f, quantity), clip=clip,
-        steep_after=peak_rate > 0, base_phase=base_phase,
+        steep_after=peak_rate > 0, base_phase=base_phase, window=opts.drop_window,
     )
     t_point = float(np.interp(kp, np.arange(ti.shape[0]), ti))  # "drop": a fractional index
     if xp is None:  # the smoothed curve's own maximum and frequency

@@ -48,6 +48,13 @@ class Extraction:
         without overshoot; "drop" where the curve drops (the replay's statistic, from windows
         that stop at the drop); "drop_smoothed" the drop read off the smoothed curve alone (the
         first drop rule, kept to compare with).
+    drop_window : float [-]
+        The drop point's amplitude (``jump_point="drop"``, and the drop that the quadrature
+        rule falls back to) is read over this many times the extractor's window, centred as
+        many filter times ahead of the drop (1: one, the default). The frequency stays the
+        drop's. Longer windows average more noise but read the upper branch further from the
+        drop, where the form of the damping moves it more (docs/signal.md section 6,
+        ``benchmarks/drop_window.py``).
     use_sweep_hint : bool
         Use the runs' ``sweep`` hints (ACMP's start, the band, the rate); False, or a run without
         one: each run's law is estimated from its base channel, else its best-tracked response.
@@ -68,6 +75,7 @@ class Extraction:
     edge_hz: float = 0.5
     min_snr_db: float = 0.0
     jump_point: str = "smoothed"
+    drop_window: float = 1.0
     use_sweep_hint: bool = True
     require_jump: bool = True
     curve_points: int = 2000
@@ -84,6 +92,7 @@ class Extraction:
         check_number("jump_asymmetry", self.jump_asymmetry, 1.0)
         check_number("edge_hz", self.edge_hz, 0.0, open_lo=True)
         check_number("min_snr_db", self.min_snr_db)
+        check_number("drop_window", self.drop_window, 1.0)
         check_bool("use_sweep_hint", self.use_sweep_hint)
         check_bool("require_jump", self.require_jump)
         check_int("curve_points", self.curve_points, 2)

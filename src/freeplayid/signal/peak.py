@@ -156,9 +156,10 @@ def one_sided_amplitude(x, phase, sample_rate: float, *, sigma_s: float, center:
 
 
 def _drop_point(k, *, x, fs, mode, trim, xi, ratio, steep_after, bandwidth_hz, to_disp, clip,
-                **_):
-    """Fractional index of the drop and the displacement amplitude one filter time ahead of it,
-    from windows that stop at the drop (the block comment above :data:`JUMP_POINTS`)."""
+                window: float = 1.0, **_):
+    """Fractional index of the drop and the displacement amplitude ``window`` filter times
+    ahead of it, read over ``window`` times the extractor's width, from windows that stop at the
+    drop (the block comment above :data:`JUMP_POINTS`)."""
     c0 = _smoothed_crossing(xi, k, ratio, steep_after)
     if c0 is None:  # no drop in the record (a rejected point): the maximum itself
         return k, float(xi[k])
@@ -167,9 +168,9 @@ def _drop_point(k, *, x, fs, mode, trim, xi, ratio, steep_after, bandwidth_hz, t
     filter_time = fs / bandwidth_hz  # [samples]
     sigma = gaussian_sigma(bandwidth_hz)
 
-    def ahead_of(c):  # one filter time towards the top (not clamped to the maximum, a sample
-        # index that jumps along a flat top), within the analysed record
-        return min(max(c - side * filter_time, 0.0), n - 1.0)
+    def ahead_of(c, times=1.0):  # filter times towards the top (not clamped to the maximum, a
+        # sample index that jumps along a flat top), within the analysed record
+        return min(max(c - side * times * filter_time, 0.0), n - 1.0)
 
     # the top's level, in signal units, from a window that stops at the smoothed crossing
     top = one_sided_amplitude(x, mode.phase, fs, sigma_s=sigma, center=trim + ahead_of(c0),
@@ -194,8 +195,8 @@ def _drop_point(k, *, x, fs, mode, trim, xi, ratio, steep_after, bandwidth_hz, t
         if not below[i] and below[j]:
             crossing = a + i + side * float((sharp[i] - level) / (sharp[i] - sharp[j]))
             break
-    center = ahead_of(crossing)
-    amp = one_sided_amplitude(x, mode.phase, fs, sigma_s=sigma, center=trim + center,
+    center = ahead_of(crossing, window)
+    amp = one_sided_amplitude(x, mode.phase, fs, sigma_s=window * sigma, center=trim + center,
                               edge=trim + crossing)
     freq = clip(np.interp(trim + center, np.arange(mode.frequency.shape[0]), mode.frequency))
     return crossing, float(to_disp(np.asarray(amp), np.asarray(freq)))
@@ -233,15 +234,23 @@ def _windowed_point(k, *, x, fs, mode, trim, xi, ratio, bandwidth_hz, to_disp, c
 #      falls through ``jump_ratio`` x top, searched from a quarter filter time before c0,
 #      interpolated between samples; its frequency is the excitation's there (the sweep law);
 #   4. the amplitude: as in 2, one filter time towards the top from that crossing, cut there,
-#      converted with Eq. 9 at the response's frequency there.
+#      converted with Eq. 9 at the response's frequency there (``window`` = ``drop_window``
+#      filter times, over that many times the width: below).
 #
 # Nothing after the crossing enters the point. DROP_CYCLES = 1 keeps the sharp amplitude's
 # noise at a few percent of the top for the compare studies' noisiest channel while the fall
 # (the amplitude halves within 2-4 cycles) stays resolved.
+#
+# Under white noise the crossing's time is all but exact (its frequency scattered by 1e-5
+# relative on the noise study's 0.3 g cases) and the point's noise is its amplitude's: a
+# Gaussian window of width sigma at the sample rate fs averages about 2 sqrt(pi) sigma fs
+# samples. ``Extraction.drop_window`` reads it over a longer window, further ahead: less
+# noise, but a point further down the upper branch, which the damping's form moves more
+# (``benchmarks/drop_window.py`` measures both).
 DROP_CYCLES = 1.0
 
 def _quadrature_point(k, *, x, fs, mode, trim, xi, ratio, steep_after, bandwidth_hz, to_disp,
-                      clip, base_phase=None, **_):
+                      clip, base_phase=None, window: float = 1.0, **_):
     """Fractional index and displacement amplitude of the phase resonance: where the response's
     first harmonic comes into quadrature with the base's on the way up to the drop (the block
     comment above :data:`JUMP_POINTS`); the drop point where it does not (no quadrature before
@@ -252,7 +261,7 @@ def _quadrature_point(k, *, x, fs, mode, trim, xi, ratio, steep_after, bandwidth
     def drop():
         return _drop_point(k, x=x, fs=fs, mode=mode, trim=trim, xi=xi, ratio=ratio,
                            steep_after=steep_after, bandwidth_hz=bandwidth_hz, to_disp=to_disp,
-                           clip=clip)
+                           clip=clip, window=window)
 
     c0 = _smoothed_crossing(xi, k, ratio, steep_after)
     if c0 is None or not steep_after:  # no drop, or a jump-up: the upper branch after it
