@@ -53,8 +53,9 @@ class Extraction:
         rule falls back to) is read over this many times the extractor's window, centred as
         many filter times ahead of the drop (1: one, the default). The frequency stays the
         drop's. Longer windows average more noise but read the upper branch further from the
-        drop, where the form of the damping moves it more (docs/signal.md section 6,
-        ``benchmarks/drop_window.py``).
+        drop, where the form of the damping moves it more and where, on records of another
+        integrator, the replays missed it (docs/signal.md section 6, docs/inverse.md section 4,
+        ``benchmarks/drop_window.py``): for studies of the statistic, not for tests.
     use_sweep_hint : bool
         Use the runs' ``sweep`` hints (ACMP's start, the band, the rate); False, or a run without
         one: each run's law is estimated from its base channel, else its best-tracked response.
