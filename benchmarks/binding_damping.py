@@ -132,20 +132,27 @@ STRUCTURES = {
 }
 
 
-def run(structure: str, rules, forms, sample_rate: float = 256.0) -> list[dict]:
+def records(structure: str, form: str, sample_rate: float = 256.0):
+    """The structure's sweeps under damping ``form``: (the undamped system the fits use, the
+    simulation result, the data-set columns)."""
     make, kn, delta, zeta, dofs, sweep_args = STRUCTURES[structure]
     system = make().replace(C=None)
-    sweep = Sweep(*sweep_args)
     lv = levels(system, kn, delta, zeta)
+    damped = system.replace(C=damping(system, kn, zeta, form))
+    res = simulate_sweeps(damped, kn=[kn] * len(lv), delta=[delta] * len(lv), level_g=lv,
+                          sweep=Sweep(*sweep_args), channels=list(dofs), quantity="acceleration",
+                          frame="absolute", sample_rate=sample_rate, engine="expo",
+                          dtype=torch.float64, progress=False)
+    return system, res, {f"a{i}": d for i, d in enumerate(dofs)}
+
+
+def run(structure: str, rules, forms, sample_rate: float = 256.0) -> list[dict]:
+    _, kn, delta, *_ = STRUCTURES[structure]
     rows = []
     for form in forms:
         t0 = time.perf_counter()
-        damped = system.replace(C=damping(system, kn, zeta, form))
-        res = simulate_sweeps(damped, kn=[kn] * len(lv), delta=[delta] * len(lv), level_g=lv,
-                              sweep=sweep, channels=list(dofs), quantity="acceleration",
-                              frame="absolute", sample_rate=sample_rate, engine="expo",
-                              dtype=torch.float64, progress=False)
-        ds = sweep_dataset(res, columns={f"a{i}": d for i, d in enumerate(dofs)})
+        system, res, columns = records(structure, form, sample_rate)
+        ds = sweep_dataset(res, columns=columns)
         t_sim = time.perf_counter() - t0
         for rule in rules:
             est = plain_estimate(ds, system, extraction=Extraction(jump_point=rule),

@@ -32,29 +32,16 @@ import time
 from pathlib import Path
 
 import numpy as np
-import torch
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from binding_damping import FORMS, STRUCTURES, damping, levels  # noqa: E402
+from binding_damping import FORMS, STRUCTURES, records  # noqa: E402
 from freeplayid.estimate import plain_estimate  # noqa: E402
 from freeplayid.fit import FitOptions  # noqa: E402
 from freeplayid.quantity import G  # noqa: E402
 from freeplayid.signal import Extraction  # noqa: E402
-from freeplayid.simulate import Sweep, simulate_sweeps, sweep_dataset  # noqa: E402
+from freeplayid.simulate import sweep_dataset  # noqa: E402
 
 SAMPLE_RATE = 256.0  # [Hz] as binding_damping.py and the compare studies' bank
-
-
-def _records(structure: str, form: str):
-    make, kn, delta, zeta, dofs, sweep_args = STRUCTURES[structure]
-    system = make().replace(C=None)
-    damped = system.replace(C=damping(system, kn, zeta, form))
-    lv = levels(system, kn, delta, zeta)
-    res = simulate_sweeps(damped, kn=[kn] * len(lv), delta=[delta] * len(lv), level_g=lv,
-                          sweep=Sweep(*sweep_args), channels=list(dofs),
-                          quantity="acceleration", frame="absolute", sample_rate=SAMPLE_RATE,
-                          engine="expo", dtype=torch.float64, progress=False)
-    return system, res, {f"a{i}": d for i, d in enumerate(dofs)}
 
 
 def _fit(system, res, columns, window: float, kn: float, delta: float,
@@ -72,7 +59,7 @@ def run(structure: str, windows, noise_g: float, draws: int, seed: int) -> list[
     rows = {w: {"structure": structure, "window": w, "forms": {}} for w in windows}
     for form in FORMS:
         t0 = time.perf_counter()
-        system, res, columns = _records(structure, form)
+        system, res, columns = records(structure, form, SAMPLE_RATE)
         for w in windows:
             rows[w]["forms"][form] = _fit(system, res, columns, w, kn, delta)
         if form != "modal":
