@@ -198,7 +198,8 @@ def make_dataset(case: dict, seed: int):
         runs.append(Run(file=f"case{case['case']}_{lv:.3g}g", time=t, data=data, level_g=lv))
     return Dataset(name=f"beam case {case['case']}", model=None, quantity="acceleration",
                    units="m/s^2", sample_rate=SAMPLE_RATE, channels=dict(CHANNELS),
-                   runs=tuple(runs), truth={"kn": case["kn"], "delta": case["delta"]})
+                   runs=tuple(runs), truth={"kn": case["kn"], "delta": case["delta"]},
+                   frame="relative")
 
 
 def model_system():

@@ -86,7 +86,7 @@ def make_dataset(case: dict):
     return fin, Dataset(name=f"case {case['case']}", model=None, quantity="acceleration",
                         units="m/s^2", sample_rate=SAMPLE_RATE,
                         channels={c: c for c in channels}, runs=runs,
-                        truth={"kn": case["kn"], "delta": case["delta"]})
+                        truth={"kn": case["kn"], "delta": case["delta"]}, frame="relative")
 
 
 def run_case(case: dict, rules=RULES) -> dict:

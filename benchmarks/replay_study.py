@@ -103,7 +103,8 @@ def make_dataset(case: dict, records: np.ndarray, seed: int):
                         level_g=float(level)))
     return Dataset(name=f"case {case['case']}", model=None, quantity="acceleration",
                    units="m/s^2", sample_rate=SAMPLE_RATE, channels=dict(CHANNELS),
-                   runs=tuple(runs), truth={"kn": case["kn"], "delta": case["delta"]})
+                   runs=tuple(runs), truth={"kn": case["kn"], "delta": case["delta"]},
+                   frame="relative")
 
 
 def run_case(args) -> dict:

@@ -61,6 +61,43 @@ def test_errors_name_the_problem(tmp_path):
         read_dataset(tmp_path / "nothing")
 
 
+def test_the_frame_is_declared_read_back_and_checked(tmp_path):
+    import dataclasses
+
+    from freeplayid.dataset import Dataset
+
+    bare = [dataclasses.replace(r, base=None) for r in _runs()]
+    kw = dict(name="x", quantity="acceleration", units="g", sample_rate=100.0,
+              channels={"acc_a": "uz_in", "acc_b": "uz_out"})
+    # absolute (accelerometers) is the default and is not written; relative is
+    absolute = write_dataset(tmp_path / "abs", runs=bare, **kw)
+    relative = write_dataset(tmp_path / "rel", runs=bare, frame="relative", **kw)
+    assert "frame" not in yaml.safe_load(absolute.read_text())
+    assert yaml.safe_load(relative.read_text())["frame"] == "relative"
+    assert read_dataset(absolute).frame == "absolute"
+    assert read_dataset(relative).frame == "relative"
+    # a value outside the two, or records relative to a base that is also given: one line
+    # naming the file, the field and the allowed values
+    for value, match in (("inertial", r"`frame` must be one of \['absolute', 'relative'\]"),
+                         ("relative", r"`frame: relative` takes no `base_channel`")):
+        text = yaml.safe_load(_good_set(tmp_path / value).read_text())
+        text["frame"] = value
+        bad = tmp_path / value / "manifest.yaml"
+        bad.write_text(yaml.safe_dump(text))
+        with pytest.raises(DatasetError, match=match) as err:
+            read_dataset(bad)
+        assert str(bad) in str(err.value) and "\n" not in str(err.value)
+    with pytest.raises(DatasetError, match="takes no `base_channel`"):
+        write_dataset(tmp_path / "x", runs=_runs(), base_channel="acc_base", frame="relative",
+                      **kw)
+    with pytest.raises(DatasetError, match="`frame` must be one of"):
+        Dataset.from_arrays(np.zeros((1, 1, 64)), channels={"a": "x"}, quantity="acceleration",
+                            units="g", sample_rate=64.0, frame="rel")
+    assert Dataset.from_arrays(np.zeros((1, 1, 64)), channels={"a": "x"},
+                               quantity="acceleration", units="g", sample_rate=64.0,
+                               frame="relative").frame == "relative"
+
+
 # ------------------------------------------------------------------------------------------------
 # malformed data sets: a clear DatasetError naming the file, run, field or column, or a flagged run
 # ------------------------------------------------------------------------------------------------

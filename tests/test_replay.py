@@ -69,6 +69,65 @@ def test_replay_at_the_truth_reproduces_the_measured_points(measured, system):
         assert q.amplitude_m == pytest.approx(p.amplitude_m, rel=2e-3)
 
 
+def _points_at_the_truth(ds, system):
+    """The measured and the truth's replayed used points of ``ds`` (plain fits, no replay)."""
+    plain = identify(ds, system=system, progress=False, fit={"multistart": MULTISTART},
+                     replay=None)
+    rep = replay_dataset(ds, system, WN * WN, ref.DELTA)
+    again = identify(rep, system=system, progress=False, fit={"multistart": MULTISTART},
+                     replay=None)
+    got = {(p.run, p.channel): p for p in again.points.used()}
+    return rep, [(p, got[(p.run, p.channel)]) for p in plain.points.used()]
+
+
+def test_absolute_records_without_a_base_channel_are_replayed_as_absolute_motion(measured,
+                                                                                 system):
+    # the reference's absolute accelerations with the base channel dropped (accelerometers on
+    # a shaker whose control channel was not recorded): the replay simulates absolute motion
+    # and keeps no base, so both are read alike, and its points at the truth are the test's
+    bare = dataclasses.replace(measured, base_channel=None, runs=tuple(
+        dataclasses.replace(r, base=None) for r in measured.runs))
+    assert bare.frame == "absolute"
+    rep, pairs = _points_at_the_truth(bare, system)
+    assert rep.frame == "absolute" and rep.base_channel is None
+    assert all(r.base is None for r in rep.runs)
+    assert len(pairs) == 3
+    for p, q in pairs:
+        assert q.f_hz == pytest.approx(p.f_hz, abs=0.02)
+        assert q.amplitude_m == pytest.approx(p.amplitude_m, rel=3e-3)
+    # the same records declared relative are replayed as relative motion: its jumps, read
+    # without the base's share, land elsewhere (what every absolute record without a base
+    # channel was replayed as before the frame was declared)
+    _, wrong = _points_at_the_truth(dataclasses.replace(bare, frame="relative"), system)
+    assert min(abs(q.f_hz - p.f_hz) for p, q in wrong) > 0.1  # [Hz]; 0.21-0.25 here
+
+
+@pytest.mark.parametrize("declared", [1.0, 1.06])
+def test_levels_without_a_base_channel_are_read_back_from_the_upper_branches(measured, system,
+                                                                             declared):
+    """The independent integrator's absolute records without their base channel, `level_g`
+    true or 6 % high. At the true levels the upper branches read them within 0.1 %. 6 % high,
+    they read 2.9-3.1 % of the 5.7 %, the right sign but half the size: this oscillator's only
+    stiffness is the hinge's, so inside the gap its absolute motion does not follow the level,
+    and the level each point of the branch implies runs from +2 % far below the jump to -7 to
+    -13 % near it (on the fins, whose plates are elastic, a `level_g` 5 % high reads -4.4 to
+    -4.9 % for the true -4.8 %: benchmarks/realtests)."""
+    bare = dataclasses.replace(measured, base_channel=None, runs=tuple(
+        dataclasses.replace(r, base=None, level_g=declared * r.level_g) for r in measured.runs))
+    res = identify(bare, system=system, progress=False, fit={"multistart": MULTISTART},
+                   replay=QUICK)
+    level = res.replay.level
+    assert set(level.implied) == {p.run for p in res.points.used()}
+    errors = np.array([v.error for v in level.implied.values()])
+    if declared == 1.0:
+        assert np.all(np.abs(errors) < 2e-3), errors
+    else:
+        assert np.all((errors < -0.02) & (errors > 1 / declared - 1)), errors
+    assert level.ratio_kn is None  # one channel: no ratio to another to check kn with
+    check = {c.name: c for c in res.verdict.checks}["replay_level"]
+    assert check.passed and "within its 5 % uncertainty" in check.message, check.message
+
+
 def test_runs_replayed_on_threads_are_bit_for_bit_those_of_one_thread(measured, system,
                                                                        monkeypatch):
     # each run with its measured excitation is a group of one member: the groups run on one
@@ -672,7 +731,7 @@ def test_bootstrap_copies_carry_the_records_own_noise(system):
                         data=a[None, :] + rng.normal(0.0, std, (1, a.size)), level_g=lv,
                         sweep=hint))
     ds = Dataset(name="drifting", model=None, quantity="acceleration", units="m/s^2",
-                 sample_rate=ref.FS, channels={"acc": "x"}, runs=tuple(runs))
+                 sample_rate=ref.FS, channels={"acc": "x"}, runs=tuple(runs), frame="relative")
     res = identify(ds, system=system, progress=False, fit={"multistart": MULTISTART},
                    replay={"n_bootstrap": 4})
     levels = np.concatenate([np.asarray(v) for v in res.replay.bootstrap.noise.values()])

@@ -671,3 +671,44 @@ def test_a_precision_not_measured_is_no_check():
 
     assert precision_check(None) is None
     assert precision_check(ReplayPrecision(None, None, n=8, n_fitted=2)) is None
+
+
+@pytest.mark.parametrize("errors, ratio_kn, se, passed, scale", [
+    ((-0.044, -0.049), -0.0018, 0.001, True, 1.0),  # level_g 5 % high: within the uncertainty
+    ((-0.09, 0.025), -0.007, 0.0014, True, 1.8),  # a ramp: levels beyond it, one level per run
+    ((-0.105, -0.111), 0.05, 0.0019, False, 2.22),  # a dip: the channels' ratios put kn 5 % off
+    ((-0.105, -0.111), None, None, True, 2.22),  # ... which one channel cannot tell
+    ((0.003, 0.001), -0.036, 0.039, True, 1.0),  # far, but within its noise (9.2 se at 3 dof)
+])
+def test_the_level_check_judges_the_channels_ratio_and_widens_for_implied_levels(
+        errors, ratio_kn, se, passed, scale):
+    """Measured on the realtests records without a base channel (benchmarks/realtests):
+    `fin_no_base_level_off` (levels 4.4-4.9 % below `level_g`, channels within 0.6 %, ratio
+    kn -0.18 %), `var8_fin_no_base_ramp` (levels -9 to +2.5 %, ratio kn -0.70 +- 0.14 %),
+    `fin_dip_no_base` (levels -10.5 to -11.1 %, channels 7.6-8.1 % apart, ratio kn +5.0 +-
+    0.19 % where the answer is 3.7 % low); the held-out study's case 37 (an accurate answer,
+    ratio kn -3.6 +- 3.9 %: runs whose channels hardly move with kn)."""
+    from freeplayid.identification.replay_checks import replay_checks
+    from freeplayid.replay.corrected import LevelSensitivity
+    from freeplayid.replay.misfit import ImpliedLevel
+
+    implied = {f"run{k}": ImpliedLevel(e, 0.004, {"a": e - 0.03, "b": e + 0.03}
+                                       if ratio_kn is not None else {"a": e})
+               for k, e in enumerate(errors)}
+    level = LevelSensitivity(0.05, 0.002, 0.003, tuple(implied), True, implied, ratio_kn, se,
+                             0 if se is None else 3)
+    assert level.scale == pytest.approx(scale, rel=1e-2)
+
+    class Rep:
+        failure, misfit, sweeps, damping, converged, resonance = "", {}, {}, None, True, {}
+        jump_point, excitation = "drop", "law"
+        iterations = [ReplayIteration(480.0, 3e-3, 480.0, 3e-3, n_evaluations=10)]
+
+    Rep.level = level
+    check = {c.name: c for c in replay_checks(Rep())}["replay_level"]
+    assert check.passed is passed, check.message
+    assert ("beyond its 5 % uncertainty" in check.message) is (scale > 1)
+    if ratio_kn is None:
+        assert "one channel" in check.message
+    elif not passed:
+        assert "+5 % from the answer" in check.message and "no base channel" in check.message

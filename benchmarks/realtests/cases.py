@@ -1068,6 +1068,23 @@ VARIANTS.update({
         shift=0.012, part="outboard", ref=True, **kw), "var8_fin_stiff_out_p1.2_ref"),
 })
 
+
+# A ninth set, chosen once (2026-11-30, session 23) before any of its results: the records of
+# earlier conditions without their base channel, as accelerometers on a shaker whose control
+# channel was not recorded: level dips (deep, narrow, on a fast sweep, on fins B and C), level
+# ramps (down, on fin C), damping of other forms (Rayleigh without C, a hinge damper, contact
+# damping), a log sweep, a down-sweep, fin B, more noise. run.py --cases 'var9_*'
+def _no_base_of(src: str):
+    name = f"var9_{src.split('_', 1)[1] if src.startswith('var') else src}_no_base"
+    return name, lambda **kw: fin_no_base(name=name, src=src)
+
+
+VARIANTS.update(dict(_no_base_of(src) for src in (
+    "var7_fin_dip_deep", "var2_fin_level_dip_narrow", "var4_fin_fast_dip", "var5_finB_dip",
+    "var6_finC_dip", "var_fin_level_ramp", "var6_finC_ramp", "fin_rayleigh_noC",
+    "fin_hinge_damper", "fin_contact_damping", "fin_log_sweep", "fin_down_sweep",
+    "var5_finB_nominal", "var_fin_noisy")))
+
 ALL_CASES = {**CONDITIONS, **VARIANTS}
 
 def generate(name: str, out: Path, *, force=False, redraw=False, log=print) -> dict:

@@ -71,7 +71,11 @@ def identify_case(path: str, corrected: bool) -> dict:
                 else rep.precision.to_dict(),
                 # the answer's move for a damping the down-sweeps do not measure
                 "damping_sensitivity": None if getattr(rep, "damping_sensitivity", None) is None
-                else rep.damping_sensitivity.to_dict()},
+                else rep.damping_sensitivity.to_dict(),
+                # the answer's move for levels taken from level_g, and the levels the upper
+                # branches imply
+                "level": None if getattr(rep, "level", None) is None else rep.level.to_dict(),
+                "branch": {run: float(m.branch) for run, m in (rep.resonance or {}).items()}},
             "checks_text": {c.name: str(c.message) for c in res.verdict.checks
                             if c.name == "replay_misfit"}}
 

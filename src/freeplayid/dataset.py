@@ -6,7 +6,8 @@ test (:func:`freeplayid.simulate.sweep_dataset`) and a replay build the same obj
 and a notebook builds one from arrays with :meth:`Dataset.from_arrays`. The checks below are the
 one copy of the data-set rules that the manifest reader (:mod:`freeplayid.io.manifest`,
 :func:`freeplayid.io.read_dataset`) and :meth:`Dataset.from_arrays` share: quantity and units,
-the channel map, numbers, sweep hints, the time axis, and why a run is rejected. Each raises a
+the channel map, the records' frame, numbers, sweep hints, the time axis, and why a run is
+rejected. Each raises a
 one-line :class:`~freeplayid.errors.DatasetError` prefixed with ``where`` (the manifest file, or
 nothing for a function's arguments) and naming the field or argument.
 """
@@ -25,13 +26,17 @@ from .errors import DatasetError
 from .quantity import UNIT_SCALE, check_units
 from .sweep import Sweep
 
-__all__ = ["Dataset", "Run", "SWEEP_KEYS", "SWEEP_RATE_KEYS", "check_channel_dofs",
-           "check_channels", "check_keys", "check_number", "check_one_column_per_dof",
-           "check_quantity_units", "check_sweep_hint", "check_time", "run_reason"]
+__all__ = ["Dataset", "FRAMES", "Run", "SWEEP_KEYS", "SWEEP_RATE_KEYS", "check_channel_dofs",
+           "check_channels", "check_frame", "check_keys", "check_number",
+           "check_one_column_per_dof", "check_quantity_units", "check_sweep_hint", "check_time",
+           "run_reason"]
 
 SWEEP_RATE_KEYS = ("rate_hz_per_s", "octaves_per_min")  # linear, logarithmic: exactly one
 SWEEP_KEYS = ("start_hz", "stop_hz", *SWEEP_RATE_KEYS)
 MIN_SAMPLES = 16  # a sweep run needs many more; fewer is certainly not one
+# what the channels record: the structure's absolute motion (accelerometers; the default) or its
+# motion relative to the base (a simulation in the relative frame; relative displacement sensors)
+FRAMES = ("absolute", "relative")
 
 
 @dataclass(frozen=True)
@@ -91,6 +96,10 @@ class Dataset:
     reference_modes : dict or None
         Modes of the fin with its clearance sealed (the zero-clearance check, paper's Table 11):
         ``{"frequencies_hz": [m], "shapes": [[m] per DOF], "dofs": [DOF names]}``.
+    frame : {"absolute", "relative"}
+        What the channels record (:data:`FRAMES`): the absolute motion (accelerometers; the
+        default), from which the extraction subtracts a base channel where there is one; or the
+        motion relative to the base (no base channel then). The replays are simulated in it.
     """
 
     name: str
@@ -104,6 +113,10 @@ class Dataset:
     truth: dict | None = None
     path: Path | None = None
     reference_modes: dict | None = None
+    frame: str = "absolute"
+
+    def __post_init__(self):
+        check_frame(self.frame, self.base_channel, "")
 
     @property
     def si_scale(self) -> float:
@@ -119,7 +132,7 @@ class Dataset:
                     sample_rate: float | None = None, time=None, base=None,
                     base_channel: str | None = None, levels_g=None, sweeps=None,
                     model: str | os.PathLike | None = None, name: str = "arrays",
-                    run_names: Sequence[str] | None = None) -> Dataset:
+                    run_names: Sequence[str] | None = None, frame: str = "absolute") -> Dataset:
         """A validated data set from arrays (a notebook's), checked as a manifest is.
 
         Parameters
@@ -151,6 +164,9 @@ class Dataset:
         name : str
         run_names : sequence of str, optional
             Default ``run_0``, ``run_1``, ...
+        frame : {"absolute", "relative"}
+            What ``data`` record (:attr:`Dataset.frame`): absolute motion (accelerometers), or
+            motion relative to the base (then without ``base``).
 
         Returns
         -------
@@ -165,11 +181,13 @@ class Dataset:
             units, a channel map that breaks the manifest's rules, an array of the wrong shape
             (a transposed one says so), counts of ``time``, ``base``, ``levels_g``, ``sweeps``
             or ``run_names`` that differ from the runs, a bad time axis or sample rate, a
-            model file that is missing or lacks a channel's DOF.
+            model file that is missing or lacks a channel's DOF, a ``frame`` not in
+            :data:`FRAMES` or relative with a base.
         """
         check_quantity_units(quantity, units, "")
         channels, base_channel = check_channels(channels, base_channel, "",
                                                 default_base="base" if base is not None else None)
+        check_frame(frame, base_channel, "")
         runs = _runs_of(data, list(channels))
         n = len(runs)
         if (base is None) != (base_channel is None):
@@ -194,7 +212,7 @@ class Dataset:
                            reason=run_reason(cols, times[k], hints[k], fs)))
         return cls(name=str(name), model=model_path, quantity=quantity, units=units,
                    sample_rate=float(fs), channels=dict(channels), runs=tuple(out),
-                   base_channel=base_channel)
+                   base_channel=base_channel, frame=frame)
 
 
 # --------------------------------------------------------------------------- the shared rules
@@ -203,6 +221,21 @@ def check_keys(entry: Mapping, allowed: Sequence[str], where: str) -> None:
     unknown = sorted(set(entry) - set(allowed))
     if unknown:
         raise DatasetError(f"{where}unknown field(s) {unknown}; allowed: {list(allowed)}")
+
+
+def check_frame(frame, base_channel, where: str) -> str:
+    """``frame`` one of :data:`FRAMES`; relative only without a base channel (records relative
+    to the base have nothing of it left to subtract, and the replays of such a test are driven
+    by the law and the level, not by a measured base)."""
+    if frame not in FRAMES:
+        raise DatasetError(f"{where}`frame` must be one of {list(FRAMES)} (what the channels "
+                           f"record: absolute motion, or motion relative to the base), got "
+                           f"{frame!r}")
+    if frame == "relative" and base_channel is not None:
+        raise DatasetError(f"{where}`frame: relative` takes no `base_channel` (got "
+                           f"{base_channel!r}): records relative to the base have no base "
+                           "motion to subtract; drop one of the two")
+    return frame
 
 
 def check_number(value, where: str, *, positive: bool = True) -> float:

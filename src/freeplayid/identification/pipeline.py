@@ -242,6 +242,7 @@ def _record(dataset) -> dict:
             "quantity": dataset.quantity, "units": dataset.units,
             "sample_rate": float(dataset.sample_rate), "n_runs": len(dataset.runs),
             "channels": dict(dataset.channels), "base_channel": dataset.base_channel,
+            "frame": getattr(dataset, "frame", "absolute"),
             "levels": {run.file: None if run.level_g is None else float(run.level_g)
                        for run in dataset.runs}}
 
@@ -384,10 +385,13 @@ def _corrected_intervals(rep) -> tuple[tuple, tuple, str]:
                    "copies of its replay")
     level = getattr(rep, "level", None)
     if level is not None:  # the levels taken from `level_g` are uncertain
-        kn_ci = widen(kn_ci, rep.kn, level.kn_shift)
-        delta_ci = widen(delta_ci, rep.delta, level.delta_shift)
+        scale = getattr(level, "scale", 1.0)  # or off by more, as the upper branches say
+        kn_ci = widen(kn_ci, rep.kn, scale * level.kn_shift)
+        delta_ci = widen(delta_ci, rep.delta, scale * level.delta_shift)
         source += (f", with the levels' {100 * level.uncertainty:g} % uncertainty (no base "
-                   "channel)")
+                   "channel)" if scale <= 1 else
+                   f", with the levels' error that the upper branches imply "
+                   f"({100 * level.implied_error:.2g} %, no base channel)")
     excited = getattr(rep, "excitation_noise", None)
     if excited is not None and excited.delta_halfwidth is not None:  # the base's noise
         kn_ci = widen(kn_ci, rep.kn, math.log1p(excited.kn_halfwidth))

@@ -29,6 +29,24 @@
   that spread. On the default
   fin at 0.05 g of noise the copies spread by about 0.5 % (sd) in delta (a 5 % chance), on a
   fin whose responses are three times weaker against the same noise by about 1 % (32 %).
+- ``replay_level`` (runs whose levels come from ``level_g``: no base channel): the levels the
+  runs' upper branches imply at the answer (:class:`freeplayid.replay.LevelSensitivity`: each
+  run's level error, read on the branch short of its jump against the answer's replay and the
+  same replay at levels 5 % higher) are reported, and an error beyond the stated uncertainty
+  widens the intervals. A level scales every channel alike, so where two or more channels read
+  the branches, each channel's own level error differs from the others' only where the replay's
+  amplitude ratio between them is not the test's: that difference, carried to kn through one
+  more replay at kn 2 % higher, is kn's error that the channels' ratios imply
+  (``ratio_kn``), and the runs' scatter about it its standard error. Beyond kn's accuracy bound
+  (``accuracy_kn``, 2 %) and as many standard errors as the two-sided ``cross_p`` allows at its
+  degrees of freedom (as ``replay_consistency``) the check fails: the replay at the answer is
+  another structure than the tested one by more than the answer may be off. On the held-out
+  study two accurate answers put it +2.8 / -3.6 % off with standard errors of 2.1 / 3.9 %
+  (runs whose channels hardly move with kn); the dips below, 19-71 standard errors. On
+  a level that dips 20-45 % around each jump, which no record shows without a base channel, the
+  drop points put kn 2.7-5.5 % low and the channels' ratios put it +3.5 to +5.8 % from the
+  answer; a constant level 4-5 % off, a level ramp, Rayleigh damping, a log sweep, more noise
+  leave it within 1.3 % (40 answers of benchmarks/realtests, docs/results.md).
 - ``sweep_law``, ``replay_binding``, ``replay_converged``, ``damping_estimate``: where the laws
   came from, a replayed fit that jumps, convergence and an estimated damping the amplitudes pin
   down (:mod:`freeplayid.identification.verdict`).
@@ -164,12 +182,56 @@ def _consistency_check(replay) -> Check | None:
                  + ", ".join(off) + f" ({_causes(replay)}?)", value)
 
 
+def _level_check(replay) -> Check | None:
+    """``replay_level``: the levels the upper branches imply and the kn their channels' ratios
+    imply (module docstring); None where no run's level came from ``level_g``."""
+    level = getattr(replay, "level", None)
+    if level is None or not getattr(level, "implied", None):
+        return None
+    errors = [v.error for v in level.implied.values()]
+    said = (f"the runs' upper branches put their levels {100 * min(errors):+.2g} to "
+            f"{100 * max(errors):+.2g} % from `level_g`")
+    said += (f" (within its {100 * level.uncertainty:g} % uncertainty)"
+             if level.implied_error <= level.uncertainty else
+             f" (beyond its {100 * level.uncertainty:g} % uncertainty: the intervals take "
+             f"{100 * level.implied_error:.2g} %; a `level_g` off the true level, or a level that "
+             "varies during the runs, which no base channel records)")
+    ratio = getattr(level, "ratio_kn", None)
+    if ratio is None:
+        return Check("replay_level", True, said + "; one channel reads them, so their ratio "
+                     "does not check the answer's kn")
+    se, dof = getattr(level, "ratio_kn_se", None), getattr(level, "ratio_dof", 0)
+    noise = math.inf if se is None or dof < 1 else \
+        float(scipy.stats.t.isf(LIMITS["cross_p"] / 2, dof)) * se
+    limit = max(LIMITS["accuracy_kn"], noise)
+    value = abs(ratio) / limit
+    spread = max(v.spread for v in level.implied.values())
+    rule = (f"limit {100 * limit:.2g} %: the bound {100 * LIMITS['accuracy_kn']:g} %, or its "
+            f"standard error {100 * se:.2g} % (the runs' scatter, {dof} degrees of freedom) "
+            "times Student's t at the 3-sigma tail where larger" if se is not None and dof >= 1
+            else "no degree of freedom to measure its scatter by")
+    if value <= 1:
+        return Check("replay_level", True,
+                     f"{said}; one level explains every channel (theirs differ by up to "
+                     f"{100 * spread:.2g} %), as far as kn matters: their amplitude ratios put kn "
+                     f"{100 * ratio:+.2g} % from the answer ({rule})", value)
+    return Check("replay_level", False,
+                 f"no level explains every channel's upper branch: the channels' own levels "
+                 f"differ by up to {100 * spread:.2g} %, and their amplitude ratios put kn "
+                 f"{100 * ratio:+.2g} % from the answer ({rule}),"
+                 " so the replay at the answer is not the tested structure ("
+                 "a level that dips or swells near the jumps, which no base channel records, "
+                 "damping of another form or a linear model that is not the tested structure?); "
+                 + said, value)
+
+
 def replay_checks(replay, *, down_runs=()) -> list[Check]:
     """The replay's self-check (module docstring); ``down_runs``: the runs that sweep down."""
     if getattr(replay, "failure", ""):
         return [Check("replay_failed", False, replay.failure)]
     misfit = {r: m for r, m in (replay.misfit or {}).items() if math.isfinite(m)}
     checks = [_resonance_check(replay, tuple(down_runs)), _consistency_check(replay),
+              _level_check(replay),
               _sweep_law_check(replay, misfit, LIMITS["replay_misfit"]),
               _binding_check(replay.iterations), _converged_check(replay),
               precision_check(getattr(replay, "precision", None))]

@@ -58,7 +58,9 @@ def _header(r) -> list[str]:
         f"- quantity: {ds.get('quantity')} [{ds.get('units')}], "
         f"{ds.get('sample_rate', float('nan')):g} Hz, {ds.get('n_runs')} runs, "
         f"channels {r.dofs}"
-        + (f", base channel `{ds['base_channel']}` subtracted" if ds.get("base_channel") else ""),
+        + (f", base channel `{ds['base_channel']}` subtracted" if ds.get("base_channel") else
+           ", motion relative to the base" if ds.get("frame") == "relative" else
+           ", absolute motion without a base channel"),
         f"- backbone: {r.backbone}, start: {r.init}, runtime {r.runtime_s:.2f} s", "",
         "## Result", "",
         "| parameter | identified | 95 % CI (Jacobian) |" + (" 95 % CI (bootstrap) |" if boot
@@ -262,7 +264,17 @@ def _replay(r) -> list[str]:
     if level is not None:
         lines += [f"Levels from `level_g` ({', '.join(level.runs)}): a {100 * level.uncertainty:g} "
                   f"% error of them moves kn by {100 * level.kn_shift:.2g} % and delta by "
-                  f"{100 * level.delta_shift:.2g} % (in the intervals)."]
+                  f"{100 * level.delta_shift:.2g} % (in the intervals"
+                  + ("" if getattr(level, "scale", 1.0) <= 1 else
+                     f", carried to the {100 * level.implied_error:.2g} % that the upper "
+                     "branches imply") + ")."]
+        implied = getattr(level, "implied", None) or {}
+        if implied:
+            lines += ["Levels the upper branches imply at the answer, against `level_g`: "
+                      + ", ".join(f"{run} {100 * v.error:+.2g} %" for run, v in implied.items())
+                      + ("" if getattr(level, "ratio_kn", None) is None else
+                         f"; the channels' amplitude ratios put kn {100 * level.ratio_kn:+.2g} % "
+                         "from the answer") + "."]
     damped = getattr(rep, "damping_sensitivity", None)
     if damped is not None:
         lines += [f"Damping of the down-sweeps ({', '.join(damped.runs)}), which they do not "

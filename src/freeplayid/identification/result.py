@@ -60,7 +60,7 @@ class Identification:
         ``{"kn", "delta"}`` of a simulated data set (informational).
     dataset : dict
         What the report says of the data set: name, path, model, quantity, units, sample_rate,
-        n_runs, channels, base_channel.
+        n_runs, channels, base_channel, frame.
     verdict : freeplayid.identification.verdict.Verdict
         ``ok`` or ``suspect`` with the reasons: the plausibility checks of the result and the
         data (:mod:`freeplayid.identification.verdict`).

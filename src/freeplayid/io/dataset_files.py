@@ -26,6 +26,7 @@ from ..dataset import (
     Dataset,
     Run,
     check_channels,
+    check_frame,
     check_number,
     check_quantity_units,
     check_time,
@@ -115,6 +116,7 @@ def read_dataset(path: str | os.PathLike, *, check_model: bool = True) -> Datase
         truth=manifest.truth,
         path=manifest.path.resolve(),
         reference_modes=manifest.reference_modes,
+        frame=manifest.frame,
     )
 
 
@@ -192,6 +194,7 @@ def write_dataset(
     truth: Mapping[str, float] | None = None,
     float_format: str = "%.10g",
     time_format: str | None = None,
+    frame: str = "absolute",
 ) -> Path:
     """Write a data set folder and return the path of its ``manifest.yaml``.
 
@@ -219,8 +222,12 @@ def write_dataset(
     float_format, time_format : str
         printf formats of the data columns and of the time column (default: ``float_format``);
         fewer digits make smaller files (4-5 significant digits are plenty for noisy data).
+    frame : {"absolute", "relative"}
+        What the runs record (:attr:`freeplayid.dataset.Dataset.frame`); written to the manifest
+        when relative (absolute is the manifest's default).
     """
     cols = _check_columns(quantity, units, sample_rate, channels, base_channel)
+    check_frame(frame, base_channel, "")
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     fmt = (time_format or float_format, float_format)
@@ -237,6 +244,8 @@ def write_dataset(
     )
     if base_channel is not None:
         manifest["base_channel"] = base_channel
+    if frame != "absolute":
+        manifest["frame"] = frame
     if truth is not None:
         manifest["truth"] = {k: float(v) for k, v in dict(truth).items()}
     manifest["runs"] = entries

@@ -41,6 +41,7 @@ from ..dataset import (
     SWEEP_RATE_KEYS,
     check_channel_dofs,
     check_channels,
+    check_frame,
     check_keys,
     check_number,
     check_one_column_per_dof,
@@ -58,7 +59,7 @@ __all__ = ["Manifest", "RunEntry", "read_manifest", "check_quantity_units",
 
 LAYOUT_KEYS = tuple(f.name for f in fields(Layouts))  # the blocks that declare a file layout
 MANIFEST_KEYS = ("name", "model", "quantity", "units", "sample_rate", "channels",
-                 "base_channel", "truth", "runs", "reference_modes", *LAYOUT_KEYS)
+                 "base_channel", "frame", "truth", "runs", "reference_modes", *LAYOUT_KEYS)
 RUN_KEYS = ("file", "level_g", "sweep")
 
 
@@ -102,6 +103,8 @@ class Manifest:
     base_channel : str or None
     truth : dict or None
         ``{"kn": [N m/rad], "delta": [rad]}``.
+    frame : {"absolute", "relative"}
+        What the channels record (:attr:`freeplayid.dataset.Dataset.frame`; default absolute).
     reference_modes : dict or None
         ``{"frequencies_hz", "shapes", "dofs"}`` (see :class:`freeplayid.dataset.Dataset`).
     runs : tuple of RunEntry
@@ -122,6 +125,7 @@ class Manifest:
     reference_modes: dict | None
     runs: tuple
     layouts: Layouts = field(default_factory=Layouts)
+    frame: str = "absolute"
 
     @property
     def columns(self) -> list[str]:
@@ -144,7 +148,8 @@ def read_manifest(path: str | os.PathLike, *, check_model: bool = True) -> Manif
         One line naming the file, the field and the allowed values: no manifest, a path that is
         not a ``.yaml`` manifest, a binary file, invalid YAML, a key given twice in a mapping
         (with its line), unknown fields, bad quantity/units, two columns on one DOF, channels
-        not in the model, bad reference modes, a run file that is missing, outside the data-set
+        not in the model, a `frame` not absolute or relative (or relative with a base
+        channel), bad reference modes, a run file that is missing, outside the data-set
         folder (absolute or ``..``) or of an unknown suffix (the message lists the valid ones),
         no runs, a ``csv:`` or ``mat:`` block with an unknown field or a value outside its
         allowed set (:class:`~freeplayid.io.readers.csv.CsvLayout`,
@@ -155,6 +160,7 @@ def read_manifest(path: str | os.PathLike, *, check_model: bool = True) -> Manif
     m = _load_manifest(manifest_path)
     _check_fields(m, where)
     channels, base_channel = check_channels(m["channels"], m.get("base_channel"), where)
+    frame = check_frame(m.get("frame", "absolute"), base_channel, where)
     fs = m.get("sample_rate")
     if fs is not None:
         fs = check_number(fs, f"{where}`sample_rate` [Hz]")
@@ -178,6 +184,7 @@ def read_manifest(path: str | os.PathLike, *, check_model: bool = True) -> Manif
         reference_modes=reference_modes,
         runs=_run_entries(m["runs"], root, where),
         layouts=_layouts(m, where),
+        frame=frame,
     )
 
 

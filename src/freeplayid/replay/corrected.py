@@ -32,7 +32,7 @@ from .bootstrap import (
 from .broyden import solve_binding
 from .damping_estimate import ZETA_RTOL, ReplayDamping, damped_system, damping_mode, initial_zeta
 from .excitation import read_again
-from .misfit import offset_noise, resonance_misfits, run_misfits
+from .misfit import implied_levels, offset_noise, resonance_misfits, run_misfits
 from .options import Replay
 from .runs import (
     replay_dataset,
@@ -159,7 +159,22 @@ class CrossCheck:
 
 
 @dataclass(frozen=True)
-class LevelSensitivity:
+class _Sensitivity:
+    """How far an error of something the replay takes as given moves the answer (the fields
+    :class:`LevelSensitivity` and :class:`DampingSensitivity` share)."""
+
+    uncertainty: float
+    kn_shift: float
+    delta_shift: float
+    runs: tuple
+    converged: bool = True
+
+    def to_dict(self) -> dict:
+        return {**dataclasses.asdict(self), "runs": list(self.runs)}
+
+
+@dataclass(frozen=True)
+class LevelSensitivity(_Sensitivity):
     """How far an error of the levels taken from ``level_g`` moves the answer.
 
     Attributes
@@ -176,16 +191,47 @@ class LevelSensitivity:
     converged : bool
         Whether that solve converged; else the shifts are those of its closest replay, not a
         measured move.
+    ratio_kn : float or None [-]
+        Where two or more channels read each run's upper branch: kn's relative error that the
+        channels' amplitude ratios imply (the truth at the answer's kn x (1 + ratio_kn)). A
+        level scales every channel alike, so each channel's own level error (:class:`.misfit.
+        ImpliedLevel`) differs from the others' only where the replay's ratio between them is
+        not the test's; one more replay at kn x (1 + ``RATIO_KN_STEP``) measures how that
+        difference moves with kn, and the channels' differences, regressed on it over the
+        runs, give the move. None with one channel, or where that replay fails.
+    ratio_kn_se : float or None [-]
+        Its standard error: the runs' scatter about that regression (the runs as repeated
+        measurements of one kn; infinite without a degree of freedom left).
+    ratio_dof : int
+        Its degrees of freedom: the channels less one per run, less one for the slope.
+    implied : dict run -> ImpliedLevel
+        Per run: the relative level error its upper branches imply at the answer, each
+        channel's own, and the branches' misfit that no constant level explains
+        (:func:`.misfit.implied_levels`, from the replay at the answer and the raised solve's
+        first replay, which is at the answer).
     """
 
-    uncertainty: float
-    kn_shift: float
-    delta_shift: float
-    runs: tuple
-    converged: bool = True
+    implied: dict = dataclasses.field(default_factory=dict)
+    ratio_kn: float | None = None
+    ratio_kn_se: float | None = None
+    ratio_dof: int = 0
+
+    @property
+    def implied_error(self) -> float:
+        """The largest |level error| the runs' upper branches imply (0 where none was read)."""
+        return max((abs(v.error) for v in self.implied.values()), default=0.0)
+
+    @property
+    def scale(self) -> float:
+        """What the shifts are carried to the intervals with: 1 where the implied levels lie
+        within ``uncertainty``, else their largest error over it (the move measured at
+        ``uncertainty``, extrapolated linearly)."""
+        return max(1.0, self.implied_error / self.uncertainty) if self.uncertainty > 0 else 1.0
 
     def to_dict(self) -> dict:
-        return {**dataclasses.asdict(self), "runs": list(self.runs)}
+        return {**super().to_dict(),
+                "implied": {r: v.to_dict() for r, v in self.implied.items()},
+                "implied_error": self.implied_error, "scale": self.scale}
 
 
 @dataclass(frozen=True)
@@ -237,7 +283,7 @@ class ExcitationNoise:
 
 
 @dataclass(frozen=True)
-class DampingSensitivity(LevelSensitivity):
+class DampingSensitivity(_Sensitivity):
     """How far an error of a damping the test does not measure moves the answer: the model
     file's C or a given ratio, replayed on runs that sweep down
     (:attr:`Replay.damping_uncertainty`).
@@ -958,7 +1004,63 @@ def _level_sensitivity(b: _Binding, sol, u: float,
     up = b.sibling(dataclasses.replace(t, levels=levels), (b.source, b.zeta),
                    f"replay at levels x{1 + u:g}")
     shift = _moved(b, up, sol, progress)
-    return None if shift is None else LevelSensitivity(float(u), *shift[:2], runs, shift[2])
+    if shift is None:
+        return None
+    implied, ratio_kn = {}, None
+    if b.rep is not None and up.replays:  # the raised solve's first replay is at the answer
+        raised = up.replays[0][0].points.curves
+        implied = implied_levels(b.stat.points.used(), b.stat.points.curves,
+                                 b.rep.points.curves, raised, float(u))
+        implied = {r: v for r, v in implied.items() if r in runs}
+        if any(len(v.channels) >= 2 for v in implied.values()):
+            ratio_kn = _ratio_kn(b, sol, implied, raised, float(u))
+    return LevelSensitivity(float(u), *shift[:2], runs, shift[2], implied,
+                            *(ratio_kn or (None, None, 0)))
+
+
+RATIO_KN_STEP = 0.02  # [-] kn's step of the replay that measures the channels' ratio's slope
+
+
+def _ratio_kn(b: _Binding, sol, implied: dict, raised,
+              u: float) -> tuple[float, float, int] | None:
+    """(:attr:`LevelSensitivity.ratio_kn`, its standard error, degrees of freedom): the replay
+    at the answer with kn x (1 + ``RATIO_KN_STEP``), read as a test would be
+    (:func:`.misfit.implied_levels` against the answer's replay and ``raised``), gives each
+    channel's level error that kn's step makes; the measured channels' errors (``implied``)
+    about their run's mean, regressed on those about theirs over all the runs, give kn's error
+    in units of the step, and their scatter about that line its standard error (each run's
+    channels less one values, less one for the slope: the degrees of freedom)."""
+    theta = np.exp(sol.u[:2])
+    zeta = float(np.exp(sol.u[2])) if sol.u.size == 3 else b.zeta
+    try:
+        moved = b.replay(theta * np.array([1.0 + RATIO_KN_STEP, 1.0]), zeta,
+                         levels=b.test.levels)
+    except IdentificationError:
+        return None
+    step = implied_levels(b.stat.points.used(), moved.points.curves, b.rep.points.curves,
+                          raised, u)
+    ms, ks = [], []
+    for run, v in implied.items():
+        w = step.get(run)
+        shared = sorted(set(v.channels) & set(w.channels)) if w is not None else []
+        if len(shared) < 2:
+            continue
+        m = np.array([v.channels[c] for c in shared])
+        k = np.array([w.channels[c] for c in shared])
+        ms.append(m - m.mean())
+        ks.append(k - k.mean())
+    if not ms:
+        return None
+    m, k = np.concatenate(ms), np.concatenate(ks)
+    den = float(k @ k)
+    if not den > 0:
+        return None
+    slope = float(m @ k) / den
+    # the runs as repeated measurements of one slope: its standard error from their scatter
+    # about it (each run's channels about their mean: channels - 1 values per run)
+    dof = m.size - len(ms) - 1
+    se = float(np.sqrt(np.sum((m - slope * k) ** 2) / dof / den)) if dof > 0 else math.inf
+    return (float(RATIO_KN_STEP * slope), float(RATIO_KN_STEP * se), int(dof))
 
 
 def _damping_sensitivity(b: _Binding, sol, u: float,

@@ -7,7 +7,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-__all__ = ["RunMisfit", "curve_misfit", "offset_noise", "resonance_misfits", "run_misfits"]
+__all__ = ["ImpliedLevel", "RunMisfit", "curve_misfit", "implied_levels", "offset_noise",
+           "resonance_misfits", "run_misfits"]
 
 
 def curve_misfit(measured, replayed) -> float:
@@ -203,3 +204,118 @@ def offset_noise(replayed_points, copies, backbone_f) -> tuple[float, int]:
     if len(devs) < 2:
         return float("nan"), len(devs)
     return float(np.sqrt(np.mean(np.square(devs)))), len(devs)
+
+
+@dataclass(frozen=True)
+class ImpliedLevel:
+    """The level error one run's upper branches imply at the answer (:func:`implied_levels`).
+
+    Attributes
+    ----------
+    error : float [-]
+        The relative level error, pooled over the run's channels: the replay at level_g x
+        (1 + error) reproduces the measured upper branches best.
+    rest : float [-]
+        The strongest channel's branch misfit that no constant level explains (median, relative
+        to its peak).
+    channels : dict str -> float [-]
+        Each channel's own level error, over the frequencies all the run's channels share.
+    """
+
+    error: float
+    rest: float
+    channels: dict
+
+    @property
+    def spread(self) -> float:
+        """How far apart the channels' own level errors lie (max - min; 0 for one channel)."""
+        v = list(self.channels.values())
+        return float(max(v) - min(v)) if v else 0.0
+
+    def to_dict(self) -> dict:
+        return {"error": self.error, "rest": self.rest, "channels": dict(self.channels),
+                "spread": self.spread}
+
+
+def implied_levels(measured_points, measured_curves, replayed_curves, raised_curves,
+                   u: float) -> dict[str, ImpliedLevel]:
+    """Per run: the relative level error its upper branches imply (:class:`ImpliedLevel`).
+
+    ``replayed_curves`` are the answer's replay, ``raised_curves`` the same replay at the
+    levels times (1 + ``u``). On each channel's measured upper branch (the lobe's side of the
+    run's jump, the median frequency of its ``measured_points``, as :attr:`RunMisfit.branch`)
+    short of the jump (:func:`_short_of_jump`), d = X_measured - X_replayed and g = X_raised -
+    X_replayed: the level error e (relative, to first order in the level) is the least-squares
+    fit of d by (e / u) g, pooled over the run's channels; the rest, median |d - (e / u) g|
+    over the strongest channel's branch relative to its peak, is what a constant level does not
+    reproduce. Each channel's own e, over the frequencies all its channels share, tells whether
+    one level explains them all: a level scales the excitation of every channel alike, while a
+    replay of another structure (another kn, damping of another form) misses their ratio. Runs
+    without such a branch, or whose replay does not move with the level there, are left out.
+    """
+    curves = {(c.run, c.channel): c for c in measured_curves}
+    rep = {(c.run, c.channel): c for c in replayed_curves}
+    up = {(c.run, c.channel): c for c in raised_curves}
+    jumps: dict[str, list] = {}
+    for p in measured_points:
+        jumps.setdefault(p.run, []).append(p.f_hz)
+    by_run: dict[str, list] = {}
+    for (run, channel), c in curves.items():
+        r, q = rep.get((run, channel)), up.get((run, channel))
+        if run not in jumps or r is None or q is None or not (
+                c.amplitude_m.size and r.amplitude_m.size and q.amplitude_m.size):
+            continue
+        idx = _short_of_jump(c, _upper_branch(c, float(np.median(jumps[run]))), (r, q))
+        if idx.size < 2:
+            continue
+        f = c.frequency[idx]
+        x_rep = _at(r, f)
+        by_run.setdefault(run, []).append(
+            (channel, f, c.amplitude_m[idx] - x_rep, _at(q, f) - x_rep,
+             float(np.nanmax(c.amplitude_m))))
+    out = {}
+    for run, rows in by_run.items():
+        gg = sum(float(np.dot(g, g)) for _, _, _, g, _ in rows)
+        if not gg > 0:
+            continue
+        a = sum(float(np.dot(d, g)) for _, _, d, g, _ in rows) / gg  # in units of u
+        _, _, d, g, peak = max(rows, key=lambda row: row[4])
+        lo = max(f.min() for _, f, _, _, _ in rows)
+        hi = min(f.max() for _, f, _, _, _ in rows)
+        own = {}
+        for channel, f, d, g, _ in rows:
+            shared = (f >= lo) & (f <= hi)
+            if np.count_nonzero(shared) >= 2 and np.dot(g[shared], g[shared]) > 0:
+                own[channel] = float(u * np.dot(d[shared], g[shared])
+                                     / np.dot(g[shared], g[shared]))
+        out[run] = ImpliedLevel(float(u * a), float(np.median(np.abs(d - a * g)) / peak), own)
+    return out
+
+
+def _short_of_jump(curve, idx: np.ndarray, others) -> np.ndarray:
+    """The indices ``idx`` of ``curve``'s upper branch that lie short of every curve's jump
+    (``curve`` and ``others``, a replay of it): below the lowest of their peaks' frequencies
+    (the upper branch of a hardening freeplay lies below its jump, up- or down-sweep) by the
+    width of ``curve``'s own jump edge (its peak to half of it, on the jump's side), over which
+    the extraction smears the jump. Near a jump a replay's edge 0.01 Hz off the test's differs
+    by half the peak, which says nothing about the level."""
+    if idx.size == 0:
+        return idx
+    x = np.asarray(curve.amplitude_m, float)
+    f = np.asarray(curve.frequency, float)
+    ok = np.isfinite(x) & np.isfinite(f)
+    k = int(np.argmax(np.where(ok, x, -np.inf)))
+    low = np.nonzero(~ok | (x < 0.5 * x[k]))[0]
+    edge = low[low > k] if f[-1] > f[0] else low[low < k][::-1]  # the jump's side
+    if edge.size == 0:
+        return idx[:0]
+    guard = abs(f[edge[0]] - f[k])
+    peaks = [f[k]] + [float(np.asarray(o.frequency)[np.nanargmax(o.amplitude_m)])
+                      for o in others]
+    return idx[f[idx] < min(peaks) - guard]
+
+
+def _at(curve, f) -> np.ndarray:
+    """``curve``'s amplitude interpolated at the frequencies ``f`` (its track sorted)."""
+    order = np.argsort(curve.frequency)
+    return np.interp(f, curve.frequency[order], curve.amplitude_m[order])

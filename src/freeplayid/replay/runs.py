@@ -92,8 +92,10 @@ def replay_dataset(dataset, system, kn: float, delta: float, *, levels: dict | N
     """The data set's usable runs simulated at (kn, delta): a data set of the same layout.
 
     Runs sharing a sweep law are simulated in one batch; a run with a measured excitation
-    (``excitations``: :func:`replay_excitations`) alone, driven by it; absolute frame with the
-    base channel when the data set has one, else relative. ``sweeps`` and ``levels`` are
+    (``excitations``: :func:`replay_excitations`) alone, driven by it; in the data set's frame
+    (:attr:`freeplayid.dataset.Dataset.frame`), with its base channel when it has one (absolute
+    accelerations without one are replayed as absolute motion, and the replay keeps no base
+    either: the extraction reads both alike). ``sweeps`` and ``levels`` are
     :func:`replay_sweeps` and :func:`replay_levels` (computed when not given). A replayed run
     carries the measured run's sweep hint (or none), so both go through the same extraction.
     ``engine``: a simulator engine name (:data:`freeplayid.simulate.engines.ENGINES` or
@@ -113,7 +115,7 @@ def replay_dataset(dataset, system, kn: float, delta: float, *, levels: dict | N
         engine = "expo" if ENGINES["expo"].available() else "auto"
     sweeps = replay_sweeps(dataset) if sweeps is None else sweeps
     levels = replay_levels(dataset, sweeps) if levels is None else levels
-    frame = "absolute" if dataset.base_channel else "relative"
+    frame = dataset.frame
     hints = {run.file: run.sweep for run in dataset.runs}
     excitations = excitations or {}
     groups: dict = {}
@@ -130,7 +132,9 @@ def replay_dataset(dataset, system, kn: float, delta: float, *, levels: dict | N
                               dtype=torch.float64 if dtype is None else dtype, progress=False,
                               engine=engine)
         ds = sweep_dataset(res, columns=dataset.channels, units=dataset.units, run_names=files)
-        return [dataclasses.replace(r, sweep=hints[r.file]) for r in ds.runs]
+        return [dataclasses.replace(r, sweep=hints[r.file],
+                                    base=r.base if dataset.base_channel else None)
+                for r in ds.runs]
 
     runs = [r for out in _each_group(simulate, list(groups.items()), engine) for r in out]
     order = {r.file: i for i, r in enumerate(dataset.runs)}
@@ -138,7 +142,7 @@ def replay_dataset(dataset, system, kn: float, delta: float, *, levels: dict | N
     return Dataset(name=f"replay of {dataset.name}", model=None, quantity=dataset.quantity,
                    units=dataset.units, sample_rate=dataset.sample_rate,
                    channels=dict(dataset.channels), runs=tuple(runs),
-                   base_channel=dataset.base_channel if frame == "absolute" else None)
+                   base_channel=dataset.base_channel, frame=frame)
 
 
 def _each_group(simulate, groups: list, engine: str) -> list:

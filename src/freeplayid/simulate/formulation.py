@@ -40,6 +40,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg
 
+from ..dataset import FRAMES
 from ..model.system import FreeplaySystem
 from ..quantity import QUANTITY, G, check_quantity
 
@@ -59,7 +60,6 @@ RK4_STABILITY_LIMIT = 2.785  # |mu dt| on the negative real axis; 2.828 on the i
 MODES = {name: q.order for name, q in QUANTITY.items()}
 BLOWUP = 1e12  # |modal state| above this (or non-finite) marks a member as diverged
 
-FRAMES = ("absolute", "relative")
 METHODS = ("relative", "large_mass")
 
 

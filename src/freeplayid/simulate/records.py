@@ -102,4 +102,5 @@ def sweep_dataset(
         truth = {"kn": float(kn[0]), "delta": float(delta[0])}
     return Dataset(name=name, model=None, quantity=q, units=units,
                    sample_rate=float(result.sample_rate), channels=columns, runs=tuple(runs),
-                   base_channel=BASE_COLUMN if with_base else None, truth=truth)
+                   base_channel=BASE_COLUMN if with_base else None, truth=truth,
+                   frame=result.frame)

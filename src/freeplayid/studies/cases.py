@@ -411,7 +411,7 @@ def rebuild_case(bank: SweepBank, spec: CaseSpec, ps: PointSets, i: int, *,
                         f"{case.noise_g:g} g)", model=None, quantity="acceleration",
                    units="m/s^2", sample_rate=float(bank.spec.sample_rate),
                    channels={c: c for c in bank.spec.channels}, runs=runs,
-                   truth={"kn": float(bank.kn[k]), "delta": float(case.delta)})
+                   truth={"kn": float(bank.kn[k]), "delta": float(case.delta)}, frame="relative")
 
 
 def split_by_kn(ps: PointSets, n_kn: int, fractions: tuple[float, ...]) -> list[PointSets]:

@@ -146,7 +146,7 @@ def _write(cfg, stage, ds, system, res, sweep, channels, levels, data) -> None:
     write_dataset(
         stage / cfg.output_dir, name=ds.name, quantity=ds.quantity, units=ds.units,
         sample_rate=ds.sample_rate, channels=ds.channels, runs=ds.runs, system=system,
-        base_channel=ds.base_channel, truth=ds.truth,
+        base_channel=ds.base_channel, truth=ds.truth, frame=ds.frame,
     )
     if cfg.plot:
         import matplotlib
