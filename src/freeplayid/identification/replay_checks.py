@@ -156,17 +156,24 @@ def _one_run_aside(off: dict, misfits: dict) -> bool:
             and abs(w[0]) <= LIMITS["without_kn"])
 
 
+def _noise_limit(se: float, dof: float) -> float:
+    """``se`` times Student's t at the two-sided ``cross_p`` (the normal's 3 standard errors)
+    and ``dof`` degrees of freedom (inf: the normal); inf without a degree of freedom."""
+    if not dof >= 1:
+        return math.inf
+    return float(scipy.stats.t.isf(LIMITS["cross_p"] / 2, dof)) * se
+
+
 def _consistency_check(replay) -> Check | None:
     """``replay_consistency``: the answer on a second statistic (module docstring)."""
     cross = getattr(replay, "cross", None)
     if cross is None:
         return None
-    k = float(scipy.stats.t.isf(LIMITS["cross_p"] / 2, cross.dof))  # dof inf: the normal's 3
     off = []
     for name, shift, se, tol in (("delta", cross.delta_shift, cross.delta_se,
                                   LIMITS["cross_delta"]),
                                  ("kn", cross.kn_shift, cross.kn_se, LIMITS["cross_kn"])):
-        limit = max(tol, k * se) if math.isfinite(se) else tol
+        limit = max(tol, _noise_limit(se, cross.dof)) if math.isfinite(se) else tol
         if abs(shift) > limit:
             off.append(f"{name} {100 * shift:+.2g} % (limit {100 * limit:.2g} %)")
     value = max(abs(cross.delta_shift) / LIMITS["cross_delta"],
@@ -201,9 +208,7 @@ def _level_check(replay) -> Check | None:
         return Check("replay_level", True, said + "; one channel reads them, so their ratio "
                      "does not check the answer's kn")
     se, dof = getattr(level, "ratio_kn_se", None), getattr(level, "ratio_dof", 0)
-    noise = math.inf if se is None or dof < 1 else \
-        float(scipy.stats.t.isf(LIMITS["cross_p"] / 2, dof)) * se
-    limit = max(LIMITS["accuracy_kn"], noise)
+    limit = max(LIMITS["accuracy_kn"], math.inf if se is None else _noise_limit(se, dof))
     value = abs(ratio) / limit
     spread = max(v.spread for v in level.implied.values())
     rule = (f"limit {100 * limit:.2g} %: the bound {100 * LIMITS['accuracy_kn']:g} %, or its "

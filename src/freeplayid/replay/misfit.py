@@ -107,13 +107,9 @@ def _upper_branch(curve, f_point: float) -> np.ndarray:
     """Indices of ``curve`` on its upper branch: the lobe around its peak (at or above half the
     peak) on the point's side away from the jump: from the lobe's start up to the point on an
     up-sweep, from the point (the jump-up) to the lobe's end on a down-sweep."""
-    x = np.asarray(curve.amplitude_m, float)
-    f = np.asarray(curve.frequency, float)
-    ok = np.isfinite(x) & np.isfinite(f)
-    if np.count_nonzero(ok) < 4:
+    if np.count_nonzero(np.isfinite(curve.amplitude_m) & np.isfinite(curve.frequency)) < 4:
         return np.zeros(0, dtype=int)
-    k = int(np.argmax(np.where(ok, x, -np.inf)))
-    low = np.nonzero(~ok | (x < 0.5 * x[k]))[0]
+    x, f, k, low = _peak(curve)
     start = int(low[low < k][-1]) + 1 if np.any(low < k) else 0
     stop = int(low[low > k][0]) if np.any(low > k) else x.shape[0]
     lobe = np.arange(start, stop)
@@ -140,8 +136,7 @@ def resonance_misfits(measured_points, replayed_points, measured_curves, replaye
         idx = _upper_branch(c, p.f_hz)
         branch = float("nan")
         if idx.size >= 2:
-            order = np.argsort(r.frequency)
-            xr = np.interp(c.frequency[idx], r.frequency[order], r.amplitude_m[order])
+            xr = _at(r, c.frequency[idx])
             branch = float(np.median(np.abs(xr - c.amplitude_m[idx])) / peak)
         dist, dist_rep = float("nan"), float("nan")
         if backbone_f is not None:
@@ -301,11 +296,7 @@ def _short_of_jump(curve, idx: np.ndarray, others) -> np.ndarray:
     by half the peak, which says nothing about the level."""
     if idx.size == 0:
         return idx
-    x = np.asarray(curve.amplitude_m, float)
-    f = np.asarray(curve.frequency, float)
-    ok = np.isfinite(x) & np.isfinite(f)
-    k = int(np.argmax(np.where(ok, x, -np.inf)))
-    low = np.nonzero(~ok | (x < 0.5 * x[k]))[0]
+    x, f, k, low = _peak(curve)
     edge = low[low > k] if f[-1] > f[0] else low[low < k][::-1]  # the jump's side
     if edge.size == 0:
         return idx[:0]
@@ -313,6 +304,16 @@ def _short_of_jump(curve, idx: np.ndarray, others) -> np.ndarray:
     peaks = [f[k]] + [float(np.asarray(o.frequency)[np.nanargmax(o.amplitude_m)])
                       for o in others]
     return idx[f[idx] < min(peaks) - guard]
+
+
+def _peak(curve) -> tuple[np.ndarray, np.ndarray, int, np.ndarray]:
+    """``curve``'s amplitudes and frequencies, the index of its peak and the indices below half
+    of it (or not finite): what bounds the lobe around the peak."""
+    x = np.asarray(curve.amplitude_m, float)
+    f = np.asarray(curve.frequency, float)
+    ok = np.isfinite(x) & np.isfinite(f)
+    k = int(np.argmax(np.where(ok, x, -np.inf)))
+    return x, f, k, np.nonzero(~ok | (x < 0.5 * x[k]))[0]
 
 
 def _at(curve, f) -> np.ndarray:
