@@ -170,6 +170,21 @@ def test_update_to_three_sealed_modes_takes_a_plate_off_alone_out_of_kn():
     assert "lowest elastic open-hinge mode" in upd.describe()
     two, upd2 = kn_error(2)
     assert abs(two) > 0.015 and upd2.first_scale == upd2.scale
+    # each fits its modes exactly (three parameters to three modes, two to two), which measures
+    # no model error: the option's uncertainty stands for kn's interval, not the 0.1 % floor
+    from freeplayid.identification.model_error import frequency_uncertainty
+    from freeplayid.model import ModelOptions
+
+    assert (upd.parameters, upd2.parameters) == (3, 2)
+    assert not upd.residual_measured and not upd2.residual_measured
+    opts = ModelOptions(frequency_uncertainty=0.005)
+    assert frequency_uncertainty(opts, upd) == max(0.005, upd.residual)
+    assert frequency_uncertainty(opts, upd2) == 0.005
+    # a fourth mode is more than the two scales and kn fit: the residual is then measured
+    four = update_to_sealed_modes(model, 450.0, np.sqrt(w2[:4]) / (2 * np.pi),
+                                  shapes[rows, :4], chs)
+    assert four.parameters == 3 and four.residual_measured
+    assert frequency_uncertainty(opts, four) == max(four.residual, 1e-3)
 
 
 def test_update_needs_two_sealed_modes():

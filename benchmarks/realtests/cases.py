@@ -1085,6 +1085,76 @@ VARIANTS.update(dict(_no_base_of(src) for src in (
     "fin_hinge_damper", "fin_contact_damping", "fin_log_sweep", "fin_down_sweep",
     "var5_finB_nominal", "var_fin_noisy")))
 
+def _contact_damping_on(fin: str, fin_kw: dict, added_zeta: float, zeta: float) -> CaseSpec:
+    """Another fin (``fin_kw``: its ``_fin_*_kw``, model damping ``zeta``) with extra damping
+    only while in contact, ``added_zeta`` in its closed mode 1; levels scaled with the damping."""
+    _, st = fin_truth(config=fin_kw["config"], kn=fin_kw["kn"], deltas=fin_kw["deltas"])
+    c = added_zeta / mode1_added_damping(st, 1.0)
+    levels = tuple(round(lv * (1 + added_zeta / zeta), 3) for lv in fin_kw["levels"])
+    return _fin_case("x", f"{fin}, extra damping only while in contact (+{100 * added_zeta:g} % "
+                     "in closed mode 1)", contact_damping=c,
+                     params={"contact_damper_Nms_per_rad": c, "added_zeta_mode1": added_zeta},
+                     **dict(fin_kw, levels=levels))
+
+
+def _var10_beam(**kw) -> CaseSpec:
+    geo = dict(kn=3000.0, delta=2.0e-3, zeta=0.03, rayleigh_hz=(20.0, 80.0))
+    sweep, _ = _beam_band(**geo)
+    # the table's beam levels scaled with the damping (its 2 %)
+    levels = tuple(round(lv * 0.03 / 0.02, 3) for lv in (1.1, 1.5, 2.0, 2.6, 3.3))
+    return beam_rayleigh(levels=levels, sweep=sweep, **geo, **kw)
+
+
+def _var10_stiff_hinge(**kw) -> CaseSpec:
+    """The default fin at kn 700 and half-gap 2 mrad, its band 0.6 -> 0.93 of its own closed
+    mode 1 (the default fin's band, as fins B and C; at 30 -> 46.5 Hz four of five runs jumped
+    beyond it)."""
+    _, st = fin_truth(kn=700.0, deltas=0.002)
+    f1 = float(np.sqrt(closed_modes(st)[0][0]) / (2 * np.pi))
+    sweep = {"start_hz": round(0.6 * f1, 1), "stop_hz": round(0.93 * f1, 1),
+             "rate_hz_per_s": 0.1}
+    return _fin_case("x", "the fin at kn 700 N m/rad and half-gap 2 mrad, its band by its own "
+                     "mode 1 (control)", kn=700.0, deltas=0.002, sweep=sweep, **kw)
+
+
+# A tenth set, chosen once (2026-11-30, session 24) before any of its results: conditions on
+# fins and magnitudes not paired before: contact damping and a wide deep dip on fin B, Rayleigh
+# damping under a dip, a softer beam with more damping, larger model errors with sealed modes
+# (the default fin -1.5 %, fin C -1 %), Rayleigh-damped down-sweeps on fin B, wider unequal gaps
+# on fin C, a slower sweep, a stiffer hinge with a smaller gap, fin B's hinge damper without its
+# base channel, a rising level on a log sweep of fin C. run.py --cases 'var10_*'
+VARIANTS.update({
+    "var10_finB_contact_damping": _variant(lambda **kw: _contact_damping_on(
+        "fin B", _fin_b_kw(**kw), 0.02, 0.03), "var10_finB_contact_damping"),
+    "var10_finB_dip_wide": _variant(lambda **kw: _also(fin_level_dip(
+        depth=0.45, flat_hz=1.0, taper_hz=0.8, src="var5_finB_nominal", **_fin_b_kw(**kw)),
+        "fin B"), "var10_finB_dip_wide"),
+    "var10_fin_rayleigh_dip": _variant(lambda **kw: _no_c(fin_level_dip(
+        depth=0.3, src="fin_rayleigh_noC", C=_rayleigh_c(0.03, (30.0, 60.0)), **kw)),
+        "var10_fin_rayleigh_dip"),
+    "var10_beam_kn3000_d2": _variant(_var10_beam, "var10_beam_kn3000_d2"),
+    "var10_fin_stiff_in_m1.5_ref": _variant(lambda **kw: fin_stiffness(
+        shift=-0.015, part="inboard", ref=True, **kw), "var10_fin_stiff_in_m1.5_ref"),
+    "var10_finC_stiff_in_m1_ref": _variant(lambda **kw: _also(fin_stiffness(
+        shift=-0.01, part="inboard", ref=True, **_fin_c_kw(**kw)), "fin C"),
+        "var10_finC_stiff_in_m1_ref"),
+    "var10_finB_down_rayleigh": _variant(lambda **kw: _also(_rayleigh_no_c(
+        "fin B", 0.025, (0.6 * FIN_B_F1, 1.5 * FIN_B_F1), _fin_b_kw(
+            levels=tuple(round(lv / 2.28, 3) for lv in (1.2, 1.5, 1.75, 2.0)),
+            sweep=_fin_b_down(), **kw)), "down-sweeps"), "var10_finB_down_rayleigh"),
+    "var10_finC_unequal_wide": _variant(lambda **kw: _also(fin_unequal_gaps(
+        **_fin_c_kw(deltas=(0.0012, 0.0020), **kw)), "fin C"), "var10_finC_unequal_wide"),
+    "var10_fin_slow_sweep": _variant(lambda **kw: fin_fast_sweep(rate=0.05, **kw),
+                                     "var10_fin_slow_sweep"),
+    "var10_fin_kn700_d2": _variant(_var10_stiff_hinge, "var10_fin_kn700_d2"),
+    "var10_finB_damper_no_base": lambda **kw: fin_no_base(name="var10_finB_damper_no_base",
+                                                          src="var5_finB_damper"),
+    "var10_finC_log_ramp": _variant(lambda **kw: _ramped(_fin_case(
+        "x", "fin C, log sweep at 0.4 oct/min", **_fin_c_kw(sweep={
+            "start_hz": FIN_C_SWEEP["start_hz"], "stop_hz": FIN_C_SWEEP["stop_hz"],
+            "octaves_per_min": 0.4}, **kw)), 0.15), "var10_finC_log_ramp"),
+})
+
 ALL_CASES = {**CONDITIONS, **VARIANTS}
 
 def generate(name: str, out: Path, *, force=False, redraw=False, log=print) -> dict:

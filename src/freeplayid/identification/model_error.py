@@ -3,8 +3,10 @@
 kn is conditional on the model (:class:`freeplayid.model.ModelOptions`). With the sealed fin's
 modes the model is updated to them before the identification
 (:func:`freeplayid.model.update_to_sealed_modes`); without, or for what the update could not
-explain (with two sealed modes, which the update fits exactly: the option's uncertainty), kn's
-interval takes in the move of kn that the model's frequency uncertainty makes:
+explain, kn's interval takes in the move of kn that the model's frequency uncertainty makes
+(:func:`frequency_uncertainty`: where the update has as many parameters as sealed modes, two
+modes with one scale or three with two, it fits them exactly whatever the model's error, and the
+option's uncertainty stands):
 the plain fit's points refitted against the model with that mode's frequency moved by ``u``
 give kn's relative move ``m``, and the interval's log half-width becomes sqrt(h^2 + m^2). The
 mode's frequency is moved by scaling the structure's stiffness (not the hinges'): its share of
@@ -58,7 +60,7 @@ from ..fit import FitOptions, gap_ratios, jacobian_halfwidths
 from ..model import ModelOptions, SealedUpdate, modal_analysis, update_to_sealed_modes
 
 __all__ = ["ModelError", "GapSplit", "HingeGaps", "update_model", "model_error", "hinge_ratio",
-           "frequency_scale", "gap_split", "fit_hinge_gaps"]
+           "frequency_scale", "frequency_uncertainty", "gap_split", "fit_hinge_gaps"]
 
 # [-] hinge rotation ratio in the identified mode above which the hinges count as turning together
 HINGES_TOGETHER = 0.9
@@ -244,6 +246,10 @@ class ModelError:
     def describe(self) -> str:
         if self.update is not None:
             head = "the model was updated: " + self.update.describe()
+            if not self.update.residual_measured:
+                head += (f" (its {self.update.parameters} parameters fit its "
+                         f"{self.update.reference_hz.size} modes exactly, which measures no "
+                         "model error: the option's frequency uncertainty stands)")
         else:
             head = "kn is conditional on the linear model (no sealed-fin modes to update it to)"
         return (head + f"; a {100 * self.frequency_uncertainty:.2g} % error of the identified "
@@ -291,11 +297,20 @@ def update_model(dataset, system, est: PlainEstimate, fit: FitOptions,
     return upd.system, refit(est, upd.system, fit), upd
 
 
+def frequency_uncertainty(options: ModelOptions, update: SealedUpdate | None) -> float:
+    """The identified mode's relative frequency uncertainty taken into kn's interval: the
+    update's residual where its fit measures one (more sealed modes than its parameters; at
+    least 0.1 %), else the option's, or the residual after one scale where that is larger."""
+    u = options.frequency_uncertainty
+    if update is None:
+        return u
+    return max(update.residual, 1e-3) if update.residual_measured else max(u, update.residual)
+
+
 def model_error(system, est: PlainEstimate, fit: FitOptions, options: ModelOptions,
                 update: SealedUpdate | None) -> ModelError:
     """kn's relative move for the model's frequency uncertainty (module docstring)."""
-    u = options.frequency_uncertainty if update is None or not update.residual_measured else \
-        max(update.residual, 1e-3)
+    u = frequency_uncertainty(options, update)
     ratio = hinge_ratio(system, est.kn, fit.mode)
     gaps = gap_split(system, est, fit.mode)
     per = None

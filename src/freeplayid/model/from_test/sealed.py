@@ -54,9 +54,6 @@ class SealedUpdate:
         The updated model (its stiffness; mass, damping, DOFs and hinges as given).
     scale : float [-]
         The structure's stiffness scale ``s``.
-    first_scale : float [-]
-        The scale ``s1`` of the open-hinge model's lowest elastic mode's stiffness (``s`` with
-        fewer than three modes or where the modes cannot tell the two apart).
     kn : float [N m/rad]
         The contact stiffness the sealed modes alone give (with ``s``).
     mode_factors : dict of int -> float
@@ -67,6 +64,11 @@ class SealedUpdate:
         RMS of log(f_model / f_ref) over the modes after one uniform scale of the stiffness
         (what one scale could not explain: how far the error is from a uniform stiffness error;
         kn's interval takes it in, :mod:`freeplayid.identification.model_error`).
+    first_scale : float [-]
+        The scale ``s1`` of the open-hinge model's lowest elastic mode's stiffness (``s`` with
+        fewer than three modes or where the modes cannot tell the two apart).
+    parameters : int
+        The update's free parameters, kn among them: 2 (one scale) or 3 (two scales).
     """
 
     system: FreeplaySystem
@@ -78,6 +80,7 @@ class SealedUpdate:
     after_hz: np.ndarray
     residual: float
     first_scale: float | None = None
+    parameters: int = 2
 
     def __post_init__(self):
         if self.first_scale is None:
@@ -85,9 +88,11 @@ class SealedUpdate:
 
     @property
     def residual_measured(self) -> bool:
-        """Whether ``residual`` measures anything: with two modes one scale and kn fit them
-        exactly (residual 0 whatever the model's error)."""
-        return self.reference_hz.size > 2
+        """Whether the update's own fit measures the model's error: not where it has as many
+        parameters as modes and fits them exactly whatever the error (two modes with one scale,
+        three with two: a plate off alone on a fin whose sealed mode 1 the hinges dominate moved
+        kn by 2 % there, with every mode matched)."""
+        return self.reference_hz.size > self.parameters
 
     def describe(self) -> str:
         others = ", ".join(f"mode {k + 1} x{v:.4f}" for k, v in self.mode_factors.items())
@@ -102,7 +107,8 @@ class SealedUpdate:
         return {"scale": self.scale, "first_scale": self.first_scale, "kn_sealed": self.kn,
                 "mode_factors": {str(k + 1): v for k, v in self.mode_factors.items()},
                 "reference_hz": self.reference_hz.tolist(), "before_hz": self.before_hz.tolist(),
-                "after_hz": self.after_hz.tolist(), "residual": self.residual}
+                "after_hz": self.after_hz.tolist(), "residual": self.residual,
+                "parameters": self.parameters}
 
 
 def _closed(system: FreeplaySystem, K: np.ndarray, kn: float) -> np.ndarray:
@@ -148,11 +154,12 @@ def update_to_sealed_modes(system: FreeplaySystem, kn_start: float, reference_hz
 
     uniform = solve(np.array([np.log(kn_start), 0.0]))
     kn, s = (float(v) for v in np.exp(uniform.x))
-    s1 = s
+    s1, parameters = s, 2
     if pair.size >= 3 and first is not None:
         two = solve(np.append(uniform.x, uniform.x[1]))
         if two.success and np.linalg.cond(two.jac) < MAX_CONDITION:
             kn, s, s1 = (float(v) for v in np.exp(two.x))
+            parameters = 3
     K = stiffness(s, s1)
     closed = modal_analysis(system.M, _closed(system, K, kn))
     factors = {}
@@ -168,7 +175,7 @@ def update_to_sealed_modes(system: FreeplaySystem, kn_start: float, reference_hz
     return SealedUpdate(system=updated, scale=s, kn=kn, mode_factors=factors, reference_hz=ref,
                         before_hz=modes.frequencies_hz[pair],
                         after_hz=after, residual=float(np.sqrt(np.mean(uniform.fun ** 2))),
-                        first_scale=s1)
+                        first_scale=s1, parameters=parameters)
 
 
 def _lowest_elastic(system: FreeplaySystem) -> np.ndarray | None:
