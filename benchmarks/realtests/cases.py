@@ -1144,8 +1144,9 @@ VARIANTS.update({
             sweep=_fin_b_down(), **kw)), "down-sweeps"), "var10_finB_down_rayleigh"),
     "var10_finC_unequal_wide": _variant(lambda **kw: _also(fin_unequal_gaps(
         **_fin_c_kw(deltas=(0.0012, 0.0020), **kw)), "fin C"), "var10_finC_unequal_wide"),
-    "var10_fin_slow_sweep": _variant(lambda **kw: fin_fast_sweep(rate=0.05, **kw),
-                                     "var10_fin_slow_sweep"),
+    "var10_fin_slow_sweep": _variant(lambda **kw: _fin_case(
+        "x", "a slower sweep, 0.05 Hz/s", sweep=dict(FIN_SWEEP, rate_hz_per_s=0.05), **kw),
+        "var10_fin_slow_sweep"),
     "var10_fin_kn700_d2": _variant(_var10_stiff_hinge, "var10_fin_kn700_d2"),
     "var10_finB_damper_no_base": lambda **kw: fin_no_base(name="var10_finB_damper_no_base",
                                                           src="var5_finB_damper"),
