@@ -333,3 +333,107 @@ def test_bank_rate_range_draws_a_sweep_rate_per_kn(system, tmp_path):
     assert case.runs[0].data.shape[-1] == b.n_samples[k] == case.runs[0].time.size
     with pytest.raises(ValueError, match="rate_range"):
         _spec(rate_range=(2.0, 0.5))
+
+
+def test_bank_ramp_range_ramps_each_kns_level(system, tmp_path):
+    """Each kn's level moves (1 - r) -> (1 + r) over its sweeps: late in the sweep, above the
+    resonance, the SDOF's mass floats in its gap and its relative acceleration is the base's
+    (its amplitude the level's), so its largest there is the envelope's largest there times
+    that of the same bank at constant level (r drawn after every earlier draw, which stay)."""
+    plain = simulate_bank(system, _spec(damping_range=(1.0, 1.0)), cache_dir=tmp_path,
+                          progress=False)
+    spec = _spec(damping_range=(1.0, 1.0), ramp_range=(-0.3, 0.3))
+    b = simulate_bank(system, spec, cache_dir=tmp_path, progress=False)
+    np.testing.assert_array_equal(b.kn, plain.kn)
+    np.testing.assert_array_equal(b.ratio, plain.ratio)
+    assert np.all(np.abs(b.ramp) <= 0.3) and np.ptp(b.ramp) > 0.1 and not b.rayleigh.any()
+    assert spec.key(system) != plain.spec.key(system)
+    late = b.time > SWEEP.duration - 1.5
+    for k in range(4):
+        amp = np.abs(b.signals[k][:, 0][:, late]).max(axis=-1)
+        amp0 = np.abs(plain.signals[k][:, 0][:, late]).max(axis=-1)
+        t0, r = b.time[late][0], b.ramp[k]
+        top = max(1 + r * (2 * t0 / SWEEP.duration - 1), 1 + r)  # the envelope's top there
+        assert amp / amp0 == pytest.approx(np.full(3, top), rel=0.01)
+    ex = b.excitation(int(np.argmax(b.ramp)))
+    r = b.ramp.max()
+    assert ex.envelope(0.0) == pytest.approx(1 - r, rel=1e-3)
+    assert ex.envelope(SWEEP.duration) == pytest.approx(1 + r, rel=1e-3)
+    assert ex.frequency(5.0) == pytest.approx(SWEEP.frequency(5.0), rel=1e-4)
+    ps = build_cases(b, CaseSpec(axis="delta", values=(2.5e-3,), cases_per_value=1,
+                                 runs=(3, 3), n_jobs=1), cache_dir=tmp_path, progress=False)
+    np.testing.assert_array_equal(ps.meta["ramp"], b.ramp[ps.meta["kn_index"]])
+    with pytest.raises(ValueError, match="ramp_range"):
+        _spec(ramp_range=(-1.2, 0.3))
+
+
+def test_rayleigh_like_model_gives_the_models_mode_1_ratio_at_two_frequencies():
+    """The Rayleigh damping drawn for a kn gives the closed mode 1 the ratio the model's C (times
+    its factor) gives it, and the same ratio at the second frequency: a plain generalised
+    eigen-solve of the default fin here."""
+    import scipy.linalg
+
+    from freeplayid.model import default_fin
+    from freeplayid.studies.bank import rayleigh_like_model
+
+    fin = default_fin()
+    kn = 500.0
+    K = fin.closed_stiffness(kn)
+    w2, phi = scipy.linalg.eigh(K, fin.M)
+    w = np.sqrt(w2[:2])
+    ratio = [float(phi[:, i] @ fin.C @ phi[:, i]) / (2 * w[i]) for i in range(2)]
+    C = rayleigh_like_model(fin, kn, 1.5, 2.0)
+    alpha_beta = np.linalg.lstsq(np.stack([fin.M.ravel(), K.ravel()], 1), C.ravel(),
+                                 rcond=None)[0]
+    np.testing.assert_allclose(alpha_beta[0] * fin.M + alpha_beta[1] * K, C, atol=1e-9 *
+                               np.abs(C).max())  # a M + b K
+    zeta = lambda om: alpha_beta[0] / (2 * om) + alpha_beta[1] * om / 2  # noqa: E731
+    assert zeta(w[0]) == pytest.approx(1.5 * ratio[0], rel=1e-6)
+    assert zeta(2.0 * w[0]) == pytest.approx(1.5 * ratio[0], rel=1e-6)
+    assert float(phi[:, 1] @ C @ phi[:, 1]) / (2 * w[1]) != pytest.approx(1.5 * ratio[1],
+                                                                          rel=0.05)
+
+
+def test_bank_rayleigh_fraction_draws_the_damping_form_per_kn(tmp_path):
+    """On a two-mass chain the Rayleigh-damped kn's records are those of the chain with that
+    damping matrix (simulated directly), the others' those of the model's C; the draws before
+    stay; a model without C is refused."""
+    from freeplayid.model import FreeplaySystem
+    from freeplayid.studies.bank import rayleigh_like_model
+
+    chain = FreeplaySystem(M=np.diag([1.0, 0.5]), K=np.array([[3e4, -1e4], [-1e4, 1e4]]),
+                           C=np.array([[6.0, -2.0], [-2.0, 2.0]]), dof_names=("x1", "x2"),
+                           hinge_pairs=(("x1", None),), base_influence=np.ones(2))
+    spec = BankSpec(sweep=Sweep(15.0, 40.0, 2.5), sample_rate=256.0, channels=("x2",),
+                    kn_range=(1e4, 2e4), ratio_range=(50.0, 80.0), n_kn=6, n_ratios=1,
+                    seed=1, dtype="float64", rayleigh_fraction=0.5)
+    b = simulate_bank(chain, spec, cache_dir=tmp_path, progress=False)
+    kn0, ratio0 = BankSpec(**{**asdict_spec(spec), "rayleigh_fraction": None}).draw()
+    np.testing.assert_array_equal(b.kn, kn0)
+    np.testing.assert_array_equal(b.ratio, ratio0)
+    assert b.rayleigh.any() and not b.rayleigh.all()
+    _, _, _, _, _, second, _ = spec._draw_all()
+    for k in range(6):
+        C = (rayleigh_like_model(chain, b.kn[k], 1.0, second[k]) if b.rayleigh[k] else chain.C)
+        ref = simulate_sweeps(chain.replace(C=C), kn=b.kn[k], delta=DELTA_REF,
+                              level_g=b.ratio[k] * DELTA_REF, sweep=spec.sweep, channels=["x2"],
+                              frame="relative", sample_rate=256.0, dtype=torch.float64,
+                              progress=False)
+        np.testing.assert_allclose(b.signals[k], ref.signals, rtol=0,
+                                   atol=1e-6 * np.abs(ref.signals).max())
+        if b.rayleigh[k]:  # another form: other records than the model's C gives
+            own = simulate_sweeps(chain, kn=b.kn[k], delta=DELTA_REF,
+                                  level_g=b.ratio[k] * DELTA_REF, sweep=spec.sweep,
+                                  channels=["x2"], frame="relative", sample_rate=256.0,
+                                  dtype=torch.float64, progress=False).signals
+            assert np.abs(own - ref.signals).max() > 0.01 * np.abs(own).max()
+    with pytest.raises(ValueError, match="rayleigh_fraction"):
+        simulate_bank(chain.replace(C=None), spec, cache_dir=tmp_path, progress=False)
+    with pytest.raises(ValueError, match="rayleigh_fraction"):
+        BankSpec(**{**asdict_spec(spec), "rayleigh_fraction": 1.5})
+
+
+def asdict_spec(spec):
+    import dataclasses
+
+    return {f.name: getattr(spec, f.name) for f in dataclasses.fields(spec)}

@@ -27,7 +27,8 @@ from ..model.system import FreeplaySystem
 from ..progress import progress_bar
 from ..sweep import Sweep
 
-__all__ = ["BankSpec", "SweepBank", "DELTA_REF", "simulate_bank"]
+__all__ = ["BankSpec", "SweepBank", "DELTA_REF", "simulate_bank", "ramped_excitation",
+           "rayleigh_like_model"]
 
 log = logging.getLogger(__name__)
 
@@ -36,6 +37,10 @@ DELTA_REF = 1e-3  # [rad] gap of the stored bank records (levels s * DELTA_REF)
 # (2: 2026-11-21, the numba kernels fuse their multiply-adds and the quasi-static model takes the
 # derivative of its fast part inside the decimating FIR)
 CACHE_FORMAT = 2
+# a Rayleigh-damped kn's second frequency over its closed mode 1's: log-uniform in this range
+RAYLEIGH_SECOND = (1.3, 4.0)
+# [Hz] the rate at which a level ramp's excitation (phase and envelope) is sampled
+RAMP_SAMPLES_HZ = 64.0
 
 
 def digest(obj) -> str:
@@ -89,6 +94,17 @@ class BankSpec:
         with or without it): the drop points of a faster sweep lie later and higher on the
         upper branch, which a bank at one rate never shows. The records then differ in length:
         each kn's are ``SweepBank.n_samples[k]`` long, zero after. None: ``sweep`` for every kn.
+    rayleigh_fraction : float in [0, 1] or None
+        The share of kn whose damping has another form than the model's: Rayleigh, ``a M + b
+        K_closed(kn)``, with the ratio that the model's C (times the kn's damping factor) gives
+        the closed mode 1 at that mode and at a second frequency drawn log-uniform in
+        :data:`RAYLEIGH_SECOND` times it (higher modes then more or less damped than the
+        model's). Drawn after the rate. None: the model's C (times its factor) for every kn.
+    ramp_range : (float, float) or None [-]
+        A level ramp per kn, ``r`` drawn uniform in it (|r| < 1): each sweep's level moves
+        linearly from (1 - r) to (1 + r) times its ``level_g`` (the mean), as a shaker's level
+        drifts over a sweep; simulated through :class:`freeplayid.sweep.MeasuredSweep`
+        (``SweepBank.excitation``). Drawn after the damping form. None: constant levels.
     """
 
     sweep: Sweep
@@ -104,6 +120,8 @@ class BankSpec:
     quasi_static_hz: float | None = None
     damping_range: tuple | None = None
     rate_range: tuple | None = None
+    rayleigh_fraction: float | None = None
+    ramp_range: tuple | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "kn_range", check_pair("kn_range", self.kn_range))
@@ -128,6 +146,24 @@ class BankSpec:
                                check_pair("damping_range", self.damping_range))
         if self.rate_range is not None:
             object.__setattr__(self, "rate_range", check_pair("rate_range", self.rate_range))
+        if self.rayleigh_fraction is not None:
+            f = float(self.rayleigh_fraction)
+            if not 0.0 <= f <= 1.0:
+                raise ValueError(f"`rayleigh_fraction` must be in [0, 1] or null, got "
+                                 f"{self.rayleigh_fraction!r}")
+            object.__setattr__(self, "rayleigh_fraction", f)
+        if self.ramp_range is not None:
+            lo, hi = check_pair("ramp_range", self.ramp_range, positive=False)
+            if not (-1.0 < lo and hi < 1.0):
+                raise ValueError(f"`ramp_range` must lie within (-1, 1), got {self.ramp_range!r}")
+            object.__setattr__(self, "ramp_range", (lo, hi))
+
+    @property
+    def per_kn(self) -> bool:
+        """Whether each kn has its own damping, sweep or level profile (simulated a kn at a
+        time)."""
+        return any(v is not None for v in (self.damping_range, self.rate_range,
+                                            self.rayleigh_fraction, self.ramp_range))
 
     def key(self, system: FreeplaySystem) -> str:
         """Cache key: this spec, the model fingerprint and the cache format."""
@@ -137,7 +173,8 @@ class BankSpec:
             d.pop("quasi_static_hz")
         if d["sweep"].get("octaves_per_min") is None:  # linear: keys of banks before log sweeps
             d["sweep"].pop("octaves_per_min", None)
-        for name in ("damping_range", "rate_range"):  # off: the keys of banks before them
+        for name in ("damping_range", "rate_range", "rayleigh_fraction", "ramp_range"):
+            # off: the keys of banks before them
             if d[name] is None:
                 d.pop(name)
         return digest({"bank": d, "model": system.fingerprint(), "format": CACHE_FORMAT})
@@ -149,6 +186,12 @@ class BankSpec:
     def _draw(self):
         """kn, ratios, the factor on the model's C and the factor on the sweep's rate of each
         kn (ones without ``damping_range`` / ``rate_range``), from ``seed``."""
+        return self._draw_all()[:4]
+
+    def _draw_all(self):
+        """:meth:`_draw`'s four, then each kn's damping form (True: Rayleigh), its Rayleigh
+        second frequency over mode 1's, and its level ramp r (False, 1 and 0 without
+        ``rayleigh_fraction`` / ``ramp_range``)."""
         rng = np.random.default_rng(self.seed)
         lk = np.log(self.kn_range)
         lr = np.log(self.ratio_range)
@@ -161,7 +204,13 @@ class BankSpec:
             else:
                 ld = np.log(span)
                 factors.append(np.exp(rng.uniform(ld[0], ld[1], self.n_kn)))
-        return kn, ratio, *factors
+        rayleigh, second = np.zeros(self.n_kn, bool), np.ones(self.n_kn)
+        if self.rayleigh_fraction is not None:  # in this order, after the rate
+            rayleigh = rng.uniform(size=self.n_kn) < self.rayleigh_fraction
+            second = np.exp(rng.uniform(*np.log(RAYLEIGH_SECOND), self.n_kn))
+        ramp = (np.zeros(self.n_kn) if self.ramp_range is None else
+                rng.uniform(self.ramp_range[0], self.ramp_range[1], self.n_kn))
+        return kn, ratio, *factors, rayleigh, second, ramp
 
     def sweep_of(self, rate: float) -> Sweep:
         """``sweep`` with its rate (Hz/s, or octaves/min of a log sweep) times ``rate`` (a
@@ -193,6 +242,10 @@ class SweepBank:
     n_samples : ndarray, shape (K,) of int
         Samples of each kn's records (``T`` for all without ``spec.rate_range``; the rest of
         ``signals`` is zero).
+    rayleigh : ndarray, shape (K,) bool, optional
+        Whether each kn's damping is Rayleigh (``spec.rayleigh_fraction``); all False if None.
+    ramp : ndarray, shape (K,) [-], optional
+        Each kn's level ramp r (``spec.ramp_range``); all 0 if None.
     """
 
     spec: BankSpec
@@ -205,14 +258,58 @@ class SweepBank:
     damping: np.ndarray
     rate: np.ndarray
     n_samples: np.ndarray
+    rayleigh: np.ndarray | None = None
+    ramp: np.ndarray | None = None
+
+    def __post_init__(self):
+        n = self.kn.size
+        if self.rayleigh is None:
+            object.__setattr__(self, "rayleigh", np.zeros(n, bool))
+        if self.ramp is None:
+            object.__setattr__(self, "ramp", np.zeros(n))
 
     def sweep(self, k: int) -> Sweep:
-        """The sweep of kn ``k``'s records."""
+        """The sweep law of kn ``k``'s records (what a test's sweep hint says)."""
         return self.spec.sweep_of(float(self.rate[k]))
+
+    def excitation(self, k: int):
+        """What drove kn ``k``'s records: :meth:`sweep`, or with a level ramp the same law
+        with the envelope (1 - r) -> (1 + r) (:func:`ramped_excitation`)."""
+        return ramped_excitation(self.sweep(k), float(self.ramp[k]))
 
     def records(self, k: int, runs) -> np.ndarray:
         """kn ``k``'s records of the sweeps ``runs`` (runs, C, n_samples[k]) [m/s^2]."""
         return self.signals[k, runs, :, :int(self.n_samples[k])]
+
+
+def ramped_excitation(sweep: Sweep, ramp: float):
+    """``sweep`` with its level moving linearly from (1 - ramp) to (1 + ramp) of the mean over
+    its duration (a :class:`freeplayid.sweep.MeasuredSweep` sampled at
+    :data:`RAMP_SAMPLES_HZ`; its envelope's median is 1); ``sweep`` itself for ramp 0."""
+    from ..sweep import MeasuredSweep
+
+    if ramp == 0.0:
+        return sweep
+    n = int(math.ceil(sweep.duration * RAMP_SAMPLES_HZ)) + 1
+    t = np.linspace(0.0, sweep.duration, n)
+    return MeasuredSweep(sample_rate=(n - 1) / sweep.duration, phase_samples=sweep.phase(t),
+                         envelope_samples=1.0 + ramp * (2.0 * t / sweep.duration - 1.0))
+
+
+def rayleigh_like_model(system: FreeplaySystem, kn: float, factor: float,
+                        second: float) -> np.ndarray:
+    """The Rayleigh damping ``a M + b K_closed(kn)`` with the ratio that ``factor`` times the
+    model's C gives the closed mode 1 at kn, at mode 1 and at ``second`` times its frequency."""
+    from ..model.damping import rayleigh_damping
+    from ..model.modal import modal_analysis
+
+    K = system.closed_stiffness(kn)
+    modes = modal_analysis(system.M, K)
+    w1 = float(modes.omega[0])
+    phi = modes.shapes[:, 0]  # mass-normalised
+    zeta = factor * float(phi @ np.asarray(system.C) @ phi) / (2.0 * w1)
+    f1 = w1 / (2.0 * np.pi)
+    return rayleigh_damping(system.M, K, f1=f1, f2=second * f1, zeta=zeta)
 
 
 def simulate_bank(
@@ -242,12 +339,16 @@ def simulate_bank(
     if spec.damping_range is not None and system.C is None:
         raise ValueError("`damping_range` scales the model's damping matrix C, and this model "
                          "has none; give the model a C or set damping_range to null")
+    if spec.rayleigh_fraction is not None and system.C is None:
+        raise ValueError("`rayleigh_fraction` takes its mode-1 damping ratio from the model's "
+                         "damping matrix C, and this model has none; give the model a C or set "
+                         "rayleigh_fraction to null")
     key = spec.key(system)
     folder = Path(cache_dir) / f"bank-{key}"
     folder.mkdir(parents=True, exist_ok=True)
     spec_json = {"spec": asdict(spec), "model": system.fingerprint(), "delta_ref": DELTA_REF}
     (folder / "spec.json").write_text(json.dumps(spec_json, indent=2, default=float))
-    kn, ratio, damping, rate = spec._draw()
+    kn, ratio, damping, rate, rayleigh, second, ramp = spec._draw_all()
     lengths = np.array([output_samples(spec.sweep_of(float(r)), spec.sample_rate) for r in rate])
     flat_kn = np.repeat(kn, spec.n_ratios)
     flat_s = ratio.reshape(-1)
@@ -267,20 +368,27 @@ def simulate_bank(
                   quantity="acceleration", frame="relative", sample_rate=spec.sample_rate,
                   dtype=dtype, device=device, progress=progress,
                   quasi_static_hz=spec.quasi_static_hz)
-        if spec.damping_range is None and spec.rate_range is None:
+        if not spec.per_kn:
             res = simulate_sweeps(system, kn=flat_kn[sl], level_g=flat_s[sl] * DELTA_REF, **kw)
             sig, div = res.signals, res.diverged
-        else:  # one damping and one sweep per kn: a call per kn of the chunk
+        else:  # one damping, sweep and level profile per kn: a call per kn of the chunk
             sig = np.zeros((size, len(spec.channels), lengths.max()), np.float32)
             div = np.zeros(size, bool)
             for k in np.unique(np.arange(n)[sl] // spec.n_ratios):
                 js = np.arange(max(sl.start, k * spec.n_ratios),
                                min(sl.stop, (k + 1) * spec.n_ratios))
-                system_k = (system if spec.damping_range is None else
-                            system.replace(C=damping[k] * np.asarray(system.C)))
+                if rayleigh[k]:
+                    system_k = system.replace(C=rayleigh_like_model(
+                        system, float(kn[k]), float(damping[k]), float(second[k])))
+                elif spec.damping_range is not None:
+                    system_k = system.replace(C=damping[k] * np.asarray(system.C))
+                else:
+                    system_k = system
+                drive = ramped_excitation(spec.sweep_of(float(rate[k])), float(ramp[k]))
                 res = simulate_sweeps(system_k, kn=flat_kn[js], level_g=flat_s[js] * DELTA_REF,
-                                      **{**kw, "sweep": spec.sweep_of(float(rate[k]))})
-                sig[js - sl.start, :, :res.signals.shape[-1]] = res.signals
+                                      **{**kw, "sweep": drive})
+                m = min(res.signals.shape[-1], sig.shape[-1])  # a ramp's samples: to rounding
+                sig[js - sl.start, :, :m] = res.signals[..., :m]
                 div[js - sl.start] = res.diverged
         # a per-process temporary name: parallel jobs (a joblib multirun) may build one chunk
         with atomic_path(folder / f"chunk-{i:04d}.npz") as tmp:
@@ -295,4 +403,4 @@ def simulate_bank(
     return SweepBank(spec=spec, key=key, kn=kn, ratio=ratio, time=time,
                      signals=signals.reshape(k, r, *signals.shape[1:]),
                      diverged=diverged.reshape(k, r), damping=damping, rate=rate,
-                     n_samples=lengths)
+                     n_samples=lengths, rayleigh=rayleigh, ramp=ramp)

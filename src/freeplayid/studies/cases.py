@@ -314,6 +314,8 @@ def build_cases(
         "level_max_g": np.array([bank.ratio[c.kn_index, c.runs].max() * c.delta for c in plan]),
         "damping": np.array([bank.damping[c.kn_index] for c in plan]),
         "rate": np.array([bank.rate[c.kn_index] for c in plan]),
+        "rayleigh": np.array([bank.rayleigh[c.kn_index] for c in plan], bool),
+        "ramp": np.array([bank.ramp[c.kn_index] for c in plan], float),
         "plan_index": np.arange(len(plan)),
     }
     ps = PointSets(
