@@ -50,7 +50,7 @@ from .from_test import (
     update_to_sealed_modes,
     validate_modes,
 )
-from .modal import Modes, mac, modal_analysis, pair_modes
+from .modal import Modes, closed_mode_damping, mac, modal_analysis, pair_modes
 from .options import ModelOptions
 from .reduce import Reduction, craig_bampton, guyan
 from .small import sdof_system, two_dof_system
@@ -71,6 +71,7 @@ __all__ = [
     "modal_damping",
     "Modes",
     "modal_analysis",
+    "closed_mode_damping",
     "mac",
     "pair_modes",
     "sdof_system",

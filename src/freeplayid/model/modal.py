@@ -9,7 +9,7 @@ import scipy.linalg
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-__all__ = ["Modes", "modal_analysis", "mac", "pair_modes"]
+__all__ = ["Modes", "modal_analysis", "mac", "pair_modes", "closed_mode_damping"]
 
 
 @dataclass(frozen=True)
@@ -123,3 +123,13 @@ def pair_modes(phi_ref, phi, *, min_mac: float = 0.0) -> tuple[np.ndarray, np.nd
         work[i, :] = -1
         work[:, j] = -1
     return index, value
+
+
+def closed_mode_damping(system, kn: float) -> tuple[np.ndarray, np.ndarray]:
+    """(frequency [Hz], damping ratio) of each zero-clearance mode of ``system`` at ``kn``:
+    ``phi^T C phi / (2 w)`` with mass-normalised shapes (exact where C is modal in those modes,
+    their diagonal part otherwise)."""
+    modes = modal_analysis(system.M, system.closed_stiffness(kn))
+    w = 2 * np.pi * modes.frequencies_hz
+    zeta = np.einsum("ij,ik,kj->j", modes.shapes, np.asarray(system.C), modes.shapes) / (2 * w)
+    return modes.frequencies_hz, zeta

@@ -301,15 +301,12 @@ def rayleigh_like_model(system: FreeplaySystem, kn: float, factor: float,
     """The Rayleigh damping ``a M + b K_closed(kn)`` with the ratio that ``factor`` times the
     model's C gives the closed mode 1 at kn, at mode 1 and at ``second`` times its frequency."""
     from ..model.damping import rayleigh_damping
-    from ..model.modal import modal_analysis
+    from ..model.modal import closed_mode_damping
 
-    K = system.closed_stiffness(kn)
-    modes = modal_analysis(system.M, K)
-    w1 = float(modes.omega[0])
-    phi = modes.shapes[:, 0]  # mass-normalised
-    zeta = factor * float(phi @ np.asarray(system.C) @ phi) / (2.0 * w1)
-    f1 = w1 / (2.0 * np.pi)
-    return rayleigh_damping(system.M, K, f1=f1, f2=second * f1, zeta=zeta)
+    f, zeta = closed_mode_damping(system, kn)
+    f1 = float(f[0])
+    return rayleigh_damping(system.M, system.closed_stiffness(kn), f1=f1, f2=second * f1,
+                            zeta=factor * float(zeta[0]))
 
 
 def simulate_bank(

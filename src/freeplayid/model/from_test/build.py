@@ -36,7 +36,7 @@ import scipy.sparse as sp
 from ..fin.config import PARTS, FinConfig
 from ..fin.fe import build_fin_fe, part_meshes, reduce_fin
 from ..fin.plate import DOFS_PER_NODE, assemble_plate, flexural_rigidity
-from ..modal import modal_analysis, pair_modes
+from ..modal import closed_mode_damping, modal_analysis, pair_modes
 from ..system import FreeplaySystem
 from .measured import CONFIG_POINTS, MeasuredModes, ModalTest, ModalTestError
 from .update import condition_number
@@ -228,10 +228,8 @@ class ModelBuild:
 def _mode_zeta(system: FreeplaySystem, kn: float) -> tuple:
     """(frequency [Hz], damping ratio) of each zero-clearance mode at ``kn`` of a system whose
     C is modal in those modes: phi^T C phi / (2 w)."""
-    modes = modal_analysis(system.M, system.closed_stiffness(kn))
-    w = 2 * np.pi * modes.frequencies_hz
-    z = np.einsum("ij,ik,kj->j", modes.shapes, system.C, modes.shapes) / (2 * w)
-    return tuple(zip(modes.frequencies_hz.tolist(), z.tolist(), strict=True))
+    f, z = closed_mode_damping(system, kn)
+    return tuple(zip(f.tolist(), z.tolist(), strict=True))
 
 
 def _damping_line(build: ModelBuild) -> str:
