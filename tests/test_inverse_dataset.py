@@ -170,6 +170,76 @@ def test_a_stored_case_is_rebuilt_as_the_records_it_was_extracted_from(bank):
         ds.rebuild_case(b, other, ps, 0)
 
 
+def test_a_case_rebuilt_with_its_base_channel_is_what_accelerometers_on_a_shaker_record(
+        system, bank):
+    """base_influence: the absolute accelerations the simulator gives in the absolute frame
+    (another path: its output rows add the base motion), the base channel the level's sine
+    plus the case's noise from a draw of its own; the channels' noise as without it."""
+    b, cache = bank
+    spec = CaseSpec(axis="noise_g", values=(0.0, 0.5), delta_range=(1e-4, 2e-4),
+                    cases_per_value=1, runs=(2, 2), n_jobs=1, seed=5)
+    ps = build_cases(b, spec, cache_dir=cache, progress=False)
+    r = system.base_influence[system.dof_index(["x"])]
+    for i in range(ps.n_cases):
+        rel = ds.rebuild_case(b, spec, ps, i)
+        ab = ds.rebuild_case(b, spec, ps, i, base_influence=r)
+        assert rel.base_channel is None and rel.frame == "relative"
+        assert ab.base_channel == "acc_base" and ab.frame == "absolute"
+        k = int(ps.meta["kn_index"][i])
+        noise = float(ps.meta["noise_g"][i]) * 9.80665
+        for run_rel, run_ab in zip(rel.runs, ab.runs, strict=True):
+            law = b.sweep(k).acceleration(run_ab.time, run_ab.level_g)
+            if noise == 0:
+                ref = simulate_sweeps(system, kn=b.kn[k], delta=DELTA_REF,
+                                      level_g=run_ab.level_g * DELTA_REF / ps.delta[i],
+                                      sweep=b.sweep(k), channels=["x"], frame="absolute",
+                                      sample_rate=256.0, dtype=torch.float64, progress=False)
+                want = ref.signals[0, 0, :run_ab.time.size] * (ps.delta[i] / DELTA_REF)
+                err = np.abs(run_ab.data[0] - want) / np.abs(want).max()
+                # the two paths agree but at a sample or two of a contact switch's spike
+                assert np.mean(err > 1e-5) < 1e-3 and err.max() < 5e-3
+                np.testing.assert_array_equal(run_ab.base, law)
+            else:
+                np.testing.assert_allclose(run_ab.data[0] - run_rel.data[0], r[0] * law,
+                                           rtol=0, atol=1e-9 * np.abs(law).max())
+                extra = run_ab.base - law
+                assert np.std(extra) == pytest.approx(noise, rel=0.05)
+                clean = run_rel.data[0] - b.records(k, slice(None))[
+                    int(run_rel.file.split("s")[-1]), 0].astype(float) * (ps.delta[i] / DELTA_REF)
+                assert abs(np.corrcoef(extra, clean)[0, 1]) < 0.05  # a draw of its own
+    with pytest.raises(ValueError, match="one value per bank channel"):
+        ds.rebuild_case(b, spec, ps, 0, base_influence=[1.0, 1.0])
+
+
+def test_the_study_corrects_on_the_records_it_is_told_to(system, bank, monkeypatch):
+    """corrected_cases(base_channel=...): identify gets the absolute records with the base
+    channel, or the relative ones; a model without a base influence is refused first."""
+    from freeplayid.fit import FitOptions
+    from freeplayid.studies import methods
+
+    b, cache = bank
+    spec = CaseSpec(axis="noise_g", values=(0.1,), delta_range=(1e-4, 2e-4), cases_per_value=1,
+                    runs=(2, 2), n_jobs=1, seed=5)
+    ps = build_cases(b, spec, cache_dir=cache, progress=False)
+    seen = []
+
+    def fake_identify(dataset, **kw):
+        seen.append((dataset.frame, dataset.base_channel, kw["replay"].start))
+        raise ValueError("not identified here")
+
+    monkeypatch.setattr(methods, "identify", fake_identify)
+    for base in (True, False):
+        rows = methods.corrected_cases(ps, [0], system, bank=b, spec=spec,
+                                       network_estimate=None, fit=FitOptions(), progress=False,
+                                       base_channel=base)
+        assert [r["verdict"] for r in rows] == ["failed"]
+    assert seen == [("absolute", "acc_base", "statistic"), ("relative", None, "statistic")]
+    bare = dataclasses.replace(system, base_influence=None)
+    with pytest.raises(ValueError, match="no `base_influence`"):
+        methods.corrected_cases(ps, [0], bare, bank=b, spec=spec, network_estimate=None,
+                                fit=FitOptions(), progress=False, base_channel=True)
+
+
 def test_split_by_kn_keeps_kn_values_apart(bank):
     b, cache = bank
     spec = CaseSpec(axis="noise_g", values=(0.0,), cases_per_value=3, runs=(2, 3), n_jobs=1,

@@ -153,6 +153,34 @@ def test_clipping_rejects_the_run_with_its_level(clean, share):
     assert "run2.csv" in f.message and "acc_out" in f.message
 
 
+def test_an_exact_tone_meeting_its_crest_is_no_clipping():
+    """A noise-free base at 256 Hz, swept from 30 Hz at 0.1 Hz/s for 260 s (the noise study's
+    bank): its phase lies on a dyadic grid and its samples reach sin = 1 exactly once a cycle, a
+    pile-up at the crest that cuts nothing: a warning at 100 % of the peak, not a rejected run
+    (rejected before, every run of the study's noise-free cases)."""
+    sweep = Sweep(30.0, 56.0, 0.1)
+    t = np.arange(int(260 * FS)) / FS
+    base = sweep.acceleration(t, LEVELS[1]) / G  # [g]
+    assert np.count_nonzero(base == np.max(base)) >= 20  # the crest met exactly, again and again
+    rng = np.random.default_rng(3)
+    data = np.stack([k * base + rng.normal(0.0, NOISE, t.size) for k in (3.0, 2.0)])
+    ds = Dataset(name="exact tone", model=None, quantity="acceleration", units="g",
+                 sample_rate=FS, channels={"acc_out": "x_out", "acc_in": "x_in"},
+                 runs=(Run(file="run.csv", time=t, data=data, level_g=LEVELS[1], base=base,
+                           sweep=sweep.to_dict()),), base_channel="acc_base")
+    report = check_records(ds, SYSTEM, options=RecordCheckOptions(checks=("saturation",)))
+    (f,) = only(report, "saturation")
+    assert (f.run, f.channel, f.action) == ("run.csv", "acc_base", "warning")
+    assert f.size == pytest.approx(100, abs=0.1)
+    assert not report.rejected_runs
+    # a cut at 97 % of the tone's crest still rejects the run
+    c = 0.97 * 3.0 * np.max(base)
+    cut = replace(ds, runs=(replace(ds.runs[0], data=np.stack([np.clip(data[0], -c, c),
+                                                                data[1]])),))
+    report = check_records(cut, SYSTEM, options=RecordCheckOptions(checks=("saturation",)))
+    assert "run.csv" in report.rejected_runs
+
+
 # ------------------------------------------------------------------ dropouts
 def test_zeros_at_the_jump_reject_the_run(clean):
     t_jump = SWEEP.time_at(JUMPS[1])

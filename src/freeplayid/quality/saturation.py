@@ -25,7 +25,11 @@ clipping on the bundled example and a held-out study case.
 Clipping below the vibration's peak cuts the resonance's first harmonic, which is the fitting
 point (80 % clipping moved kn by +5-7 % and delta by up to +9 % with an `ok` verdict): the run
 is rejected. Flat tops above the fitted peak cut only noise peaks (a noise-dominated in-gap
-record), which the first harmonic does not see: a warning.
+record), which the first harmonic does not see: a warning. So are flat tops within
+``HARMLESS`` (0.1 %) of it: a sine cut there loses 2e-5 of its first harmonic. They are no
+clipping but an exact tone whose samples meet its crest again and again: a noise-free simulated
+base channel at 256 Hz swept from 30 Hz at 0.5 Hz/s has its phase on a dyadic grid and hits
+sin = 1 exactly once a cycle (the noise study's base channel, every run rejected before).
 """
 
 from __future__ import annotations
@@ -41,6 +45,7 @@ MAX_FITS = 2000  # clipped cycles fitted at most (evenly spread)
 RUNNING = 9  # [cycles] a fitted amplitude is kept within STEADY of the running median ...
 STEADY = 0.1  # [-] ... of this many cycles around it
 PEAK_QUANTILE = 0.95  # [-] the true peak: this quantile of the kept amplitudes
+HARMLESS = 1e-3  # [-] flat tops this close below the true peak cut nothing that matters
 
 
 def _quantum(y: np.ndarray) -> float:
@@ -137,6 +142,11 @@ def _channel_finding(records, rec, name, x, unit) -> Finding | None:
         return Finding("saturation", rec.file, name, 100 * ratio, "% of peak", "warning",
                        f"{what}, above the vibration's amplitude ({peak:.4g} {unit}): only "
                        "noise peaks are cut")
+    if np.isfinite(ratio) and ratio >= 1 - HARMLESS:
+        return Finding("saturation", rec.file, name, 100 * ratio, "% of peak", "warning",
+                       f"{what}, at the vibration's amplitude ({peak:.4g} {unit}) within "
+                       f"{100 * HARMLESS:g} %: no clipping that cuts its first harmonic (an "
+                       "exact tone that meets its crest sample after sample)")
     size = (f", about {100 * ratio:.0f} % of the true peak ({peak:.4g} {unit})"
             if np.isfinite(ratio) else "")
     return Finding("saturation", rec.file, name, 100 * ratio, "% of peak", "reject_run",

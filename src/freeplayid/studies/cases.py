@@ -351,7 +351,7 @@ def require_plan_index(bank: SweepBank, spec: CaseSpec, ps: PointSets) -> None:
 
 
 def rebuild_case(bank: SweepBank, spec: CaseSpec, ps: PointSets, i: int, *,
-                 plan: list[PlannedCase] | None = None):
+                 plan: list[PlannedCase] | None = None, base_influence=None):
     """Case ``i`` of ``ps`` as the records :func:`build_cases` extracted its points from.
 
     The same bank sweeps, scaled by ``delta / DELTA_REF``, with the same noise draw (the case's
@@ -371,14 +371,20 @@ def rebuild_case(bank: SweepBank, spec: CaseSpec, ps: PointSets, i: int, *,
         Case index in ``ps``.
     plan : list of PlannedCase, optional
         ``plan_cases(bank, spec)``, computed when not given (pass it when rebuilding many).
+    base_influence : array_like, shape (channels,), optional
+        The model's rigid-body influence (``FreeplaySystem.base_influence``) at the bank's
+        channels: the records are then absolute accelerations, as accelerometers on a shaker
+        give them, with the base (control) channel ``acc_base``: the excitation that drove the
+        bank's sweeps (:meth:`SweepBank.excitation`) at the run's level, plus white noise of the
+        case's std from its own draw. None (default): relative accelerations and no base channel.
 
     Returns
     -------
     freeplayid.io.Dataset
         In memory (``path`` and ``model`` None): relative acceleration [m/s^2] of the bank's
-        channels (column = DOF name), one run per sweep named ``k<kn index>s<sweep index>``
-        with its ``level_g`` [g] and the bank's sweep law as its ``sweep`` hint; ``truth`` is
-        the case's kn [N m/rad] and delta [rad].
+        channels (column = DOF name; absolute with ``base_influence``), one run per sweep named
+        ``k<kn index>s<sweep index>`` with its ``level_g`` [g] and the bank's sweep law as its
+        ``sweep`` hint; ``truth`` is the case's kn [N m/rad] and delta [rad].
 
     Raises
     ------
@@ -404,16 +410,33 @@ def rebuild_case(bank: SweepBank, spec: CaseSpec, ps: PointSets, i: int, *,
                       case.seed)
     hint = bank.sweep(k).to_dict()
     time = np.asarray(bank.time[:x.shape[-1]], dtype=float)
+    levels = [float(bank.ratio[k, r] * case.delta) for r in case.runs]
+    base = [None] * len(levels)
+    if base_influence is not None:
+        r = np.asarray(base_influence, dtype=float).reshape(-1)
+        if r.shape != (x.shape[1],):
+            raise ValueError(f"`base_influence` must have one value per bank channel "
+                             f"({x.shape[1]}), got shape {r.shape}")
+        drive = bank.excitation(k)
+        rng = np.random.default_rng([case.seed, 1])  # not the channels' draw
+        noise = case.noise_g * G
+        base = [drive.acceleration(time, lv) for lv in levels]
+        x = x + r[None, :, None] * np.stack(base)[:, None, :]
+        base = [b + rng.normal(0.0, noise, b.shape) if noise > 0 else b for b in base]
     runs = tuple(
-        Run(file=f"k{k}s{int(r)}", time=time, data=x[m],
-            level_g=float(bank.ratio[k, r] * case.delta), sweep=dict(hint))
-        for m, r in enumerate(case.runs)
+        Run(file=f"k{k}s{int(rr)}", time=time, data=x[m], level_g=levels[m], base=base[m],
+            sweep=dict(hint))
+        for m, rr in enumerate(case.runs)
     )
+    if base_influence is not None:
+        extra = {"base_channel": "acc_base", "frame": "absolute"}
+    else:
+        extra = {"frame": "relative"}
     return Dataset(name=f"planned case {j} (kn index {k}, delta {case.delta:.4g} rad, noise "
                         f"{case.noise_g:g} g)", model=None, quantity="acceleration",
                    units="m/s^2", sample_rate=float(bank.spec.sample_rate),
                    channels={c: c for c in bank.spec.channels}, runs=runs,
-                   truth={"kn": float(bank.kn[k]), "delta": float(case.delta)}, frame="relative")
+                   truth={"kn": float(bank.kn[k]), "delta": float(case.delta)}, **extra)
 
 
 def split_by_kn(ps: PointSets, n_kn: int, fractions: tuple[float, ...]) -> list[PointSets]:

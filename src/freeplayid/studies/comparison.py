@@ -75,6 +75,9 @@ class Comparison:
         Share of the cases the network alone puts within ``network_bounds``.
     bounds : dict
         Success bounds {"delta", "kn"} (relative errors).
+    base_channel : bool
+        The corrected fits ran on absolute records with the base channel (else on the relative
+        records the points came from).
     """
 
     axis: str
@@ -87,6 +90,7 @@ class Comparison:
     n_multistart: int
     network_within_bounds: float
     bounds: dict
+    base_channel: bool = False
 
     def total(self, method: str, key: str, corrected: bool = False) -> float:
         """Mean of ``key`` over the axis values of ``method`` (the corrected cases' summary)."""
@@ -115,6 +119,7 @@ class Comparison:
         ran = [r for r in corr if r["verdict"] != "failed"]  # a failed case has no replay
         by = {m: [r for r in ran if r["method"] == m] for m in CORRECTED}
         return {
+            "base_channel": self.base_channel,  # their records: absolute with the base channel
             "cases": self.corrected.tolist(),  # indices into the compared test cases
             "plan_index": list(self.corrected_plan_index),
             "summary": self.corrected_summary,  # every method on these cases
@@ -154,9 +159,12 @@ class Comparison:
         """The summary table, and every method on the corrected cases alone."""
         table = _markdown(self.summary, self.axis, self.bounds)
         if self.corrected_summary:
+            records = ("absolute accelerations with the base channel (quadrature points)"
+                       if self.base_channel else
+                       "the relative accelerations the points came from, no base channel")
             table += (f"\n## The {self.corrected.size} cases with corrected fits, every method\n\n"
-                      "The corrected fits run on these cases only; the plain methods on the same "
-                      "cases, for a like-for-like comparison.\n\n"
+                      "The corrected fits run on these cases only, on " + records + "; the plain "
+                      "methods on the same cases, for a like-for-like comparison.\n\n"
                       + _markdown(self.corrected_summary, self.axis, self.bounds, lead=False))
         return table
 
@@ -188,7 +196,7 @@ def compare_methods(test: PointSets, system: FreeplaySystem, *, network, axis: s
                     single_start: tuple, fit: FitOptions, bounds: dict, network_bounds: dict,
                     corrected_per_value: int = 0, bank: SweepBank | None = None,
                     case_spec: CaseSpec | None = None, n_jobs: int = 1,
-                    progress: bool = True) -> Comparison:
+                    progress: bool = True, base_channel: bool = False) -> Comparison:
     """Every method of :data:`.compare.METHODS` on the held-out cases ``test``.
 
     Parameters
@@ -212,6 +220,9 @@ def compare_methods(test: PointSets, system: FreeplaySystem, *, network, axis: s
         ``bank`` and ``case_spec`` the cases were drawn with.
     n_jobs : int
         Worker processes of the fits (-1: all cores).
+    base_channel : bool
+        The corrected fits on absolute records with the base channel, as a shaker test records
+        them (:func:`.methods.corrected_cases`); False: on the relative records.
     """
     t1 = time.perf_counter()
     pred = network.predict(test)
@@ -225,7 +236,7 @@ def compare_methods(test: PointSets, system: FreeplaySystem, *, network, axis: s
     if picked.size:
         rows += corrected_cases(test, picked, system, bank=bank, spec=case_spec,
                                 network_estimate=(pred.kn, pred.delta), fit=fit,
-                                n_jobs=n_jobs, progress=progress)
+                                n_jobs=n_jobs, progress=progress, base_channel=base_channel)
     summary = summarise(rows, success_delta=bounds["delta"], success_kn=bounds["kn"])
     on_picked = set(picked.tolist())
     sub_summary = summarise([r for r in rows if r["case"] in on_picked],
@@ -238,4 +249,4 @@ def compare_methods(test: PointSets, system: FreeplaySystem, *, network, axis: s
         single_start=tuple(single_start), n_multistart=len(starts),
         network_within_bounds=float(np.mean((de < network_bounds["delta"])
                                             & (ke < network_bounds["kn"]))),
-        bounds=dict(bounds))
+        bounds=dict(bounds), base_channel=bool(base_channel and picked.size))

@@ -159,6 +159,7 @@ def corrected_cases(
     fit: FitOptions,
     n_jobs: int = 1,
     progress: bool = True,
+    base_channel: bool = False,
 ) -> list[dict]:
     """The bias-corrected fits (``CORRECTED``) on the cases ``cases`` of ``ps``.
 
@@ -184,6 +185,11 @@ def corrected_cases(
     n_jobs : int
         Worker processes (joblib; -1: all cores); the records are rebuilt here, one case ahead
         of the workers, and the wall time is measured in the worker.
+    base_channel : bool
+        Rebuild the records as a shaker test records them: absolute accelerations with the base
+        (control) channel, which the replay is then driven by and whose phase gives the
+        quadrature points (:func:`freeplayid.studies.rebuild_case`, ``base_influence``); False
+        (default): the relative accelerations the points were extracted from, no base channel.
 
     Returns
     -------
@@ -211,6 +217,12 @@ def corrected_cases(
     require_plan_index(bank, spec, ps)
     plan = plan_cases(bank, spec)
     extraction = Extraction(**{**spec.extraction, "use_sweep_hint": True})
+    influence = None
+    if base_channel:
+        if system.base_influence is None:
+            raise ValueError("`base_channel`: the model has no `base_influence`, so the records' "
+                             "absolute motion is not known")
+        influence = system.base_influence[system.dof_index(list(bank.spec.channels))]
     jobs = []
     for i in (int(c) for c in cases):
         if network_estimate is not None:
@@ -218,7 +230,8 @@ def corrected_cases(
             jobs.append((i, "network+corrected", init))
         jobs.append((i, "multi-start+corrected", None))
     out = Parallel(n_jobs=n_jobs, batch_size=1)(
-        delayed(_corrected_one)(rebuild_case(bank, spec, ps, i, plan=plan), system, init, fit,
+        delayed(_corrected_one)(rebuild_case(bank, spec, ps, i, plan=plan,
+                                             base_influence=influence), system, init, fit,
                                 extraction)
         for i, _, init in progress_bar(jobs, desc="corrected fits", unit="fit",
                                        show=progress)

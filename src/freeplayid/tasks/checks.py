@@ -258,6 +258,7 @@ def _compare() -> dict[str, Rule]:
         **_train(), "inverse.checkpoint": optional(text()),
         "compare.cases_per_value": integer(1),
         "compare.corrected_cases_per_value": integer(0),
+        "compare.base_channel": boolean(),
         "compare.single_start": optional(numbers(positive(), length=2)),
         "compare.n_jobs": integer(),
     }

@@ -119,7 +119,7 @@ def _compare(cfg: DictConfig, fit, stage: Path, out: Path, ckpt: Path | None,
         bounds=OmegaConf.to_container(cfg.success),
         network_bounds=OmegaConf.to_container(cfg.network_bounds),
         corrected_per_value=n_corrected, bank=bank, case_spec=case_spec,
-        n_jobs=int(cfg.compare.n_jobs))
+        n_jobs=int(cfg.compare.n_jobs), base_channel=bool(cfg.compare.base_channel))
     del bank
     for r in result.rows:
         if r.get("verdict") == "failed":
