@@ -28,7 +28,7 @@ is rejected. Flat tops above the fitted peak cut only noise peaks (a noise-domin
 record), which the first harmonic does not see: a warning. So are flat tops within
 ``HARMLESS`` (0.1 %) of it: a sine cut there loses 2e-5 of its first harmonic. They are no
 clipping but an exact tone whose samples meet its crest again and again: a noise-free simulated
-base channel at 256 Hz swept from 30 Hz at 0.5 Hz/s has its phase on a dyadic grid and hits
+base channel at 256 Hz swept from 30 Hz at 0.1 Hz/s has its phase on a dyadic grid and hits
 sin = 1 exactly once a cycle (the noise study's base channel, every run rejected before).
 """
 

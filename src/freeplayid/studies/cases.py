@@ -32,6 +32,7 @@ from ..atomic import atomic_path
 from ..inverse.pointsets import PointSets
 from ..progress import progress_bar
 from ..quantity import G
+from ..simulate.records import BASE_COLUMN
 from ..sweep import rate_at
 from .bank import CACHE_FORMAT, DELTA_REF, SweepBank, check_pair, digest
 
@@ -412,31 +413,30 @@ def rebuild_case(bank: SweepBank, spec: CaseSpec, ps: PointSets, i: int, *,
     time = np.asarray(bank.time[:x.shape[-1]], dtype=float)
     levels = [float(bank.ratio[k, r] * case.delta) for r in case.runs]
     base = [None] * len(levels)
-    if base_influence is not None:
+    absolute = base_influence is not None
+    if absolute:
         r = np.asarray(base_influence, dtype=float).reshape(-1)
         if r.shape != (x.shape[1],):
             raise ValueError(f"`base_influence` must have one value per bank channel "
                              f"({x.shape[1]}), got shape {r.shape}")
-        drive = bank.excitation(k)
-        rng = np.random.default_rng([case.seed, 1])  # not the channels' draw
-        noise = case.noise_g * G
-        base = [drive.acceleration(time, lv) for lv in levels]
-        x = x + r[None, :, None] * np.stack(base)[:, None, :]
-        base = [b + rng.normal(0.0, noise, b.shape) if noise > 0 else b for b in base]
+        drive = np.stack([bank.excitation(k).acceleration(time, lv) for lv in levels])
+        x = x + r[None, :, None] * drive[:, None, :]
+        base = drive
+        if case.noise_g > 0:  # a draw of its own, not the channels'
+            base = drive + np.random.default_rng([case.seed, 1]).normal(
+                0.0, case.noise_g * G, drive.shape)
     runs = tuple(
         Run(file=f"k{k}s{int(rr)}", time=time, data=x[m], level_g=levels[m], base=base[m],
             sweep=dict(hint))
         for m, rr in enumerate(case.runs)
     )
-    if base_influence is not None:
-        extra = {"base_channel": "acc_base", "frame": "absolute"}
-    else:
-        extra = {"frame": "relative"}
     return Dataset(name=f"planned case {j} (kn index {k}, delta {case.delta:.4g} rad, noise "
                         f"{case.noise_g:g} g)", model=None, quantity="acceleration",
                    units="m/s^2", sample_rate=float(bank.spec.sample_rate),
                    channels={c: c for c in bank.spec.channels}, runs=runs,
-                   truth={"kn": float(bank.kn[k]), "delta": float(case.delta)}, **extra)
+                   truth={"kn": float(bank.kn[k]), "delta": float(case.delta)},
+                   base_channel=BASE_COLUMN if absolute else None,
+                   frame="absolute" if absolute else "relative")
 
 
 def split_by_kn(ps: PointSets, n_kn: int, fractions: tuple[float, ...]) -> list[PointSets]:
