@@ -65,10 +65,13 @@ class SealedUpdate:
         (what one scale could not explain: how far the error is from a uniform stiffness error;
         kn's interval takes it in, :mod:`freeplayid.identification.model_error`).
     first_scale : float [-]
-        The scale ``s1`` of the open-hinge model's lowest elastic mode's stiffness (``s`` with
-        fewer than three modes or where the modes cannot tell the two apart).
+        The scale ``s1`` of the open-hinge model's lowest elastic mode's stiffness (of mode
+        ``own_scale_mode``'s; ``s`` with fewer than three modes or where the modes cannot tell
+        the two apart).
     parameters : int
         The update's free parameters, kn among them: 2 (one scale) or 3 (two scales).
+    own_scale_mode : int
+        The open-hinge elastic mode that took the second scale (0: the lowest).
     """
 
     system: FreeplaySystem
@@ -81,6 +84,7 @@ class SealedUpdate:
     residual: float
     first_scale: float | None = None
     parameters: int = 2
+    own_scale_mode: int = 0
 
     def __post_init__(self):
         if self.first_scale is None:
@@ -96,8 +100,10 @@ class SealedUpdate:
 
     def describe(self) -> str:
         others = ", ".join(f"mode {k + 1} x{v:.4f}" for k, v in self.mode_factors.items())
+        which = ("lowest elastic open-hinge mode" if self.own_scale_mode == 0 else
+                 f"open-hinge elastic mode {self.own_scale_mode + 1}")
         first = ("" if f"{self.first_scale:.4f}" == f"{self.scale:.4f}" else
-                 f" (its lowest elastic open-hinge mode x{self.first_scale:.4f})")
+                 f" (its {which} x{self.first_scale:.4f})")
         return (f"stiffness x{self.scale:.4f}{first}"
                 + (f", {others} (frequency)" if others else "")
                 + f" to the sealed fin's {self.reference_hz.size} modes (their own kn "
@@ -116,7 +122,8 @@ def _closed(system: FreeplaySystem, K: np.ndarray, kn: float) -> np.ndarray:
 
 
 def update_to_sealed_modes(system: FreeplaySystem, kn_start: float, reference_hz,
-                           reference_shapes, shape_dofs, *, mode: int = 0) -> SealedUpdate | None:
+                           reference_shapes, shape_dofs, *, mode: int = 0,
+                           own_scale_mode: int = 0) -> SealedUpdate | None:
     """The model updated to the sealed modes (module docstring), or None with fewer than two
     paired modes (one frequency cannot separate s from kn).
 
@@ -130,6 +137,11 @@ def update_to_sealed_modes(system: FreeplaySystem, kn_start: float, reference_hz
     shape_dofs : sequence of str
     mode : int
         The identified mode (0: the lowest).
+    own_scale_mode : int
+        Which elastic mode of the open-hinge model takes the second scale ``s1`` (0: the lowest,
+        the default form). Another fits three modes exactly too, with another kn: the two
+        forms' kn apart is what three sealed frequencies leave to the form
+        (``benchmarks/sealed_forms.py``).
     """
     ref = np.asarray(reference_hz, dtype=float).reshape(-1)
     idx = system.dof_index(list(shape_dofs))
@@ -139,7 +151,7 @@ def update_to_sealed_modes(system: FreeplaySystem, kn_start: float, reference_hz
     if np.count_nonzero(ok) < 2 or mode not in pairing[ok]:
         return None
     pair, ref = pairing[ok], ref[ok]
-    first = _lowest_elastic(system)
+    first = _elastic_stiffness(system, own_scale_mode)
 
     def stiffness(s, s1):
         return s * system.K + (s1 - s) * first if s1 != s else s * system.K
@@ -175,17 +187,17 @@ def update_to_sealed_modes(system: FreeplaySystem, kn_start: float, reference_hz
     return SealedUpdate(system=updated, scale=s, kn=kn, mode_factors=factors, reference_hz=ref,
                         before_hz=modes.frequencies_hz[pair],
                         after_hz=after, residual=float(np.sqrt(np.mean(uniform.fun ** 2))),
-                        first_scale=s1, parameters=parameters)
+                        first_scale=s1, parameters=parameters, own_scale_mode=own_scale_mode)
 
 
-def _lowest_elastic(system: FreeplaySystem) -> np.ndarray | None:
-    """``w1^2 M v1 v1^T M``: the stiffness of the open-hinge model's lowest elastic mode (the
-    mechanisms about the hinges, w = 0, apart); None without one."""
+def _elastic_stiffness(system: FreeplaySystem, k: int = 0) -> np.ndarray | None:
+    """``wk^2 M vk vk^T M``: the stiffness of the open-hinge model's elastic mode ``k`` (0: the
+    lowest; the mechanisms about the hinges, w = 0, apart); None without it."""
     modes = modal_analysis(system.M, system.K)
     w2 = modes.omega ** 2
     elastic = np.flatnonzero(w2 > ELASTIC * max(float(w2.max()), 0.0))
-    if elastic.size == 0:
+    if elastic.size <= k:
         return None
-    k = int(elastic[0])
+    k = int(elastic[k])
     m_phi = system.M @ modes.shapes[:, k]
     return w2[k] * np.outer(m_phi, m_phi)
