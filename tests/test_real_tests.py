@@ -426,6 +426,23 @@ def test_a_common_delta_the_points_reject_fails_the_verdict():
     small = dataclasses.replace(error(0.2), gaps=GapSplit(0.14, False, 3e-4, 0.006))
     assert "mean" not in {c.name: c for c in model_checks(small)}["hinge_gaps"].message
     assert error(4e-6).hinge_gaps.shares == pytest.approx((0.84, 1.16))
+    # with the replay's split (``ReplayedSplit``) the check reads it instead of the F test
+    from freeplayid.identification.model_error import ReplayedSplit
+
+    split = ReplayedSplit(("a/b", "c/d"), (2.0e-3, 2.8e-3), (-0.16, 0.14), (0.02, 0.02), 8,
+                          2.5e-3)
+    read = {c.name: c for c in model_checks(dataclasses.replace(error(0.2), split=split))}
+    assert not read["hinge_gaps"].passed and "gaps differ" in read["hinge_gaps"].message
+    assert "other proportions" in read["hinge_gaps"].message  # the model's shape as a cause
+    assert read["hinge_gaps"].value == pytest.approx(split.p) and split.p < 1e-3
+    assert split.mean_offset == pytest.approx(2.5 / 2.4 - 1)
+    near = dataclasses.replace(split, half_gaps=(2.1e-3, 2.9e-3))  # delta at their mean
+    kept = {c.name: c for c in model_checks(dataclasses.replace(error(4e-6), split=near))}
+    assert kept["hinge_gaps"].passed and "differing a little" in kept["hinge_gaps"].message
+    assert "0.00 % from delta" in kept["hinge_gaps"].message
+    noisy = dataclasses.replace(split, log_se=(0.1, 0.1))
+    quiet = {c.name: c for c in model_checks(dataclasses.replace(error(4e-6), split=noisy))}
+    assert quiet["hinge_gaps"].passed and "explains the test" in quiet["hinge_gaps"].message
 
 
 def test_identify_reports_each_hinges_half_gap_on_request(tmp_path):
@@ -450,6 +467,30 @@ def test_identify_reports_each_hinges_half_gap_on_request(tmp_path):
     plain = freeplayid.identify(example, replay=None, progress=False)
     assert plain.model_error.hinge_gaps is None and plain.hinge_gap_records() == []
     assert "hinge_gaps" not in [c.name for c in plain.verdict.checks]
+
+
+def test_the_replayed_answer_reads_each_hinges_half_gap_against_its_replay():
+    """The bundled example (equal gaps) with ``hinge_gaps`` and the replay: the split is read
+    against the answer's replay on every one of the eight noisy copies (none stops early), shows
+    nothing beyond its noise, and the check passes, in the report, the JSON and the per-hinge
+    table, whose half-gaps lie about the reported delta."""
+    import json
+    from pathlib import Path
+
+    import freeplayid
+
+    example = Path(__file__).resolve().parents[1] / "examples" / "fin_sweeps"
+    res = freeplayid.identify(example, model={"hinge_gaps": True}, progress=False)
+    split = res.model_error.split
+    assert split is not None and split.n_copies == res.replay.precision.n_fitted == 8
+    assert split.p > 0.01 and abs(split.mean_offset) < 0.05
+    check = {c.name: c for c in res.verdict.checks}["hinge_gaps"]
+    assert check.passed and "against the answer's replay" in check.message
+    gaps = res.hinge_gap_records()
+    assert [g["delta"] for g in gaps] == pytest.approx(split.half_gaps)
+    assert all(g["delta_ci95"][0] < res.delta < g["delta_ci95"][1] for g in gaps)
+    record = json.loads(json.dumps(res.to_dict()))
+    assert record["model_error"]["split"]["n_copies"] == 8
 
 
 def test_widen_adds_a_relative_move_to_the_log_half_widths_in_quadrature():
@@ -827,3 +868,57 @@ def test_the_reported_intervals_start_from_the_replayed_residuals():
                                                                "replayed_ci95": None}))
     assert kn_ci == pytest.approx((460.0 * 490 / 480, 500.0 * 490 / 480), rel=1e-14)
     assert "does not reproduce" not in source
+
+
+def _biased(points, bias):
+    """``points`` with each frequency times 1 + bias[i] (a sweep's bias, the same in a test and
+    its replay)."""
+    from freeplayid.fit import FittingPoints
+
+    return FittingPoints(channel=points.channel, amplitude_m=points.amplitude_m,
+                         f_hz=points.f_hz * (1 + np.asarray(bias)), run=points.run)
+
+
+def test_the_split_read_against_the_replay_is_the_hinges_own():
+    """The chain (hinges turning 1 : 0.6) with half-gaps 0.8 and 1.2 x 2 mrad as the test, its
+    replay at the common fit's answer with one gap for both, and four noisy copies of that
+    replay (0.05 % of frequency noise): a sweep's bias of up to 0.8 % in frequency, the same
+    in all of them, drops out, and the hinges' half-gaps are the true ones within 3 %, the split
+    far beyond its noise and delta off their mean (the check fails). The test with equal gaps
+    (another noisy copy of the replay) shows no split beyond its noise (the check passes)."""
+    from freeplayid.fit import fit_backbone
+    from freeplayid.identification.model_error import replayed_split
+    from freeplayid.identification.verdict import _split_check
+
+    chain, s = _chain(), np.linspace(2.8, 6.0, 7)
+    chans = ("x2", "x3")
+    bias = np.tile(0.008 * np.exp(-(s - 2.8)), 2)
+    test = _biased(_noisy_points(chain, 2e4, 2e-3, [0.8, 1.2], chans, s, 5e-4), bias)
+    common = fit_backbone(test, chain, init=(2e4, 2e-3))
+    kn, delta = common.kn, common.delta
+    assert abs(delta / 2e-3 - 1) > 0.01  # one delta leans to the hinge that turns most
+
+    def replay(seed, noise=5e-4):  # one gap for both hinges: the answer's replay
+        return _biased(_noisy_points(chain, kn, delta, [1.0, 1.0], chans, s, noise, seed), bias)
+
+    copies = [replay(seed) for seed in range(1, 5)]
+    got = replayed_split(chain, test, replay(0, 0.0), copies, kn=kn, delta=delta)
+    assert got.n_copies == 4 and got.hinges == ("x2/x1", "x3/x2")
+    assert got.half_gaps == pytest.approx((1.6e-3, 2.4e-3), rel=0.03)
+    assert got.p < 1e-6 and got.mean_offset == pytest.approx(delta / 2e-3 - 1, abs=0.01)
+    # each half-gap's interval: delta's and its share's noise (not the bias's remainder, which
+    # at 0.8 % of sweep bias is 2 % here and 0 without it)
+    lo_hi = got.intervals((0.99 * delta, 1.01 * delta))
+    assert all(lo < g < hi and hi / lo < 1.05 for g, (lo, hi) in
+               zip(got.half_gaps, lo_hi, strict=True))
+    check = _split_check(got)
+    assert not check.passed and "gaps differ" in check.message and "mean" in check.message
+    # equal gaps: nothing beyond the noise, and the check passes
+    same = replayed_split(chain, replay(9), replay(0, 0.0), copies, kn=kn, delta=delta)
+    assert same.p > 0.01 and max(map(abs, same.log_split)) < 3 * max(same.log_se)
+    assert _split_check(same).passed and "explains" in _split_check(same).message
+    # without copies no test; one hinge: nothing to split
+    assert replayed_split(chain, test, replay(0, 0.0), [], kn=kn, delta=delta).p is None
+    from freeplayid.model import sdof_system
+
+    assert replayed_split(sdof_system(), test, test, copies, kn=kn, delta=delta) is None

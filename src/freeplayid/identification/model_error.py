@@ -43,6 +43,18 @@ corrected (that beam: 2.11 and 2.81 mrad, intervals x/÷ 2.6 and 2.0 holding 2 a
 the hinges turn together the shares are not determined (the default fin at half-gaps 2.7 / 3.3
 mrad: shares 0.70 / 1.30, intervals beyond x/÷ 10), and the report says the data cannot tell
 the gaps apart.
+
+With the replay, the split is read against the answer's replay (:func:`replayed_split`): the
+per-hinge fit of the test's statistic points and of its replay's at the answer, where every hinge
+has the answer's delta. The sweep bends each hinge's share as much in the replay as in the test
+(on fin C's equal-gap records the test's shares lie up to 18 % off one, and the replay's follow
+them within their noise, 0.04-0.07 in log), so their ratio is the split the hinges' gaps make,
+and the noisy copies of the replay (:func:`freeplayid.replay.precision_by_replay`) give its
+noise. The verdict's
+``hinge_gaps`` then fails where that split lies beyond its noise as far as the two-sided
+``cross_p`` allows (Student's t at the copies' count) and puts delta beyond half its bound from
+the hinges' mean (``without_delta``): delta is then no hinge's half-gap. Each hinge's half-gap
+is estimated as delta times its split share (:attr:`ReplayedSplit.half_gaps`).
 """
 
 from __future__ import annotations
@@ -59,8 +71,9 @@ from ..estimate import PlainEstimate, refit
 from ..fit import FitOptions, gap_ratios, jacobian_halfwidths
 from ..model import ModelOptions, SealedUpdate, modal_analysis, update_to_sealed_modes
 
-__all__ = ["ModelError", "GapSplit", "HingeGaps", "update_model", "model_error", "hinge_ratio",
-           "frequency_scale", "frequency_uncertainty", "gap_split", "fit_hinge_gaps"]
+__all__ = ["ModelError", "GapSplit", "HingeGaps", "ReplayedSplit", "update_model", "model_error",
+           "hinge_ratio", "frequency_scale", "frequency_uncertainty", "gap_split",
+           "fit_hinge_gaps", "replayed_split"]
 
 # [-] hinge rotation ratio in the identified mode above which the hinges count as turning together
 HINGES_TOGETHER = 0.9
@@ -72,6 +85,9 @@ GAP_SPLITS = (0.05, 0.1, 0.2, 0.4, 0.8)
 # the F test's p-value below which one common delta does not explain the points (point by point:
 # a liberal test, :func:`_common_gap_p`)
 COMMON_GAP_P = 1e-3
+# the amplitude grid of the per-hinge fits that read the split against the replay
+# (:func:`replayed_split`): over the points' range only
+SPLIT_GRID = 64
 # [-] a share's 95 % log half-width from which it counts as not determined (a factor of 10)
 NOT_DETERMINED = math.log(10.0)
 
@@ -208,6 +224,173 @@ class HingeGaps:
 
 
 @dataclass(frozen=True)
+class ReplayedSplit:
+    """The hinges' split of the gaps read against the answer's replay (:func:`replayed_split`).
+
+    Attributes
+    ----------
+    hinges : tuple of str
+        Each hinge's name, "outboard/inboard" DOFs.
+    half_gaps : tuple of float [rad]
+        Each hinge's half-gap: delta times the test's per-hinge gap over the replay's (the
+        replay has every hinge at delta; the sweep bends each hinge's fitted gap alike in both).
+    log_split : tuple of float [-]
+        Each hinge's log share of the gaps (its half-gap over their mean) in the test less that
+        in the replay: 0 where one common delta explains the test as its replay.
+    log_se : tuple of float [-]
+        Each one's standard error: the root mean square of the noisy copies' log shares about
+        the replay's (nan without copies).
+    n_copies : int
+        Noisy copies of the replay whose points were fitted.
+    delta : float [rad]
+        The answer's delta.
+    """
+
+    hinges: tuple
+    half_gaps: tuple
+    log_split: tuple
+    log_se: tuple
+    n_copies: int
+    delta: float
+
+    @property
+    def t(self) -> float:
+        """The largest |log share| over its standard error (nan with fewer than two copies)."""
+        if self.n_copies < 2:
+            return math.nan
+        out = 0.0
+        for c, e in zip(self.log_split, self.log_se, strict=True):
+            if e > 0:
+                out = max(out, abs(c) / e)
+            elif c != 0:
+                return math.inf
+        return out
+
+    @property
+    def p(self) -> float | None:
+        """Two-sided p-value of ``t`` (Student's t with ``n_copies`` degrees of freedom: the
+        standard errors are root mean squares about a known centre); None with fewer than two
+        copies."""
+        t = self.t
+        return None if math.isnan(t) else float(2 * scipy.stats.t.sf(t, self.n_copies))
+
+    @property
+    def mean_offset(self) -> float:
+        """delta over the hinges' mean half-gap, less 1 (0 at equal gaps)."""
+        return self.delta / float(np.mean(self.half_gaps)) - 1.0
+
+    def intervals(self, delta_ci95) -> list[tuple[float, float]]:
+        """Each hinge's half-gap's 95 % interval: delta's log half-widths (``delta_ci95``) and
+        its share's (Student's t at the copies' count times its standard error) in quadrature;
+        unbounded without copies."""
+        lo, hi = delta_ci95
+        h_lo = math.log(self.delta / lo) if lo > 0 else math.inf
+        h_hi = math.log(hi / self.delta) if math.isfinite(hi) else math.inf
+        t = float(scipy.stats.t.ppf(0.975, self.n_copies)) if self.n_copies >= 2 else math.inf
+        out = []
+        for g, e in zip(self.half_gaps, self.log_se, strict=True):
+            w = t * e if math.isfinite(t) and np.isfinite(e) else math.inf
+            out.append((g * math.exp(-math.hypot(h_lo, w)), g * math.exp(math.hypot(h_hi, w))))
+        return out
+
+    def describe(self) -> str:
+        gaps = ", ".join(f"{n} {1e3 * g:.4g} mrad" for n, g in zip(self.hinges, self.half_gaps,
+                                                                    strict=True))
+        shares = ", ".join(f"{100 * math.expm1(c):+.2g} % (se {100 * e:.2g} %)"
+                           for c, e in zip(self.log_split, self.log_se, strict=True))
+        p = self.p
+        return (f"against the answer's replay (one delta for every hinge), the test's points "
+                f"put the hinges' shares of the gaps {shares} off ({self.n_copies} noisy "
+                f"copies of the replay; p = {'n/a' if p is None else f'{p:.2g}'}): as unequal "
+                f"gaps, half-gaps {gaps}, their mean "
+                f"{100 * -self.mean_offset / (1 + self.mean_offset):+.2f} % from delta")
+
+    def to_dict(self) -> dict:
+        def num(v):
+            return float(v) if math.isfinite(v) else None
+
+        return {"hinges": list(self.hinges), "half_gaps": list(self.half_gaps),
+                "log_split": list(self.log_split), "log_se": [num(v) for v in self.log_se],
+                "n_copies": self.n_copies, "t": num(self.t), "p": self.p,
+                "mean_offset": self.mean_offset}
+
+
+def _keyed(points) -> dict:
+    """{(run, DOF): (amplitude, frequency)} of FittingPoints."""
+    runs = points.run if points.run is not None else ("",) * len(points)
+    return {(r, c): (a, f) for r, c, a, f in zip(runs, points.channel, points.amplitude_m,
+                                                   points.f_hz, strict=True)}
+
+
+def _subset(keyed: dict, keys: list):
+    """FittingPoints of ``keyed`` at ``keys`` (in that order); None where one is missing."""
+    from ..fit import FittingPoints
+
+    if any(k not in keyed for k in keys):
+        return None
+    return FittingPoints(channel=[c for _, c in keys], run=[r for r, _ in keys],
+                         amplitude_m=np.array([keyed[k][0] for k in keys]),
+                         f_hz=np.array([keyed[k][1] for k in keys]))
+
+
+def replayed_split(system, measured, replayed, copies, *, kn: float, delta: float,
+                   mode: int = 0) -> ReplayedSplit | None:
+    """The hinges' split of the gaps read against the answer's replay (module docstring).
+
+    Parameters
+    ----------
+    system : FreeplaySystem
+        The model the answer was identified with (two hinges or more).
+    measured, replayed : FittingPoints
+        The test's statistic points and its replay's at the answer (kn, delta).
+    copies : sequence of FittingPoints
+        The points of noisy copies of that replay (their noise is the test's).
+    kn, delta : float [N m/rad], [rad]
+        The answer.
+
+    Returns None with one hinge, fewer than three points the test and its replay share, or
+    where a per-hinge fit cannot be made.
+    """
+    if system.n_hinges < 2 or measured is None or replayed is None:
+        return None
+    m, r = _keyed(measured), _keyed(replayed)
+    keys = [k for k in m if k in r]
+    if len(keys) < system.n_hinges + 2:
+        return None
+
+    ratios, _ = gap_ratios(_subset(m, keys), system, kn, delta, mode)
+    if not np.all(np.isfinite(ratios)):
+        return None
+    # one grid for all: the points' range, a hinge's gap halving or doubling (SPLIT_GRID
+    # points, where the whole curve's 256 cost four times as much)
+    grid = np.geomspace(max(1.0005, 0.5 * float(ratios.min())), 4.0 * float(ratios.max()),
+                        SPLIT_GRID)
+
+    def gaps(points):
+        if points is None:
+            return None
+        hg = fit_hinge_gaps(system, points, kn, delta, mode=mode, grid=grid)
+        return None if hg is None else np.asarray(hg.deltas, float)
+
+    g_m, g_r = gaps(_subset(m, keys)), gaps(_subset(r, keys))
+    if g_m is None or g_r is None:
+        return None
+
+    def log_shares(g):
+        return np.log(g) - np.log(np.mean(g))
+
+    noise = [log_shares(g) - log_shares(g_r) for g in
+             (gaps(_subset(_keyed(c), keys)) for c in copies) if g is not None]
+    se = (np.sqrt(np.mean(np.square(noise), axis=0)) if len(noise) else
+          np.full(g_m.size, np.nan))
+    return ReplayedSplit(
+        hinges=_hinge_names(system),
+        half_gaps=tuple(float(v) for v in delta * g_m / g_r),
+        log_split=tuple(float(v) for v in log_shares(g_m) - log_shares(g_r)),
+        log_se=tuple(float(v) for v in se), n_copies=len(noise), delta=float(delta))
+
+
+@dataclass(frozen=True)
 class ModelError:
     """What the answer's kn owes to the linear model.
 
@@ -233,6 +416,9 @@ class ModelError:
         per hinge and its test whether one common delta explains the points.
     per_hinge : bool
         ``ModelOptions.hinge_gaps``: each hinge's half-gap is reported.
+    split : ReplayedSplit or None
+        With the replay, where ``hinge_gaps`` was fitted: the split read against the answer's
+        replay (:func:`replayed_split`), which the verdict's ``hinge_gaps`` then judges.
     """
 
     update: SealedUpdate | None
@@ -242,6 +428,7 @@ class ModelError:
     gaps: GapSplit | None = None
     hinge_gaps: HingeGaps | None = None
     per_hinge: bool = False
+    split: ReplayedSplit | None = None
 
     def describe(self) -> str:
         if self.update is not None:
@@ -263,7 +450,9 @@ class ModelError:
             return ""
         split = "" if self.gaps is None else "; " + self.gaps.describe()
         hg = self.hinge_gaps
-        if hg is not None:
+        if self.split is not None:  # read against the answer's replay
+            split += "; " + self.split.describe()
+        elif hg is not None:
             split += "; " + (hg.describe() if self.per_hinge else
                              f"{hg.outcome()} ({hg.test()})")
         if r >= HINGES_TOGETHER:
@@ -280,6 +469,7 @@ class ModelError:
                 "hinge_ratio": self.hinge_ratio,
                 "gaps": None if self.gaps is None else self.gaps.to_dict(),
                 "hinge_gaps": None if self.hinge_gaps is None else self.hinge_gaps.to_dict(),
+                "split": None if self.split is None else self.split.to_dict(),
                 "per_hinge": self.per_hinge}
 
 
@@ -326,7 +516,7 @@ def model_error(system, est: PlainEstimate, fit: FitOptions, options: ModelOptio
 
 
 def fit_hinge_gaps(system, points, kn: float, delta: float, *, mode: int = 0,
-                   common_residuals=None) -> HingeGaps | None:
+                   common_residuals=None, grid=None) -> HingeGaps | None:
     """One half-gap per hinge from fitting points (module docstring), started from the common
     fit (``kn``, ``delta``) whose relative residuals at the points were ``common_residuals``
     (for the test whether one delta explains them); None with one hinge or where the backbone
@@ -338,6 +528,9 @@ def fit_hinge_gaps(system, points, kn: float, delta: float, *, mode: int = 0,
     points : freeplayid.fit.FittingPoints
         The plain fit's points (their ``run`` groups the intervals' observations).
     kn, delta : float [N m/rad], [rad]
+    grid : array_like, optional
+        The backbone's amplitude grid (largest hinge amplitude over the hinges' mean half-gap);
+        default 256 points from contact to four times the points' largest.
     """
     h = system.n_hinges
     if h < 2:
@@ -347,7 +540,8 @@ def fit_hinge_gaps(system, points, kn: float, delta: float, *, mode: int = 0,
         return None
     f = np.asarray(points.f_hz, float)
     # a hinge's gap may halve: its amplitude over it then doubles
-    grid = amplitude_grid(256, s_max=4.0 * float(ratios.max()))
+    grid = (amplitude_grid(256, s_max=4.0 * float(ratios.max())) if grid is None else
+            np.asarray(grid, float))
 
     def residual(x):
         deltas = np.exp(x[1:])
@@ -371,9 +565,14 @@ def fit_hinge_gaps(system, points, kn: float, delta: float, *, mode: int = 0,
     if common_residuals is not None:
         p = _common_gap_p(np.asarray(common_residuals, float), sol.fun, h)
     common_rms = float("nan") if common_residuals is None else _rms(common_residuals)
-    return HingeGaps(tuple(f"{o}/{i}" for o, i in system.hinge_pairs),
+    return HingeGaps(_hinge_names(system),
                      tuple(float(v) for v in deltas), tuple(float(v) for v in half),
                      float(delta), _rms(sol.fun), common_rms, p)
+
+
+def _hinge_names(system) -> tuple:
+    """Each hinge's name, "outboard/inboard" DOFs."""
+    return tuple(f"{o}/{i}" for o, i in system.hinge_pairs)
 
 
 def _rms(r) -> float:

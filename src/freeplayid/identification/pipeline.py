@@ -20,7 +20,7 @@ from ..model import FreeplaySystem, ModelOptions, load_system, validate_modes
 from ..quality import RecordCheckOptions
 from ..replay import Replay, corrected_fit
 from ..signal import Extraction
-from .model_error import ModelError, model_error, update_model, widen
+from .model_error import ModelError, model_error, replayed_split, update_model, widen
 from .records import checked_dataset, record_checks, record_options
 from .replay_checks import replay_checks, settled_sd
 from .result import Identification
@@ -123,7 +123,7 @@ def identify(dataset, *, system: FreeplaySystem | None = None,
     if replay is None:
         return _plain_result(dataset, system, est, fit.mode, t0, error, checked)
     rep = corrected_fit(dataset, system, est, extraction=extraction, fit=fit, replay=replay,
-                        start=_network_start(est, fit, replay), precision_settled=settled_sd(),
+                        start=_network_start(est, fit, replay), precision_settled=_settled(error),
                         progress=progress)
     result = _corrected_result(dataset, system, est, rep, fit.mode, t0, error, checked)
     if _statistics_disagree(result, replay):
@@ -147,6 +147,14 @@ def _network_start(est, fit: FitOptions, replay: Replay) -> tuple[float, float] 
     return (float(pair[0]), float(pair[1])) if pair.shape == (2,) else None
 
 
+def _settled(error: ModelError):
+    """Where the precision's noisy copies may stop early (:func:`settled_sd`): not where the
+    hinges' split is read against the replay (``error.hinge_gaps``), whose noise they measure
+    too, with every copy (four copies left one equal-gap test of fin C 3.7 standard errors
+    off, eight put the same condition's split within 1.6)."""
+    return None if error.hinge_gaps is not None else settled_sd()
+
+
 def _statistics_disagree(result: Identification, replay: Replay) -> bool:
     """Whether the replays matched the rule ``auto`` chose (the drop points, without a base
     channel) and the cross-check found the other statistic putting the answer elsewhere."""
@@ -168,7 +176,7 @@ def _on_the_other_statistic(first: Identification, dataset, system, est, extract
              100 * first.replay.cross.delta_shift, rule)
     other = dataclasses.replace(replay, jump_point=rule)
     rep = corrected_fit(dataset, system, est, extraction=extraction, fit=fit, replay=other,
-                        start=_network_start(est, fit, other), precision_settled=settled_sd(),
+                        start=_network_start(est, fit, other), precision_settled=_settled(error),
                         progress=progress)
     if rep.failure:
         return first
@@ -425,6 +433,12 @@ def _corrected_result(dataset, system, plain: PlainEstimate, rep, mode: int, t0:
                                    runtime_s=time.perf_counter() - t0)
     kn_ci, delta_ci, source = _corrected_intervals(rep)
     kn_ci = widen(kn_ci, rep.kn, error.kn_shift)
+    if error.hinge_gaps is not None:  # the hinges' split, read against the answer's replay
+        precision = getattr(rep, "precision", None)
+        error = dataclasses.replace(error, split=replayed_split(
+            system, rep.statistic_points, rep.replayed_points,
+            () if precision is None else precision.copy_points, kn=rep.kn, delta=rep.delta,
+            mode=mode))
     validation = _zero_clearance_check(dataset, system, rep.kn)
     estimated = rep.damping if getattr(rep.damping, "source", None) == "estimated" else None
     direction = sweep_direction_check(plain.points, replayed=True,
@@ -441,5 +455,5 @@ def _corrected_result(dataset, system, plain: PlainEstimate, rep, mode: int, t0:
     return dataclasses.replace(
         result, kn=rep.kn, delta=rep.delta, verdict=verdict, kn_ci95=kn_ci, delta_ci95=delta_ci,
         runtime_s=time.perf_counter() - t0, replay=rep, interval_source=source,
-        validation=validation,
+        validation=validation, model_error=error,
     )

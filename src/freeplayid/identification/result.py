@@ -262,15 +262,23 @@ class Identification:
         return out
 
     def hinge_gap_records(self) -> list[dict]:
-        """Each hinge's half-gap [rad] and 95 % interval (``linear_model.hinge_gaps``: the
-        per-hinge fit moved by the replay's correction of delta,
-        :meth:`~freeplayid.identification.model_error.HingeGaps.half_gaps`); [] without them."""
+        """Each hinge's half-gap [rad] and 95 % interval (``linear_model.hinge_gaps``): read
+        against the answer's replay where there is one
+        (:class:`~freeplayid.identification.model_error.ReplayedSplit`), else the per-hinge
+        fit moved by the replay's correction of delta
+        (:meth:`~freeplayid.identification.model_error.HingeGaps.half_gaps`); [] without
+        them."""
         err = self.model_error
         per = None if err is None or not err.per_hinge else err.hinge_gaps
         if per is None:
             return []
+        if err.split is not None and err.split.n_copies >= 2:
+            sp = err.split
+            pairs = zip(sp.half_gaps, sp.intervals(self.delta_ci95), strict=True)
+        else:
+            pairs = per.half_gaps(self.delta, self.delta_ci95)
         return [{"hinge": n, "delta": v, "delta_ci95": list(ci)} for n, (v, ci) in
-                zip(per.hinges, per.half_gaps(self.delta, self.delta_ci95), strict=True)]
+                zip(per.hinges, pairs, strict=True)]
 
     def _replay_record(self) -> dict:
         """The ``replay`` entry of the JSON record."""

@@ -162,6 +162,9 @@ class ReplayPrecision:
     slope : ((float, float), (float, float)) or None
         How the answer moves with the statistic (:func:`answer_slope`), through which the
         copies' spread was carried; None: the identity.
+    copy_points : tuple of FittingPoints
+        Each fitted copy's points (what else their noise moves, e.g. each hinge's share of
+        the gaps: :func:`freeplayid.identification.model_error.replayed_split`). Not saved.
     """
 
     kn_halfwidth: float | None
@@ -171,6 +174,7 @@ class ReplayPrecision:
     margin_hz: float | None = None
     statistic_halfwidths: tuple | None = None
     slope: tuple | None = None
+    copy_points: tuple = dataclasses.field(default=(), repr=False, compare=False)
 
     def to_dict(self) -> dict:
         return {"kn_halfwidth": self.kn_halfwidth, "delta_halfwidth": self.delta_halfwidth,
@@ -250,7 +254,7 @@ def precision_by_replay(replayed, system, noise: dict, *, points, theta_rep, n: 
         replayed = windowed(replayed, point_centres(points), margin_hz)
     rng = np.random.default_rng([seed, 2])  # not the bootstrap's or the cross-check's copies
     slope = np.eye(2) if binding_slope is None else np.asarray(binding_slope, float)
-    logs, made = [], 0  # each copy's log (kn, delta)
+    logs, made, points = [], 0, []  # each copy's log (kn, delta) and points
     for est in _copy_estimates(
             replayed, system, noise, rng, n=n, theta_rep=theta_rep, extraction=extraction,
             fit=fit, point_weights=point_weights, desc="the answer's precision: noisy copies",
@@ -258,6 +262,7 @@ def precision_by_replay(replayed, system, noise: dict, *, points, theta_rep, n: 
         made += 1
         if est is not None and est.fit.success:
             logs.append(np.log([est.kn, est.delta]))
+            points.append(est.fitting_points())
         if settled_sd is not None and len(logs) >= PRECISION_MIN_COPIES and np.all(
                 sd_upper(answer_sd(np.asarray(logs), slope), len(logs))
                 <= np.asarray(settled_sd)):
@@ -271,7 +276,8 @@ def precision_by_replay(replayed, system, noise: dict, *, points, theta_rep, n: 
     return ReplayPrecision(
         kn_halfwidth=kn_hw, delta_halfwidth=delta_hw, n=made, n_fitted=len(logs),
         margin_hz=margin_hz, statistic_halfwidths=None if binding_slope is None else own,
-        slope=None if binding_slope is None else tuple(tuple(float(v) for v in r) for r in slope))
+        slope=None if binding_slope is None else tuple(tuple(float(v) for v in r) for r in slope),
+        copy_points=tuple(points))
 
 
 def answer_sd(logs: np.ndarray, slope, about=None) -> np.ndarray:

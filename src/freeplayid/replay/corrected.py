@@ -392,6 +392,9 @@ class ReplayResult:
         Where the loop started: "statistic" (the statistic's fit), "network" (the network's
         estimate, ``Replay.start``), or, when the replay there could not be identified,
         "statistic, delta x 0.85" (0.723, 0.614: the statistic's fit with a smaller gap).
+    statistic_points, replayed_points : FittingPoints or None
+        The test's statistic points and its replay's at the answer (what else the replay
+        measures against the test, e.g. the hinges' split of the gaps). Not saved.
     """
 
     kn: float
@@ -423,6 +426,10 @@ class ReplayResult:
     cross: CrossCheck | None = None
     excitation: str = "law"
     start: str = "statistic"
+    statistic_points: FittingPoints | None = dataclasses.field(default=None, repr=False,
+                                                                compare=False)
+    replayed_points: FittingPoints | None = dataclasses.field(default=None, repr=False,
+                                                               compare=False)
 
 
 @dataclass(frozen=True)
@@ -948,6 +955,8 @@ def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts
         resonance=resonance, cross=cross, level=level, damping_sensitivity=damped,
         excitation_noise=excited,
         excitation="measured" if b.test.excitations else "law", start=start,
+        statistic_points=stat.fitting_points() if rep is not None else None,
+        replayed_points=rep.fitting_points() if rep is not None else None,
         sweeps={run: {"source": src, "law": sw.law, **sw.to_dict(),
                       **({} if res is None else {"residual_hz": float(res)})}
                 for run, (sw, src, res) in b.test.sweeps.items()})
