@@ -147,12 +147,12 @@ def _network_start(est, fit: FitOptions, replay: Replay) -> tuple[float, float] 
     return (float(pair[0]), float(pair[1])) if pair.shape == (2,) else None
 
 
-def _settled(error: ModelError):
+def _settled(error: ModelError | None):
     """Where the precision's noisy copies may stop early (:func:`settled_sd`): not where the
     hinges' split is read against the replay (``error.hinge_gaps``), whose noise they measure
     too, with every copy (four copies left one equal-gap test of fin C 3.7 standard errors
-    off, eight put the same condition's split within 1.6)."""
-    return None if error.hinge_gaps is not None else settled_sd()
+    off, eight put the same record's split 1.4 standard errors off)."""
+    return None if getattr(error, "hinge_gaps", None) is not None else settled_sd()
 
 
 def _statistics_disagree(result: Identification, replay: Replay) -> bool:
