@@ -176,17 +176,11 @@ class HingeGaps:
         ``delta`` with its interval ``delta_ci95``: the plain per-hinge gaps moved by the
         replay's correction of the common delta (delta / common_delta), their log half-widths
         those of delta and of each hinge's share in quadrature (module docstring)."""
-        lo, hi = delta_ci95
-        h_lo = math.log(delta / lo) if lo > 0 else math.inf
-        h_hi = math.log(hi / delta) if math.isfinite(hi) else math.inf
         out = []
         for d, w in zip(self.deltas, self.log_halfwidth, strict=True):
             v = d * delta / self.common_delta
-            if w >= NOT_DETERMINED:
-                out.append((v, (0.0, math.inf)))
-                continue
-            out.append((v, (v * math.exp(-math.hypot(h_lo, w)),
-                            v * math.exp(math.hypot(h_hi, w)))))
+            out.append((v, (0.0, math.inf) if w >= NOT_DETERMINED else
+                        _gap_interval(v, delta, delta_ci95, w)))
         return out
 
     def test(self) -> str:
@@ -283,15 +277,10 @@ class ReplayedSplit:
         """Each hinge's half-gap's 95 % interval: delta's log half-widths (``delta_ci95``) and
         its share's (Student's t at the copies' count times its standard error) in quadrature;
         unbounded without copies."""
-        lo, hi = delta_ci95
-        h_lo = math.log(self.delta / lo) if lo > 0 else math.inf
-        h_hi = math.log(hi / self.delta) if math.isfinite(hi) else math.inf
         t = float(scipy.stats.t.ppf(0.975, self.n_copies)) if self.n_copies >= 2 else math.inf
-        out = []
-        for g, e in zip(self.half_gaps, self.log_se, strict=True):
-            w = t * e if math.isfinite(t) and np.isfinite(e) else math.inf
-            out.append((g * math.exp(-math.hypot(h_lo, w)), g * math.exp(math.hypot(h_hi, w))))
-        return out
+        return [_gap_interval(g, self.delta, delta_ci95,
+                              t * e if math.isfinite(t) and np.isfinite(e) else math.inf)
+                for g, e in zip(self.half_gaps, self.log_se, strict=True)]
 
     def describe(self) -> str:
         gaps = ", ".join(f"{n} {1e3 * g:.4g} mrad" for n, g in zip(self.hinges, self.half_gaps,
@@ -313,6 +302,13 @@ class ReplayedSplit:
                 "log_split": list(self.log_split), "log_se": [num(v) for v in self.log_se],
                 "n_copies": self.n_copies, "t": num(self.t), "p": self.p,
                 "mean_offset": self.mean_offset}
+
+
+def _gap_interval(gap: float, delta: float, delta_ci95, share: float) -> tuple[float, float]:
+    """A hinge's half-gap's 95 % interval: ``delta_ci95`` moved to ``gap`` and widened by the
+    share's log half-width ``share`` in quadrature (:func:`widen`)."""
+    lo, hi = delta_ci95
+    return widen((lo * gap / delta, hi * gap / delta), gap, share)
 
 
 def _keyed(points) -> dict:
@@ -358,7 +354,8 @@ def replayed_split(system, measured, replayed, copies, *, kn: float, delta: floa
     if len(keys) < system.n_hinges + 2:
         return None
 
-    ratios, _ = gap_ratios(_subset(m, keys), system, kn, delta, mode)
+    test = _subset(m, keys)
+    ratios, _ = gap_ratios(test, system, kn, delta, mode)
     if not np.all(np.isfinite(ratios)):
         return None
     # one grid for all: the points' range, a hinge's gap halving or doubling (SPLIT_GRID
@@ -372,7 +369,7 @@ def replayed_split(system, measured, replayed, copies, *, kn: float, delta: floa
         hg = fit_hinge_gaps(system, points, kn, delta, mode=mode, grid=grid)
         return None if hg is None else np.asarray(hg.deltas, float)
 
-    g_m, g_r = gaps(_subset(m, keys)), gaps(_subset(r, keys))
+    g_m, g_r = gaps(test), gaps(_subset(r, keys))
     if g_m is None or g_r is None:
         return None
 
