@@ -18,7 +18,13 @@ in the same run, per row:
   before they ran at once, one per core: ``freeplayid.threads``);
 - ``corrected, nothing kept``: the default with every extraction solved afresh, as before the
   extraction kept its results: no pursuit reused (ACMP's iterations on a record it has already
-  run on with the same inputs) and the smoothing's Cholesky factor computed at every iteration.
+  run on with the same inputs) and the smoothing's Cholesky factor computed at every iteration;
+- ``corrected, the BLAS on its own threads``: numpy's and scipy's BLAS free to use its own
+  threads beside freeplayid's (the code before 2026-12-01: ``freeplayid.threads.BLAS_THREADS``);
+- ``corrected, the base's noise read by the whole pursuit``: each excitation copy's reading noise
+  read by the pursuit's full iterations, not one step (the code before 2026-12-01:
+  ``freeplayid.replay.excitation.READ_AGAIN_STEPS``); its column ``the base's noise`` shows
+  what the copies give the intervals either way.
 
 Kept results are dropped before each row, so each row is a first identify of the data. The
 stages: the plain estimate (the test's points and their fit), the replays' simulation, and the
@@ -119,21 +125,47 @@ def drop_kept() -> None:
     importlib.import_module("freeplayid.signal.banded")._smoothing_factor.cache_clear()
 
 
+@contextmanager
+def patched(module: str, name: str, value):
+    """``module.name`` set to ``value`` while the block runs."""
+    mod = importlib.import_module(module)
+    saved = getattr(mod, name)
+    setattr(mod, name, value)
+    try:
+        yield
+    finally:
+        setattr(mod, name, saved)
+
+
+def blas_own_threads():
+    """The BLAS library on its own threads (``freeplayid.threads.BLAS_THREADS`` None: the
+    code before 2026-12-01)."""
+    return patched("freeplayid.threads", "BLAS_THREADS", None)
+
+
+def whole_pursuit():
+    """The base's noise read by the whole pursuit in the excitation copies (its default
+    ``max_iter``, 100: the code before 2026-12-01) instead of one step."""
+    return patched("freeplayid.replay.excitation", "READ_AGAIN_STEPS", 100)
+
+
 def run_row(dataset, replay: bool, repeat: int, afresh: bool = False,
-            single: bool = False, options: dict | None = None) -> dict:
+            single: bool = False, options: dict | None = None, patch=None) -> dict:
     best = None
     for _ in range(repeat):
         drop_kept()
         totals: dict = {}
         with timed_stages(totals), (nothing_kept() if afresh else _no_op()), \
-                (one_thread() if single else _no_op()):
+                (one_thread() if single else _no_op()), (patch() if patch else _no_op()):
             t0 = time.perf_counter()
             res = identify(dataset, progress=False,
                            replay=(options or {}) if replay else None)
             wall = time.perf_counter() - t0
         if best is None or wall < best["wall"]:
+            exc = None if res.replay is None else res.replay.excitation_noise
             best = {"wall": wall, "stages": totals, "kn": res.kn, "delta": res.delta,
-                    "verdict": res.verdict.status}
+                    "verdict": res.verdict.status,
+                    "base_noise": None if exc is None else exc.delta_halfwidth}
     return best
 
 
@@ -159,16 +191,21 @@ def main() -> None:
             ("corrected, no excitation copies",
              run_row(dataset, True, args.repeat, options={"excitation_copies": 0})),
             ("corrected, one thread", run_row(dataset, True, args.repeat, single=True)),
+            ("corrected, the BLAS on its own threads",
+             run_row(dataset, True, args.repeat, patch=blas_own_threads)),
+            ("corrected, the base's noise read by the whole pursuit",
+             run_row(dataset, True, args.repeat, patch=whole_pursuit)),
             ("corrected, nothing kept", run_row(dataset, True, args.repeat, afresh=True))]
     row = {label: r for label, r in rows}
     names = list(dict.fromkeys(STAGES.values()))
     print("| identify | wall [s] | " + " | ".join(f"{n} [s]" for n in names)
-          + " | kn [N·m/rad] | delta [mrad] | verdict |")
-    print("|---" * (len(names) + 5) + "|")
+          + " | kn [N·m/rad] | delta [mrad] | the base's noise in delta [±%] | verdict |")
+    print("|---" * (len(names) + 6) + "|")
     for label, r in rows:
         stages = " | ".join(f"{r['stages'].get(n, 0.0):.1f}" for n in names)
+        base = "–" if r["base_noise"] is None else f"{100 * r['base_noise']:.3g}"
         print(f"| {label} | {r['wall']:.1f} | {stages} | {r['kn']:.5g} | "
-              f"{1e3 * r['delta']:.5g} | {r['verdict']} |")
+              f"{1e3 * r['delta']:.5g} | {base} | {r['verdict']} |")
     def same(a, b, keys=("kn", "delta", "verdict")):
         return all(row[a][k] == row[b][k] for k in keys)
 
@@ -176,8 +213,9 @@ def main() -> None:
     print(f"\nthreads: {threads_cores()}; the same answers on one thread: plain "
           f"{same('plain fit (replay=None)', 'plain fit, one thread')}, corrected "
           f"{same(c, 'corrected, one thread')}; corrected with and without kept results: "
-          f"{same(c, 'corrected, nothing kept')}; kn, delta with and without the precision "
-          f"copies: {same(c, 'corrected, no precision copies', ('kn', 'delta'))}")
+          f"{same(c, 'corrected, nothing kept')}, with the BLAS on its own threads: "
+          f"{same(c, 'corrected, the BLAS on its own threads')}; kn, delta with and without the "
+          f"precision copies: {same(c, 'corrected, no precision copies', ('kn', 'delta'))}")
 
 
 def threads_cores() -> int:

@@ -642,6 +642,23 @@ def test_an_excitation_read_again_has_the_readings_noise_and_its_pace():
     assert np.array_equal(copy.phase_samples, sweep.phase_samples)
 
 
+def test_one_step_reads_the_noise_as_the_whole_pursuit_does(monkeypatch):
+    """The copies' reading noise read by one step of the pursuit at the excitation's own
+    frequency (``READ_AGAIN_STEPS``) is the whole pursuit's to a correlation above 0.999 on the
+    same noise draws (both scaled to ``reading_sd`` alike)."""
+    from freeplayid.replay import excitation
+
+    sweep, _, _, t = _constant_level_base(0.5, 0.05)
+
+    def moves(steps):
+        monkeypatch.setattr(excitation, "READ_AGAIN_STEPS", steps)
+        rng = np.random.default_rng(5)
+        return [read_again(sweep, rng).envelope(t) / sweep.envelope(t) - 1 for _ in range(2)]
+
+    for one, whole in zip(moves(1), moves(100), strict=True):
+        assert np.corrcoef(one, whole)[0, 1] > 0.999
+
+
 def test_intervals_take_in_the_base_channels_noise():
     """The excitation copies' half-widths join the intervals in quadrature (by hand); the noise
     check stays the responses' (on 27 realtests answers with noisy bases adding them to it made

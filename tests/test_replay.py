@@ -167,6 +167,34 @@ def test_runs_replayed_on_threads_are_bit_for_bit_those_of_one_thread(measured, 
         assert a.file == b.file and np.array_equal(np.asarray(a.data), np.asarray(b.data))
 
 
+def test_the_blas_keeps_to_one_thread_while_freeplayids_threads_work(monkeypatch):
+    """Inside :func:`freeplayid.threads.each`'s workers and ``identify`` the BLAS libraries
+    run on one thread each (their own threads spun on the cores the workers needed), and
+    after them on as many as before; ``BLAS_THREADS = None`` leaves them alone."""
+    from threadpoolctl import threadpool_info
+
+    import freeplayid.threads as threads
+    from freeplayid.identification import pipeline
+
+    def blas():
+        return sorted(i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas")
+
+    before = blas()
+    if not before:
+        pytest.skip("no BLAS library found by threadpoolctl")
+    monkeypatch.setattr(threads, "cores", lambda: 2)
+    seen = threads.each(lambda _: blas(), range(2))
+    assert seen == [[1] * len(before)] * 2
+    assert blas() == before
+    with threads.one_blas_thread():
+        assert blas() == [1] * len(before)
+    assert blas() == before
+    assert pipeline.identify.__wrapped__  # the decorator's
+    monkeypatch.setattr(threads, "BLAS_THREADS", None)
+    with threads.one_blas_thread():
+        assert blas() == before
+
+
 def test_corrected_fit_reports_its_iterations(measured, system):
     res = identify(measured, system=system, progress=False, fit={"multistart": MULTISTART})
     r = res.replay

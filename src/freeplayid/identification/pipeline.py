@@ -20,6 +20,7 @@ from ..model import FreeplaySystem, ModelOptions, load_system, validate_modes
 from ..quality import RecordCheckOptions
 from ..replay import Replay, corrected_fit
 from ..signal import Extraction
+from ..threads import one_blas_thread
 from .model_error import ModelError, model_error, replayed_split, update_model, widen
 from .records import checked_dataset, record_checks, record_options
 from .replay_checks import replay_checks, settled_sd
@@ -46,6 +47,7 @@ DEFAULT_REPLAY = Replay()  # identify corrects the plain fit by replaying the te
 DEFAULT_RECORDS = RecordCheckOptions()  # ... and checks the records first unless told not
 
 
+@one_blas_thread()
 def identify(dataset, *, system: FreeplaySystem | None = None,
              extraction: Extraction | Mapping | None = None,
              fit: FitOptions | Mapping | None = None,

@@ -78,13 +78,25 @@ def measured_sweep(dataset, run, law) -> tuple[MeasuredSweep, float]:
                          reading_band_hz=float(mode.bandwidth_hz), reading_steps=steps), level / G
 
 
+# the pursuit's steps of a reading of the noise (:func:`read_again`): one, at the excitation's
+# own frequency
+READ_AGAIN_STEPS = 1
+
+
 def read_again(sweep: MeasuredSweep, rng) -> MeasuredSweep:
     """``sweep`` (a measured excitation) with its envelope read again under fresh noise: times
     ``1 + e(t)``, ``e`` the relative amplitude error of a reading over ``reading_band_hz``
     (:func:`freeplayid.signal.acmp`, its band as adapted, kept; sharpened as it was) of this
     excitation's unit sine plus white noise from ``rng``, scaled to the standard deviation
     ``reading_sd``: the reading's own noise, its spectrum included. The phase is kept. ``sweep``
-    itself where ``reading_sd`` or ``reading_band_hz`` is 0."""
+    itself where ``reading_sd`` or ``reading_band_hz`` is 0.
+
+    The sine's frequency is the excitation's own, so the reading is one demodulation at it and
+    one step of the pursuit (``max_iter`` :data:`READ_AGAIN_STEPS`): the amplitude's noise is
+    linear in the noise, and the pursuit's further steps, which refine a frequency that is
+    already right, change it by less than a tenth of its standard deviation anywhere
+    (correlation 0.9999 with the 52-step reading on the bundled example's bases) for 1/18 of
+    the time."""
     if sweep.reading_sd <= 0 or sweep.reading_band_hz <= 0:
         return sweep
     fs = float(sweep.sample_rate)
@@ -92,7 +104,8 @@ def read_again(sweep: MeasuredSweep, rng) -> MeasuredSweep:
     # small enough to read linearly (about 1 % of the amplitude); scaled below
     noise = 0.01 * math.sqrt(fs / (2.0 * sweep.reading_band_hz))
     x = np.sin(phase) + noise * rng.standard_normal(phase.size)
-    read = acmp(x, fs, sweep=sweep, bandwidth_hz=sweep.reading_band_hz, adapt=False)
+    read = acmp(x, fs, sweep=sweep, bandwidth_hz=sweep.reading_band_hz, adapt=False,
+                max_iter=READ_AGAIN_STEPS)
     e = (sharpened(read, fs, sweep, sweep.reading_steps) if sweep.reading_steps else
          read.amplitude) - 1.0
     e = (e - np.mean(e)) * (sweep.reading_sd / max(float(np.std(e)), 1e-300))
