@@ -312,10 +312,8 @@ def _gap_interval(gap: float, delta: float, delta_ci95, share: float) -> tuple[f
 
 
 def _keyed(points) -> dict:
-    """{(run, DOF): (amplitude, frequency)} of FittingPoints."""
-    runs = points.run if points.run is not None else ("",) * len(points)
-    return {(r, c): (a, f) for r, c, a, f in zip(runs, points.channel, points.amplitude_m,
-                                                   points.f_hz, strict=True)}
+    """{(run, DOF): record} of FittingPoints (:meth:`~freeplayid.fit.FittingPoints.to_records`)."""
+    return {(r.get("run"), r["channel"]): r for r in points.to_records()}
 
 
 def _subset(keyed: dict, keys: list):
@@ -324,9 +322,7 @@ def _subset(keyed: dict, keys: list):
 
     if any(k not in keyed for k in keys):
         return None
-    return FittingPoints(channel=[c for _, c in keys], run=[r for r, _ in keys],
-                         amplitude_m=np.array([keyed[k][0] for k in keys]),
-                         f_hz=np.array([keyed[k][1] for k in keys]))
+    return FittingPoints.from_records(keyed[k] for k in keys)
 
 
 def replayed_split(system, measured, replayed, copies, *, kn: float, delta: float,
