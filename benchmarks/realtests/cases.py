@@ -1169,6 +1169,65 @@ VARIANTS.update({
         "var11_finB_stiff_in_m1_ref"),
 })
 
+# A twelfth set, chosen once (2026-12-01, session 28) before any of its results: the issue's
+# classes at magnitudes and pairings not used before: fin C's Rayleigh damping under a dip, fin B's
+# contact damping under a falling level, fin B's faster sweep under a dip, fin C's unequal gaps
+# with a hinge damper, a log sweep of fin C with a hinge damper, the default fin at another hinge
+# with stronger Rayleigh damping, a small model error without sealed modes under Rayleigh damping
+# (default fin) and on fin B, fin C's outboard plate +1 % with sealed modes, a noisier ramp,
+# and another beam. run.py --cases 'var12_*'
+def _var12_beam(**kw) -> CaseSpec:
+    geo = dict(kn=4500.0, delta=2.8e-3, L_in=0.14, L_out=0.28, zeta=0.03,
+               rayleigh_hz=(20.0, 100.0))
+    sweep, _ = _beam_band(**geo)
+    # the table's beam levels scaled with the damping (its 2 %)
+    levels = tuple(round(lv * 0.03 / 0.02, 3) for lv in (1.1, 1.5, 2.0, 2.6, 3.3))
+    return beam_rayleigh(levels=levels, sweep=sweep, **geo, **kw)
+
+
+VARIANTS.update({
+    "var12_finC_rayleigh_dip": _variant(lambda **kw: _also(_no_c(fin_level_dip(
+        depth=0.3, flat_hz=0.6, taper_hz=0.6, src="var6_finC_rayleigh",
+        C=_rayleigh_c(0.02, (0.4 * FIN_C_F1, 1.5 * FIN_C_F1), kn=FIN_C_KN), **_fin_c_kw(**kw))),
+        "fin C"), "var12_finC_rayleigh_dip"),
+    "var12_finB_contact_damping_ramp": _variant(lambda **kw: _ramped(_contact_damping_on(
+        "fin B", _fin_b_kw(**kw), 0.015, 0.03), -0.15), "var12_finB_contact_damping_ramp"),
+    "var12_finB_fast_dip": _variant(lambda **kw: _also(fin_level_dip(
+        depth=0.25, flat_hz=0.6, taper_hz=0.5, src="var5_finB_nominal", **_fin_b_kw(
+            sweep=dict(FIN_B_SWEEP, rate_hz_per_s=0.25), **kw)), "fin B, 0.25 Hz/s"),
+        "var12_finB_fast_dip"),
+    "var12_finC_unequal_damper": _variant(lambda **kw: _also(fin_hinge_damper(
+        added_zeta=0.01, **_fin_c_kw(deltas=(0.0013, 0.0019), levels=tuple(
+            round(1.5 * lv, 3) for lv in FIN_C_LEVELS), **kw)), "fin C, half-gaps 1.3 / 1.9 mrad"),
+        "var12_finC_unequal_damper"),
+    "var12_finC_log_damper": _variant(lambda **kw: _also(fin_hinge_damper(
+        added_zeta=0.015, **_fin_c_kw(sweep={
+            "start_hz": FIN_C_SWEEP["start_hz"], "stop_hz": FIN_C_SWEEP["stop_hz"],
+            "octaves_per_min": 0.3}, levels=tuple(round(1.75 * lv, 3) for lv in FIN_C_LEVELS),
+            **kw)), "fin C, log sweep at 0.3 oct/min"), "var12_finC_log_damper"),
+    "var12_fin_kn520_d3.3_rayleigh": _variant(lambda **kw: _no_c(_fin_case(
+        "x", "the fin at kn 520 N m/rad and half-gap 3.3 mrad, Rayleigh 4 % at 25/80 Hz",
+        kn=520.0, deltas=0.0033, C=_rayleigh_c(0.04, (25.0, 80.0), kn=520.0),
+        levels=tuple(round(lv * 4 / 3, 3) for lv in FIN_LEVELS), **kw)),
+        "var12_fin_kn520_d3.3_rayleigh"),
+    "var12_fin_stiff_out_m0.4_rayleigh": _variant(lambda **kw: _no_c(fin_stiffness(
+        shift=-0.004, part="outboard", C=_rayleigh_c(0.03, (30.0, 60.0)), **kw)),
+        "var12_fin_stiff_out_m0.4_rayleigh"),
+    "var12_finB_stiff_out_p0.4": _variant(lambda **kw: _also(fin_stiffness(
+        shift=0.004, part="outboard", **_fin_b_kw(**kw)), "fin B"), "var12_finB_stiff_out_p0.4"),
+    "var12_finC_stiff_out_p1_ref": _variant(lambda **kw: _also(fin_stiffness(
+        shift=0.01, part="outboard", ref=True, **_fin_c_kw(**kw)), "fin C"),
+        "var12_finC_stiff_out_p1_ref"),
+    "var12_fin_noisy_ramp": _variant(lambda **kw: _ramped(dataclasses.replace(_fin_case(
+        "x", "the fin at 0.12 g of noise", **kw), noise_g=0.12), 0.1), "var12_fin_noisy_ramp"),
+    "var12_beam_kn4500_d2.8": _variant(_var12_beam, "var12_beam_kn4500_d2.8"),
+    # chosen after the set's results (fin B's fast dip: delta -3.1 / -3.3 % on both draws): the
+    # same fast sweep without the dip, to tell the sweep rate's part from the dip's
+    "var12_finB_fast": _variant(lambda **kw: _fin_case(
+        "x", "fin B, 0.25 Hz/s", **_fin_b_kw(sweep=dict(FIN_B_SWEEP, rate_hz_per_s=0.25), **kw)),
+        "var12_finB_fast"),
+})
+
 ALL_CASES = {**CONDITIONS, **VARIANTS}
 
 def generate(name: str, out: Path, *, force=False, redraw=False, log=print) -> dict:
