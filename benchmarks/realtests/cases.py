@@ -1228,6 +1228,58 @@ VARIANTS.update({
         "var12_finB_fast"),
 })
 
+# A thirteenth set (2026-12-01, session 28), chosen once after the twelfth set's results and
+# before any of its own: whether fin B's fast dip (its base's reading rounds a 2-s flank) is a
+# fast dip's or a weak base's failure (fin C and the default fin swept fast under dips with
+# strong bases; fin B's slow dip under more noise; fin B's log sweep under a dip), and more of
+# the classes at magnitudes not used before: three runs with Rayleigh damping, contact damping
+# on fin C at 0.1 g of noise, the larger gap on the inboard hinge with contact damping, a beam at
+# 0.1 g of noise, fin C's inboard plate -0.5 % without sealed modes under Rayleigh damping, and
+# the default fin at higher levels. run.py --cases 'var13_*'
+def _var13_unequal_contact(**kw) -> CaseSpec:
+    _, st = fin_truth()
+    c = 0.015 / mode1_added_damping(st, 1.0)
+    return _also(fin_unequal_gaps(deltas=(0.0033, 0.0027), contact_damping=c,
+                                  levels=_damped_levels(0.015), **kw),
+                 "extra damping in contact (+1.5 % in closed mode 1)")
+
+
+VARIANTS.update({
+    "var13_finC_fast_dip": _variant(lambda **kw: _also(fin_level_dip(
+        depth=0.3, flat_hz=0.8, taper_hz=0.6, src="var6_finC_nominal", **_fin_c_kw(
+            sweep=dict(FIN_C_SWEEP, rate_hz_per_s=0.4), **kw)), "fin C, 0.4 Hz/s"),
+        "var13_finC_fast_dip"),
+    "var13_fin_fast_dip": _variant(lambda **kw: _also(fin_level_dip(
+        depth=0.3, flat_hz=0.4, taper_hz=0.4, sweep=dict(FIN_SWEEP, rate_hz_per_s=0.3), **kw),
+        "0.3 Hz/s"), "var13_fin_fast_dip"),
+    "var13_finB_slow_dip_noisy": _variant(lambda **kw: dataclasses.replace(_also(fin_level_dip(
+        depth=0.3, src="var5_finB_nominal", **_fin_b_kw(
+            sweep=dict(FIN_B_SWEEP, rate_hz_per_s=0.05), **kw)),
+        "fin B, 0.05 Hz/s, 0.1 g of noise"), noise_g=0.1), "var13_finB_slow_dip_noisy"),
+    "var13_finB_log_dip": _variant(lambda **kw: _also(fin_level_dip(
+        depth=0.3, src="var5_finB_nominal", **_fin_b_kw(sweep={
+            "start_hz": FIN_B_SWEEP["start_hz"], "stop_hz": FIN_B_SWEEP["stop_hz"],
+            "octaves_per_min": 0.3}, **kw)), "fin B, log sweep at 0.3 oct/min"),
+        "var13_finB_log_dip"),
+    "var13_fin_three_rayleigh": _variant(lambda **kw: _no_c(_fin_case(
+        "x", "three runs, Rayleigh 3.5 % at 25/70 Hz", levels=(0.7, 1.05, 1.4),
+        C=_rayleigh_c(0.035, (25.0, 70.0)), **kw)), "var13_fin_three_rayleigh"),
+    "var13_finC_noisy_contact": _variant(lambda **kw: _also(dataclasses.replace(
+        _fin_c_contact_damping(0.01, **kw), noise_g=0.1), "0.1 g of noise"),
+        "var13_finC_noisy_contact"),
+    "var13_fin_unequal_contact": _variant(_var13_unequal_contact, "var13_fin_unequal_contact"),
+    "var13_beam_noisy": _variant(lambda **kw: _also(dataclasses.replace(beam_rayleigh(
+        kn=5000.0, delta=2.0e-3, **kw), noise_g=0.1), "half-gap 2 mrad, 0.1 g of noise"),
+        "var13_beam_noisy"),
+    "var13_finC_stiff_in_m0.5_rayleigh": _variant(lambda **kw: _also(_no_c(fin_stiffness(
+        shift=-0.005, part="inboard", C=_rayleigh_c(0.02, (0.4 * FIN_C_F1, 1.5 * FIN_C_F1),
+                                                    kn=FIN_C_KN), **_fin_c_kw(**kw))), "fin C"),
+        "var13_finC_stiff_in_m0.5_rayleigh"),
+    "var13_fin_high_levels": _variant(lambda **kw: _fin_case(
+        "x", "the fin at 0.8-2.0 g (jumps high in the band)", levels=(0.8, 1.1, 1.4, 1.7, 2.0),
+        **kw), "var13_fin_high_levels"),
+})
+
 ALL_CASES = {**CONDITIONS, **VARIANTS}
 
 def generate(name: str, out: Path, *, force=False, redraw=False, log=print) -> dict:
