@@ -53,7 +53,7 @@ def readings(case: str, data: Path, draw: str) -> list[dict]:
         law = Sweep(sw["start_hz"], sw["stop_hz"], sw["rate_hz_per_s"])
         x = ds.to_si(run.base)
         t = np.arange(x.size) / fs
-        bw = max(1.0, 2.0 * abs(sw["rate_hz_per_s"]))
+        bw = max(1.0, 2.0 * abs(sw["rate_hz_per_s"]))  # measured_sweep's band for a linear sweep
         wide = acmp(x, fs, sweep=law, bandwidth_hz=bw)
         narrow = acmp(x, fs, sweep=law, bandwidth_hz=lv.NARROW_BASE * bw)
         ms, level_g = measured_sweep(ds, run, law)
@@ -96,14 +96,14 @@ def figure(rows: list[dict], path: Path, title: str) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from freeplayid.quantity import G
+
     fig, axes = plt.subplots(1, len(rows), figsize=(3.2 * len(rows), 3.0), squeeze=False)
     for ax, r in zip(axes[0], rows):
         near = (r["f"] > r["f_jump"] - 2.0) & (r["f"] < r["f_jump"] + 1.0)
-        from freeplayid.quantity import G as g
-
-        ax.plot(r["f"][near], r["wide"][near] / g, lw=0.6, alpha=0.5, label="wide band")
-        ax.plot(r["f"][near], r["replay"][near] / g, lw=1.4, label="the replay's reading")
-        ax.plot(r["f"][near], r["clean"][near] / g, "k", lw=1.0, label="clean record")
+        ax.plot(r["f"][near], r["wide"][near] / G, lw=0.6, alpha=0.5, label="wide band")
+        ax.plot(r["f"][near], r["replay"][near] / G, lw=1.4, label="the replay's reading")
+        ax.plot(r["f"][near], r["clean"][near] / G, "k", lw=1.0, label="clean record")
         ax.axvline(r["f_jump"], color="r", lw=0.8)
         ax.set_title(r["run"], fontsize=8)
         ax.set_xlabel("frequency [Hz]", fontsize=8)

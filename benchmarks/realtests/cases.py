@@ -751,13 +751,18 @@ def _beam_band(**beam_kw) -> tuple[dict, float]:
             "rate_hz_per_s": 0.1}, f1
 
 
-def _var4_beam(scale=1.0, **kw) -> CaseSpec:
-    geo = dict(kn=8000.0, delta=1.5e-3, L_in=0.16, L_out=0.26, zeta=0.015,
-               rayleigh_hz=(25.0, 90.0))
+def _banded_beam(geo: dict, scale: float = 1.0, **kw) -> CaseSpec:
+    """A Rayleigh-damped beam of geometry ``geo`` (:func:`beam`'s keywords), swept over its own
+    band (:func:`_beam_band`) at the table's beam levels scaled with its damping (the table's
+    2 %) and by ``scale``."""
     sweep, _ = _beam_band(**geo)
-    # the table's beam levels scaled with the damping (its 2 %)
-    levels = tuple(round(scale * lv * 0.015 / 0.02, 3) for lv in (1.1, 1.5, 2.0, 2.6, 3.3))
+    levels = tuple(round(scale * lv * geo["zeta"] / 0.02, 3) for lv in (1.1, 1.5, 2.0, 2.6, 3.3))
     return beam_rayleigh(levels=levels, sweep=sweep, **geo, **kw)
+
+
+def _var4_beam(scale=1.0, **kw) -> CaseSpec:
+    return _banded_beam(dict(kn=8000.0, delta=1.5e-3, L_in=0.16, L_out=0.26, zeta=0.015,
+                             rayleigh_hz=(25.0, 90.0)), scale, **kw)
 
 
 def _no_c(spec: CaseSpec) -> CaseSpec:
@@ -1098,11 +1103,7 @@ def _contact_damping_on(fin: str, fin_kw: dict, added_zeta: float, zeta: float) 
 
 
 def _var10_beam(**kw) -> CaseSpec:
-    geo = dict(kn=3000.0, delta=2.0e-3, zeta=0.03, rayleigh_hz=(20.0, 80.0))
-    sweep, _ = _beam_band(**geo)
-    # the table's beam levels scaled with the damping (its 2 %)
-    levels = tuple(round(lv * 0.03 / 0.02, 3) for lv in (1.1, 1.5, 2.0, 2.6, 3.3))
-    return beam_rayleigh(levels=levels, sweep=sweep, **geo, **kw)
+    return _banded_beam(dict(kn=3000.0, delta=2.0e-3, zeta=0.03, rayleigh_hz=(20.0, 80.0)), **kw)
 
 
 def _var10_stiff_hinge(**kw) -> CaseSpec:
@@ -1177,12 +1178,8 @@ VARIANTS.update({
 # (default fin) and on fin B, fin C's outboard plate +1 % with sealed modes, a noisier ramp,
 # and another beam. run.py --cases 'var12_*'
 def _var12_beam(**kw) -> CaseSpec:
-    geo = dict(kn=4500.0, delta=2.8e-3, L_in=0.14, L_out=0.28, zeta=0.03,
-               rayleigh_hz=(20.0, 100.0))
-    sweep, _ = _beam_band(**geo)
-    # the table's beam levels scaled with the damping (its 2 %)
-    levels = tuple(round(lv * 0.03 / 0.02, 3) for lv in (1.1, 1.5, 2.0, 2.6, 3.3))
-    return beam_rayleigh(levels=levels, sweep=sweep, **geo, **kw)
+    return _banded_beam(dict(kn=4500.0, delta=2.8e-3, L_in=0.14, L_out=0.28, zeta=0.03,
+                             rayleigh_hz=(20.0, 100.0)), **kw)
 
 
 VARIANTS.update({
