@@ -233,6 +233,12 @@ class MeasuredSweep:
         (:func:`freeplayid.replay.excitation.read_again`).
     reading_steps : int
         The sharpening steps of that reading (:func:`freeplayid.signal.level.sharpened`).
+    wide : MeasuredSweep or None
+        Where the envelope was read over a narrower band than the response extraction's: the
+        same record's envelope read over that wide band, unsharpened, relative to the same
+        median and at the same phase, with its own reading noise and band (what the replay's
+        :class:`~freeplayid.replay.BaseReading` check drives a replay with). None where the
+        wide band was read.
     """
 
     sample_rate: float
@@ -241,6 +247,7 @@ class MeasuredSweep:
     reading_sd: float = 0.0
     reading_band_hz: float = 0.0
     reading_steps: int = 0
+    wide: MeasuredSweep | None = None
 
     def __post_init__(self) -> None:
         import scipy.interpolate
@@ -254,6 +261,12 @@ class MeasuredSweep:
         if not (np.all(np.isfinite(ph)) and np.all(np.isfinite(env)) and np.all(env > 0)):
             raise ValueError("MeasuredSweep `phase_samples` must be finite and "
                              "`envelope_samples` finite and > 0")
+        if self.wide is not None and (np.asarray(self.wide.envelope_samples).shape != env.shape
+                                      or self.wide.sample_rate != self.sample_rate):
+            raise ValueError(f"MeasuredSweep `wide` must be read from the same record: "
+                             f"{env.size} samples at {self.sample_rate:g} Hz, got "
+                             f"{np.asarray(self.wide.envelope_samples).size} at "
+                             f"{self.wide.sample_rate:g} Hz")
         for name in ("reading_sd", "reading_band_hz"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v >= 0):

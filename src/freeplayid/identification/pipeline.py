@@ -407,6 +407,12 @@ def _corrected_intervals(rep) -> tuple[tuple, tuple, str]:
         kn_ci = widen(kn_ci, rep.kn, math.log1p(excited.kn_halfwidth))
         delta_ci = widen(delta_ci, rep.delta, math.log1p(excited.delta_halfwidth))
         source += ", with the base channel's noise in the replays' excitation"
+    reading = getattr(rep, "base_reading", None)
+    if reading is not None and reading.delta_shift is not None:  # a level read too narrowly
+        kn_ci = widen(kn_ci, rep.kn, reading.kn_shift)
+        delta_ci = widen(delta_ci, rep.delta, reading.delta_shift)
+        source += ", with the answer's move for the base read over the wide band where its " \
+            "narrowed reading misses the level before a jump"
     damped = getattr(rep, "damping_sensitivity", None)
     if damped is not None:  # a damping the down-sweeps do not measure
         kn_ci = widen(kn_ci, rep.kn, damped.kn_shift)

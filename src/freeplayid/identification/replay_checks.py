@@ -230,13 +230,42 @@ def _level_check(replay) -> Check | None:
                  + said, value)
 
 
+def _reading_check(replay) -> Check | None:
+    """``base_reading``: where the base channel's narrowed reading misses the level before a
+    run's point (:class:`freeplayid.replay.BaseReading`), the answer replayed with the wide
+    band's reading moves, less what that reading's own noise can move it (95 %), by no more than
+    the accuracy bounds (``reading_delta``, ``reading_kn``): only a move that noise cannot
+    explain beyond them fails; None where no run with a point was read narrowed."""
+    reading = getattr(replay, "base_reading", None)
+    if reading is None:
+        return None
+    said = reading.describe()
+    if not reading.runs:
+        return Check("base_reading", True, said, 0.0)
+    if reading.delta_shift is None:
+        return Check("base_reading", False, said + ": the answer's dependence on how the level "
+                     "is read there is not measured")
+    # the least move the wide reading's own noise leaves it (95 %), against the bounds
+    least = (reading.delta_shift - (reading.delta_noise or 0.0),
+             reading.kn_shift - (reading.kn_noise or 0.0))
+    value = max(least[0] / LIMITS["reading_delta"], least[1] / LIMITS["reading_kn"])
+    bounds = (f"the accuracy bounds {100 * LIMITS['reading_delta']:g} % and "
+              f"{100 * LIMITS['reading_kn']:g} %")
+    if value <= 1:
+        return Check("base_reading", True, said + f"; less that noise, within {bounds}; in the "
+                     "intervals", value)
+    return Check("base_reading", False, said + f"; even less that noise, beyond {bounds}: "
+                 "the answer rests on how the level is read where the runs jump; a slower "
+                 "sweep or a base channel with less noise would resolve it", value)
+
+
 def replay_checks(replay, *, down_runs=()) -> list[Check]:
     """The replay's self-check (module docstring); ``down_runs``: the runs that sweep down."""
     if getattr(replay, "failure", ""):
         return [Check("replay_failed", False, replay.failure)]
     misfit = {r: m for r, m in (replay.misfit or {}).items() if math.isfinite(m)}
     checks = [_resonance_check(replay, tuple(down_runs)), _consistency_check(replay),
-              _level_check(replay),
+              _level_check(replay), _reading_check(replay),
               _sweep_law_check(replay, misfit, LIMITS["replay_misfit"]),
               _binding_check(replay.iterations), _converged_check(replay),
               precision_check(getattr(replay, "precision", None))]

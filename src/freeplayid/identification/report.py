@@ -260,6 +260,11 @@ def _replay(r) -> list[str]:
         said = excited.describe()
         lines += [said[0].upper() + said[1:]
                   + (", in the intervals." if excited.delta_halfwidth is not None else ".")]
+    reading = getattr(rep, "base_reading", None)
+    if reading is not None:
+        said = reading.describe()
+        lines += [said[0].upper() + said[1:]
+                  + (" (in the intervals)." if reading.delta_shift is not None else ".")]
     level = getattr(rep, "level", None)
     if level is not None:
         lines += [f"Levels from `level_g` ({', '.join(level.runs)}): a {100 * level.uncertainty:g} "

@@ -316,6 +316,8 @@ class Identification:
             else r.precision.to_dict(),
             "excitation_noise": None if getattr(r, "excitation_noise", None) is None
             else r.excitation_noise.to_dict(),
+            "base_reading": None if getattr(r, "base_reading", None) is None
+            else r.base_reading.to_dict(),
         }
 
     def backbone_overlay(self) -> dict:

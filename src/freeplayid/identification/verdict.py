@@ -60,6 +60,14 @@ compares the result or the data with a physical limit, never with a value tuned 
   points cannot see would put the hinges' mean beyond the delta bound from delta (the gap
   statement, :func:`~freeplayid.identification.model_error.gap_split`), its message says so:
   delta is then their common half-gap, weighted towards the hinge that turns most.
+- ``base_reading`` (with the replay driven by a base channel read over a narrowed band): in
+  the seconds before each run's point, the narrowed reading against the wide band's, in units
+  of their difference's own noise along the record; where some run's gap exceeds three of them
+  (a level profile the narrow band rounds, such as a dip's flank crossed in 1.5-2 s), the
+  answer's replay driven by the wide band's reading in those runs: a move of the answer that,
+  less what the wide reading's own noise can give it (95 %, replays driven by it read again
+  under fresh noise), still exceeds the accuracy bounds (``reading_delta`` 1 %,
+  ``reading_kn`` 2 %) fails.
 - ``base_level``: the base channel's amplitude against each run's ``level_g``: a factor 9.81,
   1/9.81 or 1000 is a units error, a ratio that varies as a power of the frequency is a quantity
   error (acceleration declared as displacement...).
@@ -123,6 +131,11 @@ LIMITS = {
     # beyond the accuracy bounds (delta 1 %, kn 2 %) that damping alone could put it outside
     "damping_delta": ACCURACY_DELTA,
     "damping_kn": ACCURACY_KN,
+    # [-] the answer's move when the base level is read over the wide band where the narrowed
+    # reading misses it before a jump (replay.BaseReading): beyond the accuracy bounds (and
+    # that reading's own noise) the answer rests on that reading
+    "reading_delta": ACCURACY_DELTA,
+    "reading_kn": ACCURACY_KN,
     # the accuracy bounds, and the largest chance that the test's noise alone puts the answer
     # beyond them (identification.replay_checks' noise_precision)
     "accuracy_delta": ACCURACY_DELTA,

@@ -16,6 +16,7 @@ from ..estimate import PlainEstimate, extract_points, plain_estimate, refit, wei
 from ..fit import BackboneModel, FitOptions, FittingPoints, fit_backbone
 from ..progress import progress_bar
 from ..signal import Extraction
+from ..signal.level import GAP_Z, reading_gap
 from .bootstrap import (
     PRECISION_MARGIN_HZ,
     ReplayBootstrap,
@@ -283,6 +284,86 @@ class ExcitationNoise:
 
 
 @dataclass(frozen=True)
+class BaseReading:
+    """Whether the base channel's reading follows the level where the runs jump, and how far
+    the answer rests on it where it does not.
+
+    A noisy base record is read over a quarter of the extraction's band
+    (:func:`.excitation.measured_sweep`), which rounds a level profile over its own time (a
+    few seconds): a force-limited dip whose flank a fast sweep crosses in 1.5-2 s, which is
+    where the runs jump, is then read 1-4 % off in the seconds that decide the jump, and the
+    answer's delta follows (realtests' fin C at 0.4 Hz/s: delta -3 %, with intervals of
+    +-0.3 %). The wide band follows such a flank, at twice the noise. For each run with a
+    point, :func:`freeplayid.signal.level.reading_gap` compares the two readings in the half
+    of the narrow band's time before the run's point, in units of that comparison's own noise
+    along the record; where the gap exceeds :data:`freeplayid.signal.level.GAP_Z` standard
+    deviations in some runs, the answer's replay is driven again with the wide band's reading
+    in those runs and fitted as the excitation copies are (each run around its point), and its
+    move, carried to the answer through the binding's slope, is the answer's dependence on the
+    reading: added to the intervals in quadrature. The wide reading carries its own noise,
+    which moves that replay too (on fin B's weak bases by 1-3 %): copies driven by it read
+    again under fresh noise measure how far. Where the move, less that noise (95 %), still
+    exceeds the accuracy bounds, the verdict's ``base_reading`` check fails (the answer then
+    is only as good as a level read there, which a slower sweep or a quieter base channel
+    would resolve).
+
+    Attributes
+    ----------
+    gaps : dict of str -> (float, float)
+        Per run with a point and a narrow reading: the mean relative gap wide - chosen before
+        the point, and that gap in its noise's standard deviations.
+    runs : tuple of str
+        The runs whose gap exceeds ``GAP_Z``, replayed with the wide band's reading.
+    kn_shift, delta_shift : float or None [-]
+        |log| moves of the answer for that reading (None where no run is beyond ``GAP_Z`` or
+        the replay's points could not be fitted).
+    kn_move, delta_move : float or None [-]
+        The same, signed: the answer the wide band's reading implies, relative to the answer.
+    kn_noise, delta_noise : float or None [-]
+        The 95 % moves that the wide band's own noise alone gives that replay (log, through
+        the binding's slope): :data:`READING_COPIES` replays driven by the wide reading read
+        again under fresh noise of its level and band; None with fewer than two fitted.
+    n_copies : int
+        Those copies fitted.
+    """
+
+    gaps: dict
+    runs: tuple = ()
+    kn_shift: float | None = None
+    delta_shift: float | None = None
+    kn_move: float | None = None
+    delta_move: float | None = None
+    kn_noise: float | None = None
+    delta_noise: float | None = None
+    n_copies: int = 0
+
+    def to_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+    def describe(self) -> str:
+        if not self.runs:
+            worst = max((abs(z) for _, z in self.gaps.values() if math.isfinite(z)), default=0.0)
+            return (f"the base channel's reading follows the level before every run's point "
+                    f"(its gap to the wide band's reading at most {worst:.2g} standard "
+                    f"deviations of that gap's noise; limit {GAP_Z:g})")
+        gaps = ", ".join(f"{run} {100 * self.gaps[run][0]:+.2g} % ({self.gaps[run][1]:+.2g} "
+                         "sd)" for run in self.runs)
+        said = (f"in the seconds before the point of {gaps}, the wide band reads the base level "
+                "away from the narrowed reading that drives the replays (a level profile faster "
+                "than the narrow band follows)")
+        if self.delta_shift is None:
+            return said + "; the replay with the wide band's reading could not be fitted"
+        said += (f"; replayed with the wide band's reading, the answer moves delta by "
+                 f"{100 * math.expm1(self.delta_move):+.2g} % and kn by "
+                 f"{100 * math.expm1(self.kn_move):+.2g} %")
+        if self.delta_noise is None:
+            return said + " (the wide band's own noise in it not measured)"
+        return (said + f", where that reading's own noise moves them by ±"
+                f"{100 * self.delta_noise:.2g} % and ±{100 * self.kn_noise:.2g} % (95 %, "
+                f"{self.n_copies} copies)")
+
+
+@dataclass(frozen=True)
 class DampingSensitivity(_Sensitivity):
     """How far an error of a damping the test does not measure moves the answer: the model
     file's C or a given ratio, replayed on runs that sweep down
@@ -384,6 +465,9 @@ class ReplayResult:
     excitation_noise : ExcitationNoise or None
         The answer's move for the base channel's noise in the excitation the replays are
         driven by; None without a measured excitation, a noise-free reading or copies.
+    base_reading : BaseReading or None
+        Whether the base channel's narrowed reading follows the level before each run's point,
+        and the answer's move where it does not; None where no run was read narrowed.
     cross : CrossCheck or None
         The answer's replay on a second statistic (:class:`Replay` ``cross_check``).
     excitation : str
@@ -423,6 +507,7 @@ class ReplayResult:
     level: LevelSensitivity | None = None
     damping_sensitivity: DampingSensitivity | None = None
     excitation_noise: ExcitationNoise | None = None
+    base_reading: BaseReading | None = None
     cross: CrossCheck | None = None
     excitation: str = "law"
     start: str = "statistic"
@@ -891,7 +976,7 @@ def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts
     misfits and the bootstrap at the answer's replay (:meth:`_Binding.settle`)."""
     rep, stat = b.rep, b.stat
     offsets, misfit, boot, resonance, cross, level, damped = (), {}, None, {}, None, None, None
-    excited = None
+    excited = reading = None
     precision = None
     # how the answer moves with the statistic: the binding's slope regressed on the replays
     # (not where the damping moved between them: the regression does not separate it)
@@ -926,6 +1011,7 @@ def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts
                                                              progress)
         excited = None if b.failure else _excitation_noise(b, sol, theta, slope,
                                                            opts.excitation_copies, progress)
+        reading = None if b.failure else _base_reading(b, sol, theta, slope, progress)
         if opts.n_bootstrap > 0 and not b.failure:
             boot = bootstrap_by_replay(
                 b.rep_ds, system, noise(), theta=theta,
@@ -953,7 +1039,7 @@ def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts
         precision=precision,
         weights=b.weight_table or None,
         resonance=resonance, cross=cross, level=level, damping_sensitivity=damped,
-        excitation_noise=excited,
+        excitation_noise=excited, base_reading=reading,
         excitation="measured" if b.test.excitations else "law", start=start,
         statistic_points=stat.fitting_points() if rep is not None else None,
         replayed_points=rep.fitting_points() if rep is not None else None,
@@ -1040,7 +1126,7 @@ def _ratio_kn(b: _Binding, sol, implied: dict, raised,
     in units of the step, and their scatter about that line its standard error (each run's
     channels less one values, less one for the slope: the degrees of freedom)."""
     theta = np.exp(sol.u[:2])
-    zeta = float(np.exp(sol.u[2])) if sol.u.size == 3 else b.zeta
+    zeta = _zeta_of(b, sol)
     try:
         moved = b.replay(theta * np.array([1.0 + RATIO_KN_STEP, 1.0]), zeta,
                          levels=b.test.levels)
@@ -1113,20 +1199,12 @@ def _excitation_noise(b: _Binding, sol, theta, slope, n: int,
     sds = {run: float(getattr(m, "reading_sd", 0.0)) for run, m in exc.items()}
     if n <= 0 or b.rep is None or not any(v > 0 for v in sds.values()):
         return None
-    zeta = float(np.exp(sol.u[2])) if sol.u.size == 3 else b.zeta
-    t = b.test
+    zeta = _zeta_of(b, sol)
     centres = point_centres(b.rep.points.used())
-    levels = {r: lv for r, lv in t.levels.items() if r in centres}  # the runs with points
+    levels = {r: lv for r, lv in b.test.levels.items() if r in centres}  # the runs with points
 
-    def fitted(ds):  # each run read only around its point, as the precision copies are
-        ds = dataclasses.replace(ds, runs=tuple(r for r in ds.runs if r.file in centres))
-        est = plain_estimate(windowed(ds, centres, PRECISION_MARGIN_HZ), b.system,
-                             init=(b.rep.kn, b.rep.delta), extraction=t.extraction, fit=t.fit,
-                             point_weights=b.weights)
-        if frozenset(p.run for p in est.points.used()) != frozenset(centres) or \
-                not est.fit.success:
-            raise IdentificationError("a run's point left its window")
-        return np.log([est.kn, est.delta])
+    def fitted(ds):
+        return _fit_around(b, centres, ds)
 
     rng = np.random.default_rng([b.opts.seed, 4])  # not the other copies'
     moves = []
@@ -1146,6 +1224,93 @@ def _excitation_noise(b: _Binding, sol, theta, slope, n: int,
         rms = answer_sd(np.asarray(moves), slope, about=np.zeros(2))
         kn_hw, delta_hw = (float(v) for v in np.expm1(1.96 * rms))
     return ExcitationNoise(kn_hw, delta_hw, sds, int(n), len(moves))
+
+
+# replays that measure the noise of the wide band's reading (:class:`BaseReading`): their root
+# mean square is known to about 35 % (two: 50 %), so a move twice its 95 % noise stands out
+READING_COPIES = 4
+
+
+def _zeta_of(b: _Binding, sol) -> float | None:
+    """The damping ratio of the answer's replay: the solution's, where the loop estimated it."""
+    return float(np.exp(sol.u[2])) if sol.u.size == 3 else b.zeta
+
+
+def _fit_around(b: _Binding, centres: dict, ds) -> np.ndarray:
+    """log (kn, delta) of a replay ``ds`` of the runs with points, each read only around its
+    point (``centres``, :func:`.bootstrap.point_centres`), as the precision copies are.
+
+    Raises
+    ------
+    IdentificationError
+        A run's point left its window, or the fit failed.
+    """
+    t = b.test
+    ds = dataclasses.replace(ds, runs=tuple(r for r in ds.runs if r.file in centres))
+    est = plain_estimate(windowed(ds, centres, PRECISION_MARGIN_HZ), b.system,
+                         init=(b.rep.kn, b.rep.delta), extraction=t.extraction, fit=t.fit,
+                         point_weights=b.weights)
+    if frozenset(p.run for p in est.points.used()) != frozenset(centres) or \
+            not est.fit.success:
+        raise IdentificationError("a run's point left its window")
+    return np.log([est.kn, est.delta])
+
+
+def _base_reading(b: _Binding, sol, theta, slope, progress: bool = False) -> BaseReading | None:
+    """:class:`BaseReading`: each run's gap between its wide and narrowed base readings before
+    its measured point; where some exceed ``GAP_Z``, the answer's replay driven with the wide
+    band's reading in those runs, fitted around its points, its move from the answer's replay
+    (so fitted) carried through ``slope`` (the identity where None; never below its own), and
+    :data:`READING_COPIES` replays driven by that reading read again under fresh noise of its
+    own level and band (:func:`.excitation.read_again`): their root-mean-square move from it,
+    so carried, is the move's noise. None without a narrowed reading of a run with a point."""
+    exc = b.test.excitations
+    if b.rep is None:
+        return None
+    gaps = {}
+    for run, f in point_centres(b.stat.points.used()).items():
+        m = exc.get(run)
+        if m is None or getattr(m, "wide", None) is None:
+            continue
+        at = int(round(float(m.time_at(f)) * float(m.sample_rate)))
+        gaps[run] = reading_gap(m.envelope_samples, m.wide.envelope_samples, m.sample_rate, at,
+                                m.reading_band_hz)
+    if not gaps:
+        return None
+    runs = tuple(r for r, (_, z) in gaps.items() if abs(z) > GAP_Z)
+    if not runs:
+        return BaseReading(gaps)
+    centres = point_centres(b.rep.points.used())
+    levels = {r: lv for r, lv in b.test.levels.items() if r in centres}
+    zeta = _zeta_of(b, sol)
+
+    def fitted(read):  # the answer's replay with the wide reading ``read(m)`` in ``runs``
+        return _fit_around(b, centres, b.replayed(theta, zeta, levels, excitations={
+            r: (read(m.wide) if r in runs else m) for r, m in exc.items() if r in levels}))
+
+    slope = np.eye(2) if slope is None else np.asarray(slope, float)
+    try:
+        wide = fitted(lambda w: w)
+        move = wide - _fit_around(b, centres, b.rep_ds)
+    except IdentificationError:
+        return BaseReading(gaps, runs)
+    # the replay with the wide reading fits `move` above the answer's: the test, read so, puts
+    # the answer that far below (through the binding's slope)
+    answer = -slope @ move
+    shift = np.maximum(np.abs(answer), np.abs(move))
+    rng = np.random.default_rng([b.opts.seed, 5])  # not the other copies'
+    copies = []
+    for _ in progress_bar(range(READING_COPIES), desc="the base's wide reading: noise copies",
+                          unit="copy", show=progress, leave=False):
+        try:
+            copies.append(fitted(lambda w: read_again(w, rng)) - wide)
+        except IdentificationError:
+            continue
+    noise = (1.96 * answer_sd(np.asarray(copies), slope, about=np.zeros(2))
+             if len(copies) >= 2 else (None, None))
+    return BaseReading(gaps, runs, float(shift[0]), float(shift[1]), float(answer[0]),
+                       float(answer[1]), *(None if v is None else float(v) for v in noise),
+                       len(copies))
 
 
 def _moved(b: _Binding, up: _Binding, sol, progress: bool) -> tuple[float, float, bool] | None:

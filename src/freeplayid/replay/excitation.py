@@ -40,7 +40,9 @@ def measured_sweep(dataset, run, law) -> tuple[MeasuredSweep, float]:
     data's quantity become accelerations (``A w^(2 - order)``). The level is their median [g];
     the envelope the amplitude over it; its reading noise (:func:`freeplayid.signal.level.
     reading_sd`) and band go with it (``MeasuredSweep.reading_sd``, ``reading_band_hz``: the
-    replay's excitation copies, :func:`read_again`).
+    replay's excitation copies, :func:`read_again`), and where the band is the narrow one the
+    wide band's reading too (``MeasuredSweep.wide``: the replay's check of the level
+    where the runs jump, :class:`~freeplayid.replay.BaseReading`).
     So a replay driven by it has the test's level profile (a force-limited dip, a ramp, a
     controller's notch), its sweep law and its direction, as they happened.
 
@@ -73,9 +75,18 @@ def measured_sweep(dataset, run, law) -> tuple[MeasuredSweep, float]:
     level = float(np.median(amp))
     env = np.maximum(amp / level, 1e-6)
     # x = A cos(psi): the simulator's excitation is A sin(phase), phase = psi + pi / 2
-    return MeasuredSweep(fs, mode.phase + np.pi / 2, env,
-                         reading_sd=noise * sharpened_gain(steps),
-                         reading_band_hz=float(mode.bandwidth_hz), reading_steps=steps), level / G
+    phase = mode.phase + np.pi / 2
+    # the wide band's reading beside a narrow one, for the check of the jumps' levels
+    read_wide = None
+    if mode is not wide:
+        w_wide = 2 * np.pi * np.clip(wide.frequency, 1e-6, None)
+        read_wide = MeasuredSweep(
+            fs, phase, np.maximum(np.nan_to_num(wide.amplitude * w_wide ** (2 - order) / level,
+                                                nan=1e-6), 1e-6),
+            reading_sd=reading_sd(wide, narrow, wide), reading_band_hz=float(wide.bandwidth_hz))
+    return MeasuredSweep(fs, phase, env, reading_sd=noise * sharpened_gain(steps),
+                         reading_band_hz=float(mode.bandwidth_hz), reading_steps=steps,
+                         wide=read_wide), level / G
 
 
 # the pursuit's steps of a reading of the noise (:func:`read_again`): one, at the excitation's

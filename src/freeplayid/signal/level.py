@@ -18,7 +18,7 @@ import numpy as np
 
 __all__ = ["window_amplitudes", "quiet_base", "envelope_noise", "reading_sd", "sharpened",
            "sharpened_gain", "rounds", "NARROW_BASE", "ENVELOPE_NOISE", "SHARPEN_STEPS",
-           "SHARPEN_FROM"]
+           "SHARPEN_FROM", "reading_gap", "GAP_Z"]
 
 # The base level is what the controller holds. A replay driven by the measured envelope feels
 # its noise as a level error: at the response extraction's bandwidth the envelope of a base
@@ -47,6 +47,13 @@ SHARPEN_STEPS = 2
 # without a level profile (constant levels, ramps; fins B and C at 0.05-0.2 g), the dips' runs
 # 7.6-22; fin B's dips (3.5-4.0) are hidden by its noise, where sharpening would add noise only.
 SHARPEN_FROM = 6.0
+# A run jumps where the level has fallen (or risen) far enough, so the level that decides its
+# jump is the one in the time before it. The narrow band rounds a profile over its own time
+# (1 / band); :func:`reading_gap` compares the chosen reading with the wide band's over the half
+# of that time before the jump, and a gap beyond this many of its noise-alone standard
+# deviations says the chosen reading misses a profile there (the three standard errors that the
+# replay's other checks take as significant).
+GAP_Z = 3.0
 # [-] a reading noise below this counts as none (a noiseless record reads 1e-8 to 1e-6 from the
 # extraction's own error): a level error a hundred times below the 1 % that moves delta by 1 %
 EXACT_READING = 1e-4
@@ -200,3 +207,28 @@ def _shared(r: float) -> float:
     """``int H_1 H_r / int H_r^2`` of the low-passes :func:`_low_pass` at corners 1 and r."""
     return (_integral(lambda f: _low_pass(f) * _low_pass(f, r))
             / _integral(lambda f: _low_pass(f, r) ** 2))
+
+
+def reading_gap(chosen, wide, sample_rate: float, at: int, band_hz: float) -> tuple[float, float]:
+    """How far the wide band's reading of a base record lies from the ``chosen`` one where a run
+    jumps: the mean of ``wide - chosen`` (relative envelopes of one level) over the half of the
+    chosen band's time (0.5 / ``band_hz`` s) that ends at sample ``at``, and that mean in units
+    of its noise: the robust scatter (1.4826 x MAD) of the same running mean along the whole
+    record, away from its ends (1.25 / ``band_hz`` s, where the extraction's own edges are). A
+    profile both readings follow cancels; a short feature the chosen band rounds shows where it
+    is; white noise scatters the running mean alike everywhere. (nan, nan) where the window or
+    the record is too short."""
+    d = np.asarray(wide, dtype=float) - np.asarray(chosen, dtype=float)
+    n = max(int(round(0.5 / band_hz * sample_rate)), 1)
+    trim = int(1.25 / band_hz * sample_rate)
+    at = int(at)
+    if not n <= at <= d.size or d.size - n + 1 - 2 * trim < 8:
+        return math.nan, math.nan
+    c = np.concatenate(([0.0], np.cumsum(d)))
+    running = (c[n:] - c[:-n]) / n  # running[k]: the mean of d[k:k + n]
+    gap = float(running[at - n])
+    core = running[trim:running.size - trim]
+    sd = 1.4826 * float(np.median(np.abs(core - np.median(core))))
+    if not sd > 0:
+        return gap, (0.0 if gap == 0 else math.copysign(math.inf, gap))
+    return gap, gap / sd
