@@ -292,8 +292,8 @@ class BaseReading:
     (:func:`.excitation.measured_sweep`), which rounds a level profile over its own time (a
     few seconds): a force-limited dip whose flank a fast sweep crosses in 1.5-2 s, which is
     where the runs jump, is then read 1-4 % off in the seconds that decide the jump, and the
-    answer's delta follows (realtests' fin C at 0.4 Hz/s: delta -3 %, with intervals of
-    +-0.3 %). The wide band follows such a flank, at twice the noise. For each run with a
+    answer's delta follows (realtests' fin C at 0.4 Hz/s: delta -3 %, verdict ``ok``). The
+    wide band follows such a flank, at twice the noise. For each run with a
     point, :func:`freeplayid.signal.level.reading_gap` compares the two readings in the half
     of the narrow band's time before the run's point, in units of that comparison's own noise
     along the record; where the gap exceeds :data:`freeplayid.signal.level.GAP_Z` standard
