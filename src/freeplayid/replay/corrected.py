@@ -1009,9 +1009,14 @@ def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts
                                                           progress)
         damped = None if b.failure else _damping_sensitivity(b, sol, opts.damping_uncertainty,
                                                              progress)
+        # the answer's replay fitted around its points: what the excitation copies move from
+        answer_fit = functools.cache(lambda: _fit_around(
+            b, point_centres(b.rep.points.used()), b.rep_ds))
         excited = None if b.failure else _excitation_noise(b, sol, theta, slope,
-                                                           opts.excitation_copies, progress)
-        reading = None if b.failure else _base_reading(b, sol, theta, slope, progress)
+                                                           opts.excitation_copies, answer_fit,
+                                                           progress)
+        reading = None if b.failure else _base_reading(b, sol, theta, slope, answer_fit,
+                                                       progress)
         if opts.n_bootstrap > 0 and not b.failure:
             boot = bootstrap_by_replay(
                 b.rep_ds, system, noise(), theta=theta,
@@ -1187,12 +1192,12 @@ def _damping_sensitivity(b: _Binding, sol, u: float,
                               bool(moved.converged), close)
 
 
-def _excitation_noise(b: _Binding, sol, theta, slope, n: int,
+def _excitation_noise(b: _Binding, sol, theta, slope, n: int, answer_fit,
                       progress: bool = False) -> ExcitationNoise | None:
     """:class:`ExcitationNoise`: ``n`` replays at the answer ``theta`` of the runs with points,
     each driven by their measured excitations read again under fresh noise
     (:func:`.excitation.read_again`), fitted as the answer's replay is (each run only around its
-    point); their root-mean-square log moves from it carried through
+    point: ``answer_fit()``); their root-mean-square log moves from it carried through
     ``slope`` (the identity where None; never below their own). None without measured
     excitations, where none was read with noise, or with n = 0."""
     exc = b.test.excitations
@@ -1203,13 +1208,11 @@ def _excitation_noise(b: _Binding, sol, theta, slope, n: int,
     centres = point_centres(b.rep.points.used())
     levels = {r: lv for r, lv in b.test.levels.items() if r in centres}  # the runs with points
 
-    def fitted(ds):
-        return _fit_around(b, centres, ds)
-
+    fitted = functools.partial(_fit_around, b, centres)
     rng = np.random.default_rng([b.opts.seed, 4])  # not the other copies'
     moves = []
     try:
-        centre = fitted(b.rep_ds)
+        centre = answer_fit()
     except IdentificationError:
         return ExcitationNoise(None, None, sds, int(n), 0)
     for _ in progress_bar(range(n), desc="the base's reading noise: excitation copies",
@@ -1256,11 +1259,13 @@ def _fit_around(b: _Binding, centres: dict, ds) -> np.ndarray:
     return np.log([est.kn, est.delta])
 
 
-def _base_reading(b: _Binding, sol, theta, slope, progress: bool = False) -> BaseReading | None:
+def _base_reading(b: _Binding, sol, theta, slope, answer_fit,
+                  progress: bool = False) -> BaseReading | None:
     """:class:`BaseReading`: each run's gap between its wide and narrowed base readings before
     its measured point; where some exceed ``GAP_Z``, the answer's replay driven with the wide
     band's reading in those runs, fitted around its points, its move from the answer's replay
-    (so fitted) carried through ``slope`` (the identity where None; never below its own), and
+    (so fitted: ``answer_fit()``) carried through ``slope`` (the identity where None; never
+    below its own), and
     :data:`READING_COPIES` replays driven by that reading read again under fresh noise of its
     own level and band (:func:`.excitation.read_again`): their root-mean-square move from it,
     so carried, is the move's noise. None without a narrowed reading of a run with a point."""
@@ -1291,7 +1296,7 @@ def _base_reading(b: _Binding, sol, theta, slope, progress: bool = False) -> Bas
     slope = np.eye(2) if slope is None else np.asarray(slope, float)
     try:
         wide = fitted(lambda w: w)
-        move = wide - _fit_around(b, centres, b.rep_ds)
+        move = wide - answer_fit()
     except IdentificationError:
         return BaseReading(gaps, runs)
     # the replay with the wide reading fits `move` above the answer's: the test, read so, puts

@@ -68,8 +68,7 @@ def measured_sweep(dataset, run, law) -> tuple[MeasuredSweep, float]:
     noise = reading_sd(wide, narrow, mode)
     # sharpened where the narrow band rounds a level profile the reading shows
     steps = SHARPEN_STEPS if mode is narrow and rounds(narrow, fs, law, noise) else 0
-    w = 2 * np.pi * np.clip(mode.frequency, 1e-6, None)
-    amp = (sharpened(mode, fs, law, steps) if steps else mode.amplitude) * w ** (2 - order)
+    amp = _acceleration(sharpened(mode, fs, law, steps) if steps else mode.amplitude, mode, order)
     if not np.all(np.isfinite(amp)) or np.median(amp) <= 0:
         raise ValueError(f"run {run.file}: the base channel has no usable first harmonic")
     level = float(np.median(amp))
@@ -79,14 +78,21 @@ def measured_sweep(dataset, run, law) -> tuple[MeasuredSweep, float]:
     # the wide band's reading beside a narrow one, for the check of the jumps' levels
     read_wide = None
     if mode is not wide:
-        w_wide = 2 * np.pi * np.clip(wide.frequency, 1e-6, None)
         read_wide = MeasuredSweep(
-            fs, phase, np.maximum(np.nan_to_num(wide.amplitude * w_wide ** (2 - order) / level,
+            fs, phase, np.maximum(np.nan_to_num(_acceleration(wide.amplitude, wide, order) / level,
                                                 nan=1e-6), 1e-6),
             reading_sd=reading_sd(wide, narrow, wide), reading_band_hz=float(wide.bandwidth_hz))
     return MeasuredSweep(fs, phase, env, reading_sd=noise * sharpened_gain(steps),
                          reading_band_hz=float(mode.bandwidth_hz), reading_steps=steps,
                          wide=read_wide), level / G
+
+
+def _acceleration(amplitude, mode, order: int) -> np.ndarray:
+    """A first harmonic's ``amplitude`` of a record in the data's quantity (``order``: 0
+    displacement, 1 velocity, 2 acceleration) read at ``mode``'s frequency, as acceleration
+    (``A w^(2 - order)``)."""
+    w = 2 * np.pi * np.clip(mode.frequency, 1e-6, None)
+    return np.asarray(amplitude) * w ** (2 - order)
 
 
 # the pursuit's steps of a reading of the noise (:func:`read_again`): one, at the excitation's
