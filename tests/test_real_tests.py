@@ -683,6 +683,32 @@ def test_intervals_take_in_the_base_channels_noise():
     assert precision_check(p).value == pytest.approx(noise_outside_chance(0.006, 0.01))
 
 
+def test_copies_that_stopped_early_give_their_bound_without_students_t():
+    """Where two runs fit exactly the copies' spread is the interval: taken to Student's t at
+    their degrees of freedom (by hand, 3.18 / 1.96 from four), but not where the copies
+    stopped early, whose half-widths are 95 % upper bounds already."""
+    from types import SimpleNamespace
+
+    import scipy.stats
+
+    from freeplayid.identification.pipeline import _corrected_intervals
+    from freeplayid.replay import ReplayPrecision
+
+    def delta_halfwidth(settled):
+        p = ReplayPrecision(kn_halfwidth=0.004, delta_halfwidth=0.006, n=4, n_fitted=4,
+                            settled=settled)
+        rep = SimpleNamespace(statistic_ci95=((0.0, math.inf), (0.0, math.inf)), kn=480.0,
+                              delta=3e-3, kn_statistic=480.0, delta_statistic=3e-3,
+                              precision=p, bootstrap=None, level=None,
+                              damping_sensitivity=None, damping=None, excitation_noise=None)
+        _, delta_ci, _ = _corrected_intervals(rep)
+        return math.log(delta_ci[1] / 3e-3)
+
+    t = scipy.stats.t.ppf(0.975, 3) / 1.96
+    assert delta_halfwidth(False) == pytest.approx(t * math.log1p(0.006))
+    assert delta_halfwidth(True) == pytest.approx(math.log1p(0.006))
+
+
 def test_sharpening_undoes_the_narrow_bands_rounding_of_a_short_dip():
     """A 20 % dip with 3 s flanks and a 3 s floor (0.1 Hz/s) on a noiseless base, read over a
     quarter of the response band: the plain narrow reading misses the known profile by up to

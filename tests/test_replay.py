@@ -1058,18 +1058,28 @@ def test_the_precision_copies_stop_early_where_the_noise_is_far_below_the_bounds
                                                                                 system):
     """On the noise-free reference records the copies' spread is tiny: they stop at the fourth
     fitted copy, whose upper 95 % bound on the spread is below the settled level (a 1 % chance
-    of leaving the bounds), with the half-widths of exactly those four copies (asked for four);
-    with 0.05 g of noise (the test above) all eight are made."""
+    of leaving the bounds). The half-widths reported are then those bounds, 2.92 times the
+    spread of exactly those four copies (asked for four, which is no early stop), and the
+    report says "at most"; with 0.05 g of noise (the test above) all eight are made."""
+    import scipy.stats
+
     from freeplayid.identification.replay_checks import settled_sd
     from freeplayid.replay.bootstrap import PRECISION_MIN_COPIES, sd_upper
 
     kw = dict(system=system, progress=False, fit={"multistart": MULTISTART})
     p = identify(measured, **kw).replay.precision
-    assert p.n == p.n_fitted == PRECISION_MIN_COPIES == 4
+    assert p.n == p.n_fitted == PRECISION_MIN_COPIES == 4 and p.settled
     four = identify(measured, replay={"precision_copies": 4}, **kw).replay.precision
-    assert (p.kn_halfwidth, p.delta_halfwidth) == (four.kn_halfwidth, four.delta_halfwidth)
-    sd = np.log1p([p.kn_halfwidth, p.delta_halfwidth]) / 1.96
-    assert np.all(sd_upper(sd, 4) <= np.asarray(settled_sd()))
+    assert four.n == 4 and not four.settled
+    sd4 = np.log1p([four.kn_halfwidth, four.delta_halfwidth]) / 1.96
+    assert np.all(sd4 > 0)
+    chi = np.sqrt(3 / scipy.stats.chi2.ppf(0.05, 3))  # the 95 % bound's factor from 4, by hand
+    np.testing.assert_allclose(np.log1p([p.kn_halfwidth, p.delta_halfwidth]) / 1.96,
+                               chi * sd4, rtol=1e-9)
+    assert abs(chi - 2.92) < 0.01
+    assert np.all(sd_upper(sd4, 4) <= np.asarray(settled_sd()))
+    assert "at most" in p.describe() and "at most" not in four.describe()
+    assert p.to_dict()["settled"] is True
 
 
 def test_a_precision_copy_keeps_each_run_around_its_point_with_its_sweep_law():

@@ -327,13 +327,15 @@ def _bounded(*cis) -> bool:
 def _copies_interval(precision) -> tuple[float, float] | None:
     """The log half-widths (kn, delta) of a 95 % interval made of the noisy copies' spread
     alone (:class:`freeplayid.replay.ReplayPrecision`): their 1.96 standard deviations taken
-    to Student's t at the copies' degrees of freedom (2.36 / 1.96 from eight). For the answer
+    to Student's t at the copies' degrees of freedom (2.36 / 1.96 from eight; none where the
+    copies stopped early and their half-widths are upper bounds already). For the answer
     whose statistic's fit measures no scatter (two runs, two parameters); None where the
     copies were not measured."""
     floor = _noise_floor(precision)
     if floor is None or precision.n_fitted < 3:
         return None
-    t = float(scipy.stats.t.ppf(0.975, precision.n_fitted - 1)) / 1.96
+    t = 1.0 if getattr(precision, "settled", False) else \
+        float(scipy.stats.t.ppf(0.975, precision.n_fitted - 1)) / 1.96
     return floor[0] * t, floor[1] * t
 
 
