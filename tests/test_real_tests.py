@@ -965,3 +965,33 @@ def test_the_split_read_against_the_replay_is_the_hinges_own():
     from freeplayid.model import sdof_system
 
     assert replayed_split(sdof_system(), test, test, copies, kn=kn, delta=delta) is None
+
+
+def test_draw_pairs_puts_two_draws_difference_in_units_of_their_precisions():
+    """benchmarks/realtests/run.py's draw_pairs: two draws whose log difference is 0.018 with
+    log standard deviations 0.006 and 0.008 give z = 0.018 / 0.01 = 1.8 (by hand); a pair whose
+    copies stopped early is counted apart, and so is a down-sweep."""
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "benchmarks" / "realtests" / "run.py"
+    spec = importlib.util.spec_from_file_location("realtests_run", path)
+    run = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(run)
+
+    def rec(case, draw, delta, sd, settled=False):
+        hw = math.expm1(1.96 * sd)
+        return {"case": case, "draw": draw, "fit": "corrected", "kn": 480.0, "delta": delta,
+                "replay": {"precision": {"delta_halfwidth": hw, "kn_halfwidth": hw, "n": 8,
+                                         "n_fitted": 8, "settled": settled}}}
+
+    d = 3e-3
+    results = [rec("a", "d0", d * math.exp(0.018), 0.006), rec("a", "d1", d, 0.008),
+               rec("b", "d0", d, 0.006, settled=True), rec("b", "d1", d * math.exp(0.01), 0.008),
+               rec("c_down", "d0", d, 0.01), rec("c_down", "d1", d, 0.01)]
+    table = run.draw_pairs(results).splitlines()
+    row = next(r for r in table if r.startswith("| up-sweeps, all copies | delta"))
+    assert "| 1 | 1.80 | 0 (0.0 %) | +1.8 (a) |" in row
+    row = next(r for r in table if r.startswith("| up-sweeps, a copy set stopped early | delta"))
+    assert "| 1 | 1.00 |" in row and "-1.0 (b)" in row
+    assert any(r.startswith("| down-sweeps | delta | 1 | 0.00 |") for r in table)

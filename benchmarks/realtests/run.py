@@ -23,6 +23,7 @@ import contextlib
 import fnmatch
 import io
 import json
+import math
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
@@ -32,6 +33,7 @@ DEFAULT_DATA = "outputs/realtests/data"  # cases.py --out
 DEFAULT_OUT = "outputs/realtests/results"
 BOUNDS = {"delta": 0.01, "kn": 0.02}  # the issue's success bounds (relative)
 FITS = ("plain", "corrected")
+PRECISION_COPIES = 8  # freeplayid.replay.Replay's default precision_copies
 
 
 def identify_case(path: str, corrected: bool) -> dict:
@@ -171,6 +173,54 @@ def summary(results: list[dict]) -> str:
     return "\n".join(out)
 
 
+def _log_sd(r: dict, par: str) -> float | None:
+    """The standard deviation of log ``par`` that the answer's precision (its noisy copies)
+    gives: its 95 % half-width over 1.96 (an upper bound where the copies stopped early)."""
+    p = (r.get("replay") or {}).get("precision") or {}
+    hw = p.get(f"{par}_halfwidth")
+    return None if hw is None else math.log1p(hw) / 1.96
+
+
+def _stopped_early(r: dict) -> bool:
+    """Whether the answer's precision copies stopped early (records written before the
+    ``settled`` field: fewer copies made than the default eight)."""
+    p = r["replay"]["precision"]
+    return bool(p.get("settled", p["n"] < PRECISION_COPIES))
+
+
+def draw_pairs(results: list[dict]) -> str:
+    """The precision checked on the two noise draws of each condition: their corrected answers
+    differ by the noise alone (the same records but for the noise), so the difference of their
+    logs over the two precisions combined is a standard normal where the precision is right
+    (RMS 1, |z| > 2 in 4.6 %). Split by whether either answer's copies stopped early (their
+    half-widths then 95 % upper bounds: RMS below 1). Down-sweeps apart (their answers move
+    with the loop's path, not only the noise)."""
+    by = {}
+    for r in results:
+        if r["fit"] == "corrected" and "kn" in r and _log_sd(r, "delta") is not None:
+            by.setdefault(r["case"], {})[r["draw"]] = r
+    groups: dict = {}
+    for case, draws in by.items():
+        if len(draws) < 2:
+            continue
+        a, b = (draws[d] for d in sorted(draws)[:2])
+        early = _stopped_early(a) or _stopped_early(b)
+        kind = "down-sweeps" if "down" in case else (
+            "up-sweeps, a copy set stopped early" if early else "up-sweeps, all copies")
+        for par in ("delta", "kn"):
+            z = math.log(a[par] / b[par]) / math.hypot(_log_sd(a, par), _log_sd(b, par))
+            groups.setdefault((kind, par), []).append((z, case))
+    head = ["pairs", "parameter", "conditions", "RMS z", "abs z > 2", "largest"]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for (kind, par), zs in sorted(groups.items()):
+        rms = math.sqrt(sum(z * z for z, _ in zs) / len(zs))
+        far = sum(abs(z) > 2 for z, _ in zs)
+        z_max, case_max = max(zs, key=lambda x: abs(x[0]))
+        lines.append(f"| {kind} | {par} | {len(zs)} | {rms:.2f} | {far} ({100 * far / len(zs):.1f} "
+                     f"%) | {z_max:+.1f} ({case_max}) |")
+    return "\n".join(lines)
+
+
 def sort_key(order: dict):
     return lambda r: (order.get(r["case"], 1e9), r["case"], r["draw"], FITS.index(r["fit"]))
 
@@ -196,6 +246,8 @@ def main() -> None:
         results = [r for r in results
                    if not patterns or any(fnmatch.fnmatch(r["case"], p) for p in patterns)]
         print(table(sorted(results, key=sort_key(order))))
+        print("\nThe precision on the two draws of each condition (draw_pairs):\n")
+        print(draw_pairs(results))
         return
     if not cases:
         raise SystemExit(f"no data sets under {args.data} matching {patterns or 'anything'}")
