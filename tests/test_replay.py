@@ -1143,3 +1143,33 @@ def test_a_replay_that_gives_points_in_fewer_runs_is_matched_on_the_runs_both_sh
     assert moved > 1e-4  # what the binding read before: the left-out run's bias
     same, none = b.like_for_like(stat)
     assert same is stat and none is None
+
+
+def test_a_damping_exponent_gives_mode_i_the_ratio_zeta_times_its_frequency_ratio_to_the_p():
+    """``damped_system`` with ``exponent`` p on the default fin's closed-hinge modes: each mode's
+    ratio read off the state matrix's complex eigenvalues (-Re(lambda) / |lambda|, an
+    independent route from the modal construction) is zeta (w_i / w_1)^p; p = 0 is the one
+    ratio of every mode, as before."""
+    from freeplayid.model import default_fin
+    from freeplayid.replay import damped_system
+
+    fin, kn, zeta = default_fin(), 480.0, 0.02
+
+    def ratios(system):
+        M, K, C = system.M, system.closed_stiffness(kn), system.C
+        n = M.shape[0]
+        Minv = np.linalg.inv(M)
+        A = np.block([[np.zeros((n, n)), np.eye(n)], [-Minv @ K, -Minv @ C]])
+        lam = np.linalg.eigvals(A)
+        lam = lam[lam.imag > 0]
+        order = np.argsort(np.abs(lam))
+        return np.abs(lam[order]), (-lam.real / np.abs(lam))[order]
+
+    w, z0 = ratios(damped_system(fin, zeta, kn))
+    np.testing.assert_allclose(z0, zeta, rtol=1e-6)
+    for p in (0.5, 1.0):
+        w, zp = ratios(damped_system(fin, zeta, kn, exponent=p))
+        np.testing.assert_allclose(zp[:4], zeta * (w[:4] / w[0]) ** p, rtol=1e-3)
+    with pytest.raises(ValueError, match="damping_exponent"):
+        from freeplayid.replay import Replay
+        Replay(damping_exponent=3.0)

@@ -13,6 +13,8 @@ identified with:
 - ``true C``: the truth's Rayleigh C written into the model file (``replay.damping=model``);
 - ``power p``: C with the closed modes' ratios ``zeta_1 (w_i / w_1)^p`` at the true mode-1
   ratio, in the model file (``replay.damping=model``), p = 0.75 and 1;
+- ``exponent p``: the ratio estimated as ``default``, in that form (``replay.damping_exponent``),
+  p = 0.6 and 0.9;
 - and the same beam made by the exact integrator with uniform modal damping on its closed
   modes (the replay's own form, ``modal beam``), estimated as ``default``.
 
@@ -63,8 +65,8 @@ def _variant(src: Path, dst: Path, C: np.ndarray) -> None:
     np.savez(dst / "model.npz", **model)
 
 
-def build(data: Path, out: Path, draws: list[str]) -> list[tuple[str, str, str, object]]:
-    """The data sets and options: (variant, draw, folder, replay damping option)."""
+def build(data: Path, out: Path, draws: list[str]) -> list[tuple[str, str, str, dict | None]]:
+    """The data sets and options: (variant, draw, folder, replay options)."""
     import cases
 
     from freeplayid.model import rayleigh_coefficients
@@ -84,11 +86,13 @@ def build(data: Path, out: Path, draws: list[str]) -> list[tuple[str, str, str, 
     tasks = []
     for d in draws:
         src = data / "beam_rayleigh" / d
-        tasks += [("default", d, str(src), None), ("given", d, str(src), float(zeta_1))]
+        tasks += [("default", d, str(src), None),
+                  ("given", d, str(src), {"damping": float(zeta_1)})]
         for name, C in cs.items():
             dst = out / name.replace(" ", "_") / d
             _variant(src, dst, C)
-            tasks.append((name, d, str(dst), "model"))
+            tasks.append((name, d, str(dst), {"damping": "model"}))
+        tasks += [(f"exponent {p:g}", d, str(src), {"damping_exponent": p}) for p in (0.6, 0.9)]
         tasks.append(("modal beam", d, str(out / modal / d), None))
     return tasks
 
@@ -109,12 +113,12 @@ def _modal_beam(**kw):
 
 
 def run(task) -> dict:
-    variant, draw, folder, damping = task
+    variant, draw, folder, replay = task
     import freeplayid
 
     truth = json.loads((Path(folder) / "truth.json").read_text())
     t0 = time.perf_counter()
-    kw = {} if damping is None else {"replay": {"damping": damping}}
+    kw = {} if replay is None else {"replay": replay}
     with contextlib.redirect_stderr(io.StringIO()):
         r = freeplayid.identify(folder, **kw)
     peaks = [100 * m.peak_offset for _, m in sorted(

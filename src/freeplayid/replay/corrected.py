@@ -613,7 +613,7 @@ class _Binding:
         t = self.test
         # a modal damping of the closed-hinge modes at the replayed kn (not the plain fit's)
         sys_k = self.system if self.source == "model" else \
-            damped_system(self.system, zeta, float(theta[0]))
+            damped_system(self.system, zeta, float(theta[0]), self.opts.damping_exponent)
         return replay_dataset(t.dataset, sys_k, *theta, levels=levels or t.levels,
                               sweeps=t.sweeps, excitations=excitations or t.excitations,
                               engine=self.opts.engine)
@@ -841,9 +841,11 @@ def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extracti
     theta = np.exp(sol.u[:2]) if not binding.failure else np.array([plain.kn, plain.delta])
     if estimate:
         zeta = float(np.exp(sol.u[2]))
-    return _result(binding, theta, rule, sol, closest,
-                   _damping_used(source, zeta, binding.ratios, sol.jacobian, estimate, note,
-                                 failed=bool(binding.failure)),
+    used = _damping_used(source, zeta, binding.ratios, sol.jacobian, estimate, note,
+                         failed=bool(binding.failure))
+    if source != "model":
+        used = dataclasses.replace(used, exponent=float(opts.damping_exponent))
+    return _result(binding, theta, rule, sol, closest, used,
                    plain, system, opts, progress, start=began, settled=precision_settled)
 
 

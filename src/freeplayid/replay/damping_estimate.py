@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.linalg
 
 from ..model import modal_analysis, modal_damping
 from ..quantity import G
@@ -36,6 +37,9 @@ class ReplayDamping:
         |log| move of the answer for an estimated zeta at its 95 % bound (the amplitude
         statistic 1.96 standard errors off, through the replay loop's Jacobian); added to the
         intervals' log half-widths in quadrature. None when zeta was not estimated.
+    exponent : float [-]
+        ``Replay.damping_exponent``: mode i had ``zeta (w_i / w_1)^exponent`` (0: ``zeta`` in
+        every closed-hinge mode).
     """
 
     source: str
@@ -44,16 +48,20 @@ class ReplayDamping:
     note: str = ""
     kn_shift: float | None = None
     delta_shift: float | None = None
+    exponent: float = 0.0
 
     def to_dict(self) -> dict:
         return {"source": self.source, "zeta": self.zeta,
                 "zeta_ci95": None if self.zeta_ci95 is None else list(self.zeta_ci95),
-                "note": self.note, "kn_shift": self.kn_shift, "delta_shift": self.delta_shift}
+                "note": self.note, "kn_shift": self.kn_shift, "delta_shift": self.delta_shift,
+                "exponent": self.exponent}
 
     def describe(self) -> str:
         if self.source == "model":
             return "the model file's C"
-        text = f"zeta = {self.zeta:.4g} in every closed-hinge mode"
+        text = f"zeta = {self.zeta:.4g} in every closed-hinge mode" if not self.exponent else \
+            (f"zeta = {self.zeta:.4g} in the lowest closed-hinge mode, zeta (w_i / w_1)^"
+             f"{self.exponent:g} in mode i")
         if self.source == "given":
             return text + " (given)"
         ci = "" if self.zeta_ci95 is None else \
@@ -65,10 +73,16 @@ class ReplayDamping:
         return text + f" (estimated from the peak amplitudes{ci}{note})"
 
 
-def damped_system(system, zeta: float, kn: float):
+def damped_system(system, zeta: float, kn: float, exponent: float = 0.0):
     """``system`` with modal damping ratio ``zeta`` in every mode of its closed-hinge stiffness
-    at ``kn`` (``model.modal_damping``), replacing its C."""
-    return system.replace(C=modal_damping(system.M, system.closed_stiffness(kn), zeta))
+    at ``kn`` (``model.modal_damping``), replacing its C; with ``exponent`` p, the ratio
+    ``zeta (w_i / w_1)^p`` in mode i (w_1 the lowest closed mode's circular frequency)."""
+    K = system.closed_stiffness(kn)
+    if exponent:
+        w = np.sqrt(np.clip(scipy.linalg.eigvalsh(K, system.M), 0.0, None))
+        w1 = w[w > 0].min()
+        zeta = zeta * (np.maximum(w, w1) / w1) ** exponent
+    return system.replace(C=modal_damping(system.M, K, zeta))
 
 
 def damping_mode(system, damping) -> tuple[str, float | None]:
