@@ -43,43 +43,32 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 RAYLEIGH_HZ, ZETA = (30.0, 50.0), 0.02  # beam_rayleigh's defaults (cases.beam)
 
 
-def _closed(model, kn: float):
-    """(M, closed-hinge K, its circular frequencies, mass-normalised shapes) of a model file."""
-    M, K = model["M"], model["K"]
-    names = [str(n) for n in model["dof_names"]]
-    B = np.zeros(len(names))
-    for out, inn in model["hinge_pairs"]:
-        B[names.index(str(out))], B[names.index(str(inn))] = 1.0, -1.0
-    Kc = K + kn * np.outer(B, B)
-    w2, phi = scipy.linalg.eigh(Kc, M)
-    return M, Kc, np.sqrt(np.maximum(w2, 0.0)), phi
+def _variant(src: Path, dst: Path, system) -> None:
+    """``src`` (a data-set folder) copied to ``dst`` with ``system`` as its model file."""
+    from freeplayid.model import save_system
 
-
-def _variant(src: Path, dst: Path, C: np.ndarray) -> None:
-    """``src`` (a data-set folder) copied to ``dst`` with ``C`` in its model file."""
     if dst.exists():
         shutil.rmtree(dst)
     shutil.copytree(src, dst)
-    model = dict(np.load(src / "model.npz", allow_pickle=True))
-    model["C"] = C
-    np.savez(dst / "model.npz", **model)
+    save_system(dst / "model.npz", system)
 
 
 def build(data: Path, out: Path, draws: list[str]) -> list[tuple[str, str, str, dict | None]]:
     """The data sets and options: (variant, draw, folder, replay options)."""
     import cases
 
-    from freeplayid.model import rayleigh_coefficients
+    from freeplayid.model import load_system, modal_damping, rayleigh_coefficients
 
-    truth = json.loads((data / "beam_rayleigh" / draws[0] / "truth.json").read_text())
-    model = dict(np.load(data / "beam_rayleigh" / draws[0] / "model.npz", allow_pickle=True))
-    M, Kc, w, phi = _closed(model, float(truth["kn"]))
+    folder = data / "beam_rayleigh" / draws[0]
+    truth = json.loads((folder / "truth.json").read_text())
+    system = load_system(folder / "model.npz")
+    M, Kc = system.M, system.closed_stiffness(float(truth["kn"]))
+    w1 = float(np.sqrt(scipy.linalg.eigvalsh(Kc, M)[0]))
     a, b = rayleigh_coefficients(*RAYLEIGH_HZ, ZETA)
-    zeta_1 = a / (2 * w[0]) + b * w[0] / 2
-    mphi = M @ phi
+    zeta_1 = a / (2 * w1) + b * w1 / 2
     cs = {"true C": a * M + b * Kc}
     for p in (0.75, 1.0):
-        cs[f"power {p:g}"] = mphi @ np.diag(2 * zeta_1 * (w / w[0]) ** p * w) @ mphi.T
+        cs[f"power {p:g}"] = modal_damping(M, Kc, zeta_1, exponent=p)
     modal = "realtests_modal_beam"
     cases.ALL_CASES[modal] = cases._variant(lambda **kw: _modal_beam(**kw), modal)
     cases.generate(modal, out, log=lambda s: print(s, file=sys.stderr, flush=True))
@@ -90,7 +79,7 @@ def build(data: Path, out: Path, draws: list[str]) -> list[tuple[str, str, str, 
                   ("given", d, str(src), {"damping": float(zeta_1)})]
         for name, C in cs.items():
             dst = out / name.replace(" ", "_") / d
-            _variant(src, dst, C)
+            _variant(src, dst, system.replace(C=C))
             tasks.append((name, d, str(dst), {"damping": "model"}))
         tasks += [(f"exponent {p:g}", d, str(src), {"damping_exponent": p}) for p in (0.6, 0.9)]
         tasks.append(("modal beam", d, str(out / modal / d), None))
@@ -101,13 +90,12 @@ def _modal_beam(**kw):
     """beam_rayleigh's spec with uniform modal damping on the true closed-hinge modes."""
     import cases
 
+    from freeplayid.model import modal_damping
+
     spec = cases.beam_rayleigh(**kw)
     st = spec.structure
-    Kc = st.K + st.kn * st.B @ st.B.T
-    w2, phi = scipy.linalg.eigh(Kc, st.M)
-    w = np.sqrt(np.maximum(w2, 0.0))
-    mphi = st.M @ phi
-    spec.structure = dataclasses.replace(st, C=mphi @ np.diag(2 * ZETA * w) @ mphi.T)
+    Kc = st.K + st.kn * st.B @ st.B.T  # the true structure's closed hinge (cases.py's arrays)
+    spec.structure = dataclasses.replace(st, C=modal_damping(st.M, Kc, ZETA))
     spec.condition = f"single-hinge beam, modal damping {100 * ZETA:g} % in every closed mode"
     return spec
 

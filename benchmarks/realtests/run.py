@@ -33,7 +33,6 @@ DEFAULT_DATA = "outputs/realtests/data"  # cases.py --out
 DEFAULT_OUT = "outputs/realtests/results"
 BOUNDS = {"delta": 0.01, "kn": 0.02}  # the issue's success bounds (relative)
 FITS = ("plain", "corrected")
-PRECISION_COPIES = 8  # freeplayid.replay.Replay's default precision_copies
 
 
 def identify_case(path: str, corrected: bool) -> dict:
@@ -184,8 +183,10 @@ def _log_sd(r: dict, par: str) -> float | None:
 def _stopped_early(r: dict) -> bool:
     """Whether the answer's precision copies stopped early (records written before the
     ``settled`` field: fewer copies made than the default eight)."""
+    from freeplayid.replay import Replay
+
     p = r["replay"]["precision"]
-    return bool(p.get("settled", p["n"] < PRECISION_COPIES))
+    return bool(p.get("settled", p["n"] < Replay().precision_copies))
 
 
 def draw_pairs(results: list[dict]) -> str:

@@ -39,7 +39,7 @@ def rayleigh_damping(
     return a * np.asarray(M, float) + b * np.asarray(K, float)
 
 
-def modal_damping(M: np.ndarray, K: np.ndarray, zeta) -> np.ndarray:
+def modal_damping(M: np.ndarray, K: np.ndarray, zeta, exponent: float = 0.0) -> np.ndarray:
     """Damping matrix with modal damping ratio(s) ``zeta`` in every mode of (K, M).
 
     C = M Phi diag(2 zeta_i w_i) Phi^T M with mass-normalised modes Phi (Phi^T M Phi = I), so
@@ -50,6 +50,9 @@ def modal_damping(M: np.ndarray, K: np.ndarray, zeta) -> np.ndarray:
     M, K : ndarray, shape (n, n)
     zeta : float or array_like, shape (n,) [-]
         One ratio for all modes, or one per mode in ascending frequency order.
+    exponent : float [-]
+        With it, mode i's ratio is ``zeta_i (w_i / w_1)^exponent`` (w_1 the lowest elastic
+        mode's): damping that grows (or falls) with the mode's frequency.
 
     Returns
     -------
@@ -60,6 +63,9 @@ def modal_damping(M: np.ndarray, K: np.ndarray, zeta) -> np.ndarray:
     lam, phi = scipy.linalg.eigh(K, M)
     w = np.sqrt(np.clip(lam, 0.0, None))
     z = np.broadcast_to(np.asarray(zeta, float), w.shape)
+    if exponent and np.any(w > 0):
+        w1 = w[w > 0].min()
+        z = z * (np.maximum(w, w1) / w1) ** exponent
     if np.any(z < 0):
         raise ValueError("`zeta` must be >= 0")
     Mphi = M @ phi

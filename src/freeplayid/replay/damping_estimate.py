@@ -5,7 +5,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg
 
 from ..model import modal_analysis, modal_damping
 from ..quantity import G
@@ -77,12 +76,8 @@ def damped_system(system, zeta: float, kn: float, exponent: float = 0.0):
     """``system`` with modal damping ratio ``zeta`` in every mode of its closed-hinge stiffness
     at ``kn`` (``model.modal_damping``), replacing its C; with ``exponent`` p, the ratio
     ``zeta (w_i / w_1)^p`` in mode i (w_1 the lowest closed mode's circular frequency)."""
-    K = system.closed_stiffness(kn)
-    if exponent:
-        w = np.sqrt(np.clip(scipy.linalg.eigvalsh(K, system.M), 0.0, None))
-        w1 = w[w > 0].min()
-        zeta = zeta * (np.maximum(w, w1) / w1) ** exponent
-    return system.replace(C=modal_damping(system.M, K, zeta))
+    return system.replace(C=modal_damping(system.M, system.closed_stiffness(kn), zeta,
+                                          exponent=exponent))
 
 
 def damping_mode(system, damping) -> tuple[str, float | None]:
