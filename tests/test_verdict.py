@@ -210,6 +210,45 @@ def test_a_binding_that_jumps_is_suspect():
     assert {c.name: c for c in replay_checks(Rep())}["replay_binding"].passed
 
 
+def test_a_binding_across_a_move_of_the_damping_exponent_is_not_read_as_a_jump():
+    # the exponent's probe: the same (kn, delta) replayed at p = 0.5 fits 3 % elsewhere, which
+    # is the damping's doing, not a point changing branch
+    from freeplayid.identification.replay_checks import replay_checks
+
+    class Rep:
+        failure, misfit, sweeps, damping, converged = "", {}, {}, None, True
+        iterations = [ReplayIteration(480.0, 3e-3, 482.0, 3.05e-3, 10, exponent=None),
+                      ReplayIteration(480.0, 3e-3, 482.0, 3.14e-3, 10, exponent=0.5)]
+
+    assert {c.name: c for c in replay_checks(Rep())}["replay_binding"].passed
+    Rep.iterations[1] = dataclasses.replace(Rep.iterations[1], exponent=0.01)
+    assert not {c.name: c for c in replay_checks(Rep())}["replay_binding"].passed
+
+
+@pytest.mark.parametrize("excitation, delta, passed, words", [
+    ("measured", 3.03e-3, True, "moved the answer by delta +1 %"),
+    ("law", 3.01e-3, True, "moved the answer by delta +0.33 %"),
+    ("law", 3.03e-3, False, "without a base channel a level that drifts"),
+])
+def test_an_estimated_damping_form_that_moves_the_answer_without_a_base_channel_is_suspect(
+        excitation, delta, passed, words):
+    from types import SimpleNamespace
+
+    from freeplayid.identification.replay_checks import replay_checks
+    from freeplayid.replay import ReplayDamping
+
+    damping = ReplayDamping("estimated", 0.02, (0.019, 0.021), exponent=0.9,
+                            exponent_estimated=True, trend_single=-0.28,
+                            single_ratio_answer=(480.0, 3e-3))
+    rep = SimpleNamespace(failure="", misfit={}, sweeps={}, damping=damping, converged=True,
+                          iterations=[], excitation=excitation, kn=480.0, delta=delta,
+                          jump_point="quadrature")
+    check = {c.name: c for c in replay_checks(rep)}["damping_form"]
+    assert check.passed is passed and words in check.message
+    assert "-28 % per e-fold of level with one ratio" in check.message
+    assert check.value == pytest.approx(abs(math.log(delta / 3e-3)) / 0.005)
+
+
 @pytest.mark.parametrize("converged, closest, passed, words", [
     (True, None, True, "converged in 2 replays"),
     (False, 0.1, True, "within 0.1 of their standard error"),

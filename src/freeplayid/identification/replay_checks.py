@@ -47,6 +47,11 @@
   drop points put kn 2.7-5.5 % low and the channels' ratios put it +3.5 to +5.8 % from the
   answer; a constant level 4-5 % off, a level ramp, Rayleigh damping, a log sweep, more noise
   leave it within 1.3 % (40 answers of benchmarks/realtests, docs/results.md).
+- ``damping_form`` (the damping's exponent estimated, ``replay.damping_exponent``): how far
+  the exponent moved the answer from one ratio's. With a base channel it is reported; without
+  one a level that drifts during the runs drifts the replayed peaks with the level as damping
+  that rises with the mode does, so a move beyond ``form_delta`` / ``form_kn`` (half the
+  accuracy bounds) fails: the data cannot tell the two answers apart.
 - ``sweep_law``, ``replay_binding``, ``replay_converged``, ``damping_estimate``: where the laws
   came from, a replayed fit that jumps, convergence and an estimated damping the amplitudes pin
   down (:mod:`freeplayid.identification.verdict`).
@@ -60,6 +65,7 @@ import math
 
 import scipy.stats
 
+from ..replay.corrected import EXPONENT_ATOL
 from .verdict import LIMITS, Check, within_binding_noise
 
 __all__ = ["replay_checks", "precision_check", "noise_outside_chance", "settled_sd",
@@ -189,6 +195,33 @@ def _consistency_check(replay) -> Check | None:
                  + ", ".join(off) + f" ({_causes(replay)}?)", value)
 
 
+def _form_check(replay) -> Check | None:
+    """``damping_form``: with the damping's exponent estimated, how far it moved the answer from
+    the one ratio's; without a base channel a level that drifts during the runs (which nothing
+    records) drifts the replayed peaks with the level as such damping does, so a move beyond
+    half the accuracy bounds (``form_delta``, ``form_kn``) is an answer the data cannot settle.
+    None where the exponent was not estimated."""
+    d = getattr(replay, "damping", None)
+    if d is None or not getattr(d, "exponent_estimated", False) or \
+            getattr(d, "single_ratio_answer", None) is None:
+        return None
+    kn1, delta1 = d.single_ratio_answer
+    move = (math.log(replay.kn / kn1), math.log(replay.delta / delta1))
+    value = max(abs(move[1]) / LIMITS["form_delta"], abs(move[0]) / LIMITS["form_kn"])
+    said = (f"the damping's exponent {d.exponent:.2g} (the higher closed modes damped more, "
+            "estimated from how the replayed peaks change with the level"
+            + ("" if d.trend_single is None else
+               f": {100 * d.trend_single:+.2g} % per e-fold of level with one ratio") +
+            f") moved the answer by delta {100 * move[1]:+.2g} %, kn {100 * move[0]:+.2g} %")
+    if getattr(replay, "excitation", "law") == "measured" or value <= 1:
+        return Check("damping_form", True, said, value)
+    return Check("damping_form", False,
+                 said + f" (limit delta {100 * LIMITS['form_delta']:g} %, kn "
+                 f"{100 * LIMITS['form_kn']:g} %); without a base channel a level that drifts "
+                 "during the runs drifts the peaks the same way, so the data cannot tell the "
+                 "two answers apart: record the base channel", value)
+
+
 def _level_check(replay) -> Check | None:
     """``replay_level``: the levels the upper branches imply and the kn their channels' ratios
     imply (module docstring); None where no run's level came from ``level_g``."""
@@ -265,7 +298,7 @@ def replay_checks(replay, *, down_runs=()) -> list[Check]:
         return [Check("replay_failed", False, replay.failure)]
     misfit = {r: m for r, m in (replay.misfit or {}).items() if math.isfinite(m)}
     checks = [_resonance_check(replay, tuple(down_runs)), _consistency_check(replay),
-              _level_check(replay), _reading_check(replay),
+              _level_check(replay), _form_check(replay), _reading_check(replay),
               _sweep_law_check(replay, misfit, LIMITS["replay_misfit"]),
               _binding_check(replay.iterations), _converged_check(replay),
               precision_check(getattr(replay, "precision", None))]
@@ -274,10 +307,16 @@ def replay_checks(replay, *, down_runs=()) -> list[Check]:
         ci = damping.zeta_ci95
         ratio = None if ci is None else ci[1] / ci[0]
         ok = ratio is not None and ratio <= LIMITS["zeta_ci_ratio"]
+        form = ""
+        if getattr(damping, "exponent_estimated", False):
+            eci = getattr(damping, "exponent_ci95", None)
+            form = (f" in mode 1, zeta (w_i / w_1)^{damping.exponent:.2g} in mode i (the "
+                    "exponent estimated from how the peaks change with the level"
+                    + ("" if eci is None else f", 95 % CI {eci[0]:.2g} to {eci[1]:.2g}") + ")")
         checks.append(Check(
             "damping_estimate", ok,
             f"damping estimated from the peak amplitudes: zeta = {damping.zeta:.3g}"
-            + ("" if ci is None else f" (95 % CI {ci[0]:.3g} to {ci[1]:.3g})")
+            + ("" if ci is None else f" (95 % CI {ci[0]:.3g} to {ci[1]:.3g})") + form
             + ("" if ok else "; the amplitudes do not pin it down (give `damping=` or C in "
                "the model file)"), ratio))
     return [c for c in checks if c is not None]
@@ -323,10 +362,18 @@ def _converged_check(replay) -> Check:
                  + (f"; the loop stopped: {stopped}" if stopped else ""), close)
 
 
+# [-] two replays whose damping exponents differ by more than this are not compared by the
+# binding check (twice the exponent's convergence tolerance)
+EXPONENT_MOVE = 2 * EXPONENT_ATOL
+
+
 def _binding_check(iterations) -> Check:
     """``replay_binding``: no two replays whose fits differ by a jump (module docstring)."""
     worst = None  # (move of the fit, move of the parameter, name)
     for a, b in zip(iterations, iterations[1:]):
+        if abs((getattr(a, "exponent", None) or 0.0) - (getattr(b, "exponent", None) or 0.0)) \
+                > EXPONENT_MOVE:
+            continue  # the damping's form moved between them too: not (kn, delta) alone
         for name in ("kn", "delta"):
             move = abs(math.log(getattr(b, f"{name}_rep") / getattr(a, f"{name}_rep")))
             cause = abs(math.log(getattr(b, name) / getattr(a, name)))

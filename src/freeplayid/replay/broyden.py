@@ -51,7 +51,8 @@ def broyden_update(J: np.ndarray, du: np.ndarray, dF: np.ndarray) -> np.ndarray:
 
 
 def solve_binding(residual: Callable[[np.ndarray], np.ndarray | None], u0, J0, *, max_iter: int,
-                  tolerances) -> BindingSolve:
+                  tolerances, first: np.ndarray | None = None,
+                  bounds: tuple | None = None) -> BindingSolve:
     """Solve ``residual(u) = 0`` by Broyden's method from ``u0`` with the Jacobian ``J0``.
 
     Each step is ``-J^-1 F`` clipped to a factor :data:`MAX_STEP_FACTOR` per unknown (the
@@ -64,12 +65,22 @@ def solve_binding(residual: Callable[[np.ndarray], np.ndarray | None], u0, J0, *
     to zero (its index counts the successful evaluations).
     Near the gap the binding can even fall as delta rises (a larger gap at the same levels moves
     the lowest points towards it), which the identity start does not know: the updates learn it.
+
+    ``first``: the residual at ``u0`` where it was evaluated already (it is not evaluated again
+    and does not count in ``n``). ``bounds``: (lower, upper) arrays for the unknowns (+-inf:
+    none); an unknown on its bound that the step would push beyond it is held there, and the
+    step solves the other unknowns' equations alone (its own residual then need not vanish).
     """
     u, J = np.asarray(u0, dtype=float).copy(), np.asarray(J0, dtype=float).copy()
+    lo, hi = (np.full(u.size, -np.inf), np.full(u.size, np.inf)) if bounds is None else \
+        (np.asarray(bounds[0], dtype=float), np.asarray(bounds[1], dtype=float))
     prev, best, n, good, halvings = None, None, 0, 0, 0
-    for _ in range(max_iter):
-        F = residual(u)
-        n += 1
+    for k in range(max_iter + (first is not None)):
+        if k == 0 and first is not None:
+            F = np.asarray(first, dtype=float)
+        else:
+            F = residual(u)
+            n += 1
         if F is None:
             if prev is None or halvings >= MAX_HALVINGS:
                 break
@@ -77,15 +88,31 @@ def solve_binding(residual: Callable[[np.ndarray], np.ndarray | None], u0, J0, *
             u = prev[0] + 0.5 * (u - prev[0])
             continue
         halvings, good = 0, good + 1
-        if best is None or np.abs(F).max() < best[1]:
-            best = (u.copy(), float(np.abs(F).max()), good - 1)
+        # an unknown held on its bound leaves its own equation (the same index) unsolved
+        miss = float(np.abs(F[(u > lo) & (u < hi)] if np.any((u > lo) & (u < hi)) else F).max())
+        if best is None or miss < best[1]:
+            best = (u.copy(), miss, good - 1)
         if prev is not None:
             J = broyden_update(J, u - prev[0], F - prev[1])
-        step = np.clip(-np.linalg.solve(J, F), -np.log(MAX_STEP_FACTOR), np.log(MAX_STEP_FACTOR))
+        step = _bounded_step(J, F, u, lo, hi)
         prev = (u.copy(), F.copy())
-        u = u + step
+        u = np.clip(u + step, lo, hi)
+        step = u - prev[0]
         if bool(np.all(np.abs(step) < np.asarray(tolerances))):
             return BindingSolve(u, True, J, None, n)
     if best is None:
         return BindingSolve(u, False, J, None, n)
     return BindingSolve(best[0], False, J, best[2], n)
+
+
+def _bounded_step(J: np.ndarray, F: np.ndarray, u: np.ndarray, lo: np.ndarray,
+                  hi: np.ndarray) -> np.ndarray:
+    """The Newton step ``-J^-1 F`` clipped to :data:`MAX_STEP_FACTOR`; an unknown on a bound
+    that it would cross is held there and the others solve their own equations without it."""
+    step = -np.linalg.solve(J, F)
+    held = ((u <= lo) & (step < 0)) | ((u >= hi) & (step > 0))
+    if np.any(held):
+        free = ~held
+        step = np.zeros_like(step)
+        step[free] = -np.linalg.solve(J[np.ix_(free, free)], F[free])
+    return np.clip(step, -np.log(MAX_STEP_FACTOR), np.log(MAX_STEP_FACTOR))

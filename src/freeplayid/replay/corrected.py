@@ -30,7 +30,7 @@ from .bootstrap import (
     precision_by_replay,
     windowed,
 )
-from .broyden import solve_binding
+from .broyden import BindingSolve, solve_binding
 from .damping_estimate import ZETA_RTOL, ReplayDamping, damped_system, damping_mode, initial_zeta
 from .excitation import read_again
 from .misfit import implied_levels, offset_noise, resonance_misfits, run_misfits
@@ -44,6 +44,7 @@ from .runs import (
 )
 from .statistic import (
     amplitude_ratios,
+    amplitude_trend,
     by_run_intervals,
     median_se,
     misfit_in_se,
@@ -85,6 +86,10 @@ class ReplayIteration:
         The replay's modal damping ratio (given or estimated; None with the model's C).
     amplitude_log_ratio : float or None [-]
         With an estimated damping: median log(X_replayed / X_measured) of the points.
+    exponent, amplitude_trend : float or None [-]
+        With an estimated damping exponent (``Replay.damping_exponent`` "estimate"), once the
+        loop solves for it: the replay's exponent p, and the slope of the runs' median
+        log(X_replayed / X_measured) against their log level (:func:`.statistic.amplitude_trend`).
     misfit_se : float or None
         How far this replay missed the test's statistics, in their standard errors.
     """
@@ -97,14 +102,15 @@ class ReplayIteration:
     zeta: float | None = None
     amplitude_log_ratio: float | None = None
     misfit_se: float | None = None
+    exponent: float | None = None
+    amplitude_trend: float | None = None
 
     def to_dict(self) -> dict:
         out = {"kn": self.kn, "delta": self.delta, "kn_rep": self.kn_rep,
                "delta_rep": self.delta_rep, "n_evaluations": self.n_evaluations}
-        if self.zeta is not None:
-            out["zeta"] = self.zeta
-        if self.amplitude_log_ratio is not None:
-            out["amplitude_log_ratio"] = self.amplitude_log_ratio
+        for key in ("zeta", "amplitude_log_ratio", "exponent", "amplitude_trend"):
+            if getattr(self, key) is not None:
+                out[key] = getattr(self, key)
         out["misfit_se"] = self.misfit_se
         return out
 
@@ -576,15 +582,18 @@ def _replayed_test(dataset, system, plain: PlainEstimate, rule: str, extraction:
 
 
 class _Binding:
-    """The binding function's residual F(u), u = log(kn, delta[, zeta]): the statistics of the
-    replay at u minus those of the test, log(kn_rep / kn_hat), log(delta_rep / delta_hat)[,
-    median log(X_rep / X)]. It keeps every replay (``history``), the last one, the point weights
-    it fixed after the first, and why a replay failed."""
+    """The binding function's residual F(u), u = log(kn, delta[, zeta[, p]]): the statistics of
+    the replay at u minus those of the test, log(kn_rep / kn_hat), log(delta_rep / delta_hat)[,
+    median log(X_rep / X)[, that ratio's trend with the level]], p the damping's exponent
+    (``exponent`` where u does not carry it). It keeps every replay (``history``), the last one,
+    the point weights it fixed after the first, and why a replay failed."""
 
     def __init__(self, test: _Test, system, damping: tuple, opts: Replay, bar=None,
                  label: str = "replay"):
         self.test, self.system, self.opts, self.bar, self.label = test, system, opts, bar, label
         self.source, self.zeta = damping
+        p = opts.damping_exponent
+        self.exponent = 0.0 if p == "estimate" else float(p)
         self.history, self.rep, self.rep_ds, self.failure = [], None, None, ""
         self.replays = []  # (refit, replayed data set) of each entry of ``history``
         self.stopped, self.failed_at = "", None
@@ -600,6 +609,7 @@ class _Binding:
         other = _Binding(test, self.system, damping, self.opts, label=label)
         other.weights, other.weight_table = self.weights, self.weight_table
         other.stat, other.stat_ci95 = self.stat, self.stat_ci95
+        other.exponent = self.exponent
         return other
 
     @property
@@ -613,7 +623,7 @@ class _Binding:
         t = self.test
         # a modal damping of the closed-hinge modes at the replayed kn (not the plain fit's)
         sys_k = self.system if self.source == "model" else \
-            damped_system(self.system, zeta, float(theta[0]), self.opts.damping_exponent)
+            damped_system(self.system, zeta, float(theta[0]), self.exponent)
         return replay_dataset(t.dataset, sys_k, *theta, levels=levels or t.levels,
                               sweeps=t.sweeps, excitations=excitations or t.excitations,
                               engine=self.opts.engine)
@@ -647,6 +657,8 @@ class _Binding:
         theta = np.exp(u[:2])
         estimate = self.source == "estimated"
         zeta = float(np.exp(u[2])) if estimate else self.zeta
+        if u.size == 4:
+            self.exponent = float(u[3])
         try:
             rep = self.replay(theta, zeta)
         except IdentificationError as err:
@@ -668,12 +680,24 @@ class _Binding:
             self.ratios = amplitude_ratios(self.stat.points.used(), rep.points.used())
             ratio = float(np.median(self.ratios)) if self.ratios.size else 0.0
             F = np.append(F, ratio)
+        trend = None
+        if u.size == 4:
+            trend = amplitude_trend(self.stat.points.used(), rep.points.used(), self.test.levels)
+            if trend is None:  # the replay lost a run: its trend is not the test's
+                runs = {p.run for p in self.stat.points.used()}
+                self.failed_at = (theta, IdentificationError(
+                    "its points lie at fewer than three levels"), len(runs))
+                self.failure = replay_failure(*self.failed_at)
+                return None
+            F = np.append(F, trend.slope)
         se = misfit_in_se(F, self.stat_ci95, self.stat.points.used(),
                           self.ratios if estimate else None)
         self.history.append(ReplayIteration(
             float(theta[0]), float(theta[1]), float(kn_rep), float(delta_rep),
             int(rep.fit.n_evaluations), zeta=None if self.source == "model" else float(zeta),
-            amplitude_log_ratio=ratio, misfit_se=se))
+            amplitude_log_ratio=ratio, misfit_se=se,
+            exponent=None if trend is None else self.exponent,
+            amplitude_trend=None if trend is None else trend.slope))
         self._report(theta, zeta if estimate else None, float(np.abs(F).max()))
         return F
 
@@ -835,6 +859,14 @@ def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extracti
         note = (f"the model file's C put the replayed amplitudes {100 * mismatch:+.2g} % off "
                 f"the test's at its answer after {len(first.history)} replays; the iterations "
                 "listed are those with the damping estimated, from that answer")
+    exponent = {}
+    if opts.damping_exponent == "estimate":
+        if estimate and not binding.failure:
+            sol, exponent = _fit_exponent(binding, sol, progress)
+        else:
+            exponent = {"exponent_note": "the damping's exponent was not estimated: "
+                        + ("the loop failed" if binding.failure else
+                           f"the damping is not estimated ({describe_source(source)})")}
     log.debug("replay loop: %s after %d replays", "converged" if sol.converged else
               "not converged", sol.n)
     closest = None if sol.closest is None else binding.history[sol.closest].misfit_se
@@ -842,11 +874,119 @@ def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extracti
     if estimate:
         zeta = float(np.exp(sol.u[2]))
     used = _damping_used(source, zeta, binding.ratios, sol.jacobian, estimate, note,
-                         failed=bool(binding.failure))
+                         failed=bool(binding.failure), extra=exponent.pop("shift", None))
     if source != "model":
-        used = dataclasses.replace(used, exponent=float(opts.damping_exponent))
+        used = dataclasses.replace(used, exponent=binding.exponent, **exponent)
     return _result(binding, theta, rule, sol, closest, used,
                    plain, system, opts, progress, start=began, settled=precision_settled)
+
+
+EXPONENT_BOUNDS = (0.0, 2.0)  # [-] an estimated damping exponent p: Rayleigh damping is near 1
+EXPONENT_PROBE = 0.5  # [-] the replay that measures how the trend moves with p
+EXPONENT_ATOL = 0.02  # [-] an estimated p has converged when it moves by less than this
+EXPONENT_MIN_SLOPE = 1e-3  # [-] d trend / dp below this: the trend does not measure p
+EXPONENT_MORE_ITER = 4  # the loop with p as a fourth unknown may take Replay.max_iter + this
+
+
+def describe_source(source: str) -> str:
+    return {"model": "the model file's C", "given": "a given ratio"}.get(source, source)
+
+
+def _fit_exponent(b: _Binding, sol, progress: bool):
+    """The damping's exponent p estimated with (kn, delta, zeta), from the loop's answer ``sol``
+    with p = 0: its replay's amplitude trend with the level (:func:`.statistic.amplitude_trend`)
+    is the fourth residual, p the fourth unknown (within :data:`EXPONENT_BOUNDS`). One replay at
+    p + :data:`EXPONENT_PROBE` gives the Jacobian's p column (the other columns are the loop's);
+    Broyden's loop goes on from there. Returns the solution in (log kn, log delta, log zeta)
+    with p held at its answer (``b.exponent``, ``b.rep`` its replay) and the fields of
+    :class:`.damping_estimate.ReplayDamping` it fills (``shift``: p's 95 % move of the answer).
+    Where p cannot be estimated (fewer than three levels, a failed replay, a trend that does not
+    move with p) the answer stays the loop's with p = 0 and the note says why."""
+    i = len(b.history) - 1 if sol.converged or sol.closest is None else sol.closest
+    it, rep, rep_ds, ratios = b.history[i], b.rep, b.rep_ds, b.ratios
+    trend = amplitude_trend(b.stat.points.used(), rep.points.used(), b.test.levels)
+    single = {"trend_single": None if trend is None else trend.slope,
+              "single_ratio_answer": (float(np.exp(sol.u[0])), float(np.exp(sol.u[1])))}
+    if trend is None:
+        return sol, {"exponent_note": "the damping's exponent was not estimated: the points "
+                     "lie at fewer than three levels", **single}
+    if _down_runs(b) & _with_points(b):
+        return sol, {"exponent_note": "the damping's exponent was not estimated: runs with "
+                     "points sweep down, and their jump-ups do not measure the peaks", **single}
+
+    done = len(b.history)
+
+    def kept(why):  # the loop's answer with p = 0 stays, as if p had not been asked for
+        spent = len(b.history) - done
+        b.exponent, b.rep, b.rep_ds, b.ratios = 0.0, rep, rep_ds, ratios
+        b.failure, b.history[done:], b.replays[done:] = "", [], []
+        return sol, {"exponent_note": f"the damping's exponent was not estimated: {why} "
+                     f"({spent} replay{'s' if spent != 1 else ''} spent on it, not listed)",
+                     **single}
+
+    u1 = np.log([it.kn, it.delta, it.zeta]).tolist() + [0.0]
+    F1 = np.array([np.log(it.kn_rep / b.hat[0]), np.log(it.delta_rep / b.hat[1]),
+                   it.amplitude_log_ratio, trend.slope])
+    u2 = np.array(u1) + np.array([0.0, 0.0, 0.0, EXPONENT_PROBE])
+    label = "replay, damping's exponent"
+    with _replay_bar(b.opts.max_iter + EXPONENT_MORE_ITER + 1, label, progress) as b.bar:
+        F2 = b(u2)
+        if F2 is None:
+            return kept(f"its replay at p = {EXPONENT_PROBE:g} failed ({b.failure})")
+        J = np.zeros((4, 4))
+        J[:3, :3] = sol.jacobian
+        J[:, 3] = (F2 - F1) / EXPONENT_PROBE
+        if abs(J[3, 3]) < EXPONENT_MIN_SLOPE:
+            return kept("the amplitudes' trend with the level does not move with it")
+        try:  # where the Newton step from p = 0 puts it: below the bound, the bound's answer
+            aim = float(np.linalg.solve(J, -F1)[3])
+        except np.linalg.LinAlgError:
+            return kept("the amplitudes' trend with the level does not move with it")
+        if aim < EXPONENT_BOUNDS[0]:
+            return kept(f"the replayed peaks' trend with the level ({100 * trend.slope:+.2g} % "
+                        f"per e-fold of level with one ratio) would need p = {aim:.2g}, below "
+                        f"{EXPONENT_BOUNDS[0]:g}: not damping that rises with the mode's "
+                        "frequency (more damping in contact, or a level the replay does not "
+                        "know, drifts the other way)")
+        first = len(b.history) - 1  # the probe's replay: the solve's first
+        tol = [np.log1p(b.opts.rtol)] * 2 + [np.log1p(ZETA_RTOL), EXPONENT_ATOL]
+        lo, hi = EXPONENT_BOUNDS
+        four = solve_binding(b, u2, J, max_iter=b.opts.max_iter + EXPONENT_MORE_ITER,
+                             tolerances=tol, first=F2,
+                             bounds=([-np.inf] * 3 + [lo], [np.inf] * 3 + [hi]))
+    if not four.converged:
+        # the closest replay of the four-unknown loop, against the answer with p = 0
+        # (each in its statistics' standard errors, the trend's the answer's with p = 0)
+        best = None if four.closest is None else b.history[first + four.closest]
+        unit = trend.se if np.isfinite(trend.se) and trend.se > 0 else np.inf
+
+        def miss(x, slope):
+            return max(np.inf if x.misfit_se is None else x.misfit_se, abs(slope) / unit)
+
+        if best is None or miss(best, best.amplitude_trend) >= miss(it, trend.slope):
+            return kept("its loop did not converge and came no closer than p = 0 "
+                        f"({b.failure or b.stopped or 'no replay improved on it'})")
+    closest = None if four.closest is None else first + four.closest
+    b.settle(BindingSolve(four.u, four.converged, four.jacobian, closest, four.n))
+    p = float(four.u[3])
+    b.exponent = p
+    at = amplitude_trend(b.stat.points.used(), b.rep.points.used(), b.test.levels)
+    out = {"exponent_estimated": True, "trend": at.slope if at else None,
+           "trend_se": at.se if at else None, **single}
+    if p in (lo, hi):
+        out["exponent_note"] = f"the exponent stopped at its bound {p:g}"
+    if at is not None and np.isfinite(at.se):
+        half = 1.96 * at.se
+        try:
+            inv = np.linalg.inv(four.jacobian)
+        except np.linalg.LinAlgError:
+            inv = None
+        if inv is not None and np.all(np.isfinite(inv)):
+            dp = abs(float(inv[3, 3])) * half
+            out["exponent_ci95"] = (max(lo, p - dp), min(hi, p + dp))
+            out["shift"] = np.abs(inv[:2, 3] * half)
+    return BindingSolve(four.u[:3], four.converged, four.jacobian[:3, :3], closest,
+                        sol.n + 1 + four.n), out
 
 
 def _first_solution(binding: _Binding, hat: np.ndarray, origin: np.ndarray, unknowns,
@@ -941,7 +1081,7 @@ def _replay_bar(total: int, desc: str, show: bool):
 
 
 def _damping_used(source, zeta, ratios, J, estimate, note: str = "",
-                  failed: bool = False) -> ReplayDamping:
+                  failed: bool = False, extra=None) -> ReplayDamping:
     """The replays' damping. An estimated zeta's interval comes from the spread of the per-point
     log ratios (1.96 standard errors of their median, ``se``) through the amplitude's
     sensitivity to log zeta (the Jacobian's last diagonal entry); its move of the answer, unless
@@ -957,6 +1097,8 @@ def _damping_used(source, zeta, ratios, J, estimate, note: str = "",
         zeta_ci = (float(zeta * np.exp(-z)), float(zeta * np.exp(z)))
         if not failed:
             shift = _answer_move(J, half)
+    if shift is not None and extra is not None:  # an estimated exponent's own move
+        shift = np.hypot(shift, extra)
     return ReplayDamping(source=source, zeta=None if zeta is None else float(zeta),
                          zeta_ci95=zeta_ci, note=note,
                          kn_shift=None if shift is None else float(shift[0]),

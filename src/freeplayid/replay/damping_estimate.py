@@ -38,7 +38,23 @@ class ReplayDamping:
         intervals' log half-widths in quadrature. None when zeta was not estimated.
     exponent : float [-]
         ``Replay.damping_exponent``: mode i had ``zeta (w_i / w_1)^exponent`` (0: ``zeta`` in
-        every closed-hinge mode).
+        every closed-hinge mode); estimated where that option is "estimate".
+    exponent_estimated : bool
+        Whether the exponent was estimated (with ``zeta``, so that the replayed amplitudes at
+        the points have no trend with the level).
+    exponent_ci95 : (float, float) or None
+        95 % interval of an estimated exponent (from the trend's standard error, within its
+        bounds); its move of the answer is in ``kn_shift`` and ``delta_shift``.
+    exponent_note : str
+        Why an exponent asked to be estimated was not (it stayed 0), or where it stopped.
+    trend, trend_se : float or None [-]
+        The slope of the runs' median log(X_replayed / X_measured) against their log level at
+        the answer, and its standard error (:func:`.statistic.amplitude_trend`).
+    trend_single : float or None [-]
+        That slope at the loop's answer with one ratio in every mode (p = 0), before the
+        exponent was estimated.
+    single_ratio_answer : (float, float) or None
+        (kn, delta) of that answer.
     """
 
     source: str
@@ -48,12 +64,25 @@ class ReplayDamping:
     kn_shift: float | None = None
     delta_shift: float | None = None
     exponent: float = 0.0
+    exponent_estimated: bool = False
+    exponent_ci95: tuple | None = None
+    exponent_note: str = ""
+    trend: float | None = None
+    trend_se: float | None = None
+    trend_single: float | None = None
+    single_ratio_answer: tuple | None = None
 
     def to_dict(self) -> dict:
         return {"source": self.source, "zeta": self.zeta,
                 "zeta_ci95": None if self.zeta_ci95 is None else list(self.zeta_ci95),
                 "note": self.note, "kn_shift": self.kn_shift, "delta_shift": self.delta_shift,
-                "exponent": self.exponent}
+                "exponent": self.exponent, "exponent_estimated": self.exponent_estimated,
+                "exponent_ci95": None if self.exponent_ci95 is None else
+                list(self.exponent_ci95),
+                "exponent_note": self.exponent_note, "trend": self.trend,
+                "trend_se": self.trend_se, "trend_single": self.trend_single,
+                "single_ratio_answer": None if self.single_ratio_answer is None else
+                list(self.single_ratio_answer)}
 
     def describe(self) -> str:
         if self.source == "model":
@@ -69,7 +98,20 @@ class ReplayDamping:
             ci += (f", which moves the answer by kn {100 * self.kn_shift:.2g} %, delta "
                    f"{100 * self.delta_shift:.2g} % (in the intervals)")
         note = f"; {self.note}" if self.note else ""
-        return text + f" (estimated from the peak amplitudes{ci}{note})"
+        text += f" (estimated from the peak amplitudes{ci}{note})"
+        if self.exponent_estimated:
+            eci = "" if self.exponent_ci95 is None else \
+                f", 95 % CI [{self.exponent_ci95[0]:.2g}, {self.exponent_ci95[1]:.2g}]"
+            text += (f"; the exponent {self.exponent:.2g} estimated from how the peaks change "
+                     f"with the level{eci}")
+            if self.trend_single is not None and self.single_ratio_answer is not None:
+                kn, delta = self.single_ratio_answer
+                text += (f" (with one ratio in every mode the replayed peaks drifted by "
+                         f"{100 * self.trend_single:+.2g} % per e-fold of level and the answer "
+                         f"was kn = {kn:.5g} N·m/rad, delta = {delta:.5g} rad)")
+        if self.exponent_note:
+            text += f"; {self.exponent_note}"
+        return text
 
 
 def damped_system(system, zeta: float, kn: float, exponent: float = 0.0):

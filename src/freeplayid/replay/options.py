@@ -79,10 +79,13 @@ class Replay:
         damping is taken as exact. An up-sweep run with points needs none: its peak measures
         the damping (the model's C is replaced by an estimated ratio when its replay misses it
         by 5 %).
-    damping_exponent : float [-]
+    damping_exponent : float or "estimate" [-]
         The form of an estimated or given damping ratio across the closed-hinge modes: mode i
         gets ``zeta (w_i / w_1)^p`` (w_1 the lowest closed mode's circular frequency, which
-        ``zeta`` describes); 0 (default): one ratio in every mode. Structures that damp their
+        ``zeta`` describes); 0 (default): one ratio in every mode. "estimate": p in [0, 2]
+        estimated with the damping ratio, so that the replayed amplitudes at the points have
+        no trend with the level (one more unknown of the replay loop, after it has solved
+        with p = 0; :data:`freeplayid.replay.corrected.EXPONENT_BOUNDS`). Structures that damp their
         higher modes more (Rayleigh damping: p near 1) lose energy there at each contact, which
         one ratio can only put into mode 1 (docs/identify.md §3c, "Where the estimated ζ
         errs"); the per-run peak offsets' trend with the level shows it. Not used with the
@@ -121,7 +124,7 @@ class Replay:
     cross_check: bool = True
     level_uncertainty: float = 0.05
     damping_uncertainty: float = 0.25
-    damping_exponent: float = 0.0
+    damping_exponent: float | str = 0.0
     precision_copies: int = 8
     excitation_copies: int = 2
     start: str = "statistic"
@@ -147,7 +150,10 @@ class Replay:
         check_choice("excitation", self.excitation, EXCITATIONS)
         check_number("level_uncertainty", self.level_uncertainty, 0.0, 0.5)
         check_number("damping_uncertainty", self.damping_uncertainty, 0.0, 1.0)
-        check_number("damping_exponent", self.damping_exponent, -1.0, 2.0)
+        p = self.damping_exponent
+        if p != "estimate" and not (is_number(p) and -1.0 <= p <= 2.0):
+            raise ValueError(f"`damping_exponent` must be a number in [-1, 2] or 'estimate', "
+                             f"got {p!r}")
         check_choice("start", self.start, STARTS)
         if self.engine is not None:
             # the engines' registry imports torch: only when an engine is named

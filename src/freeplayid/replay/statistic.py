@@ -2,13 +2,15 @@
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 import scipy.stats
 
 from ..fit import jacobian_intervals
 
-__all__ = ["amplitude_ratios", "by_run_intervals", "median_se", "misfit_in_se",
-           "replayed_intervals"]
+__all__ = ["AmplitudeTrend", "amplitude_ratios", "amplitude_trend", "by_run_intervals",
+           "median_se", "misfit_in_se", "replayed_intervals"]
 
 
 def by_run_intervals(estimate) -> tuple:
@@ -62,6 +64,71 @@ def amplitude_ratios(measured_points, replayed_points) -> np.ndarray:
     out = [np.log(rep[(p.run, p.channel)].amplitude_m / p.amplitude_m)
            for p in measured_points if (p.run, p.channel) in rep]
     return np.asarray(out, float)
+
+
+class AmplitudeTrend(NamedTuple):
+    """How the replay's amplitudes at the points drift from the test's with the level: the slope
+    of each run's median log(X_replayed / X_measured) against the log of its level, its
+    standard error and the number of runs (levels) it rests on."""
+
+    slope: float
+    se: float
+    runs: int
+
+
+def amplitude_trend(measured_points, replayed_points, levels: dict) -> AmplitudeTrend | None:
+    """:class:`AmplitudeTrend` of the points found in both (matched by run and channel), each
+    run at its level (``levels``: run -> (level [g], source)); None with fewer than three
+    distinct levels. The slope is that of the runs' medians; its standard error the larger of
+    the straight line's through those medians (four runs or more) and through the points with
+    each channel about its own mean (a channel's constant ratio is not scatter; a run's error
+    shared by its channels the points alone would understate)."""
+    rep = {(p.run, p.channel): p for p in replayed_points}
+    by_run: dict[str, dict] = {}
+    for p in measured_points:
+        q = rep.get((p.run, p.channel))
+        if q is not None and p.run in levels and p.amplitude_m > 0 and q.amplitude_m > 0 \
+                and float(levels[p.run][0]) > 0:
+            by_run.setdefault(p.run, {})[p.channel] = float(np.log(q.amplitude_m /
+                                                                    p.amplitude_m))
+    runs = list(by_run)
+    if len({round(float(levels[r][0]), 9) for r in runs}) < 3:
+        return None
+    x = {r: float(np.log(float(levels[r][0]))) for r in runs}
+    slope, se = _line(np.array([x[r] for r in runs]),
+                      np.array([float(np.median(list(by_run[r].values()))) for r in runs]))
+    if len(runs) < 4:
+        se = float("nan")
+    xs, ys, groups = [], [], 0
+    for ch in {c for v in by_run.values() for c in v}:
+        rs = [r for r in runs if ch in by_run[r]]
+        if len(rs) < 2:
+            continue
+        xc = np.array([x[r] for r in rs])
+        yc = np.array([by_run[r][ch] for r in rs])
+        xs.append(xc - xc.mean())
+        ys.append(yc - yc.mean())
+        groups += 1
+    if xs:
+        se_points = _line(np.concatenate(xs), np.concatenate(ys), centred=True,
+                          dof_less=groups - 1)[1]
+        se = se_points if not np.isfinite(se) else max(se, se_points)
+    return AmplitudeTrend(float(slope), float(se), len(runs))
+
+
+def _line(x: np.ndarray, y: np.ndarray, centred: bool = False,
+          dof_less: int = 0) -> tuple[float, float]:
+    """Least-squares slope of ``y`` on ``x`` and its standard error (NaN without a degree of
+    freedom); ``centred``: x and y are deviations from their groups' means already (which cost
+    ``dof_less`` more degrees of freedom)."""
+    dx, dy = (x, y) if centred else (x - x.mean(), y - y.mean())
+    sxx = float(dx @ dx)
+    slope = float(dx @ dy) / sxx
+    dof = x.size - 2 - dof_less
+    if dof <= 0:
+        return slope, float("nan")
+    e = dy - slope * dx
+    return slope, float(np.sqrt(float(e @ e) / dof / sxx))
 
 
 def median_se(values: np.ndarray) -> float:
