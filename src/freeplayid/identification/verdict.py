@@ -126,10 +126,6 @@ LIMITS = {
     # [-] ... or, whichever is larger, its standard error times Student's t at this two-sided
     # tail probability (that of 3 normal standard errors) and the error's degrees of freedom
     "cross_p": 0.0027,
-    # [-] the move of an estimated damping exponent from one ratio's answer that, without a
-    # base channel (a drifting level mimics it), leaves the answer unsettled: half the bounds
-    "form_delta": ACCURACY_DELTA / 2,
-    "form_kn": ACCURACY_KN / 2,
     "model_scale": 0.2,  # [-] an update to sealed modes scaling the stiffness by more is no fix
     # [-] the answer's move for the stated uncertainty of a damping down-sweeps do not measure:
     # beyond the accuracy bounds (delta 1 %, kn 2 %) that damping alone could put it outside

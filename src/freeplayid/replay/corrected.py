@@ -859,14 +859,9 @@ def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extracti
         note = (f"the model file's C put the replayed amplitudes {100 * mismatch:+.2g} % off "
                 f"the test's at its answer after {len(first.history)} replays; the iterations "
                 "listed are those with the damping estimated, from that answer")
-    exponent = {}
-    if opts.damping_exponent == "estimate":
-        if estimate and not binding.failure:
-            sol, exponent = _fit_exponent(binding, sol, progress)
-        else:
-            exponent = {"exponent_note": "the damping's exponent was not estimated: "
-                        + ("the loop failed" if binding.failure else
-                           f"the damping is not estimated ({describe_source(source)})")}
+    exponent = {}  # with the model's C or a given ratio (or no replay) p stays 0, unsaid
+    if opts.damping_exponent == "estimate" and estimate and not binding.failure:
+        sol, exponent = _fit_exponent(binding, sol, progress)
     log.debug("replay loop: %s after %d replays", "converged" if sol.converged else
               "not converged", sol.n)
     closest = None if sol.closest is None else binding.history[sol.closest].misfit_se
@@ -888,10 +883,6 @@ EXPONENT_MIN_SLOPE = 1e-3  # [-] d trend / dp below this: the trend does not mea
 EXPONENT_MORE_ITER = 4  # the loop with p as a fourth unknown may take Replay.max_iter + this
 
 
-def describe_source(source: str) -> str:
-    return {"model": "the model file's C", "given": "a given ratio"}.get(source, source)
-
-
 def _fit_exponent(b: _Binding, sol, progress: bool):
     """The damping's exponent p estimated with (kn, delta, zeta), from the loop's answer ``sol``
     with p = 0: its replay's amplitude trend with the level (:func:`.statistic.amplitude_trend`)
@@ -900,8 +891,9 @@ def _fit_exponent(b: _Binding, sol, progress: bool):
     Broyden's loop goes on from there. Returns the solution in (log kn, log delta, log zeta)
     with p held at its answer (``b.exponent``, ``b.rep`` its replay) and the fields of
     :class:`.damping_estimate.ReplayDamping` it fills (``shift``: p's 95 % move of the answer).
-    Where p cannot be estimated (fewer than three levels, a failed replay, a trend that does not
-    move with p) the answer stays the loop's with p = 0 and the note says why."""
+    Where p cannot be estimated (fewer than three levels, no measured excitation, runs with
+    points that sweep down, a failed replay, a trend that does not move with p or that p would
+    need to be negative for) the answer stays the loop's with p = 0 and the note says why."""
     i = len(b.history) - 1 if sol.converged or sol.closest is None else sol.closest
     it, rep, rep_ds, ratios = b.history[i], b.rep, b.rep_ds, b.ratios
     trend = amplitude_trend(b.stat.points.used(), rep.points.used(), b.test.levels)
@@ -910,6 +902,10 @@ def _fit_exponent(b: _Binding, sol, progress: bool):
     if trend is None:
         return sol, {"exponent_note": "the damping's exponent was not estimated: the points "
                      "lie at fewer than three levels", **single}
+    if not b.test.excitations:
+        return sol, {"exponent_note": "the damping's exponent was not estimated: without a base "
+                     "channel to replay, a level that drifts during the runs would drift the "
+                     "peaks with the level as such damping does", **single}
     if _down_runs(b) & _with_points(b):
         return sol, {"exponent_note": "the damping's exponent was not estimated: runs with "
                      "points sweep down, and their jump-ups do not measure the peaks", **single}
