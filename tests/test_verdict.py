@@ -747,3 +747,16 @@ def test_the_level_check_judges_the_channels_ratio_and_widens_for_implied_levels
         assert "one channel" in check.message
     elif not passed:
         assert "+5 % from the answer" in check.message and "no base channel" in check.message
+
+
+def test_replayed_peaks_that_drift_with_the_level_say_the_damping_has_another_form():
+    from freeplayid.replay import ReplayDamping
+
+    base = ReplayDamping("estimated", 0.023, (0.021, 0.025))
+    assert "drift" not in base.describe()
+    text = dataclasses.replace(base, trend=-0.28, trend_se=0.02).describe()
+    assert "the replayed peaks drift with the level by -28 % per e-fold" in text
+    assert "`replay.damping_exponent=estimate` fits the first" in text
+    assert "drift" not in dataclasses.replace(base, trend=-0.28, trend_se=0.2).describe()
+    up = dataclasses.replace(base, trend=0.07, trend_se=0.003).describe()
+    assert "+7 % per e-fold" in up and "more damping in contact" in up

@@ -862,6 +862,12 @@ def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extracti
     exponent = {}  # with the model's C or a given ratio (or no replay) p stays 0, unsaid
     if opts.damping_exponent == "estimate" and estimate and not binding.failure:
         sol, exponent = _fit_exponent(binding, sol, progress)
+    elif estimate and not binding.failure and binding.rep is not None:
+        # the form given: how its replayed peaks drift with the level (no replay), reported
+        at = amplitude_trend(binding.stat.points.used(), binding.rep.points.used(),
+                             binding.test.levels)
+        if at is not None:
+            exponent = {"trend": at.slope, "trend_se": at.se}
     log.debug("replay loop: %s after %d replays", "converged" if sol.converged else
               "not converged", sol.n)
     closest = None if sol.closest is None else binding.history[sol.closest].misfit_se

@@ -16,6 +16,8 @@ ZETA_START = 0.02  # [-] first guess of an estimated damping ratio (the loop mov
 
 ZETA_RTOL = 0.01  # [-] an estimated zeta has converged when it moves by less than 1 %
 
+TREND_SE = 3.0  # [-] replayed peaks drifting with the level by more standard errors: reported
+
 
 @dataclass(frozen=True)
 class ReplayDamping:
@@ -49,7 +51,9 @@ class ReplayDamping:
         Why an exponent asked to be estimated was not (it stayed 0), or where it stopped.
     trend, trend_se : float or None [-]
         The slope of the runs' median log(X_replayed / X_measured) against their log level at
-        the answer, and its standard error (:func:`.statistic.amplitude_trend`).
+        the answer, and its standard error (:func:`.statistic.amplitude_trend`; with an
+        estimated ratio and three levels or more); beyond :data:`TREND_SE` standard errors
+        without an estimated exponent the description says the damping has another form.
     trend_single : float or None [-]
         That slope at the loop's answer with one ratio in every mode (p = 0), before the
         exponent was estimated.
@@ -111,7 +115,22 @@ class ReplayDamping:
                          f"was kn = {kn:.5g} N·m/rad, delta = {delta:.5g} rad)")
         if self.exponent_note:
             text += f"; {self.exponent_note}"
+        elif not self.exponent_estimated and self.drifts():
+            text += (f"; the replayed peaks drift with the level by {100 * self.trend:+.2g} % "
+                     f"per e-fold (standard error {100 * self.trend_se:.2g} %): the "
+                     "structure's damping has another form than this one ("
+                     + ("damping that rises with the mode, as Rayleigh damping does, or a "
+                        "damper at the hinge; without a base channel a level that drifts during "
+                        "the runs does the same; `replay.damping_exponent=estimate` fits the "
+                        "first where a base channel is replayed" if self.trend < 0 else
+                        "more damping in contact, or a level that sags during the runs?") + ")")
         return text
+
+    def drifts(self) -> bool:
+        """Whether the answer's replayed peaks drift with the level beyond
+        :data:`TREND_SE` standard errors of that trend (a form of damping the replay lacks)."""
+        return self.trend is not None and self.trend_se is not None and \
+            np.isfinite(self.trend_se) and abs(self.trend) > TREND_SE * self.trend_se
 
 
 def damped_system(system, zeta: float, kn: float, exponent: float = 0.0):
