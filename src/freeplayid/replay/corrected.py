@@ -950,26 +950,16 @@ def _fit_exponent(b: _Binding, sol, progress: bool):
                         f"{EXPONENT_BOUNDS[0]:g}: not damping that rises with the mode's "
                         "frequency (more damping in contact, or a level the replay does not "
                         "know, drifts the other way)")
-        first = len(b.history) - 1  # the probe's replay: the solve's first
         tol = [np.log1p(b.opts.rtol)] * 2 + [np.log1p(ZETA_RTOL), EXPONENT_ATOL]
         lo, hi = EXPONENT_BOUNDS
         four = solve_binding(b, u2, J, max_iter=b.opts.max_iter + EXPONENT_MORE_ITER,
                              tolerances=tol, first=F2,
                              bounds=([-np.inf] * 3 + [lo], [np.inf] * 3 + [hi]))
-    if not four.converged:
-        # the closest replay of the four-unknown loop, against the answer with p = 0
-        # (each in its statistics' standard errors, the trend's the answer's with p = 0)
-        best = None if four.closest is None else b.history[first + four.closest]
-        unit = trend.se if np.isfinite(trend.se) and trend.se > 0 else np.inf
-
-        def miss(x, slope):
-            return max(np.inf if x.misfit_se is None else x.misfit_se, abs(slope) / unit)
-
-        if best is None or miss(best, best.amplitude_trend) >= miss(it, trend.slope):
-            return kept("its loop did not converge and came no closer than p = 0 "
-                        f"({b.failure or b.stopped or 'no replay improved on it'})")
-    closest = None if four.closest is None else first + four.closest
-    b.settle(BindingSolve(four.u, four.converged, four.jacobian, closest, four.n))
+    if not four.converged:  # p is not settled: the answer with one ratio stands
+        return kept("its loop did not converge in "
+                    f"{b.opts.max_iter + EXPONENT_MORE_ITER} replays"
+                    + (f" ({b.failure or b.stopped})" if b.failure or b.stopped else ""))
+    b.settle(four)
     p = float(four.u[3])
     b.exponent = p
     at = amplitude_trend(b.stat.points.used(), b.rep.points.used(), b.test.levels)
@@ -987,8 +977,7 @@ def _fit_exponent(b: _Binding, sol, progress: bool):
             dp = abs(float(inv[3, 3])) * half
             out["exponent_ci95"] = (max(lo, p - dp), min(hi, p + dp))
             out["shift"] = np.abs(inv[:2, 3] * half)
-    return BindingSolve(four.u[:3], four.converged, four.jacobian[:3, :3], closest,
-                        sol.n + 1 + four.n), out
+    return BindingSolve(four.u[:3], True, four.jacobian[:3, :3], None, sol.n + 1 + four.n), out
 
 
 def _first_solution(binding: _Binding, hat: np.ndarray, origin: np.ndarray, unknowns,
