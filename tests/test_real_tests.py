@@ -995,3 +995,21 @@ def test_draw_pairs_puts_two_draws_difference_in_units_of_their_precisions():
     row = next(r for r in table if r.startswith("| up-sweeps, a copy set stopped early | delta"))
     assert "| 1 | 1.00 |" in row and "-1.0 (b)" in row
     assert any(r.startswith("| down-sweeps | delta | 1 | 0.00 |") for r in table)
+
+
+def test_the_benchmarks_replay_options_are_read_as_yaml_and_checked_before_any_work():
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "benchmarks" / "realtests" / "run.py"
+    spec = importlib.util.spec_from_file_location("realtests_run", path)
+    run = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(run)
+    assert run.replay_options(["damping_exponent=estimate", "precision_copies=4",
+                               "damping=0.02"]) == {"damping_exponent": "estimate",
+                                                    "precision_copies": 4, "damping": 0.02}
+    assert run.replay_options([]) == {}
+    for bad, words in ((["damping_exponent=5"], "damping_exponent"), (["x"], "KEY=VALUE"),
+                       (["foo=1"], "foo")):
+        with pytest.raises(SystemExit, match=words):
+            run.replay_options(bad)

@@ -3,6 +3,7 @@
     python benchmarks/realtests/run.py                  # all cases in outputs/realtests/data
     python benchmarks/realtests/run.py --cases 'fin_level_*' --jobs 2
     python benchmarks/realtests/run.py --report outputs/realtests/results   # table from saved JSONL
+    python benchmarks/realtests/run.py --replay damping_exponent=estimate    # a replay option set
 
 For each case and noise draw, two identifications: the plain backbone fit and the default,
 corrected answer (the replay). The table gives each one's errors against the truth (for unequal
@@ -35,15 +36,16 @@ BOUNDS = {"delta": 0.01, "kn": 0.02}  # the issue's success bounds (relative)
 FITS = ("plain", "corrected")
 
 
-def identify_case(path: str, corrected: bool) -> dict:
-    """The one call into freeplayid: the default corrected answer or the plain fit of a data set,
-    as a plain dict (kn, delta, intervals, verdict and reasons) or {"refused": message}."""
+def identify_case(path: str, corrected: bool, replay: dict | None = None) -> dict:
+    """The one call into freeplayid: the default corrected answer (with the ``replay`` options
+    given, if any) or the plain fit of a data set, as a plain dict (kn, delta, intervals,
+    verdict and reasons) or {"refused": message}."""
     import freeplayid
 
     try:
         with contextlib.redirect_stderr(io.StringIO()):  # the progress bars
-            res = (freeplayid.identify(path) if corrected
-                   else freeplayid.identify(path, replay=None))
+            res = (freeplayid.identify(path, **({"replay": replay} if replay else {}))
+                   if corrected else freeplayid.identify(path, replay=None))
     except freeplayid.InputError as exc:
         return {"refused": " ".join(str(exc).split())}
     rep = res.replay
@@ -81,10 +83,10 @@ def identify_case(path: str, corrected: bool) -> dict:
                             if c.name == "replay_misfit"}}
 
 
-def _task(case: str, draw: str, folder: str, fit: str) -> dict:
+def _task(case: str, draw: str, folder: str, fit: str, replay: dict | None = None) -> dict:
     t0 = time.perf_counter()
     try:
-        out = identify_case(folder, fit == "corrected")
+        out = identify_case(folder, fit == "corrected", replay)
     except Exception as exc:  # a crash is a result of the benchmark too
         out = {"error": f"{type(exc).__name__}: {' '.join(str(exc).split())[:300]}"}
     truth = json.loads((Path(folder) / "truth.json").read_text())
@@ -222,6 +224,26 @@ def draw_pairs(results: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def replay_options(pairs: list[str]) -> dict:
+    """``KEY=VALUE`` pairs as replay options, each value read as YAML (0.6, true, estimate)."""
+    import yaml
+
+    out = {}
+    for pair in pairs:
+        key, sep, value = pair.partition("=")
+        if not sep or not key:
+            raise SystemExit(f"--replay takes KEY=VALUE, got {pair!r}")
+        out[key.strip()] = yaml.safe_load(value)
+    if out:
+        from freeplayid.replay import Replay
+
+        try:
+            Replay(**out)  # a wrong option or value, before any long work
+        except (TypeError, ValueError) as err:
+            raise SystemExit(f"--replay: {err}") from None
+    return out
+
+
 def sort_key(order: dict):
     return lambda r: (order.get(r["case"], 1e9), r["case"], r["draw"], FITS.index(r["fit"]))
 
@@ -235,7 +257,11 @@ def main() -> None:
     ap.add_argument("--out", default=DEFAULT_OUT, help="folder for one JSONL per case")
     ap.add_argument("--fits", default="plain,corrected", help="plain, corrected or both")
     ap.add_argument("--report", default=None, help="print the table of the JSONL in this folder")
+    ap.add_argument("--replay", action="append", default=[], metavar="KEY=VALUE",
+                    help="a replay option for the corrected fits (repeatable), e.g. "
+                    "damping_exponent=estimate")
     args = ap.parse_args()
+    replay = replay_options(args.replay)
     patterns = [p for p in args.cases.split(",") if p]
     cases = find_cases(Path(args.data), patterns)
     draws = [d for d in args.draws.split(",") if d]
@@ -253,7 +279,7 @@ def main() -> None:
     if not cases:
         raise SystemExit(f"no data sets under {args.data} matching {patterns or 'anything'}")
     fits = [f for f in args.fits.split(",") if f]
-    tasks = [(c, d, str(f), fit) for c, d, f in cases for fit in fits]
+    tasks = [(c, d, str(f), fit, replay) for c, d, f in cases for fit in fits]
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     for case in order:  # fresh files for the cases this run covers
