@@ -300,16 +300,10 @@ def replay_checks(replay, *, down_runs=()) -> list[Check]:
         ci = damping.zeta_ci95
         ratio = None if ci is None else ci[1] / ci[0]
         ok = ratio is not None and ratio <= LIMITS["zeta_ci_ratio"]
-        form = ""
-        if getattr(damping, "exponent_estimated", False):
-            eci = getattr(damping, "exponent_ci95", None)
-            form = (f" in mode 1, zeta (w_i / w_1)^{damping.exponent:.2g} in mode i (the "
-                    "exponent estimated from how the peaks change with the level"
-                    + ("" if eci is None else f", 95 % CI {eci[0]:.2g} to {eci[1]:.2g}") + ")")
         checks.append(Check(
             "damping_estimate", ok,
             f"damping estimated from the peak amplitudes: zeta = {damping.zeta:.3g}"
-            + ("" if ci is None else f" (95 % CI {ci[0]:.3g} to {ci[1]:.3g})") + form
+            + ("" if ci is None else f" (95 % CI {ci[0]:.3g} to {ci[1]:.3g})")
             + ("" if ok else "; the amplitudes do not pin it down (give `damping=` or C in "
                "the model file)"), ratio))
     return [c for c in checks if c is not None]

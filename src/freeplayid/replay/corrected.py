@@ -638,6 +638,11 @@ class _Binding:
         return plain_estimate(ds, self.system, init=tuple(theta), extraction=t.extraction,
                               fit=t.fit, point_weights=self.weights)
 
+    def trend(self, rep: PlainEstimate):
+        """How ``rep``'s amplitudes at the statistic's points drift from the test's with the
+        level (:func:`.statistic.amplitude_trend`; None with fewer than three levels)."""
+        return amplitude_trend(self.stat.points.used(), rep.points.used(), self.test.levels)
+
     def fix_weights(self, rep: PlainEstimate) -> PlainEstimate:
         """After the first replay (the clean reference of the measured noise): weight the
         points by it, refit the test's statistic and this replay with the weights, and keep
@@ -682,7 +687,7 @@ class _Binding:
             F = np.append(F, ratio)
         trend = None
         if u.size == 4:
-            trend = amplitude_trend(self.stat.points.used(), rep.points.used(), self.test.levels)
+            trend = self.trend(rep)
             if trend is None:  # the replay lost a run: its trend is not the test's
                 runs = {p.run for p in self.stat.points.used()}
                 self.failed_at = (theta, IdentificationError(
@@ -864,8 +869,7 @@ def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extracti
         sol, exponent = _fit_exponent(binding, sol, progress)
     elif estimate and not binding.failure and binding.rep is not None:
         # the form given: how its replayed peaks drift with the level (no replay), reported
-        at = amplitude_trend(binding.stat.points.used(), binding.rep.points.used(),
-                             binding.test.levels)
+        at = binding.trend(binding.rep)
         if at is not None:
             exponent = {"trend": at.slope, "trend_se": at.se}
     log.debug("replay loop: %s after %d replays", "converged" if sol.converged else
@@ -902,7 +906,7 @@ def _fit_exponent(b: _Binding, sol, progress: bool):
     need to be negative for) the answer stays the loop's with p = 0 and the note says why."""
     i = len(b.history) - 1 if sol.converged or sol.closest is None else sol.closest
     it, rep, rep_ds, ratios = b.history[i], b.rep, b.rep_ds, b.ratios
-    trend = amplitude_trend(b.stat.points.used(), rep.points.used(), b.test.levels)
+    trend = b.trend(rep)
     single = {"trend_single": None if trend is None else trend.slope,
               "single_ratio_answer": (float(np.exp(sol.u[0])), float(np.exp(sol.u[1])))}
     if trend is None:
@@ -962,7 +966,7 @@ def _fit_exponent(b: _Binding, sol, progress: bool):
     b.settle(four)
     p = float(four.u[3])
     b.exponent = p
-    at = amplitude_trend(b.stat.points.used(), b.rep.points.used(), b.test.levels)
+    at = b.trend(b.rep)
     out = {"exponent_estimated": True, "trend": at.slope if at else None,
            "trend_se": at.se if at else None, **single}
     if p in (lo, hi):

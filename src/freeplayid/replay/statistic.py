@@ -95,10 +95,11 @@ def amplitude_trend(measured_points, replayed_points, levels: dict) -> Amplitude
     if len({round(float(levels[r][0]), 9) for r in runs}) < 3:
         return None
     x = {r: float(np.log(float(levels[r][0]))) for r in runs}
-    slope, se = _line(np.array([x[r] for r in runs]),
-                      np.array([float(np.median(list(by_run[r].values()))) for r in runs]))
-    if len(runs) < 4:
-        se = float("nan")
+    xr = np.array([x[r] for r in runs])
+    yr = np.array([float(np.median(list(by_run[r].values()))) for r in runs])
+    dx, dy = xr - xr.mean(), yr - yr.mean()
+    slope = float(dx @ dy) / float(dx @ dx)
+    se = _pooled_slope_se(dx, dy, 1) if len(runs) >= 4 else float("nan")
     xs, ys, groups = [], [], 0
     for ch in {c for v in by_run.values() for c in v}:
         rs = [r for r in runs if ch in by_run[r]]
@@ -110,25 +111,20 @@ def amplitude_trend(measured_points, replayed_points, levels: dict) -> Amplitude
         ys.append(yc - yc.mean())
         groups += 1
     if xs:
-        se_points = _line(np.concatenate(xs), np.concatenate(ys), centred=True,
-                          dof_less=groups - 1)[1]
+        se_points = _pooled_slope_se(np.concatenate(xs), np.concatenate(ys), groups)
         se = se_points if not np.isfinite(se) else max(se, se_points)
     return AmplitudeTrend(float(slope), float(se), len(runs))
 
 
-def _line(x: np.ndarray, y: np.ndarray, centred: bool = False,
-          dof_less: int = 0) -> tuple[float, float]:
-    """Least-squares slope of ``y`` on ``x`` and its standard error (NaN without a degree of
-    freedom); ``centred``: x and y are deviations from their groups' means already (which cost
-    ``dof_less`` more degrees of freedom)."""
-    dx, dy = (x, y) if centred else (x - x.mean(), y - y.mean())
+def _pooled_slope_se(dx: np.ndarray, dy: np.ndarray, groups: int) -> float:
+    """Standard error of the least-squares slope through deviations ``dx``, ``dy`` from their
+    ``groups`` groups' own means (each mean costs a degree of freedom; NaN without one)."""
     sxx = float(dx @ dx)
-    slope = float(dx @ dy) / sxx
-    dof = x.size - 2 - dof_less
-    if dof <= 0:
-        return slope, float("nan")
-    e = dy - slope * dx
-    return slope, float(np.sqrt(float(e @ e) / dof / sxx))
+    dof = dx.size - 1 - groups
+    if dof <= 0 or not sxx > 0:
+        return float("nan")
+    e = dy - float(dx @ dy) / sxx * dx
+    return float(np.sqrt(float(e @ e) / dof / sxx))
 
 
 def median_se(values: np.ndarray) -> float:
