@@ -1205,6 +1205,48 @@ def test_a_damping_exponent_gives_mode_i_the_ratio_zeta_times_its_frequency_rati
     assert Replay(damping_exponent="estimate").damping_exponent == "estimate"
 
 
+def _hinge_damper(fin, kn: float, zeta_h: float) -> np.ndarray:
+    """c B B^T whose c adds ``zeta_h`` to the closed mode 1's ratio, from the closed modes by
+    scipy (the realtests' rule: zeta_h = c sum_j (b_j^T phi_1)^2 / (2 w_1))."""
+    import scipy.linalg
+
+    lam, phi = scipy.linalg.eigh(fin.closed_stiffness(kn), fin.M)
+    B = fin.hinge_matrix()
+    c = 2 * zeta_h * math.sqrt(lam[0]) / float(np.sum((B.T @ phi[:, 0]) ** 2))
+    return c * (B @ B.T)
+
+
+def test_a_hinge_dampers_share_keeps_mode_1s_ratio_and_damps_the_modes_that_turn_the_hinges():
+    """``damped_system`` with ``hinge`` q: the modes' (1 - q) zeta plus the damper whose c adds
+    q zeta to closed mode 1 (built here from scipy's modes); mode 1's ratio read off the state
+    matrix's complex eigenvalues stays zeta (within the damper's small coupling of the modes);
+    q = 0 is the modal damping as before; bad values and two forms estimated at once are
+    refused."""
+    from freeplayid.model import default_fin, modal_damping
+    from freeplayid.replay import Replay, damped_system
+
+    fin, kn, zeta, q = default_fin(), 480.0, 0.02, 0.4
+    got = damped_system(fin, zeta, kn, hinge=q).C
+    want = modal_damping(fin.M, fin.closed_stiffness(kn), zeta * (1 - q)) + \
+        _hinge_damper(fin, kn, q * zeta)
+    np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-12 * np.abs(want).max())
+    np.testing.assert_array_equal(damped_system(fin, zeta, kn, hinge=0.0).C,
+                                  damped_system(fin, zeta, kn).C)
+    M, K = fin.M, fin.closed_stiffness(kn)
+    n = M.shape[0]
+    Minv = np.linalg.inv(M)
+    A = np.block([[np.zeros((n, n)), np.eye(n)], [-Minv @ K, -Minv @ got]])
+    lam = np.linalg.eigvals(A)
+    lam = lam[lam.imag > 0]
+    first = lam[np.argmin(np.abs(lam))]
+    assert -first.real / abs(first) == pytest.approx(zeta, rel=0.02)
+    for bad in (1.0, -0.1, "fit"):
+        with pytest.raises(ValueError, match=r"`damping_hinge` must be a number in \[0, 0.95\]"):
+            Replay(damping_hinge=bad)
+    with pytest.raises(ValueError, match="cannot both be 'estimate'"):
+        Replay(damping_exponent="estimate", damping_hinge="estimate")
+
+
 def test_a_bounded_unknown_is_held_on_its_bound_while_the_others_solve_their_equations():
     """F(u) = A u - b with a solution whose second unknown lies below its bound 0: the loop
     holds it at 0 and solves the first equation alone (u0 = b0 / A00 there), converging; a
@@ -1308,6 +1350,73 @@ def test_the_damping_exponent_is_estimated_from_how_the_peaks_change_with_the_le
     assert "the exponent 1 estimated from how the peaks change with the level" in res.report()
     saved = res.to_dict()["replay"]["damping"]
     assert saved["exponent_estimated"] and saved["single_ratio_answer"] is not None
+
+
+@pytest.fixture(scope="module")
+def fin_hinge_damped():
+    """The default fin damped 1.2 % in every mode plus a damper across each hinge that adds
+    0.8 % to closed mode 1 (q = 0.4 of its 2 %; the truth built from scipy's modes), swept as
+    :func:`_fin_damped`; the model without C. (The package's own simulator: the loop recovers a
+    form it can replay; the independent check is benchmarks/realtests.)"""
+    import torch
+
+    from freeplayid.model import default_fin, modal_damping
+    from freeplayid.simulate import simulate_sweeps, sweep_dataset
+
+    fin, kn = default_fin(), 480.0
+    C = modal_damping(fin.M, fin.closed_stiffness(kn), 0.012) + _hinge_damper(fin, kn, 0.008)
+    res = simulate_sweeps(fin.replace(C=C), kn=kn, delta=3e-3, level_g=[0.4, 0.6, 0.8, 1.0,
+                                                                         1.2],
+                          sweep=Sweep(30.0, 50.0, 0.5), channels=["uz_top_left",
+                                                                  "uz_lower_right"],
+                          sample_rate=256.0, dtype=torch.float64, engine="expo",
+                          progress=False)
+    return sweep_dataset(res, units="g"), fin.replace(C=None)
+
+
+def test_a_hinge_dampers_share_is_estimated_from_how_the_peaks_change_with_the_level(
+        fin_hinge_damped):
+    """One ratio leaves the replayed peaks drifting with the level; estimating the hinge
+    damper's share recovers q = 0.4 and mode 1's 2 % with the answer within 0.1 %, and the
+    report and the ``damping_form`` check say so."""
+    ds, model = fin_hinge_damped
+    out = identify(ds, system=model, progress=False,
+                   replay={"damping_hinge": "estimate", **QUICK})
+    d = out.replay.damping
+    assert d.source == "estimated" and d.hinge_estimated and not d.exponent_estimated
+    assert d.hinge == pytest.approx(0.4, abs=0.05)
+    assert d.hinge_ci95[0] < d.hinge < d.hinge_ci95[1]
+    assert d.zeta == pytest.approx(0.02, rel=0.03)
+    assert d.trend_single < -0.01 and abs(d.trend) < 0.005
+    assert abs(out.truth_error["delta"]) < 1e-3 and abs(out.truth_error["kn"]) < 1e-3
+    assert out.replay.converged
+    assert any(i.hinge is not None for i in out.replay.iterations)
+    said = out.report()
+    assert "the hinge damper's share" in said
+    assert "from a damper across each hinge, the rest" in said
+    form = next(c for c in out.verdict.checks if c.name == "damping_form")
+    assert form.passed and "the hinge damper's share" in form.message
+    saved = out.to_dict()["replay"]["damping"]
+    assert saved["hinge_estimated"] and saved["hinge"] == pytest.approx(d.hinge)
+
+
+def test_a_form_held_on_its_upper_bound_is_not_taken(fin_hinge_damped, monkeypatch):
+    """The same data with the share bounded to 0.2 (the truth 0.4 beyond it): the loop ends on
+    the bound with the peaks still drifting, so the answer stays the one ratio's and the note
+    says why."""
+    import freeplayid.replay.corrected as corrected
+
+    monkeypatch.setitem(corrected._FORMS, "hinge",
+                        dataclasses.replace(corrected._FORMS["hinge"], bounds=(0.0, 0.2)))
+    ds, model = fin_hinge_damped
+    out = identify(ds, system=model, progress=False,
+                   replay={"damping_hinge": "estimate", **QUICK})
+    d = out.replay.damping
+    assert not d.hinge_estimated and d.hinge == 0.0
+    assert "stopped at its upper bound 0.2" in d.hinge_note
+    kn1, delta1 = d.single_ratio_answer
+    assert (out.kn, out.delta) == (kn1, delta1)
+    assert all(i.hinge is None for i in out.replay.iterations)
 
 
 def test_an_estimated_exponent_on_one_ratio_in_every_mode_stays_near_zero():

@@ -756,7 +756,7 @@ def test_replayed_peaks_that_drift_with_the_level_say_the_damping_has_another_fo
     assert "drift" not in base.describe()
     text = dataclasses.replace(base, trend=-0.28, trend_se=0.02).describe()
     assert "the replayed peaks drift with the level by -28 % per e-fold" in text
-    assert "`replay.damping_exponent=estimate` fits the first" in text
+    assert "`replay.damping_exponent=estimate` fits the first two" in text
     assert "drift" not in dataclasses.replace(base, trend=-0.28, trend_se=0.2).describe()
     up = dataclasses.replace(base, trend=0.07, trend_se=0.003).describe()
     assert "+7 % per e-fold" in up and "more damping in contact" in up

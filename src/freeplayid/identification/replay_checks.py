@@ -47,8 +47,9 @@
   drop points put kn 2.7-5.5 % low and the channels' ratios put it +3.5 to +5.8 % from the
   answer; a constant level 4-5 % off, a level ramp, Rayleigh damping, a log sweep, more noise
   leave it within 1.3 % (40 answers of benchmarks/realtests, docs/results.md).
-- ``damping_form`` (the damping's exponent estimated, ``replay.damping_exponent``): how far
-  the exponent moved the answer from one ratio's, reported (its value: that move over the
+- ``damping_form`` (the damping's exponent or its hinge damper's share estimated,
+  ``replay.damping_exponent`` / ``replay.damping_hinge``): how far it moved the answer from
+  one ratio's, reported (its value: that move over the
   accuracy bounds). It is estimated only with a base channel to replay: without one a level
   that drifts during the runs drifts the replayed peaks with the level as damping that rises
   with the mode does.
@@ -65,7 +66,7 @@ import math
 
 import scipy.stats
 
-from ..replay.corrected import EXPONENT_ATOL
+from ..replay.corrected import EXPONENT_ATOL, HINGE_ATOL
 from .verdict import LIMITS, Check, within_binding_noise
 
 __all__ = ["replay_checks", "precision_check", "noise_outside_chance", "settled_sd",
@@ -196,18 +197,20 @@ def _consistency_check(replay) -> Check | None:
 
 
 def _form_check(replay) -> Check | None:
-    """``damping_form``: with the damping's exponent estimated, how far it moved the answer from
-    the one ratio's (reported; the move is in the intervals through p's own uncertainty). None
-    where the exponent was not estimated."""
+    """``damping_form``: with the damping's exponent (or its hinge damper's share) estimated, how
+    far it moved the answer from the one ratio's (reported; the move is in the intervals through
+    its own uncertainty). None where neither was estimated."""
     d = getattr(replay, "damping", None)
-    if d is None or not getattr(d, "exponent_estimated", False) or \
-            getattr(d, "single_ratio_answer", None) is None:
+    form = getattr(d, "form_estimated", None)
+    if form is None or getattr(d, "single_ratio_answer", None) is None:
         return None
     kn1, delta1 = d.single_ratio_answer
     move = (math.log(replay.kn / kn1), math.log(replay.delta / delta1))
+    what = (f"the damping's exponent {d.exponent:.2g} (the higher closed modes damped more"
+            if form == "exponent" else
+            f"the hinge damper's share {d.hinge:.2g} (a damper across each hinge")
     return Check("damping_form", True,
-                 f"the damping's exponent {d.exponent:.2g} (the higher closed modes damped "
-                 "more, estimated from how the replayed peaks change with the level"
+                 what + ", estimated from how the replayed peaks change with the level"
                  + ("" if d.trend_single is None else
                     f": {100 * d.trend_single:+.2g} % per e-fold of level with one ratio")
                  + f") moved the answer by delta {100 * move[1]:+.2g} %, kn "
@@ -349,9 +352,10 @@ def _converged_check(replay) -> Check:
                  + (f"; the loop stopped: {stopped}" if stopped else ""), close)
 
 
-# [-] two replays whose damping exponents differ by more than this are not compared by the
-# binding check (twice the exponent's convergence tolerance)
+# [-] two replays whose damping exponents (hinge dampers' shares) differ by more than this are
+# not compared by the binding check (twice the parameter's convergence tolerance)
 EXPONENT_MOVE = 2 * EXPONENT_ATOL
+HINGE_MOVE = 2 * HINGE_ATOL
 
 
 def _binding_check(iterations) -> Check:
@@ -359,7 +363,8 @@ def _binding_check(iterations) -> Check:
     worst = None  # (move of the fit, move of the parameter, name)
     for a, b in zip(iterations, iterations[1:]):
         if abs((getattr(a, "exponent", None) or 0.0) - (getattr(b, "exponent", None) or 0.0)) \
-                > EXPONENT_MOVE:
+                > EXPONENT_MOVE or abs((getattr(a, "hinge", None) or 0.0)
+                                       - (getattr(b, "hinge", None) or 0.0)) > HINGE_MOVE:
             continue  # the damping's form moved between them too: not (kn, delta) alone
         for name in ("kn", "delta"):
             move = abs(math.log(getattr(b, f"{name}_rep") / getattr(a, f"{name}_rep")))

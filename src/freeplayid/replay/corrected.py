@@ -90,6 +90,9 @@ class ReplayIteration:
         With an estimated damping exponent (``Replay.damping_exponent`` "estimate"), once the
         loop solves for it: the replay's exponent p, and the slope of the runs' median
         log(X_replayed / X_measured) against their log level (:func:`.statistic.amplitude_trend`).
+    hinge : float or None [-]
+        With an estimated hinge damper's share (``Replay.damping_hinge`` "estimate"), once the
+        loop solves for it: the replay's share q (``amplitude_trend`` as above).
     misfit_se : float or None
         How far this replay missed the test's statistics, in their standard errors.
     """
@@ -104,11 +107,12 @@ class ReplayIteration:
     misfit_se: float | None = None
     exponent: float | None = None
     amplitude_trend: float | None = None
+    hinge: float | None = None
 
     def to_dict(self) -> dict:
         out = {"kn": self.kn, "delta": self.delta, "kn_rep": self.kn_rep,
                "delta_rep": self.delta_rep, "n_evaluations": self.n_evaluations}
-        for key in ("zeta", "amplitude_log_ratio", "exponent", "amplitude_trend"):
+        for key in ("zeta", "amplitude_log_ratio", "exponent", "amplitude_trend", "hinge"):
             if getattr(self, key) is not None:
                 out[key] = getattr(self, key)
         out["misfit_se"] = self.misfit_se
@@ -584,16 +588,19 @@ def _replayed_test(dataset, system, plain: PlainEstimate, rule: str, extraction:
 class _Binding:
     """The binding function's residual F(u), u = log(kn, delta[, zeta[, p]]): the statistics of
     the replay at u minus those of the test, log(kn_rep / kn_hat), log(delta_rep / delta_hat)[,
-    median log(X_rep / X)[, that ratio's trend with the level]], p the damping's exponent
-    (``exponent`` where u does not carry it). It keeps every replay (``history``), the last one,
+    median log(X_rep / X)[, that ratio's trend with the level]], p the damping's exponent or q
+    its hinge damper's share (``fourth`` names which; ``exponent`` and ``hinge`` where u does
+    not carry them). It keeps every replay (``history``), the last one,
     the point weights it fixed after the first, and why a replay failed."""
 
     def __init__(self, test: _Test, system, damping: tuple, opts: Replay, bar=None,
                  label: str = "replay"):
         self.test, self.system, self.opts, self.bar, self.label = test, system, opts, bar, label
         self.source, self.zeta = damping
-        p = opts.damping_exponent
+        p, q = opts.damping_exponent, opts.damping_hinge
         self.exponent = 0.0 if p == "estimate" else float(p)
+        self.hinge = 0.0 if q == "estimate" else float(q)
+        self.fourth = "hinge" if q == "estimate" else "exponent"
         self.history, self.rep, self.rep_ds, self.failure = [], None, None, ""
         self.replays = []  # (refit, replayed data set) of each entry of ``history``
         self.stopped, self.failed_at = "", None
@@ -609,7 +616,7 @@ class _Binding:
         other = _Binding(test, self.system, damping, self.opts, label=label)
         other.weights, other.weight_table = self.weights, self.weight_table
         other.stat, other.stat_ci95 = self.stat, self.stat_ci95
-        other.exponent = self.exponent
+        other.exponent, other.hinge = self.exponent, self.hinge
         return other
 
     @property
@@ -623,7 +630,7 @@ class _Binding:
         t = self.test
         # a modal damping of the closed-hinge modes at the replayed kn (not the plain fit's)
         sys_k = self.system if self.source == "model" else \
-            damped_system(self.system, zeta, float(theta[0]), self.exponent)
+            damped_system(self.system, zeta, float(theta[0]), self.exponent, self.hinge)
         return replay_dataset(t.dataset, sys_k, *theta, levels=levels or t.levels,
                               sweeps=t.sweeps, excitations=excitations or t.excitations,
                               engine=self.opts.engine)
@@ -663,7 +670,7 @@ class _Binding:
         estimate = self.source == "estimated"
         zeta = float(np.exp(u[2])) if estimate else self.zeta
         if u.size == 4:
-            self.exponent = float(u[3])
+            setattr(self, self.fourth, float(u[3]))
         try:
             rep = self.replay(theta, zeta)
         except IdentificationError as err:
@@ -701,8 +708,9 @@ class _Binding:
             float(theta[0]), float(theta[1]), float(kn_rep), float(delta_rep),
             int(rep.fit.n_evaluations), zeta=None if self.source == "model" else float(zeta),
             amplitude_log_ratio=ratio, misfit_se=se,
-            exponent=None if trend is None else self.exponent,
-            amplitude_trend=None if trend is None else trend.slope))
+            exponent=None if trend is None or self.fourth != "exponent" else self.exponent,
+            amplitude_trend=None if trend is None else trend.slope,
+            hinge=None if trend is None or self.fourth != "hinge" else self.hinge))
         self._report(theta, zeta if estimate else None, float(np.abs(F).max()))
         return F
 
@@ -864,9 +872,11 @@ def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extracti
         note = (f"the model file's C put the replayed amplitudes {100 * mismatch:+.2g} % off "
                 f"the test's at its answer after {len(first.history)} replays; the iterations "
                 "listed are those with the damping estimated, from that answer")
-    exponent = {}  # with the model's C or a given ratio (or no replay) p stays 0, unsaid
-    if opts.damping_exponent == "estimate" and estimate and not binding.failure:
-        sol, exponent = _fit_exponent(binding, sol, progress)
+    exponent = {}  # with the model's C or a given ratio (or no replay) p and q stay, unsaid
+    form = _FORMS.get(binding.fourth) if "estimate" in (opts.damping_exponent,
+                                                        opts.damping_hinge) else None
+    if form is not None and estimate and not binding.failure:
+        sol, exponent = _fit_form(binding, sol, progress, form)
     elif estimate and not binding.failure and binding.rep is not None:
         # the form given: how its replayed peaks drift with the level (no replay), reported
         at = binding.trend(binding.rep)
@@ -881,7 +891,8 @@ def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extracti
     used = _damping_used(source, zeta, binding.ratios, sol.jacobian, estimate, note,
                          failed=bool(binding.failure), extra=exponent.pop("shift", None))
     if source != "model":
-        used = dataclasses.replace(used, exponent=binding.exponent, **exponent)
+        used = dataclasses.replace(used, exponent=binding.exponent, hinge=binding.hinge,
+                                   **exponent)
     return _result(binding, theta, rule, sol, closest, used,
                    plain, system, opts, progress, start=began, settled=precision_settled)
 
@@ -889,88 +900,120 @@ def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extracti
 EXPONENT_BOUNDS = (0.0, 2.0)  # [-] an estimated damping exponent p: Rayleigh damping is near 1
 EXPONENT_PROBE = 0.5  # [-] the replay that measures how the trend moves with p
 EXPONENT_ATOL = 0.02  # [-] an estimated p has converged when it moves by less than this
-EXPONENT_MIN_SLOPE = 1e-3  # [-] d trend / dp below this: the trend does not measure p
-EXPONENT_MORE_ITER = 4  # the loop with p as a fourth unknown may take Replay.max_iter + this
+HINGE_BOUNDS = (0.0, 0.95)  # [-] an estimated hinge damper's share q (1: no modal damping left)
+HINGE_PROBE = 0.1  # [-] the replay that measures how the trend moves with q (0.3 lost the
+# jumps of a lightly damped beam: its replay stayed in the gap)
+HINGE_ATOL = 0.01  # [-] an estimated q has converged when it moves by less than this
+EXPONENT_MIN_SLOPE = 1e-3  # [-] d trend / d(p or q) below this: the trend does not measure it
+EXPONENT_MORE_ITER = 4  # the loop with p or q as a fourth unknown may take max_iter + this
 
 
-def _fit_exponent(b: _Binding, sol, progress: bool):
-    """The damping's exponent p estimated with (kn, delta, zeta), from the loop's answer ``sol``
-    with p = 0: its replay's amplitude trend with the level (:func:`.statistic.amplitude_trend`)
-    is the fourth residual, p the fourth unknown (within :data:`EXPONENT_BOUNDS`). One replay at
-    p + :data:`EXPONENT_PROBE` gives the Jacobian's p column (the other columns are the loop's);
-    Broyden's loop goes on from there. Returns the solution in (log kn, log delta, log zeta)
-    with p held at its answer (``b.exponent``, ``b.rep`` its replay) and the fields of
-    :class:`.damping_estimate.ReplayDamping` it fills (``shift``: p's 95 % move of the answer).
-    Where p cannot be estimated (fewer than three levels, no measured excitation, runs with
-    points that sweep down, a failed replay, a trend that does not move with p or that p would
-    need to be negative for) the answer stays the loop's with p = 0 and the note says why."""
+@dataclass(frozen=True)
+class _Form:
+    """A form of the replay's damping with one parameter that the loop estimates from the
+    replayed peaks' trend with the level (:func:`_fit_form`): its attribute of the binding and
+    of :class:`.damping_estimate.ReplayDamping`, its symbol, bounds, probe and tolerance."""
+
+    attr: str
+    symbol: str
+    what: str
+    bounds: tuple
+    probe: float
+    atol: float
+
+
+_FORMS = {"exponent": _Form("exponent", "p", "the damping's exponent", EXPONENT_BOUNDS,
+                            EXPONENT_PROBE, EXPONENT_ATOL),
+          "hinge": _Form("hinge", "q", "the hinge damper's share", HINGE_BOUNDS, HINGE_PROBE,
+                         HINGE_ATOL)}
+
+
+def _fit_form(b: _Binding, sol, progress: bool, form: _Form):
+    """The damping's form parameter (``form``: the exponent p or the hinge damper's share q)
+    estimated with (kn, delta, zeta), from the loop's answer ``sol`` with it at 0: its replay's
+    amplitude trend with the level (:func:`.statistic.amplitude_trend`) is the fourth residual,
+    the parameter the fourth unknown (within ``form.bounds``). One replay at ``form.probe``
+    gives the Jacobian's fourth column (the other columns are the loop's); Broyden's loop goes
+    on from there. Returns the solution in (log kn, log delta, log zeta) with the parameter held
+    at its answer (``b.<attr>``, ``b.rep`` its replay) and the fields of
+    :class:`.damping_estimate.ReplayDamping` it fills (``shift``: its 95 % move of the answer).
+    Where it cannot be estimated (fewer than three levels, no measured excitation, runs with
+    points that sweep down, a failed replay, a trend that does not move with it or that would
+    need it negative or beyond its upper bound) the answer stays the loop's with it at 0 and the
+    note says why."""
+    name, sym, what = form.attr, form.symbol, form.what
     i = len(b.history) - 1 if sol.converged or sol.closest is None else sol.closest
     it, rep, rep_ds, ratios = b.history[i], b.rep, b.rep_ds, b.ratios
     trend = b.trend(rep)
     single = {"trend_single": None if trend is None else trend.slope,
               "single_ratio_answer": (float(np.exp(sol.u[0])), float(np.exp(sol.u[1])))}
+    note = f"{name}_note"
     if trend is None:
-        return sol, {"exponent_note": "the damping's exponent was not estimated: the points "
-                     "lie at fewer than three levels", **single}
+        return sol, {note: f"{what} was not estimated: the points lie at fewer than three "
+                     "levels", **single}
     if not b.test.excitations:
-        return sol, {"exponent_note": "the damping's exponent was not estimated: without a base "
-                     "channel to replay, a level that drifts during the runs would drift the "
-                     "peaks with the level as such damping does", **single}
+        return sol, {note: f"{what} was not estimated: without a base channel to replay, a "
+                     "level that drifts during the runs would drift the peaks with the level "
+                     "as such damping does", **single}
     if _down_runs(b) & _with_points(b):
-        return sol, {"exponent_note": "the damping's exponent was not estimated: runs with "
-                     "points sweep down, and their jump-ups do not measure the peaks", **single}
+        return sol, {note: f"{what} was not estimated: runs with points sweep down, and their "
+                     "jump-ups do not measure the peaks", **single}
 
     done = len(b.history)
 
-    def kept(why):  # the loop's answer with p = 0 stays, as if p had not been asked for
+    def kept(why):  # the loop's answer at 0 stays, as if the form had not been asked for
         spent = len(b.history) - done
-        b.exponent, b.rep, b.rep_ds, b.ratios = 0.0, rep, rep_ds, ratios
+        setattr(b, name, 0.0)
+        b.rep, b.rep_ds, b.ratios = rep, rep_ds, ratios
         b.failure, b.history[done:], b.replays[done:] = "", [], []
-        return sol, {"exponent_note": f"the damping's exponent was not estimated: {why} "
+        return sol, {note: f"{what} was not estimated: {why} "
                      f"({spent} replay{'s' if spent != 1 else ''} spent on it, not listed)",
                      **single}
 
     u1 = np.log([it.kn, it.delta, it.zeta]).tolist() + [0.0]
     F1 = np.array([np.log(it.kn_rep / b.hat[0]), np.log(it.delta_rep / b.hat[1]),
                    it.amplitude_log_ratio, trend.slope])
-    u2 = np.array(u1) + np.array([0.0, 0.0, 0.0, EXPONENT_PROBE])
-    label = "replay, damping's exponent"
+    u2 = np.array(u1) + np.array([0.0, 0.0, 0.0, form.probe])
+    label = f"replay, {what}"
     with _replay_bar(b.opts.max_iter + EXPONENT_MORE_ITER + 1, label, progress) as b.bar:
         F2 = b(u2)
         if F2 is None:
-            return kept(f"its replay at p = {EXPONENT_PROBE:g} failed ({b.failure})")
+            return kept(f"its replay at {sym} = {form.probe:g} failed ({b.failure})")
         J = np.zeros((4, 4))
         J[:3, :3] = sol.jacobian
-        J[:, 3] = (F2 - F1) / EXPONENT_PROBE
+        J[:, 3] = (F2 - F1) / form.probe
         if abs(J[3, 3]) < EXPONENT_MIN_SLOPE:
             return kept("the amplitudes' trend with the level does not move with it")
-        try:  # where the Newton step from p = 0 puts it: below the bound, the bound's answer
+        try:  # where the Newton step from 0 puts it: below the bound, the bound's answer
             aim = float(np.linalg.solve(J, -F1)[3])
         except np.linalg.LinAlgError:
             return kept("the amplitudes' trend with the level does not move with it")
-        if aim < EXPONENT_BOUNDS[0]:
+        if aim < form.bounds[0]:
             return kept(f"the replayed peaks' trend with the level ({100 * trend.slope:+.2g} % "
-                        f"per e-fold of level with one ratio) would need p = {aim:.2g}, below "
-                        f"{EXPONENT_BOUNDS[0]:g}: not damping that rises with the mode's "
-                        "frequency (more damping in contact, or a level the replay does not "
-                        "know, drifts the other way)")
-        tol = [np.log1p(b.opts.rtol)] * 2 + [np.log1p(ZETA_RTOL), EXPONENT_ATOL]
-        lo, hi = EXPONENT_BOUNDS
+                        f"per e-fold of level with one ratio) would need {sym} = {aim:.2g}, "
+                        f"below {form.bounds[0]:g}: not damping that rises with the mode or "
+                        "sits at the hinge (more damping in contact, or a level the replay does "
+                        "not know, drifts the other way)")
+        tol = [np.log1p(b.opts.rtol)] * 2 + [np.log1p(ZETA_RTOL), form.atol]
+        lo, hi = form.bounds
         four = solve_binding(b, u2, J, max_iter=b.opts.max_iter + EXPONENT_MORE_ITER,
                              tolerances=tol, first=F2,
                              bounds=([-np.inf] * 3 + [lo], [np.inf] * 3 + [hi]))
-    if not four.converged:  # p is not settled: the answer with one ratio stands
+    if not four.converged:  # the form is not settled: the answer with one ratio stands
         return kept("its loop did not converge in "
                     f"{b.opts.max_iter + EXPONENT_MORE_ITER} replays"
                     + (f" ({b.failure or b.stopped})" if b.failure or b.stopped else ""))
+    if float(four.u[3]) >= hi - 1e-9:  # on its upper bound: the trend is left, not this form's
+        return kept(f"it stopped at its upper bound {hi:g} with the replayed peaks still "
+                    "drifting with the level: the damping has another form")
     b.settle(four)
-    p = float(four.u[3])
-    b.exponent = p
+    v = float(four.u[3])
+    setattr(b, name, v)
     at = b.trend(b.rep)
-    out = {"exponent_estimated": True, "trend": at.slope if at else None,
+    out = {f"{name}_estimated": True, "trend": at.slope if at else None,
            "trend_se": at.se if at else None, **single}
-    if p in (lo, hi):
-        out["exponent_note"] = f"the exponent stopped at its bound {p:g}"
+    if v == lo:
+        out[note] = f"{what} stopped at its bound {v:g}"
     if at is not None and np.isfinite(at.se):
         half = 1.96 * at.se
         try:
@@ -978,8 +1021,8 @@ def _fit_exponent(b: _Binding, sol, progress: bool):
         except np.linalg.LinAlgError:
             inv = None
         if inv is not None and np.all(np.isfinite(inv)):
-            dp = abs(float(inv[3, 3])) * half
-            out["exponent_ci95"] = (max(lo, p - dp), min(hi, p + dp))
+            dv = abs(float(inv[3, 3])) * half
+            out[f"{name}_ci95"] = (max(lo, v - dv), min(hi, v + dv))
             out["shift"] = np.abs(inv[:2, 3] * half)
     return BindingSolve(four.u[:3], True, four.jacobian[:3, :3], None, sol.n + 1 + four.n), out
 

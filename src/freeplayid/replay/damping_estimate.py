@@ -59,6 +59,16 @@ class ReplayDamping:
         exponent was estimated.
     single_ratio_answer : (float, float) or None
         (kn, delta) of that answer.
+    hinge : float [-]
+        ``Replay.damping_hinge``: the share q of the lowest closed mode's ratio that a damper
+        across each hinge carries (:func:`damped_system`; 0: modal damping alone); estimated
+        where that option is "estimate".
+    hinge_estimated : bool
+        Whether that share was estimated (as the exponent is, from the trend).
+    hinge_ci95 : (float, float) or None
+        95 % interval of an estimated share (as ``exponent_ci95``).
+    hinge_note : str
+        Why a share asked to be estimated was not (it stayed 0), or where it stopped.
     """
 
     source: str
@@ -75,6 +85,10 @@ class ReplayDamping:
     trend_se: float | None = None
     trend_single: float | None = None
     single_ratio_answer: tuple | None = None
+    hinge: float = 0.0
+    hinge_estimated: bool = False
+    hinge_ci95: tuple | None = None
+    hinge_note: str = ""
 
     def to_dict(self) -> dict:
         return {"source": self.source, "zeta": self.zeta,
@@ -86,7 +100,16 @@ class ReplayDamping:
                 "exponent_note": self.exponent_note, "trend": self.trend,
                 "trend_se": self.trend_se, "trend_single": self.trend_single,
                 "single_ratio_answer": None if self.single_ratio_answer is None else
-                list(self.single_ratio_answer)}
+                list(self.single_ratio_answer),
+                "hinge": self.hinge, "hinge_estimated": self.hinge_estimated,
+                "hinge_ci95": None if self.hinge_ci95 is None else list(self.hinge_ci95),
+                "hinge_note": self.hinge_note}
+
+    @property
+    def form_estimated(self) -> str | None:
+        """Which form of the damping was estimated with zeta: "exponent", "hinge" or None."""
+        return "exponent" if self.exponent_estimated else \
+            "hinge" if self.hinge_estimated else None
 
     def describe(self) -> str:
         if self.source == "model":
@@ -94,6 +117,10 @@ class ReplayDamping:
         text = f"zeta = {self.zeta:.4g} in every closed-hinge mode" if not self.exponent else \
             (f"zeta = {self.zeta:.4g} in the lowest closed-hinge mode, zeta (w_i / w_1)^"
              f"{self.exponent:g} in mode i")
+        if self.hinge:
+            text = (f"zeta = {self.zeta:.4g} in the lowest closed-hinge mode: "
+                    f"{100 * self.hinge:.2g} % of it from a damper across each hinge, the rest "
+                    f"({self.zeta * (1 - self.hinge):.4g}) a modal ratio of every mode")
         if self.source == "given":
             return text + " (given)"
         ci = "" if self.zeta_ci95 is None else \
@@ -103,26 +130,30 @@ class ReplayDamping:
                    f"{100 * self.delta_shift:.2g} % (in the intervals)")
         note = f"; {self.note}" if self.note else ""
         text += f" (estimated from the peak amplitudes{ci}{note})"
-        if self.exponent_estimated:
-            eci = "" if self.exponent_ci95 is None else \
-                f", 95 % CI [{self.exponent_ci95[0]:.2g}, {self.exponent_ci95[1]:.2g}]"
-            text += (f"; the exponent {self.exponent:.2g} estimated from how the peaks change "
-                     f"with the level{eci}")
+        form = self.form_estimated
+        if form is not None:
+            ci = self.exponent_ci95 if form == "exponent" else self.hinge_ci95
+            eci = "" if ci is None else f", 95 % CI [{ci[0]:.2g}, {ci[1]:.2g}]"
+            what = (f"the exponent {self.exponent:.2g}" if form == "exponent" else
+                    f"the hinge damper's share {self.hinge:.2g}")
+            text += f"; {what} estimated from how the peaks change with the level{eci}"
             if self.trend_single is not None and self.single_ratio_answer is not None:
                 kn, delta = self.single_ratio_answer
                 text += (f" (with one ratio in every mode the replayed peaks drifted by "
                          f"{100 * self.trend_single:+.2g} % per e-fold of level and the answer "
                          f"was kn = {kn:.5g} N·m/rad, delta = {delta:.5g} rad)")
-        if self.exponent_note:
-            text += f"; {self.exponent_note}"
-        elif not self.exponent_estimated and self.drifts():
+        notes = "; ".join(n for n in (self.exponent_note, self.hinge_note) if n)
+        if notes:
+            text += f"; {notes}"
+        elif form is None and self.drifts():
             text += (f"; the replayed peaks drift with the level by {100 * self.trend:+.2g} % "
                      f"per e-fold (standard error {100 * self.trend_se:.2g} %): the "
                      "structure's damping has another form than this one ("
                      + ("damping that rises with the mode, as Rayleigh damping does, or a "
                         "damper at the hinge; without a base channel a level that drifts during "
-                        "the runs does the same; `replay.damping_exponent=estimate` fits the "
-                        "first where a base channel is replayed" if self.trend < 0 else
+                        "the runs does the same; `replay.damping_hinge=estimate` or "
+                        "`replay.damping_exponent=estimate` fits the first two where a base "
+                        "channel is replayed" if self.trend < 0 else
                         "more damping in contact, or a level that sags during the runs?") + ")")
         return text
 
@@ -133,12 +164,27 @@ class ReplayDamping:
             np.isfinite(self.trend_se) and abs(self.trend) > TREND_SE * self.trend_se
 
 
-def damped_system(system, zeta: float, kn: float, exponent: float = 0.0):
+def damped_system(system, zeta: float, kn: float, exponent: float = 0.0, hinge: float = 0.0):
     """``system`` with modal damping ratio ``zeta`` in every mode of its closed-hinge stiffness
     at ``kn`` (``model.modal_damping``), replacing its C; with ``exponent`` p, the ratio
-    ``zeta (w_i / w_1)^p`` in mode i (w_1 the lowest closed mode's circular frequency)."""
-    return system.replace(C=modal_damping(system.M, system.closed_stiffness(kn), zeta,
-                                          exponent=exponent))
+    ``zeta (w_i / w_1)^p`` in mode i (w_1 the lowest closed mode's circular frequency).
+
+    With ``hinge`` q (in [0, 1)): a viscous damper across each hinge, ``c B B^T``, carries the
+    share q of the lowest closed mode's ratio and the modes keep ``(1 - q)`` of theirs: ``c =
+    2 q zeta w_1 / sum_j (b_j^T phi_1)^2`` (phi_1 mass-normalised). The lowest closed mode's
+    modal ratio (the diagonal of ``Phi^T C Phi``) stays ``zeta``; the damper damps each mode by
+    how far it turns the hinges, and acts with the hinges open too."""
+    Kc = system.closed_stiffness(kn)
+    C = modal_damping(system.M, Kc, zeta * (1.0 - hinge), exponent=exponent)
+    if not hinge:
+        return system.replace(C=C)
+    modes = modal_analysis(system.M, Kc)
+    w = 2 * np.pi * modes.frequencies_hz
+    first = int(np.flatnonzero(w ** 2 > 1e-9 * float(np.max(w ** 2)))[0])  # mechanisms apart
+    B = system.hinge_matrix()
+    turn = float(np.sum((B.T @ modes.shapes[:, first]) ** 2))
+    C = C + (2 * hinge * zeta * w[first] / turn) * (B @ B.T)
+    return system.replace(C=0.5 * (C + C.T))
 
 
 def damping_mode(system, damping) -> tuple[str, float | None]:

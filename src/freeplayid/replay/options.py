@@ -90,6 +90,16 @@ class Replay:
         one ratio can only put into mode 1 (docs/identify.md §3c, "Where the estimated ζ
         errs"); the per-run peak offsets' trend with the level shows it. Not used with the
         model file's C.
+    damping_hinge : float or "estimate" [-]
+        Another form for an estimated or given damping ratio: a viscous damper across each
+        hinge carries the share q (in [0, 0.95]) of the lowest closed mode's ratio, every mode
+        keeps ``(1 - q)`` of its own (:func:`freeplayid.replay.damping_estimate.damped_system`;
+        the damper acts with the hinges open too, and damps the modes that turn the hinges,
+        among them those a contact excites). 0 (default): modal damping alone. "estimate": q
+        estimated in the loop as ``damping_exponent="estimate"`` estimates p (one of the two at
+        a time), bounds :data:`freeplayid.replay.corrected.HINGE_BOUNDS`. On the real-tests
+        records it takes the drift out of Rayleigh-damped beams as p does, and also where p
+        cannot (docs/identify.md §3c). Not used with the model file's C.
     precision_copies : int
         Noisy copies of the answer's replay that measure how far the test's noise alone moves
         the answer (:func:`freeplayid.replay.precision_by_replay`; each run only around its
@@ -125,6 +135,7 @@ class Replay:
     level_uncertainty: float = 0.05
     damping_uncertainty: float = 0.25
     damping_exponent: float | str = 0.0
+    damping_hinge: float | str = 0.0
     precision_copies: int = 8
     excitation_copies: int = 2
     start: str = "statistic"
@@ -154,6 +165,13 @@ class Replay:
         if p != "estimate" and not (is_number(p) and -1.0 <= p <= 2.0):
             raise ValueError(f"`damping_exponent` must be a number in [-1, 2] or 'estimate', "
                              f"got {p!r}")
+        q = self.damping_hinge
+        if q != "estimate" and not (is_number(q) and 0.0 <= q <= 0.95):
+            raise ValueError(f"`damping_hinge` must be a number in [0, 0.95] or 'estimate', "
+                             f"got {q!r}")
+        if p == "estimate" and q == "estimate":
+            raise ValueError("`damping_exponent` and `damping_hinge` cannot both be 'estimate': "
+                             "the replayed peaks' trend with the level measures one of them")
         check_choice("start", self.start, STARTS)
         if self.engine is not None:
             # the engines' registry imports torch: only when an engine is named
