@@ -1220,8 +1220,7 @@ def test_a_hinge_dampers_share_keeps_mode_1s_ratio_and_damps_the_modes_that_turn
     """``damped_system`` with ``hinge`` q: the modes' (1 - q) zeta plus the damper whose c adds
     q zeta to closed mode 1 (built here from scipy's modes); mode 1's ratio read off the state
     matrix's complex eigenvalues stays zeta (within the damper's small coupling of the modes);
-    q = 0 is the modal damping as before; bad values and two forms estimated at once are
-    refused."""
+    q = 0 is the modal damping as before; bad values are refused."""
     from freeplayid.model import default_fin, modal_damping
     from freeplayid.replay import Replay, damped_system
 
@@ -1243,8 +1242,8 @@ def test_a_hinge_dampers_share_keeps_mode_1s_ratio_and_damps_the_modes_that_turn
     for bad in (1.0, -0.1, "fit"):
         with pytest.raises(ValueError, match=r"`damping_hinge` must be a number in \[0, 0.95\]"):
             Replay(damping_hinge=bad)
-    with pytest.raises(ValueError, match="cannot both be 'estimate'"):
-        Replay(damping_exponent="estimate", damping_hinge="estimate")
+    assert Replay().damping_hinge == "estimate"  # the default form: q estimated
+    assert Replay(damping_exponent="estimate").damping_hinge == "estimate"  # p instead of q
 
 
 def test_a_bounded_unknown_is_held_on_its_bound_while_the_others_solve_their_equations():

@@ -600,7 +600,8 @@ class _Binding:
         p, q = opts.damping_exponent, opts.damping_hinge
         self.exponent = 0.0 if p == "estimate" else float(p)
         self.hinge = 0.0 if q == "estimate" else float(q)
-        self.fourth = "hinge" if q == "estimate" else "exponent"
+        # the trend measures one form: an estimated exponent before the (default) hinge share
+        self.fourth = "exponent" if p == "estimate" or q != "estimate" else "hinge"
         self.history, self.rep, self.rep_ds, self.failure = [], None, None, ""
         self.replays = []  # (refit, replayed data set) of each entry of ``history``
         self.stopped, self.failed_at = "", None
