@@ -311,6 +311,14 @@ def test_an_exponent_that_nothing_measures_is_not_estimated_and_changes_nothing(
     assert [it.to_dict() for it in res.replay.iterations] == \
         [it.to_dict() for it in estimated.replay.iterations]
     assert "the damping's exponent was not estimated" in res.report()
+    # the default form, the hinge damper's share, finds nothing to move either; a given
+    # exponent other than 0 is the form chosen, and no share is tried
+    assert "the hinge damper's share was not estimated" in \
+        estimated.replay.damping.hinge_note
+    given = identify(measured, system=sdof_system(mass=1.0), progress=False,
+                     fit={"multistart": MULTISTART}, replay={"damping_exponent": 0.5})
+    assert given.replay.damping.hinge_note == "" and not given.replay.damping.hinge_estimated
+    assert given.replay.damping.exponent == 0.5
 
 
 def test_a_failed_replay_halves_the_step_that_led_there():

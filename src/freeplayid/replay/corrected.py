@@ -600,8 +600,10 @@ class _Binding:
         p, q = opts.damping_exponent, opts.damping_hinge
         self.exponent = 0.0 if p == "estimate" else float(p)
         self.hinge = 0.0 if q == "estimate" else float(q)
-        # the trend measures one form: an estimated exponent before the (default) hinge share
-        self.fourth = "exponent" if p == "estimate" or q != "estimate" else "hinge"
+        # the trend measures one form: an estimated exponent before the (default) hinge share,
+        # which a given exponent other than 0 also holds at 0 (the form was chosen)
+        self.fourth = "exponent" if p == "estimate" else \
+            "hinge" if q == "estimate" and self.exponent == 0.0 else None
         self.history, self.rep, self.rep_ds, self.failure = [], None, None, ""
         self.replays = []  # (refit, replayed data set) of each entry of ``history``
         self.stopped, self.failed_at = "", None
@@ -874,8 +876,7 @@ def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extracti
                 f"the test's at its answer after {len(first.history)} replays; the iterations "
                 "listed are those with the damping estimated, from that answer")
     exponent = {}  # with the model's C or a given ratio (or no replay) p and q stay, unsaid
-    form = _FORMS.get(binding.fourth) if "estimate" in (opts.damping_exponent,
-                                                        opts.damping_hinge) else None
+    form = _FORMS.get(binding.fourth)
     if form is not None and estimate and not binding.failure:
         sol, exponent = _fit_form(binding, sol, progress, form)
     elif estimate and not binding.failure and binding.rep is not None:

@@ -88,9 +88,9 @@ class Replay:
         with p = 0; :data:`freeplayid.replay.corrected.EXPONENT_BOUNDS`). Structures that damp their
         higher modes more (Rayleigh damping: p near 1) lose energy there at each contact, which
         one ratio can only put into mode 1 (docs/identify.md §3c, "Where the estimated ζ
-        errs"); the per-run peak offsets' trend with the level shows it. Estimated, it takes
-        the place of the default hinge damper's share (``damping_hinge``, then held at 0 unless
-        a number is given). Not used with the model file's C.
+        errs"); the per-run peak offsets' trend with the level shows it. Estimated or given
+        other than 0, it takes the place of the default hinge damper's share (``damping_hinge``
+        is then held at 0 unless a number is given). Not used with the model file's C.
     damping_hinge : float or "estimate" [-]
         The form of an estimated or given damping ratio: a viscous damper across each hinge
         carries the share q (in [0, 0.95]) of the lowest closed mode's ratio, every mode keeps
