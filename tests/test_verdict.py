@@ -225,6 +225,25 @@ def test_a_binding_across_a_move_of_the_damping_exponent_is_not_read_as_a_jump()
     assert not {c.name: c for c in replay_checks(Rep())}["replay_binding"].passed
 
 
+def test_a_binding_across_a_move_of_zeta_inside_the_forms_loop_is_not_read_as_a_jump():
+    # var3_beam_kn3500_d3 d0 (realtests): the step after the hinge share's probe moved zeta
+    # from 2.57 to 2.11 % with q nearly still, and the replayed fit's delta by 1.2 % for a
+    # 0.1 % move of delta: zeta's doing. Outside the form's loop (no q) the pair is compared.
+    from freeplayid.identification.replay_checks import replay_checks
+
+    def it(kn, delta, kn_rep, delta_rep, zeta, hinge):
+        return ReplayIteration(kn, delta, kn_rep, delta_rep, 10, zeta=zeta, hinge=hinge)
+
+    class Rep:
+        failure, misfit, sweeps, damping, converged = "", {}, {}, None, True
+        iterations = [it(3499.3, 2.99404e-3, 3500.0, 3.0e-3, 0.02571, 0.10),
+                      it(3493.4, 2.99133e-3, 3495.0, 3.036e-3, 0.02114, 0.105)]
+
+    assert {c.name: c for c in replay_checks(Rep())}["replay_binding"].passed
+    Rep.iterations = [dataclasses.replace(i, hinge=None) for i in Rep.iterations]
+    assert not {c.name: c for c in replay_checks(Rep())}["replay_binding"].passed
+
+
 def test_an_estimated_damping_form_reports_how_far_it_moved_the_answer():
     from types import SimpleNamespace
 
