@@ -66,7 +66,7 @@ import math
 
 import scipy.stats
 
-from ..replay.corrected import EXPONENT_ATOL, HINGE_ATOL
+from ..replay.corrected import _FORMS
 from ..replay.damping_estimate import ZETA_RTOL
 from .verdict import LIMITS, Check, within_binding_noise
 
@@ -353,29 +353,24 @@ def _converged_check(replay) -> Check:
                  + (f"; the loop stopped: {stopped}" if stopped else ""), close)
 
 
-# [-] two replays whose damping exponents (hinge dampers' shares) differ by more than this are
-# not compared by the binding check (twice the parameter's convergence tolerance)
-EXPONENT_MOVE = 2 * EXPONENT_ATOL
-HINGE_MOVE = 2 * HINGE_ATOL
-# [-] two replays of the loop with a damping form estimated (both carry p or q) whose estimated
-# zeta differs by more than this (log) are not compared either: there zeta and the form move
-# together, and zeta alone moves the replayed fit (a beam's step after q's probe: zeta 2.57 ->
-# 2.11 %, the fit's delta 1.2 % for a 0.2 % move of delta)
+# [-] two replays whose damping form's parameter (p or q, :data:`replay.corrected._FORMS`)
+# differs by more than twice its convergence tolerance are not compared by the binding check;
+# nor two replays of the loop with a form estimated (both carry p or q) whose estimated zeta
+# differs by more than this (log): there zeta and the form move together, and zeta alone moves
+# the replayed fit (a beam's step after q's probe: zeta 2.57 -> 2.11 %, the fit's delta 1.2 %
+# for a 0.2 % move of delta)
 ZETA_MOVE = 2 * ZETA_RTOL
 
 
 def _form_moved(a, b) -> bool:
     """Whether the damping's form, or its zeta within the form's loop, moved between replays
     ``a`` and ``b`` (they are then not compared by the binding check)."""
-    def form(it, name):
-        return getattr(it, name, None)
-
-    if abs((form(a, "exponent") or 0.0) - (form(b, "exponent") or 0.0)) > EXPONENT_MOVE or \
-            abs((form(a, "hinge") or 0.0) - (form(b, "hinge") or 0.0)) > HINGE_MOVE:
+    if any(abs((getattr(a, f.attr, None) or 0.0) - (getattr(b, f.attr, None) or 0.0))
+           > 2 * f.atol for f in _FORMS.values()):
         return True
-    in_loop = all(form(it, "exponent") is not None or form(it, "hinge") is not None
+    in_loop = all(any(getattr(it, f.attr, None) is not None for f in _FORMS.values())
                   for it in (a, b))
-    za, zb = form(a, "zeta"), form(b, "zeta")
+    za, zb = getattr(a, "zeta", None), getattr(b, "zeta", None)
     return bool(in_loop and za and zb and abs(math.log(zb / za)) > ZETA_MOVE)
 
 

@@ -875,15 +875,15 @@ def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extracti
         note = (f"the model file's C put the replayed amplitudes {100 * mismatch:+.2g} % off "
                 f"the test's at its answer after {len(first.history)} replays; the iterations "
                 "listed are those with the damping estimated, from that answer")
-    exponent = {}  # with the model's C or a given ratio (or no replay) p and q stay, unsaid
+    form_fields = {}  # with the model's C or a given ratio (or no replay) p and q stay, unsaid
     form = _FORMS.get(binding.fourth)
     if form is not None and estimate and not binding.failure:
-        sol, exponent = _fit_form(binding, sol, progress, form)
+        sol, form_fields = _fit_form(binding, sol, progress, form)
     elif estimate and not binding.failure and binding.rep is not None:
         # the form given: how its replayed peaks drift with the level (no replay), reported
         at = binding.trend(binding.rep)
         if at is not None:
-            exponent = {"trend": at.slope, "trend_se": at.se}
+            form_fields = {"trend": at.slope, "trend_se": at.se}
     log.debug("replay loop: %s after %d replays", "converged" if sol.converged else
               "not converged", sol.n)
     closest = None if sol.closest is None else binding.history[sol.closest].misfit_se
@@ -891,10 +891,10 @@ def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extracti
     if estimate:
         zeta = float(np.exp(sol.u[2]))
     used = _damping_used(source, zeta, binding.ratios, sol.jacobian, estimate, note,
-                         failed=bool(binding.failure), extra=exponent.pop("shift", None))
+                         failed=bool(binding.failure), extra=form_fields.pop("shift", None))
     if source != "model":
         used = dataclasses.replace(used, exponent=binding.exponent, hinge=binding.hinge,
-                                   **exponent)
+                                   **form_fields)
     return _result(binding, theta, rule, sol, closest, used,
                    plain, system, opts, progress, start=began, settled=precision_settled)
 
