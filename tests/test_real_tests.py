@@ -1013,3 +1013,56 @@ def test_the_benchmarks_replay_options_are_read_as_yaml_and_checked_before_any_w
                        (["foo=1"], "foo")):
         with pytest.raises(SystemExit, match=words):
             run.replay_options(bad)
+
+
+def test_redraw_puts_the_noise_only_where_it_is_asked(tmp_path):
+    """benchmarks/realtests/redraw.py on synthetic clean records of the default fin's case: the
+    noise-free draw is the clean records, a responses-only draw keeps the clean base and an
+    all-noise draw 0 is cases.py's d0 to the bit (its seed)."""
+    import importlib.util
+    import json
+    import sys
+    from pathlib import Path
+
+    from freeplayid.io import read_dataset
+
+    bench = Path(__file__).resolve().parents[1] / "benchmarks" / "realtests"
+    sys.path.insert(0, str(bench))
+    try:
+        spec = importlib.util.spec_from_file_location("realtests_redraw", bench / "redraw.py")
+        redraw = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(redraw)
+        cases = redraw.cases
+        case = cases.ALL_CASES["fin_nominal"]()
+        rng = np.random.default_rng(0)
+        t = np.arange(512) / case.sample_rate
+        clean = {"time": [t] * len(case.runs),
+                 "accel": [rng.normal(0, 9.81, (len(case.channels), t.size))
+                           for _ in case.runs],
+                 "base": [9.81 * np.sin(2 * np.pi * 30 * t) for _ in case.runs]}
+        src = tmp_path / "data" / "fin_nominal"
+        (src / "d0").mkdir(parents=True)
+        cases.save_clean(src, clean)
+        jumps = [{"f_jump_hz": float("nan")} for _ in case.runs]
+        cases.write_draw(src / "d0", case, clean, cases.SEEDS[0], jumps)
+        out = tmp_path / "out"
+        assert redraw.draws("0-2,5") == [0, 1, 2, 5]
+        none, = redraw.redraw("fin_nominal", tmp_path / "data", out, "none", [3, 4])
+        resp, = redraw.redraw("fin_nominal", tmp_path / "data", out, "responses", [2])
+        d0, = redraw.redraw("fin_nominal", tmp_path / "data", out, "all", [0])
+        assert (none.name, resp.name, d0.name) == ("d_none", "d2_responses", "d0")
+        ref, a, b, c = (read_dataset(f) for f in (src / "d0", none, resp, d0))
+        for k, run in enumerate(a.runs):
+            np.testing.assert_allclose(run.data, clean["accel"][k] / cases.es.G0, rtol=1e-5,
+                                       atol=1e-6)
+            np.testing.assert_allclose(run.base, clean["base"][k] / cases.es.G0, rtol=1e-5,
+                                       atol=1e-6)
+            np.testing.assert_allclose(b.runs[k].base, run.base)
+            assert np.std(b.runs[k].data - run.data) == pytest.approx(case.noise_g, rel=0.2)
+            np.testing.assert_array_equal(c.runs[k].data, ref.runs[k].data)
+            np.testing.assert_array_equal(c.runs[k].base, ref.runs[k].base)
+        assert json.loads((none / "truth.json").read_text())["noise_g"] == case.noise_g
+        with pytest.raises(ValueError, match="--noise"):
+            redraw.redraw("fin_nominal", tmp_path / "data", out, "some", [0])
+    finally:
+        sys.path.remove(str(bench))

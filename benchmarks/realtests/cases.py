@@ -1277,6 +1277,59 @@ VARIANTS.update({
         **kw), "var13_fin_high_levels"),
 })
 
+# A fourteenth set (2026-12-02, session 33), chosen once before any of its results, to check the
+# hinge damper's share (the replay's default damping form since session 32) on conditions its
+# development did not use: a strong hinge damper on the weakly excited fin B, a hinge damper on
+# top of Rayleigh damping without C, unequal gaps with a hinge damper on the default fin, a
+# stiffer hinge and smaller gap with a hinge damper, fin C's hinge damper under a falling level,
+# strong contact damping on fin B, a small hinge damper at 0.1 g of noise, and another beam.
+# run.py --cases 'var14_*'
+def _var14_stiff_damper(**kw) -> CaseSpec:
+    """The default fin at kn 650 and half-gap 2.5 mrad with a hinge damper (+1 %), its band by
+    its own mode 1 (as the tenth set's stiff hinge)."""
+    _, st = fin_truth(kn=650.0, deltas=0.0025)
+    f1 = float(np.sqrt(closed_modes(st)[0][0]) / (2 * np.pi))
+    sweep = {"start_hz": round(0.6 * f1, 1), "stop_hz": round(0.93 * f1, 1),
+             "rate_hz_per_s": 0.1}
+    levels = tuple(round(lv * 2.5 / 3 * (1 + 0.01 / 0.03), 3) for lv in FIN_LEVELS)
+    return _also(fin_hinge_damper(added_zeta=0.01, kn=650.0, deltas=0.0025, sweep=sweep,
+                                  levels=levels, **kw), "kn 650 N m/rad, half-gap 2.5 mrad")
+
+
+def _var14_damper_rayleigh(**kw) -> CaseSpec:
+    """The default fin whose true damping is Rayleigh 2 % at 25 / 70 Hz plus a damper across each
+    hinge adding 1 % in closed mode 1; its model file has no C."""
+    _, st = fin_truth()
+    c = 0.01 / mode1_added_damping(st, 1.0)
+    return _no_c(_fin_case("x", "viscous damper across each hinge (+1 % in closed mode 1) on "
+                           "Rayleigh 2 % at 25/70 Hz", C=_rayleigh_c(0.02, (25.0, 70.0)),
+                           hinge_damping=c, params={"hinge_damper_Nms_per_rad": c,
+                                                    "added_zeta_mode1": 0.01}, **kw))
+
+
+VARIANTS.update({
+    "var14_finB_damper_strong": _variant(lambda **kw: _also(fin_hinge_damper(
+        added_zeta=0.025, **_fin_b_kw(levels=tuple(round(lv * (1 + 0.025 / 0.03), 3)
+                                                   for lv in FIN_B_LEVELS), **kw)), "fin B"),
+        "var14_finB_damper_strong"),
+    "var14_fin_damper_rayleigh": _variant(_var14_damper_rayleigh, "var14_fin_damper_rayleigh"),
+    "var14_fin_unequal_damper": _variant(lambda **kw: _also(fin_hinge_damper(
+        added_zeta=0.015, deltas=(0.0026, 0.0034), **kw), "half-gaps 2.6 / 3.4 mrad"),
+        "var14_fin_unequal_damper"),
+    "var14_fin_kn650_d2.5_damper": _variant(_var14_stiff_damper, "var14_fin_kn650_d2.5_damper"),
+    "var14_finC_damper_ramp": _variant(lambda **kw: _ramped(_also(fin_hinge_damper(
+        added_zeta=0.015, **_fin_c_kw(levels=tuple(round(1.75 * lv, 3) for lv in FIN_C_LEVELS),
+                                      **kw)), "fin C"), -0.1), "var14_finC_damper_ramp"),
+    "var14_finB_contact_strong": _variant(lambda **kw: _contact_damping_on(
+        "fin B", _fin_b_kw(**kw), 0.03, 0.03), "var14_finB_contact_strong"),
+    "var14_fin_damper_small_noisy": _variant(lambda **kw: dataclasses.replace(_also(
+        fin_hinge_damper(added_zeta=0.007, **kw), "0.1 g of noise"), noise_g=0.1),
+        "var14_fin_damper_small_noisy"),
+    "var14_beam_kn4000_d3": _variant(lambda **kw: _banded_beam(dict(
+        kn=4000.0, delta=3.0e-3, zeta=0.025, rayleigh_hz=(25.0, 90.0)), **kw),
+        "var14_beam_kn4000_d3"),
+})
+
 ALL_CASES = {**CONDITIONS, **VARIANTS}
 
 def generate(name: str, out: Path, *, force=False, redraw=False, log=print) -> dict:
