@@ -1035,7 +1035,7 @@ def test_redraw_puts_the_noise_only_where_it_is_asked(tmp_path):
         cases = redraw.cases
         case = cases.ALL_CASES["fin_nominal"]()
         rng = np.random.default_rng(0)
-        t = np.arange(512) / case.sample_rate
+        t = np.arange(1024) / case.sample_rate  # 4 s: the jumps' lock-in skips the first 3
         clean = {"time": [t] * len(case.runs),
                  "accel": [rng.normal(0, 9.81, (len(case.channels), t.size))
                            for _ in case.runs],
@@ -1043,8 +1043,7 @@ def test_redraw_puts_the_noise_only_where_it_is_asked(tmp_path):
         src = tmp_path / "data" / "fin_nominal"
         (src / "d0").mkdir(parents=True)
         cases.save_clean(src, clean)
-        jumps = [{"f_jump_hz": float("nan")} for _ in case.runs]
-        cases.write_draw(src / "d0", case, clean, cases.SEEDS[0], jumps)
+        cases.write_draw(src / "d0", case, clean, cases.SEEDS[0], cases.clean_jumps(case, clean))
         out = tmp_path / "out"
         assert redraw.draws("0-2,5") == [0, 1, 2, 5]
         none, = redraw.redraw("fin_nominal", tmp_path / "data", out, "none", [3, 4])
@@ -1062,6 +1061,7 @@ def test_redraw_puts_the_noise_only_where_it_is_asked(tmp_path):
             np.testing.assert_array_equal(c.runs[k].data, ref.runs[k].data)
             np.testing.assert_array_equal(c.runs[k].base, ref.runs[k].base)
         assert json.loads((none / "truth.json").read_text())["noise_g"] == case.noise_g
+        assert (d0 / "truth.json").read_text() == (src / "d0" / "truth.json").read_text()
         with pytest.raises(ValueError, match="--noise"):
             redraw.redraw("fin_nominal", tmp_path / "data", out, "some", [0])
     finally:

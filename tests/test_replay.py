@@ -1413,8 +1413,8 @@ def test_a_form_held_on_its_upper_bound_is_not_taken(fin_hinge_damped, monkeypat
     says why."""
     import freeplayid.replay.corrected as corrected
 
-    monkeypatch.setitem(corrected._FORMS, "hinge",
-                        dataclasses.replace(corrected._FORMS["hinge"], bounds=(0.0, 0.2)))
+    monkeypatch.setitem(corrected.FORM_PARAMETERS, "hinge",
+                        dataclasses.replace(corrected.FORM_PARAMETERS["hinge"], bounds=(0.0, 0.2)))
     ds, model = fin_hinge_damped
     out = identify(ds, system=model, progress=False,
                    replay={"damping_hinge": "estimate", **QUICK})

@@ -1332,6 +1332,21 @@ VARIANTS.update({
 
 ALL_CASES = {**CONDITIONS, **VARIANTS}
 
+def set_profiles(spec: CaseSpec, out: Path) -> None:
+    """Give each run of a level-profile case its profile, set by the jumps of its source's clean
+    records (``out/<profile_from>``, generated)."""
+    jumps = load_clean(out / spec.params["profile_from"])["truth"]["runs"]
+    for k, run in enumerate(spec.runs):
+        run.profile = spec.profile_of_run(k, jumps[k]["f_jump_hz"])
+    spec.params["dip_centres_hz"] = [j["f_jump_hz"] for j in jumps]
+
+
+def clean_jumps(spec: CaseSpec, clean: dict) -> list:
+    """Each run's jump in the clean records (:func:`run_jump` of its first channel)."""
+    return [run_jump(clean["accel"][k][0], clean["time"][k], r.sweep)
+            for k, r in enumerate(spec.runs)]
+
+
 def generate(name: str, out: Path, *, force=False, redraw=False, log=print) -> dict:
     """Make one case (and what it depends on) under ``out``; return its summary.
 
@@ -1349,10 +1364,7 @@ def generate(name: str, out: Path, *, force=False, redraw=False, log=print) -> d
         base = spec.params["profile_from"]
         if not (out / base / "clean.npz").is_file():
             generate(base, out, log=log)
-        jumps = load_clean(out / base)["truth"]["runs"]
-        for k, run in enumerate(spec.runs):
-            run.profile = spec.profile_of_run(k, jumps[k]["f_jump_hz"])
-        spec.params["dip_centres_hz"] = [j["f_jump_hz"] for j in jumps]
+        set_profiles(spec, out)
     src = spec.clean_from
     if src is not None:
         if not (out / src / "clean.npz").is_file():
@@ -1363,8 +1375,7 @@ def generate(name: str, out: Path, *, force=False, redraw=False, log=print) -> d
     else:
         clean = simulate_clean(spec, log=log)
         save_clean(folder, clean)
-    jumps = [run_jump(clean["accel"][k][0], clean["time"][k], r.sweep)
-             for k, r in enumerate(spec.runs)]
+    jumps = clean_jumps(spec, clean)
     for seed, draw in zip(SEEDS, ("d0", "d1")):
         write_draw(folder / draw, spec, clean, seed, jumps)
     wall = time.perf_counter() - t0

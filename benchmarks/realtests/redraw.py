@@ -7,17 +7,17 @@ method.
         --noise responses --draws 0-15
 
 Each draw is written as ``OUT/<case>/d<k>`` (noise on all channels), ``d<k>_responses`` or
-``d<k>_base`` from the case's clean records (``D/<case>/clean.npz``, written by cases.py), in the
-same format as cases.py's draws. Draws 0 and 1 use cases.py's seeds (``--noise all --draws 0-1``
-writes its ``d0`` and ``d1`` again, to the bit), the others seed ``1000 + k``. ``--noise none``
-writes one noise-free data set, ``d_none``. Identify them as any realtests draw:
+``d<k>_base`` from the case's clean records (``D/<case>/clean.npz``, or its source's where it
+reuses another case's records; written by cases.py), as cases.py writes its draws. Draws 0
+and 1 use cases.py's seeds (``--noise all --draws 0-1`` writes its ``d0`` and ``d1`` again, to
+the bit, truth.json included), the others seed ``1000 + k``. ``--noise none`` writes one
+noise-free data set, ``d_none``. Identify them as any realtests draw:
 ``run.py --data OUT --cases CASE --draws d_none,d2_responses,...``.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
@@ -47,13 +47,17 @@ def redraw(name: str, data: Path, out: Path, noise: str, ks: list[int]) -> list[
     if noise not in NOISE:
         raise ValueError(f"--noise must be one of {NOISE}, got {noise!r}")
     spec = cases.ALL_CASES[name]()
-    src = data / name
-    if not (src / "clean.npz").is_file():
-        raise FileNotFoundError(f"{src / 'clean.npz'}: no clean records (run cases.py --cases "
-                                f"{name} --out {data} first)")
-    clean = cases.load_clean(src)
-    jumps = [{k: v for k, v in run.items() if k not in ("file", "level_g", "sweep")}
-             for run in json.loads((src / "d0" / "truth.json").read_text())["runs"]]
+    needed = [spec.clean_from or name]
+    if spec.profile_of_run is not None:
+        needed.append(spec.params["profile_from"])
+    for src in needed:
+        if not (data / src / "clean.npz").is_file():
+            raise FileNotFoundError(f"{data / src / 'clean.npz'}: no clean records (run "
+                                    f"cases.py --cases {name} --out {data} first)")
+    if spec.profile_of_run is not None:
+        cases.set_profiles(spec, data)
+    clean = cases.load_clean(data / needed[0])
+    jumps = cases.clean_jumps(spec, clean)
 
     def keep_clean(runs):
         for i, run in enumerate(runs):

@@ -66,7 +66,7 @@ import math
 
 import scipy.stats
 
-from ..replay.corrected import _FORMS
+from ..replay.corrected import FORM_PARAMETERS
 from ..replay.damping_estimate import ZETA_RTOL
 from .verdict import LIMITS, Check, within_binding_noise
 
@@ -353,7 +353,7 @@ def _converged_check(replay) -> Check:
                  + (f"; the loop stopped: {stopped}" if stopped else ""), close)
 
 
-# [-] two replays whose damping form's parameter (p or q, :data:`replay.corrected._FORMS`)
+# [-] two replays whose damping form's parameter (p or q, :data:`replay.corrected.FORM_PARAMETERS`)
 # differs by more than twice its convergence tolerance are not compared by the binding check;
 # nor two replays of the loop with a form estimated (both carry p or q) whose estimated zeta
 # differs by more than this (log): there zeta and the form move together, and zeta alone moves
@@ -366,9 +366,9 @@ def _form_moved(a, b) -> bool:
     """Whether the damping's form, or its zeta within the form's loop, moved between replays
     ``a`` and ``b`` (they are then not compared by the binding check)."""
     if any(abs((getattr(a, f.attr, None) or 0.0) - (getattr(b, f.attr, None) or 0.0))
-           > 2 * f.atol for f in _FORMS.values()):
+           > 2 * f.atol for f in FORM_PARAMETERS.values()):
         return True
-    in_loop = all(any(getattr(it, f.attr, None) is not None for f in _FORMS.values())
+    in_loop = all(any(getattr(it, f.attr, None) is not None for f in FORM_PARAMETERS.values())
                   for it in (a, b))
     za, zb = getattr(a, "zeta", None), getattr(b, "zeta", None)
     return bool(in_loop and za and zb and abs(math.log(zb / za)) > ZETA_MOVE)

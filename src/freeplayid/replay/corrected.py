@@ -53,7 +53,7 @@ from .statistic import (
 from .weights import noise_levels, point_weights, record_noise
 
 __all__ = ["ReplayResult", "ReplayIteration", "PointOffset", "CrossCheck", "ExcitationNoise",
-           "corrected_fit"]
+           "corrected_fit", "FORM_PARAMETERS"]
 
 log = logging.getLogger(__name__)
 
@@ -602,8 +602,11 @@ class _Binding:
         self.hinge = 0.0 if q == "estimate" else float(q)
         # the trend measures one form: an estimated exponent before the (default) hinge share,
         # which a given exponent other than 0 also holds at 0 (the form was chosen)
-        self.fourth = "exponent" if p == "estimate" else \
-            "hinge" if q == "estimate" and self.exponent == 0.0 else None
+        self.fourth = None
+        if p == "estimate":
+            self.fourth = "exponent"
+        elif q == "estimate" and self.exponent == 0.0:
+            self.fourth = "hinge"
         self.history, self.rep, self.rep_ds, self.failure = [], None, None, ""
         self.replays = []  # (refit, replayed data set) of each entry of ``history``
         self.stopped, self.failed_at = "", None
@@ -876,7 +879,7 @@ def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extracti
                 f"the test's at its answer after {len(first.history)} replays; the iterations "
                 "listed are those with the damping estimated, from that answer")
     form_fields = {}  # with the model's C or a given ratio (or no replay) p and q stay, unsaid
-    form = _FORMS.get(binding.fourth)
+    form = FORM_PARAMETERS.get(binding.fourth)
     if form is not None and estimate and not binding.failure:
         sol, form_fields = _fit_form(binding, sol, progress, form)
     elif estimate and not binding.failure and binding.rep is not None:
@@ -924,10 +927,13 @@ class _Form:
     atol: float
 
 
-_FORMS = {"exponent": _Form("exponent", "p", "the damping's exponent", EXPONENT_BOUNDS,
-                            EXPONENT_PROBE, EXPONENT_ATOL),
-          "hinge": _Form("hinge", "q", "the hinge damper's share", HINGE_BOUNDS, HINGE_PROBE,
-                         HINGE_ATOL)}
+# the damping forms' parameters the loop can estimate, by ``_Binding.fourth`` (the verdict's
+# binding check reads their attributes and tolerances too)
+FORM_PARAMETERS = {
+    "exponent": _Form("exponent", "p", "the damping's exponent", EXPONENT_BOUNDS,
+                      EXPONENT_PROBE, EXPONENT_ATOL),
+    "hinge": _Form("hinge", "q", "the hinge damper's share", HINGE_BOUNDS, HINGE_PROBE,
+                   HINGE_ATOL)}
 
 
 def _fit_form(b: _Binding, sol, progress: bool, form: _Form):
