@@ -1254,6 +1254,17 @@ def test_a_hinge_dampers_share_keeps_mode_1s_ratio_and_damps_the_modes_that_turn
     assert Replay(damping_exponent="estimate").damping_hinge == "estimate"  # p instead of q
 
 
+def test_gap_shares_are_one_positive_number_per_hinge_scaled_to_a_mean_of_one():
+    from freeplayid.replay import Replay
+
+    assert Replay().gap_shares is None
+    assert Replay(gap_shares=[1.3, 1.9]).gap_shares == pytest.approx((1.3 / 1.6, 1.9 / 1.6))
+    assert Replay(gap_shares=(2, 2, 2)).gap_shares == (1.0, 1.0, 1.0)
+    for bad in ([1.0], [1.0, 0.0], [1.0, -1.0], [1.0, float("inf")], "1,2", 3.0, ["a", 1]):
+        with pytest.raises(ValueError, match="`gap_shares` must be None or one number > 0"):
+            Replay(gap_shares=bad)
+
+
 def test_a_bounded_unknown_is_held_on_its_bound_while_the_others_solve_their_equations():
     """F(u) = A u - b with a solution whose second unknown lies below its bound 0: the loop
     holds it at 0 and solves the first equation alone (u0 = b0 / A00 there), converging; a

@@ -209,7 +209,7 @@ def test_contact_solve_matches_the_exhaustive_search():
             kn, d = 10.0 ** rng.uniform(2, 5), rng.choice([0.0, 3e-3])
             a = rng.normal(size=H) * 5e-3
             st, tv = np.empty(H), np.empty(H)
-            assert _contact(Gm, a, st, kn, d, np.empty((H, H)), tv, 1e-12)
+            assert _contact(Gm, a, st, kn, np.full(H, d), np.empty((H, H)), tv, 1e-12)
             th_b, _ = solve_hinge_states(Gm, a, kn, d, exhaustive=True)
             np.testing.assert_allclose(tv, th_b, rtol=0, atol=1e-12)
             assert np.abs(tv + Gm @ freeplay_force(tv, kn, d) - a).max() < 1e-12
@@ -308,6 +308,75 @@ def test_two_hinges_switching_at_different_times_match_dop853():
     err = np.abs(ha.max(-1) / hb.max(-1) - 1).max()
     assert err < 1e-4, err
     assert np.abs(ha.argmax(-1) - hb.argmax(-1)).max() <= 1
+
+
+@needs_numba
+@pytest.mark.parametrize("scheme", ["per_state", "linear_hold"])
+def test_unequal_gaps_match_dop853(scheme, monkeypatch):
+    # each hinge its own half-gap (gap_shares): against DOP853 with the per-hinge gaps in the
+    # freeplay law, in both contact schemes; one common gap (the mean) is far off
+    from freeplayid.simulate.engines.expo import steps as steps_expo
+
+    kw = {}
+    if scheme == "linear_hold":  # converged by its step (at its default: 0.6 %, equal gaps too)
+        monkeypatch.setattr(steps_expo, "MAX_STATE_SETS", 0)
+        kw["steps_per_sample"] = 64
+    system = chain_two_hinges()
+    sw = Sweep(20.0, 40.0, 10.0)
+    kn, level = 1e4, 0.5
+    gaps = np.array([1.4e-4, 2.6e-4])
+    delta = gaps.mean()
+    kw.update(kn=kn, delta=delta, level_g=level, sweep=sw, channels=("b", "c"),
+              quantity="displacement", frame="relative", sample_rate=1024.0,
+              dtype=torch.float64, engine="expo", progress=False)
+    res = simulate_sweeps(system, gap_shares=gaps / delta, **kw)
+    common = simulate_sweeps(system, **kw)
+    assert res.gap_shares == pytest.approx(tuple(gaps / delta)) and common.gap_shares is None
+    y = solve_ivp_reference(system, kn=kn, delta=gaps, level=level, sweep=sw, times=res.time)
+    hb = first_harmonic(y[None, :, 1:].transpose(0, 2, 1), res.time, sw)[0]
+
+    def err(r):
+        return np.abs(first_harmonic(r.signals, r.time, sw)[0].max(-1) / hb.max(-1) - 1).max()
+
+    assert err(res) < 1e-4, err(res)
+    assert err(common) > 1e-2, err(common)
+
+
+def test_unequal_gaps_torch_matches_expo_and_shares_of_one_change_nothing():
+    system = chain_two_hinges()
+    sw = Sweep(25.0, 35.0, 20.0)
+    kw = dict(kn=1e4, delta=2e-4, level_g=0.5, sweep=sw, channels=("b", "c"),
+              quantity="displacement", frame="relative", sample_rate=1024.0,
+              dtype=torch.float64, progress=False)
+    shares = (0.7, 1.3)
+    rk4 = simulate_sweeps(system, engine="torch", gap_shares=shares, steps_per_sample=32, **kw)
+    rk4_common = simulate_sweeps(system, engine="torch", **kw)
+    assert np.array_equal(simulate_sweeps(system, engine="torch", gap_shares=(1, 1), **kw).signals,
+                          rk4_common.signals)
+    if numba_available():
+        ex = simulate_sweeps(system, engine="expo", gap_shares=shares, **kw)
+        assert ex.engine == "expo"
+        a, b = first_harmonic(ex.signals, ex.time, sw)[0], first_harmonic(rk4.signals, rk4.time,
+                                                                           sw)[0]
+        assert np.abs(a.max(-1) / b.max(-1) - 1).max() < 1e-4
+        assert np.array_equal(simulate_sweeps(system, engine="expo", gap_shares=[1.0, 1.0],
+                                              **kw).signals,
+                              simulate_sweeps(system, engine="expo", **kw).signals)
+        # "auto" takes the exponential engine for unequal gaps (its RK4 kernel does not)
+        assert simulate_sweeps(system, engine="auto", gap_shares=shares, **kw).engine == "expo"
+
+
+def test_unequal_gaps_are_checked():
+    system = chain_two_hinges()
+    kw = dict(kn=1e4, delta=2e-4, level_g=0.5, sweep=Sweep(25.0, 26.0, 20.0), channels=("b",),
+              sample_rate=256.0, progress=False)
+    for bad in ((1.0,), (1.0, 0.0), (1.0, float("nan")), (1.0, 1.0, 1.0)):
+        with pytest.raises(ValueError, match="`gap_shares` must be 2 finite values > 0"):
+            simulate_sweeps(system, engine="torch", gap_shares=bad, **kw)
+    if numba_available():
+        with pytest.raises(NotImplementedError,
+                           match="`gap_shares`.*engines \\['torch', 'expo'\\]"):
+            simulate_sweeps(system, engine="numba", gap_shares=(0.8, 1.2), **kw)
 
 
 # ----------------------------------------------------------------------------- (4) stiff, damped

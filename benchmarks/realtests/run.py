@@ -79,8 +79,12 @@ def identify_case(path: str, corrected: bool, replay: dict | None = None) -> dic
                 # branches imply
                 "level": None if getattr(rep, "level", None) is None else rep.level.to_dict(),
                 "branch": {run: float(m.branch) for run, m in (rep.resonance or {}).items()}},
+            # the hinges' split read against the replay, and the one-gap answer where the test
+            # was replayed with the split it showed
+            "split": None if getattr(res.model_error, "split", None) is None
+            else res.model_error.split.to_dict(),
             "checks_text": {c.name: str(c.message) for c in res.verdict.checks
-                            if c.name == "replay_misfit"}}
+                            if c.name in ("replay_misfit", "hinge_gaps")}}
 
 
 def _task(case: str, draw: str, folder: str, fit: str, replay: dict | None = None) -> dict:

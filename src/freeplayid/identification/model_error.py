@@ -226,8 +226,9 @@ class ReplayedSplit:
     hinges : tuple of str
         Each hinge's name, "outboard/inboard" DOFs.
     half_gaps : tuple of float [rad]
-        Each hinge's half-gap: delta times the test's per-hinge gap over the replay's (the
-        replay has every hinge at delta; the sweep bends each hinge's fitted gap alike in both).
+        Each hinge's half-gap: its gap in the replay (delta, or delta times its share with
+        ``shares``) times the test's per-hinge gap over the replay's (the sweep bends each
+        hinge's fitted gap alike in both).
     log_split : tuple of float [-]
         Each hinge's log share of the gaps (its half-gap over their mean) in the test less that
         in the replay: 0 where one common delta explains the test as its replay.
@@ -238,6 +239,12 @@ class ReplayedSplit:
         Noisy copies of the replay whose points were fitted.
     delta : float [rad]
         The answer's delta.
+    shares : tuple of float
+        The replay's unequal gaps (each hinge's half-gap over their mean; ``Replay.gap_shares``),
+        () where every hinge had delta.
+    common : (float, float) or None
+        With ``shares``: the answer (kn [N m/rad], delta [rad]) of the replays with one common
+        gap, whose split put the shares (how far the hinges' mean lies from it: ``lean``).
     """
 
     hinges: tuple
@@ -246,6 +253,14 @@ class ReplayedSplit:
     log_se: tuple
     n_copies: int
     delta: float
+    shares: tuple = ()
+    common: tuple | None = None
+
+    @property
+    def lean(self) -> float | None:
+        """The common gap's delta over the hinges' mean (delta replayed with ``shares``), less
+        1; None without them."""
+        return None if self.common is None else self.common[1] / self.delta - 1.0
 
     @property
     def t(self) -> float:
@@ -288,6 +303,19 @@ class ReplayedSplit:
         shares = ", ".join(f"{100 * math.expm1(c):+.2g} % (se {100 * e:.2g} %)"
                            for c, e in zip(self.log_split, self.log_se, strict=True))
         p = self.p
+        if self.shares:
+            given = ", ".join(f"{n} {1e3 * self.delta * r:.4g} mrad"
+                              for n, r in zip(self.hinges, self.shares, strict=True))
+            if self.common is None:
+                why = "as given, `replay.gap_shares`"
+            else:
+                kn0, d0 = self.common
+                why = (f"the split that one common gap left, kn {kn0:.5g} N·m/rad, delta "
+                       f"{1e3 * d0:.5g} mrad, {100 * self.lean:+.2f} % from this mean")
+            return (f"replayed with unequal gaps ({given}, their mean delta; {why}), the "
+                    f"test's points put the hinges' shares of the gaps {shares} off that "
+                    f"replay's ({self.n_copies} noisy copies; p = "
+                    f"{'n/a' if p is None else f'{p:.2g}'}): half-gaps {gaps}")
         return (f"against the answer's replay (one delta for every hinge), the test's points "
                 f"put the hinges' shares of the gaps {shares} off ({self.n_copies} noisy "
                 f"copies of the replay; p = {'n/a' if p is None else f'{p:.2g}'}): as unequal "
@@ -301,7 +329,9 @@ class ReplayedSplit:
         return {"hinges": list(self.hinges), "half_gaps": list(self.half_gaps),
                 "log_split": list(self.log_split), "log_se": [num(v) for v in self.log_se],
                 "n_copies": self.n_copies, "t": num(self.t), "p": self.p,
-                "mean_offset": self.mean_offset}
+                "mean_offset": self.mean_offset, "shares": list(self.shares),
+                "common": None if self.common is None else list(self.common),
+                "lean": self.lean}
 
 
 def _gap_interval(gap: float, delta: float, delta_ci95, share: float) -> tuple[float, float]:
@@ -326,7 +356,7 @@ def _subset(keyed: dict, keys: list):
 
 
 def replayed_split(system, measured, replayed, copies, *, kn: float, delta: float,
-                   mode: int = 0) -> ReplayedSplit | None:
+                   mode: int = 0, shares=None, common=None) -> ReplayedSplit | None:
     """The hinges' split of the gaps read against the answer's replay (module docstring).
 
     Parameters
@@ -339,6 +369,10 @@ def replayed_split(system, measured, replayed, copies, *, kn: float, delta: floa
         The points of noisy copies of that replay (their noise is the test's).
     kn, delta : float [N m/rad], [rad]
         The answer.
+    shares : sequence of float or None
+        The replay's gap shares (hinge j at ``delta * shares[j]``); None: one common gap.
+    common : (float, float) or None
+        With ``shares``: the one-gap answer whose split set them (:attr:`ReplayedSplit.lean`).
 
     Returns None with one hinge, fewer than three points the test and its replay share, or
     where a per-hinge fit cannot be made.
@@ -376,11 +410,14 @@ def replayed_split(system, measured, replayed, copies, *, kn: float, delta: floa
              (gaps(_subset(_keyed(c), keys)) for c in copies) if g is not None]
     se = (np.sqrt(np.mean(np.square(noise), axis=0)) if len(noise) else
           np.full(g_m.size, np.nan))
+    r = np.ones(g_m.size) if shares is None else np.asarray(shares, float)
     return ReplayedSplit(
         hinges=_hinge_names(system),
-        half_gaps=tuple(float(v) for v in delta * g_m / g_r),
+        half_gaps=tuple(float(v) for v in delta * r * g_m / g_r),
         log_split=tuple(float(v) for v in log_shares(g_m) - log_shares(g_r)),
-        log_se=tuple(float(v) for v in se), n_copies=len(noise), delta=float(delta))
+        log_se=tuple(float(v) for v in se), n_copies=len(noise), delta=float(delta),
+        shares=() if shares is None else tuple(float(v) for v in r),
+        common=None if shares is None or common is None else tuple(float(v) for v in common))
 
 
 @dataclass(frozen=True)
@@ -448,6 +485,11 @@ class ModelError:
         elif hg is not None:
             split += "; " + (hg.describe() if self.per_hinge else
                              f"{hg.outcome()} ({hg.test()})")
+        if self.split is not None and self.split.shares:
+            return (f"; the hinges turn {'together' if r >= HINGES_TOGETHER else 'unequally'} "
+                    f"in the identified mode (rotation ratio {r:.2f}), and the test was "
+                    "replayed with their gaps split as it showed: delta is the hinges' mean "
+                    "half-gap" + split)
         if r >= HINGES_TOGETHER:
             return (f"; the hinges turn together in the identified mode (rotation ratio "
                     f"{r:.2f}): delta is one half-gap for all of them, their mean if they "

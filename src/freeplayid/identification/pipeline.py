@@ -12,7 +12,7 @@ from collections.abc import Mapping
 import numpy as np
 import scipy.stats
 
-from ..errors import DatasetError, IdentificationError
+from ..errors import ConfigError, DatasetError, IdentificationError
 from ..estimate import PlainEstimate, plain_estimate
 from ..fit import FitOptions
 from ..io import read_dataset
@@ -26,6 +26,7 @@ from .records import checked_dataset, record_checks, record_options
 from .replay_checks import replay_checks, settled_sd
 from .result import Identification
 from .verdict import (
+    LIMITS,
     Check,
     answer_checks,
     base_level_checks,
@@ -117,6 +118,7 @@ def identify(dataset, *, system: FreeplaySystem | None = None,
     if isinstance(dataset, (str, os.PathLike)):
         dataset = read_dataset(dataset)
     system = _system(dataset, system)
+    _check_gap_shares(replay, system)
     dataset, checked = checked_dataset(dataset, system, records)
     est = _plain_estimate(dataset, system, checked, extraction=extraction, fit=fit,
                           init=fit.init, progress=progress)
@@ -131,7 +133,138 @@ def identify(dataset, *, system: FreeplaySystem | None = None,
     if _statistics_disagree(result, replay):
         result = _on_the_other_statistic(result, dataset, system, est, extraction, fit, replay,
                                          error, checked, t0, progress)
+    if _gaps_split(result, replay):
+        result = _with_unequal_gaps(result, dataset, system, est, extraction, fit, replay,
+                                    error, checked, t0, progress)
     return result
+
+
+def _check_gap_shares(replay: Replay | None, system) -> None:
+    """``replay.gap_shares`` must give one share per hinge of the model (before any work)."""
+    shares = None if replay is None else replay.gap_shares
+    if shares is not None and len(shares) != system.n_hinges:
+        raise ConfigError(f"`replay.gap_shares` must give one share per hinge of the model "
+                         f"({system.n_hinges}: {', '.join(_hinge_labels(system))}), got "
+                         f"{len(shares)}")
+
+
+def _hinge_labels(system) -> list[str]:
+    return [f"{a}/{b}" for a, b in system.hinge_pairs]
+
+
+def _gaps_split(result: Identification, replay: Replay) -> bool:
+    """Whether the test shows the hinges' gaps split against the answer's replay with one
+    common gap (the split's p below the verdict's ``cross_p``): then it is replayed with the
+    split it shows (:func:`_with_unequal_gaps`)."""
+    err, rep = result.model_error, result.replay
+    sp = None if err is None else err.split
+    return (replay.gap_shares is None and rep is not None and not rep.failure
+            and sp is not None and sp.p is not None and sp.p < LIMITS["cross_p"]
+            and all(g > 0 and math.isfinite(g) for g in sp.half_gaps))
+
+
+def _with_unequal_gaps(first: Identification, dataset, system, est, extraction, fit, replay,
+                       error, checked, t0, progress) -> Identification:
+    """The answer of replays with the hinges' gaps split as the test shows against the one-gap
+    answer ``first``: each hinge's half-gap in the replays is delta times its share, so that
+    delta is the hinges' mean half-gap, which one common gap is not where they differ (it
+    leans to the hinge that turns most: fin C's 1.3 / 1.9 mrad with a damper, noise-free
+    records, +1.16 %). The shares are the split read against the replay (half-gaps over their
+    mean), read again against each new replay until they settle (:func:`_settled_shares`);
+    the answer is then replayed with all its checks. The verdict's ``hinge_gaps`` reads the
+    split left against that replay, and how far the one-gap answer lay from the mean
+    (:attr:`~freeplayid.identification.model_error.ReplayedSplit.lean`). ``first`` where these
+    replays cannot be fitted."""
+    sp = first.model_error.split
+    log.info("the test shows the hinges' gaps split (%s, p = %.2g): replaying with those gaps",
+             ", ".join(f"{1e3 * g:.4g} mrad" for g in sp.half_gaps), sp.p)
+    rule = first.replay.jump_point
+    shares, at = _settled_shares(sp.half_gaps, (first.kn, first.delta), dataset, system, est,
+                                 extraction, fit, dataclasses.replace(replay, jump_point=rule),
+                                 progress)
+    if np.allclose(shares, 1.0, rtol=0, atol=1e-12):  # not even one such replay could be fitted
+        return first
+    # the answer from the last one's, with every check (the start is not the network's: said)
+    other = dataclasses.replace(replay, jump_point=rule, gap_shares=shares, start="network")
+    rep = corrected_fit(dataset, system, est, extraction=extraction, fit=fit, replay=other,
+                        start=at, precision_settled=_settled(error), progress=progress)
+    if rep.failure:
+        log.info("the replays with unequal gaps could not be fitted (%s): the one-gap answer "
+                 "stands", rep.failure)
+        return first
+    began = ("the answer with the gaps' split read before" if rep.start == "network"
+             else rep.start)
+    rep = dataclasses.replace(rep, start=began)
+    second = _corrected_result(dataset, system, est, rep, fit.mode, t0, error, checked,
+                               common=(first.kn, first.delta))
+    kept = tuple(c for c in first.verdict.checks if c.name == "replay_statistic")
+    lean = second.model_error.split.lean
+    if not error.per_hinge and abs(lean) > LIMITS["without_delta"]:
+        # the split may be the model's (its hinges turning otherwise), not the gaps': then the
+        # one-gap answer is the one to take, so the intervals hold both answers' intervals
+        second = dataclasses.replace(
+            second, kn_ci95=_union(second.kn_ci95, first.kn_ci95),
+            delta_ci95=_union(second.delta_ci95, first.delta_ci95),
+            interval_source=second.interval_source + (
+                ", joined with the one-common-gap answer's (the split may be the linear "
+                "model's, not the gaps')"))
+    return dataclasses.replace(second, verdict=make_verdict((*kept, *second.verdict.checks)),
+                               runtime_s=time.perf_counter() - t0)
+
+
+def _union(a: tuple, b: tuple) -> tuple:
+    """The smallest interval holding intervals ``a`` and ``b``."""
+    return (min(a[0], b[0]), max(a[1], b[1]))
+
+
+SPLIT_ROUNDS = 4  # most quick replays of the test with the gaps' split read again
+SPLIT_RTOL = 0.002  # [-] the shares have settled when none moves by more than this (log)
+
+
+def _settled_shares(half_gaps, at, dataset, system, est, extraction, fit, replay: Replay,
+                    progress: bool) -> tuple[tuple, tuple]:
+    """(shares, (kn, delta)): the hinges' gap shares at which the split read against the
+    replay with those shares is the replay's own, by quick corrected fits (no noisy copies,
+    intervals or cross-check: only their answer and its replay's points count), each started
+    from the last answer. The split read against a replay whose shares are off by a factor
+    is off by a smaller one (fin C, 1.3 / 1.9 mrad: 1.34 / 1.87 against one gap, 1.32 / 1.89
+    against those), so the reading is repeated, and from the third on the step is the
+    secant's of the last two (capped at three plain steps), until no share moves by more than
+    ``SPLIT_RTOL`` or after ``SPLIT_ROUNDS``."""
+    def norm(g):
+        g = np.log(np.asarray(g, float))
+        return g - np.log(np.mean(np.exp(g)))
+
+    x, y = np.zeros(len(half_gaps)), norm(half_gaps)  # log shares replayed, and read
+    prev = None
+    quick = dataclasses.replace(replay, start="network", precision_copies=0,
+                                excitation_copies=0, n_bootstrap=0, cross_check=False,
+                                level_uncertainty=0.0, damping_uncertainty=0.0)
+    for _ in range(SPLIT_ROUNDS):
+        step = y - x
+        if prev is not None:  # the secant of g(x) = y - x through the last two readings
+            dx, dg = x - prev[0], step - (prev[1] - prev[0])
+            ok = np.abs(dg) > 1e-12
+            secant = np.where(ok, -step * dx / np.where(ok, dg, 1.0), step)
+            step = np.clip(secant, -3 * np.abs(step), 3 * np.abs(step))
+        prev = (x, y)
+        x = norm(np.exp(x + step))
+        if np.max(np.abs(x - prev[0])) < SPLIT_RTOL:
+            break
+        shares = tuple(float(v) for v in np.exp(x))
+        rep = corrected_fit(dataset, system, est, extraction=extraction, fit=fit,
+                            replay=dataclasses.replace(quick, gap_shares=shares), start=at,
+                            progress=progress)
+        if rep.failure:
+            x = prev[0]
+            break
+        at = (rep.kn, rep.delta)
+        sp = replayed_split(system, rep.statistic_points, rep.replayed_points, (), kn=rep.kn,
+                            delta=rep.delta, mode=fit.mode, shares=shares)
+        if sp is None:
+            break
+        y = norm(sp.half_gaps)
+    return tuple(float(v) for v in np.exp(x)), at
 
 
 def _network_start(est, fit: FitOptions, replay: Replay) -> tuple[float, float] | None:
@@ -430,12 +563,13 @@ def _corrected_intervals(rep) -> tuple[tuple, tuple, str]:
 
 
 def _corrected_result(dataset, system, plain: PlainEstimate, rep, mode: int, t0: float,
-                      error: ModelError, records=None) -> Identification:
+                      error: ModelError, records=None, common=None) -> Identification:
     """The corrected estimate as an :class:`Identification`, judged as reported: the data's
     checks, the answer's own (bound, contact margin, backbone range and intervals at the
     corrected estimate), the replay's at the answer and the zero-clearance check at the
     reported kn. A replay that failed keeps the plain estimate, judged on its fit, and makes
-    the verdict ``suspect``."""
+    the verdict ``suspect``. ``common``: the one-gap answer (kn, delta) where the replays had
+    unequal gaps (``rep.gap_shares``)."""
     result = _plain_result(dataset, system, plain, mode, t0, error, records)
     if rep.failure:
         verdict = make_verdict(result.verdict.checks + tuple(replay_checks(rep)))
@@ -448,7 +582,7 @@ def _corrected_result(dataset, system, plain: PlainEstimate, rep, mode: int, t0:
         error = dataclasses.replace(error, split=replayed_split(
             system, rep.statistic_points, rep.replayed_points,
             () if precision is None else precision.copy_points, kn=rep.kn, delta=rep.delta,
-            mode=mode))
+            mode=mode, shares=getattr(rep, "gap_shares", None), common=common))
     validation = _zero_clearance_check(dataset, system, rep.kn)
     estimated = rep.damping if getattr(rep.damping, "source", None) == "estimated" else None
     direction = sweep_direction_check(plain.points, replayed=True,

@@ -185,8 +185,12 @@ def _model(r) -> list[str]:
                   enumerate(zip(upd.reference_hz, upd.before_hz, upd.after_hz, strict=True))]
     gaps = r.hinge_gap_records()
     if gaps:
-        lines += ["", "One half-gap per hinge (`linear_model.hinge_gaps`: the points fitted with "
-                  "each hinge's gap free, moved by the replay's correction of delta):", "",
+        sp = err.split
+        how = ("the test was replayed with the hinges' gaps split as it showed against one "
+               "common gap; delta is their mean" if sp is not None and sp.shares else
+               "`linear_model.hinge_gaps`: the points fitted with each hinge's gap free, moved "
+               "by the replay's correction of delta")
+        lines += ["", f"One half-gap per hinge ({how}):", "",
                   "| hinge (outboard/inboard DOF) | half-gap [mrad] | 95 % CI [mrad] |",
                   "|---|---|---|"]
         lines += [f"| {g['hinge']} | {1e3 * g['delta']:.4g} | "

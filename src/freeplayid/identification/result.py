@@ -262,14 +262,15 @@ class Identification:
         return out
 
     def hinge_gap_records(self) -> list[dict]:
-        """Each hinge's half-gap [rad] and 95 % interval (``linear_model.hinge_gaps``): read
-        against the answer's replay where there is one
+        """Each hinge's half-gap [rad] and 95 % interval (``linear_model.hinge_gaps``, or where
+        the answer's replay had unequal gaps): read against the answer's replay where there is one
         (:class:`~freeplayid.identification.model_error.ReplayedSplit`), else the per-hinge
         fit moved by the replay's correction of delta
         (:meth:`~freeplayid.identification.model_error.HingeGaps.half_gaps`); [] without
         them."""
         err = self.model_error
-        per = None if err is None or not err.per_hinge else err.hinge_gaps
+        replayed = err is not None and err.split is not None and bool(err.split.shares)
+        per = None if err is None or not (err.per_hinge or replayed) else err.hinge_gaps
         if per is None:
             return []
         if err.split is not None and err.split.n_copies >= 2:
@@ -290,6 +291,8 @@ class Identification:
             "unconverged_offset": None if getattr(r, "unconverged_offset", None) is None
             else list(r.unconverged_offset),
             "jump_point": r.jump_point, "kn_statistic": r.kn_statistic,
+            "gap_shares": None if getattr(r, "gap_shares", None) is None
+            else list(r.gap_shares),
             "delta_statistic": r.delta_statistic,
             "statistic_ci95": _pairs(r.statistic_ci95),
             "replayed_ci95": _pairs(getattr(r, "replayed_ci95", None)),

@@ -59,7 +59,13 @@ compares the result or the data with a physical limit, never with a value tuned 
   (:mod:`freeplayid.identification.model_error`). Where it passes but a split of the gaps the
   points cannot see would put the hinges' mean beyond the delta bound from delta (the gap
   statement, :func:`~freeplayid.identification.model_error.gap_split`), its message says so:
-  delta is then their common half-gap, weighted towards the hinge that turns most.
+  delta is then their common half-gap, weighted towards the hinge that turns most. With the
+  replay the split is read against the answer's replay, in units of its noisy copies; where it
+  is shown, the test is replayed again with each hinge's gap split so (delta then the hinges'
+  mean), and the check fails where a split is still shown against that replay, or where the
+  one-gap answer lay beyond half delta's bound from that mean (unless
+  ``linear_model.hinge_gaps`` takes the model's proportions as right): a model whose hinges
+  turn otherwise than the tested fin's shows such a split too.
 - ``base_reading`` (with the replay driven by a base channel read over a narrowed band): in
   the seconds before each run's point, the narrowed reading against the wide band's, in units
   of their difference's own noise along the record; where some run's gap exceeds three of them
@@ -517,7 +523,9 @@ def model_checks(error) -> list[Check]:
                f"structure (the answer is from the updated model; {msg})")
     checks = [Check("linear_model", not far, msg, None if upd is None else upd.scale)]
     hg, sp = error.hinge_gaps, error.split
-    if sp is not None and sp.p is not None:
+    if sp is not None and sp.shares:
+        checks.append(_unequal_check(sp, error.per_hinge))
+    elif sp is not None and sp.p is not None:
         checks.append(_split_check(sp))
     elif hg is not None:
         why = f"{hg.outcome()}: {hg.test()}"
@@ -534,6 +542,42 @@ def model_checks(error) -> list[Check]:
                     "weighted towards the hinge that turns most")
         checks.append(Check("hinge_gaps", hg.common_explains, why, hg.p_common))
     return checks
+
+
+def _unequal_check(sp, per_hinge: bool) -> Check:
+    """``hinge_gaps`` where the answer was replayed with the hinges' gaps split as the test
+    showed against its one-gap replay (:class:`freeplayid.identification.model_error.
+    ReplayedSplit` with ``shares``): fails where a split is still shown against that replay
+    (at ``cross_p``: unequal gaps do not explain it), and, unless each hinge's gap was asked
+    for (``linear_model.hinge_gaps``: the model's proportions are then taken as right), where
+    the one-gap answer lay beyond ``without_delta`` from the hinges' mean: a linear model whose
+    hinges turn in other proportions than the tested fin's shows such a split too, and then the
+    mean of gaps that are not there is no answer, and kn is off with the model."""
+    shown = sp.p is not None and sp.p < LIMITS["cross_p"]
+    lean = sp.lean
+    off = lean is not None and abs(lean) > LIMITS["without_delta"] and not per_hinge
+    head = ((f"the test showed the hinges' gaps differing against one common gap; delta is "
+             f"their mean, replayed with the gaps split so: {sp.describe()}") if lean is not None
+            else f"delta is the hinges' mean half-gap: {sp.describe()}")
+    if shown:
+        why = (head + ". Against that replay the test still shows a split beyond its noise: "
+               "unequal gaps do not explain it either; the linear model's hinges may turn in "
+               "other proportions than the tested fin's (a part's stiffness off), and kn is "
+               "off with it")
+    elif off:
+        why = (head + f". One common gap put delta {100 * abs(lean):.2g} % from their mean, "
+               f"beyond {100 * LIMITS['without_delta']:g} %: so much rests on the split being "
+               "the gaps'. A linear model whose hinges turn in other proportions than the "
+               "tested fin's (a part's stiffness off, which three sealed modes can fit either "
+               "way) shows such a split too, and then kn is off with it and the one-gap "
+               "answer is the better delta; the intervals hold both answers "
+               "(`linear_model.hinge_gaps=true` takes the model as right and reports each "
+               "hinge's gap)")
+    else:
+        why = head + ("; unequal gaps explain the test" + (
+            "" if per_hinge or lean is None else
+            f", and one common gap lay {100 * abs(lean):.2g} % from their mean"))
+    return Check("hinge_gaps", not (shown or off), why, sp.p)
 
 
 def _split_check(sp) -> Check:

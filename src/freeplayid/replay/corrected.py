@@ -486,6 +486,9 @@ class ReplayResult:
         Where the loop started: "statistic" (the statistic's fit), "network" (the network's
         estimate, ``Replay.start``), or, when the replay there could not be identified,
         "statistic, delta x 0.85" (0.723, 0.614: the statistic's fit with a smaller gap).
+    gap_shares : tuple of float or None
+        Each hinge's half-gap over their mean in the replays (``Replay.gap_shares``): delta is
+        then the hinges' mean half-gap. None: one common gap.
     statistic_points, replayed_points : FittingPoints or None
         The test's statistic points and its replay's at the answer (what else the replay
         measures against the test, e.g. the hinges' split of the gaps). Not saved.
@@ -521,6 +524,7 @@ class ReplayResult:
     cross: CrossCheck | None = None
     excitation: str = "law"
     start: str = "statistic"
+    gap_shares: tuple | None = None
     statistic_points: FittingPoints | None = dataclasses.field(default=None, repr=False,
                                                                 compare=False)
     replayed_points: FittingPoints | None = dataclasses.field(default=None, repr=False,
@@ -639,7 +643,7 @@ class _Binding:
             damped_system(self.system, zeta, float(theta[0]), self.exponent, self.hinge)
         return replay_dataset(t.dataset, sys_k, *theta, levels=levels or t.levels,
                               sweeps=t.sweeps, excitations=excitations or t.excitations,
-                              engine=self.opts.engine)
+                              engine=self.opts.engine, gap_shares=self.opts.gap_shares)
 
     def replay(self, theta, zeta, levels: dict | None = None):
         """The plain estimate of the test replayed at theta = (kn, delta) with ``zeta`` (and
@@ -1236,6 +1240,7 @@ def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts
         resonance=resonance, cross=cross, level=level, damping_sensitivity=damped,
         excitation_noise=excited, base_reading=reading,
         excitation="measured" if b.test.excitations else "law", start=start,
+        gap_shares=opts.gap_shares,
         statistic_points=stat.fitting_points() if rep is not None else None,
         replayed_points=rep.fitting_points() if rep is not None else None,
         sweeps={run: {"source": src, "law": sw.law, **sw.to_dict(),

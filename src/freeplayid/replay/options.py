@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from ..arguments import check_bool, check_choice, check_int, check_number, is_number
@@ -125,6 +126,13 @@ class Replay:
         the plain fit's given start (``FitOptions.init``), when there is one (else the
         statistic's fit). The answer solves the same equations from either start; a start
         closer to it can save replays (docs/inverse.md §4).
+    gap_shares : sequence of float or None [-]
+        Unequal gaps in the replays: each hinge's half-gap over the hinges' mean, one per hinge
+        in the model's hinge order (scaled to a mean of 1; the answer's delta is then the
+        hinges' mean half-gap, hinge j's ``delta * gap_shares[j]``). None (default): one common
+        gap. ``identify`` replays with the shares the test shows where one common gap does not
+        explain it (the verdict's ``hinge_gaps``; docs/identify.md §3c, "Replayed with the
+        split it shows").
     """
 
     damping: float | str | None = None
@@ -144,6 +152,7 @@ class Replay:
     precision_copies: int = 8
     excitation_copies: int = 2
     start: str = "statistic"
+    gap_shares: tuple | None = None
 
     def __post_init__(self):
         d = self.damping
@@ -175,6 +184,19 @@ class Replay:
             raise ValueError(f"`damping_hinge` must be a number in [0, 0.95] or 'estimate', "
                              f"got {q!r}")
         check_choice("start", self.start, STARTS)
+        g = self.gap_shares
+        if g is not None:
+            ok = not isinstance(g, str)
+            try:
+                vals = [float(v) for v in g] if ok else []
+            except (TypeError, ValueError):
+                ok = False
+            ok = ok and len(vals) >= 2 and all(math.isfinite(v) and v > 0 for v in vals)
+            if not ok:
+                raise ValueError(f"`gap_shares` must be None or one number > 0 per hinge (two "
+                                 f"or more), got {g!r}")
+            mean = sum(vals) / len(vals)
+            object.__setattr__(self, "gap_shares", tuple(v / mean for v in vals))
         if self.engine is not None:
             # the engines' registry imports torch: only when an engine is named
             from ..simulate.engines import ENGINES

@@ -88,7 +88,7 @@ def replay_excitations(dataset, sweeps: dict) -> tuple[dict, dict]:
 
 def replay_dataset(dataset, system, kn: float, delta: float, *, levels: dict | None = None,
                    sweeps: dict | None = None, excitations: dict | None = None, dtype=None,
-                   engine: str | None = None):
+                   engine: str | None = None, gap_shares=None):
     """The data set's usable runs simulated at (kn, delta): a data set of the same layout.
 
     Runs sharing a sweep law are simulated in one batch; a run with a measured excitation
@@ -99,7 +99,8 @@ def replay_dataset(dataset, system, kn: float, delta: float, *, levels: dict | N
     :func:`replay_sweeps` and :func:`replay_levels` (computed when not given). A replayed run
     carries the measured run's sweep hint (or none), so both go through the same extraction.
     ``engine``: a simulator engine name (:data:`freeplayid.simulate.engines.ENGINES` or
-    "auto"); None: the exponential engine when available, else "auto".
+    "auto"); None: the exponential engine when available, else "auto". ``gap_shares``: hinge
+    j's half-gap is ``delta * gap_shares[j]`` (None: one common gap).
     """
     # the simulator (torch) only when a replay runs: `import freeplayid.identification` stays
     # light for a notebook that reads results
@@ -130,7 +131,7 @@ def replay_dataset(dataset, system, kn: float, delta: float, *, levels: dict | N
                               quantity=dataset.quantity, frame=frame,
                               sample_rate=dataset.sample_rate,
                               dtype=torch.float64 if dtype is None else dtype, progress=False,
-                              engine=engine)
+                              engine=engine, gap_shares=gap_shares)
         ds = sweep_dataset(res, columns=dataset.channels, units=dataset.units, run_names=files)
         return [dataclasses.replace(r, sweep=hints[r.file],
                                     base=r.base if dataset.base_channel else None)

@@ -59,6 +59,8 @@ class SweepResult:
         What modal truncation dropped, with its error estimate.
     quasi_static : QuasiStatic or None
         What quasi-static condensation of the fast modes did (``quasi_static_hz``).
+    gap_shares : tuple of float or None
+        Unequal gaps: hinge j's half-gap was ``delta * gap_shares[j]``; None: one common gap.
     """
 
     time: np.ndarray
@@ -78,6 +80,7 @@ class SweepResult:
     omega_max: float
     truncation: ModalTruncation | None = None
     quasi_static: QuasiStatic | None = None
+    gap_shares: tuple | None = None
 
     @property
     def steps_per_sample(self) -> int:
@@ -121,6 +124,7 @@ def simulate_sweeps(
     large_mass_ratio: float = 1e6,
     progress: bool | None = None,
     cuda_graphs: bool | None = None,
+    gap_shares=None,
 ) -> SweepResult:
     """Simulate sine sweeps of a freeplay system for a batch of (kn, delta, level).
 
@@ -180,18 +184,25 @@ def simulate_sweeps(
         more) watched on a terminal or in a notebook; False: none.
     cuda_graphs : bool, optional
         torch engine on CUDA: replay the step loop as CUDA graphs (default on CUDA).
+    gap_shares : sequence of float, shape (n_hinges,), optional
+        Unequal gaps: hinge j's half-gap is ``delta * gap_shares[j]`` in every member (the
+        system's hinge order; > 0). Engines "expo" (the choice of "auto" here) and "torch";
+        default: one common gap.
 
     Returns
     -------
     SweepResult
     """
     _check_types(system, sweep, dtype)
+    if engine == "auto" and gap_shares is not None and ENGINES["expo"].available():
+        engine = "expo"  # unequal gaps: the engines of AUTO do not take them
     device = torch.device(_default_device(engine, quasi_static_hz) if device is None else device)
     # the engine's name (unknown: the valid ones listed), and whether it does device and options
     engine, engine_cls = resolve_engine(engine, device=device,
                                         quasi_static=quasi_static_hz is not None)
     channels = _check_request(system, method=method, sample_rate=sample_rate, channels=channels)
     kn_a, dl_a, lv_a = _members(kn, delta, level_g)
+    shares = _gap_shares(system, gap_shares, engine, engine_cls)
     # the step rule is the engine's (Engine.max_step), not implied by its name
     plan = step_plan(system, kn_max=float(kn_a.max()), sweep=sweep, sample_rate=sample_rate,
                      channels=channels, quantity=quantity, frame=frame, method=method,
@@ -201,7 +212,8 @@ def simulate_sweeps(
                      differentiate=engine_cls.differentiates)
     base_state = np.array(sweep.unit_start(), dtype=float)  # unit (u_b, v_b)(0)
     eng = engine_cls(_engine_setup(plan, kn_a, dl_a, lv_a, base_state, quantity=quantity,
-                                   dtype=dtype, device=device, cuda_graphs=cuda_graphs))
+                                   dtype=dtype, device=device, cuda_graphs=cuda_graphs,
+                                   gap_shares=shares))
     shape = (len(kn_a), len(channels), plan.n_out)
     y = integrate_chunks(eng, plan, sweep=sweep, quantity=quantity, level_g=lv_a, shape=shape,
                          base_state=base_state, dtype=dtype, device=device, progress=progress,
@@ -215,7 +227,27 @@ def simulate_sweeps(
         method=method, engine=engine, omega_max=plan.form.omega_max,
         truncation=plan.form.truncation,
         quasi_static=None if plan.qs is None else plan.qs.info,
+        gap_shares=None if shares is None else tuple(float(v) for v in shares),
     )
+
+
+def _gap_shares(system, gap_shares, engine: str, engine_cls) -> np.ndarray | None:
+    """``gap_shares`` checked: None where not given or all 1 (one common gap), else a float
+    array of one share > 0 per hinge, for an engine that takes them."""
+    if gap_shares is None:
+        return None
+    a = np.asarray(gap_shares, dtype=float)
+    H = system.n_hinges
+    if a.shape != (H,) or not np.all(np.isfinite(a)) or np.any(a <= 0):
+        raise ValueError(f"`gap_shares` must be {H} finite values > 0 (one per hinge), "
+                         f"got {gap_shares!r}")
+    if np.all(a == 1.0):
+        return None
+    if not getattr(engine_cls, "gap_shares", False):
+        able = [n for n, c in ENGINES.items() if c.gap_shares]
+        raise NotImplementedError(f"`gap_shares` (unequal gaps) is implemented in the engines "
+                                  f"{able} only, got engine={engine!r}")
+    return a
 
 
 def _default_device(engine: str, quasi_static_hz: float | None) -> str:
@@ -281,7 +313,7 @@ def _members(kn, delta, level_g) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def _engine_setup(plan: StepPlan, kn, delta, level_g, base_state, *, quantity, dtype, device,
-                  cuda_graphs) -> EngineSetup:
+                  cuda_graphs, gap_shares=None) -> EngineSetup:
     """The engine's setup: the plan's equations, step and filters, and the members at rest
     relative to the base (the large-mass form starts on the base motion ``base_state``)."""
     form = plan.form
@@ -291,5 +323,5 @@ def _engine_setup(plan: StepPlan, kn, delta, level_g, base_state, *, quantity, d
     return EngineSetup(
         form=form, quasi_static=plan.qs, kn=kn, delta=delta, level_g=level_g, eta0=eta0, v0=v0,
         h=plan.h, quantity=quantity, dtype=dtype, device=device, taps=plan.taps,
-        taps_d=plan.taps_d, factor=plan.m, cuda_graphs=cuda_graphs,
+        taps_d=plan.taps_d, factor=plan.m, cuda_graphs=cuda_graphs, gap_shares=gap_shares,
     )

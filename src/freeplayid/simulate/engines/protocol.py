@@ -47,6 +47,9 @@ class EngineSetup:
         Steps per output sample (the decimation factor).
     cuda_graphs : bool or None
         Replay the step loop as CUDA graphs (engines on CUDA; None: their default).
+    gap_shares : ndarray, shape (H,) or None [-]
+        Unequal gaps: hinge j's half-gap is ``delta * gap_shares[j]`` for every member (only for
+        engines with ``Engine.gap_shares``); None: one common gap.
     """
 
     form: ModalForm
@@ -64,6 +67,7 @@ class EngineSetup:
     taps_d: np.ndarray | None
     factor: int
     cuda_graphs: bool | None = None
+    gap_shares: np.ndarray | None = None
 
 
 class Engine(Protocol):
@@ -88,6 +92,8 @@ class Engine(Protocol):
         taken by its decimating FIR (``EngineSetup.taps_d``), so that the fast modes' ringing
         after each contact switch, which point samples of an acceleration would alias into the
         band, does not set its step (docs/simulate.md, "Exponential engine").
+    gap_shares : bool
+        Whether it takes unequal gaps (``EngineSetup.gap_shares``).
     record_width : int
         Values held per member and step of a chunk (bounds the steps per chunk in memory).
     """
@@ -96,6 +102,7 @@ class Engine(Protocol):
     quasi_static: ClassVar[bool]
     decimates: ClassVar[bool]
     differentiates: ClassVar[bool] = False
+    gap_shares: ClassVar[bool] = False
     record_width: int
 
     def __init__(self, setup: EngineSetup) -> None: ...

@@ -24,13 +24,14 @@ class TorchEngine:
     quasi_static = False
     decimates = False
     differentiates = False
+    gap_shares = True
     max_step = staticmethod(rk4_max_step)
 
     def __init__(self, setup: EngineSetup):
         s = setup
         self.rk4 = TorchRK4(s.form, s.kn, s.delta, s.level_g, s.eta0, s.v0, h=s.h,
                             quantity=s.quantity, dtype=s.dtype, device=s.device,
-                            cuda_graphs=s.cuda_graphs)
+                            cuda_graphs=s.cuda_graphs, gap_shares=s.gap_shares)
         self.record_width = s.form.n_modes  # the modal state is recorded, projected per chunk
 
     @classmethod
@@ -65,10 +66,13 @@ class TorchRK4:
         Replay the step loop as CUDA graphs of ``graph_steps`` steps (default: on CUDA). The
         Python loop issues ~30 kernels per step, so on a GPU it is launch-bound without them.
     graph_steps : int
+    gap_shares : ndarray, shape (H,), optional
+        Hinge j's half-gap is ``delta * gap_shares[j]`` (default all 1: one common gap).
     """
 
     def __init__(self, form: ModalForm, kn, delta, level_g, eta0, v0, *, h, quantity, dtype,
-                 device, cuda_graphs: bool | None = None, graph_steps: int = 128):
+                 device, cuda_graphs: bool | None = None, graph_steps: int = 128,
+                 gap_shares=None):
         t = lambda a: torch.as_tensor(np.asarray(a), dtype=dtype, device=device)  # noqa: E731
         self.h = float(h)
         self.mode = MODES[quantity]
@@ -81,7 +85,9 @@ class TorchRK4:
         self.g = t(form.g)
         self.ST = t(form.S.T.copy())
         self.kn = t(kn)[:, None]
-        self.delta = t(delta)[:, None]
+        self.delta = t(delta)[:, None]  # (batch, 1), or (batch, H) with unequal gaps
+        if gap_shares is not None:
+            self.delta = self.delta * t(gap_shares)[None, :]
         self.lev = t(level_g)[:, None]
         self.eta = t(eta0).clone()
         self.v = t(v0).clone()

@@ -27,6 +27,7 @@ class ExpoEngine(NumbaEngine):
     quasi_static = False
     decimates = True
     differentiates = True
+    gap_shares = True
     name = "expo"
 
     def __init__(self, setup: EngineSetup):
@@ -39,7 +40,7 @@ class ExpoEngine(NumbaEngine):
         self.kernel = NumbaExpo(s.form, s.kn, s.delta, s.level_g, s.eta0, s.v0, h=s.h,
                                 quantity="displacement" if derived else s.quantity,
                                 dtype=s.dtype, taps=s.taps_d if derived else s.taps,
-                                factor=s.factor)
+                                factor=s.factor, gap_shares=s.gap_shares)
         self.record_width = self.kernel.width
 
     @staticmethod

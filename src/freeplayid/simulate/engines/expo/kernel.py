@@ -46,7 +46,8 @@ MAX_ACTIVE_SET = 8  # active-set iterations before the exhaustive search
 
 @numba.njit(fastmath=FASTMATH, error_model="numpy", inline="never", cache=_CACHE)
 def _solve_state(G, a, st, kn, d, A, tv):
-    # (I + kn G P) theta = a + kn G P s d, P = diag|s|, into tv: elimination without pivoting
+    # (I + kn G P) theta = a + kn G P s d, P = diag|s|, d the hinges' half-gaps (H,), into tv:
+    # elimination without pivoting
     H = G.shape[0]
     for i in range(H):
         r = a[i]
@@ -54,7 +55,7 @@ def _solve_state(G, a, st, kn, d, A, tv):
             sj = st[j]
             q = kn * G[i, j] * abs(sj)
             A[i, j] = q + (1.0 if i == j else 0.0)
-            r = fma(q * sj, d, r)
+            r = fma(q * sj, d[j], r)
         tv[i] = r
     for k in range(H):
         for i in range(k + 1, H):
@@ -71,18 +72,20 @@ def _solve_state(G, a, st, kn, d, A, tv):
 
 @numba.njit(fastmath=FASTMATH, error_model="numpy", inline="never", cache=_CACHE)
 def _contact(G, a, st, kn, d, A, tv, tol):
-    # theta + G f(theta) = a: the contact state of each hinge (st, -1/0/+1) and theta (tv);
-    # returns False if no state is consistent
+    # theta + G f(theta) = a: the contact state of each hinge (st, -1/0/+1) and theta (tv), d
+    # the hinges' half-gaps (H,); returns False if no state is consistent
     H = G.shape[0]
     for j in range(H):
-        st[j] = 1.0 if a[j] > d else (-1.0 if a[j] < -d else 0.0)
+        st[j] = 1.0 if a[j] > d[j] else (-1.0 if a[j] < -d[j] else 0.0)
     for _ in range(MAX_ACTIVE_SET):
         _solve_state(G, a, st, kn, d, A, tv)
         same = True
         for j in range(H):
             x = tv[j]
-            e = tol * (abs(x) + d)
-            s = 1.0 if x > d + e else (-1.0 if x < -d - e else (0.0 if abs(x) < d - e else st[j]))
+            dj = d[j]
+            e = tol * (abs(x) + dj)
+            s = 1.0 if x > dj + e else (-1.0 if x < -dj - e else (0.0 if abs(x) < dj - e
+                                                                    else st[j]))
             if s != st[j]:
                 same = False
                 st[j] = s
@@ -101,11 +104,12 @@ def _contact(G, a, st, kn, d, A, tv, tol):
         ok = True
         for j in range(H):
             x = tv[j]
-            e = tol * (abs(x) + d)
+            dj = d[j]
+            e = tol * (abs(x) + dj)
             if st[j] == 0.0:
-                ok = ok and abs(x) <= d + e
+                ok = ok and abs(x) <= dj + e
             else:
-                ok = ok and st[j] * x >= d - e
+                ok = ok and st[j] * x >= dj - e
         if ok:
             return True
     return False
@@ -130,14 +134,15 @@ def _record(O, Of, Og, zc, f0, u, val, acc_r, gi, half, ntap, m, taps, w0, out, 
 
 
 @numba.njit(parallel=True, nogil=True, fastmath=FASTMATH, error_model="numpy", cache=_CACHE)
-def expo_chunk(i0, i1, z, fz, kn, dl, lev, PhiT, p11, p12, p21, p22, diag, W, P0T, P1T, D, G,
+def expo_chunk(i0, i1, z, fz, kn, dl, sh, lev, PhiT, p11, p12, p21, p22, diag, W, P0T, P1T, D, G,
                O, Of, Og, s_half, tol, out, col0, taps, m, half, w0, ring, gi0, bad):
     # steps gi0 .. gi0 + L - 1 of members i0 .. i1 - 1 (none: compile only). z (batch, 2N) state
     # at the chunk start, fz (batch, H) f(theta) there, ring (batch, R, C) the open outputs of
     # the fused FIR (..numba.fir: output k gets weight taps[j - k m] of the value of step
     # gi, j = gi + half, and is written to out[i, :, col0 + n] once complete). The recorded value
     # at t_k is O z_k + Of f_k + Og level s_k (eta, eta' or eta'' through S). A member without a
-    # consistent contact state is flagged in `bad` and frozen at rest with no load.
+    # consistent contact state is flagged in `bad` and frozen at rest with no load. Hinge j's
+    # half-gap is dl[i] sh[j] (sh: the gap shares, all 1 for one common gap).
     n2 = z.shape[1]
     N = n2 // 2
     H = D.shape[1]
@@ -156,6 +161,7 @@ def expo_chunk(i0, i1, z, fz, kn, dl, lev, PhiT, p11, p12, p21, p22, diag, W, P0
         st = np.empty(H, dt)
         tv = np.empty(H, dt)
         A = np.empty((H, H), dt)
+        dv = np.empty(H, dt)
         val = np.empty(C, dt)
         acc_r = np.empty((R, C), dt)
         for k in range(n2):
@@ -164,7 +170,8 @@ def expo_chunk(i0, i1, z, fz, kn, dl, lev, PhiT, p11, p12, p21, p22, diag, W, P0
             f0[j] = fz[i, j]
         ring_load1(ring, acc_r, i)
         k_n = kn[i]
-        d = dl[i]
+        for j in range(H):
+            dv[j] = dl[i] * sh[j]
         lv = lev[i]
         n_emit = 0
         for step in range(L):
@@ -200,7 +207,7 @@ def expo_chunk(i0, i1, z, fz, kn, dl, lev, PhiT, p11, p12, p21, p22, diag, W, P0
                 for k in range(N):
                     x = fma(D[k, j], zn[k], x)
                 a[j] = x
-            if not _contact(G, a, st, k_n, d, A, tv, tol):
+            if not _contact(G, a, st, k_n, dv, A, tv, tol):
                 bad[i] = True
                 lv = zero
                 for k in range(n2):
@@ -209,7 +216,7 @@ def expo_chunk(i0, i1, z, fz, kn, dl, lev, PhiT, p11, p12, p21, p22, diag, W, P0
                     f1[j] = 0.0
             else:
                 for j in range(H):
-                    f1[j] = k_n * abs(st[j]) * (tv[j] - st[j] * d)
+                    f1[j] = k_n * abs(st[j]) * (tv[j] - st[j] * dv[j])
                 for j in range(H):
                     fj = f1[j]
                     for k in range(n2):
@@ -247,7 +254,8 @@ def _quad(u0, um, u1, x, one):
 
 @numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=_CACHE)
 def _hinge_state(D, z, d, th, st):
-    # theta = D^T eta into th, the contact state of each hinge into st; returns the state code
+    # theta = D^T eta into th, the contact state of each hinge (half-gaps d, (H,)) into st;
+    # returns the state code
     H = D.shape[1]
     N = D.shape[0]
     code = 0
@@ -257,7 +265,7 @@ def _hinge_state(D, z, d, th, st):
         for k in range(N):
             x = fma(D[k, j], z[k], x)
         th[j] = x
-        s = 1.0 if x > d else (-1.0 if x < -d else 0.0)
+        s = 1.0 if x > d[j] else (-1.0 if x < -d[j] else 0.0)
         st[j] = s
         code += (int(s) + 1) * mult
         mult *= 3
@@ -265,13 +273,14 @@ def _hinge_state(D, z, d, th, st):
 
 
 @numba.njit(parallel=True, nogil=True, fastmath=FASTMATH, error_model="numpy", cache=_CACHE)
-def expo_states_chunk(i0, i1, z, kset, dl, lev, kns, levels, PhiT, Ws, cs, P1T, Gm, Ms, es, D,
+def expo_states_chunk(i0, i1, z, kset, dl, sh, lev, kns, levels, PhiT, Ws, cs, P1T, Gm, Ms, es, D,
                       O, Of, Og, s_half, tol, out, col0, taps, m, half, w0, ring, gi0, bad):
     # as expo_chunk, with exact steps per contact state (steps.discretize_states): member
     # i uses the matrices kset[i] (its kn, kns[kset[i]]). A step is taken in the state of its
     # start; if a hinge's state at its end differs, it is halved (down to h / 2^levels) and the
     # sub-step holding the switch is corrected by the residual moment held linear. The state
-    # and f(theta) follow from z, so z is the whole member state.
+    # and f(theta) follow from z, so z is the whole member state. Hinge j's half-gap is
+    # dl[i] sh[j] (cs and es have the shares sh folded in: per unit dl).
     n2 = z.shape[1]
     H = D.shape[1]
     C = O.shape[0]
@@ -293,6 +302,7 @@ def expo_states_chunk(i0, i1, z, kset, dl, lev, kns, levels, PhiT, Ws, cs, P1T, 
         st = np.empty(H, dt)
         tv = np.empty(H, dt)
         A = np.empty((H, H), dt)
+        dv = np.empty(H, dt)
         val = np.empty(C, dt)
         acc_r = np.empty((R, C), dt)
         for k in range(n2):
@@ -301,13 +311,15 @@ def expo_states_chunk(i0, i1, z, kset, dl, lev, kns, levels, PhiT, Ws, cs, P1T, 
         ki = kset[i]
         k_n = kns[ki]
         d = dl[i]
+        for j in range(H):
+            dv[j] = d * sh[j]
         lv = lev[i]
         n_emit = 0
         for step in range(L):
             s0 = s_half[2 * step]
-            code = _hinge_state(D, zc, d, th, st0)
+            code = _hinge_state(D, zc, dv, th, st0)
             for j in range(H):
-                f0[j] = k_n * abs(st0[j]) * (th[j] - st0[j] * d)
+                f0[j] = k_n * abs(st0[j]) * (th[j] - st0[j] * dv[j])
             n_emit += _record(O, Of, Og, zc, f0, lv * s0, val, acc_r, gi0 + step, half, ntap,
                               m, taps, w0, out, col0 + n_emit, i)  # record at t_k
             u0 = lv * s0
@@ -330,7 +342,7 @@ def expo_states_chunk(i0, i1, z, kset, dl, lev, kns, levels, PhiT, Ws, cs, P1T, 
                     ub = _quad(u0, um, u1, xb, one)
                 _state_prop(PhiT[ki, lvl, code], Ws[ki, lvl, code], cs[ki, lvl, code], zc, zn,
                             ua, uc, ub, d)
-                _hinge_state(D, zn, d, a, st1)
+                _hinge_state(D, zn, dv, a, st1)
                 same = True
                 for j in range(H):
                     if st1[j] != st0[j]:
@@ -347,7 +359,7 @@ def expo_states_chunk(i0, i1, z, kset, dl, lev, kns, levels, PhiT, Ws, cs, P1T, 
                         for q in range(H):
                             x = fma(Mm[j, q], a[q], x)
                         th[j] = x
-                    if not _contact(Gs, th, st, k_n, d, A, tv, tol):
+                    if not _contact(Gs, th, st, k_n, dv, A, tv, tol):
                         bad[i] = True
                         lv = cast(0.0)
                         u0 = um = u1 = cast(0.0)
@@ -355,8 +367,8 @@ def expo_states_chunk(i0, i1, z, kset, dl, lev, kns, levels, PhiT, Ws, cs, P1T, 
                             zn[k] = 0.0
                     else:
                         for j in range(H):
-                            rj = (k_n * abs(st[j]) * (tv[j] - st[j] * d)
-                                  - k_n * abs(st0[j]) * (tv[j] - st0[j] * d))
+                            rj = (k_n * abs(st[j]) * (tv[j] - st[j] * dv[j])
+                                  - k_n * abs(st0[j]) * (tv[j] - st0[j] * dv[j]))
                             for k in range(n2):
                                 zn[k] = fma(-P1T[ki, code, j, k], rj, zn[k])
                 for k in range(n2):
@@ -366,7 +378,7 @@ def expo_states_chunk(i0, i1, z, kset, dl, lev, kns, levels, PhiT, Ws, cs, P1T, 
                     lvl -= 1
                     ln *= 2
                 if not same:
-                    code = _hinge_state(D, zc, d, th, st0)
+                    code = _hinge_state(D, zc, dv, th, st0)
         for k in range(n2):
             z[i, k] = zc[k]
         ring_store1(ring, acc_r, i)
@@ -410,21 +422,25 @@ class NumbaExpo:
         Anti-aliasing FIR at the step rate.
     factor : int
         Steps per output sample.
+    gap_shares : ndarray, shape (H,), optional
+        Hinge j's half-gap is ``delta * gap_shares[j]`` (default all 1: one common gap).
     """
 
     def __init__(self, form: ModalForm, kn, delta, level_g, eta0, v0, *, h, quantity, dtype,
-                 taps, factor):
+                 taps, factor, gap_shares=None):
         nd = float_dtype(dtype)
         a = lambda x: np.ascontiguousarray(np.asarray(x, dtype=nd))  # noqa: E731
         self.nd = nd
-        N = form.D.shape[0]
+        N, H = form.D.shape
+        shares = np.ones(H) if gap_shares is None else np.asarray(gap_shares, float).reshape(H)
+        self.sh = a(shares)
         B = len(np.atleast_1d(kn))
         kn_u, kset = np.unique(np.asarray(kn, float).reshape(B), return_inverse=True)
         # the scheme depends on the batch's distinct kn only, each set on its kn only: a
         # member's result is the same in every batch that takes the same scheme
         self.per_state = per_state_scheme(len(kn_u))
         if self.per_state:
-            self._state_sets(form, h, kn_u, kset)
+            self._state_sets(form, h, kn_u, kset, shares)
         st = discretize(form, h)
         self.step = st
         self.PhiT = a(st.Phi.T)
@@ -441,7 +457,7 @@ class NumbaExpo:
         self.z = a(np.hstack([np.asarray(eta0, float).reshape(B, N),
                               np.asarray(v0, float).reshape(B, N)]))
         theta0 = np.asarray(eta0, float).reshape(B, N) @ form.D
-        dl0 = np.asarray(delta, float)[:, None]
+        dl0 = np.asarray(delta, float)[:, None] * shares[None, :]
         self.fz = a(np.asarray(kn, float)[:, None] * (theta0 - np.clip(theta0, -dl0, dl0)))
         self.tol = nd(64 * np.finfo(nd).eps)
         self.alive = np.ones(B, dtype=np.bool_)
@@ -456,11 +472,13 @@ class NumbaExpo:
         self.width = C
         self._compiled = False
 
-    def _state_sets(self, form: ModalForm, h: float, kn_u: np.ndarray, kset: np.ndarray):
+    def _state_sets(self, form: ModalForm, h: float, kn_u: np.ndarray, kset: np.ndarray,
+                    shares: np.ndarray):
         # the per-state step matrices (steps.discretize_states) of each distinct kn, stacked
         a = lambda x: np.ascontiguousarray(np.asarray(x, dtype=self.nd))  # noqa: E731
         self.levels = max(switch_levels(form, h, k) for k in kn_u)
-        sets = [discretize_states(form, h, float(k), levels=self.levels) for k in kn_u]
+        sets = [discretize_states(form, h, float(k), levels=self.levels, gap_shares=shares)
+                for k in kn_u]
         self.sets = sets
         self.kset = np.ascontiguousarray(kset, dtype=np.int64)
         self.kns = a(kn_u)
@@ -486,18 +504,18 @@ class NumbaExpo:
                 f"({self.batch}, {self.width}, n_samples), got {out.dtype} {out.shape}")
         L = (len(s_half) - 1) // 2
         n_new = self.emitted(L)
-        args = (self.z, self.fz, self.kn, self.dl, self.lev, self.PhiT, self.p11, self.p12,
-                self.p21, self.p22, self.diag, self.W, self.P0T, self.P1T, self.D, self.G,
+        args = (self.z, self.fz, self.kn, self.dl, self.sh, self.lev, self.PhiT, self.p11,
+                self.p12, self.p21, self.p22, self.diag, self.W, self.P0T, self.P1T, self.D, self.G,
                 self.O, self.Of, self.Og, np.ascontiguousarray(s_half, dtype=self.nd), self.tol,
                 out, self.outputs, self.taps, self.m, self.half, self.w0, self.ring, self.gi,
                 self.bad)
         kernel = expo_chunk
         if self.per_state:
             kernel = expo_states_chunk
-            args = (self.z, self.kset, self.dl, self.lev, self.kns, self.levels, self.sPhiT,
-                    self.sW, self.sc, self.sP1T, self.sGm, self.sM, self.se, self.D, self.O,
-                    self.Of, self.Og, args[19], self.tol, out, self.outputs, self.taps, self.m,
-                    self.half, self.w0, self.ring, self.gi, self.bad)
+            args = (self.z, self.kset, self.dl, self.sh, self.lev, self.kns, self.levels,
+                    self.sPhiT, self.sW, self.sc, self.sP1T, self.sGm, self.sM, self.se, self.D,
+                    self.O, self.Of, self.Og, args[20], self.tol, out, self.outputs, self.taps,
+                    self.m, self.half, self.w0, self.ring, self.gi, self.bad)
         if not self._compiled:
             compile_kernel(kernel, args, f"exponential kernel ({np.dtype(self.nd).name})")
             self._compiled = True

@@ -204,6 +204,10 @@ def expo_step_limit(form: ModalForm, *, top_hz: float, kn_max: float,
 #
 # i.e. with M_s = (I - kn Gamma_s P_s)^{-1}: theta + (M_s Gamma_s) f(theta) = M_s a - delta e_s,
 # e_s = kn M_s Gamma_s s, the contact equation of the linear-hold scheme, solved exactly.
+#
+# Unequal gaps: hinge j's half-gap delta_j = delta r_j (r the gap shares, common to a batch).
+# delta s becomes delta (s * r) in the contact moment, so c_s and e_s take s * r in place of s
+# (still per unit delta) and the hinge states and moments compare theta_j with delta r_j.
 
 
 def state_code(s) -> int:
@@ -263,9 +267,13 @@ class StateSteps:
     e: np.ndarray
 
 
-def discretize_states(form: ModalForm, h: float, kn: float, *, levels: int = 0) -> StateSteps:
+def discretize_states(form: ModalForm, h: float, kn: float, *, levels: int = 0,
+                      gap_shares=None) -> StateSteps:
     """The per-state step matrices (block comment above) for ``form``, step ``h`` [s], contact
-    stiffness ``kn`` [N m/rad] and ``levels`` halvings, by Van Loan exponentials in float64."""
+    stiffness ``kn`` [N m/rad] and ``levels`` halvings, by Van Loan exponentials in float64.
+    ``gap_shares`` (H,): hinge j's half-gap is ``delta * gap_shares[j]`` (default: all 1, one
+    common gap); folded into ``c`` and ``e``, which are then per unit delta of the hinges'
+    common scale (``kn D (s * shares)`` in place of ``kn D s``; with shares of 1 the same bits)."""
     if not (math.isfinite(h) and h > 0):
         raise ValueError(f"`h` must be > 0, got {h!r}")
     if not (math.isfinite(kn) and kn >= 0):
@@ -273,6 +281,7 @@ def discretize_states(form: ModalForm, h: float, kn: float, *, levels: int = 0) 
     if not (isinstance(levels, (int, np.integer)) and levels >= 0):
         raise ValueError(f"`levels` must be an int >= 0, got {levels!r}")
     N, H = form.D.shape
+    shares = np.ones(H) if gap_shares is None else np.asarray(gap_shares, float).reshape(H)
     n2, p = 2 * N, 2 + H
     states = contact_states(H)
     S = len(states)
@@ -290,7 +299,7 @@ def discretize_states(form: ModalForm, h: float, kn: float, *, levels: int = 0) 
         As[N:, :N] -= kn * form.D @ Ps @ form.D.T
         B = np.zeros((n2, p))
         B[N:, 0] = form.g
-        B[N:, 1] = kn * form.D @ s
+        B[N:, 1] = kn * form.D @ (s * shares)
         B[N:, 2:] = -form.D
         for lv in range(levels + 1):
             hl = h / 2**lv
@@ -313,7 +322,7 @@ def discretize_states(form: ModalForm, h: float, kn: float, *, levels: int = 0) 
         Gamma = form.D.T @ P1[k, :N]
         M[k] = np.linalg.inv(np.eye(H) - kn * Gamma @ Ps)
         Gm[k] = M[k] @ Gamma
-        e[k] = kn * Gm[k] @ s
+        e[k] = kn * Gm[k] @ (s * shares)
     return StateSteps(kn=float(kn), h=float(h), levels=int(levels), states=states, Phi=Phi, W=W,
                       c=c, P1=P1, Gm=Gm, M=M, e=e)
 

@@ -31,6 +31,7 @@ class NumbaEngine:
     quasi_static = True
     decimates = True
     differentiates = False
+    gap_shares = False  # one common gap (the RK4 kernels take delta per member only)
     max_step = staticmethod(rk4_max_step)
     name = "numba"
 
