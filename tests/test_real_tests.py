@@ -994,8 +994,9 @@ def test_a_replay_with_the_split_the_test_shows_leaves_none_and_delta_is_the_mea
     assert got.shares == pytest.approx(shares) and got.p > 0.01
     assert got.half_gaps == pytest.approx((1.6e-3, 2.4e-3), rel=0.03)
     assert got.lean == pytest.approx(lean, rel=1e-12)
-    check = _unequal_check(got, per_hinge=False)
+    check = _unequal_check(dataclasses.replace(got, mean_reported=False), per_hinge=False)
     assert not check.passed and "their mean" in check.message and "model" in check.message
+    assert "both answers" in check.message
     assert _unequal_check(got, per_hinge=True).passed
     near = dataclasses.replace(got, common=(common.kn, 2e-3 * 1.003))
     assert _unequal_check(near, per_hinge=False).passed
@@ -1024,19 +1025,19 @@ def _fin_c():
     return fm.reduce_fin(fm.build_fin_fe(cfg))
 
 
-def test_identify_replays_the_split_the_test_shows_and_reports_the_hinges_mean():
+def test_identify_replays_the_split_the_test_shows_and_says_how_far_the_mean_lies():
     """Fin C swept with half-gaps 1.3 and 1.9 mrad (records of the exponential engine with each
     hinge's own gap, which tests/test_simulate_expo.py checks against DOP853): one common gap
-    leans to the hinge that turns most; the test's split is read against the replay and the
-    test replayed with it until it settles, so delta is the hinges' mean and each hinge's
-    half-gap is its own (within 1 %). The verdict says why it is `suspect` (one gap would have
-    been 0.5 % or more off the mean: the split could be the model's), and the intervals hold
-    both answers. With the shares given and `hinge_gaps` (the model taken as right): `ok`, no
-    one-gap answer. Shares that are not one per hinge: one line before any work."""
+    leans to the hinge that turns most. The test's split is read against the replay and the
+    test replayed with it until it settles: each hinge's half-gap comes out its own (within
+    1 %). By default the one-gap answer is reported, `suspect` for lying 0.5 % or more from the
+    hinges' mean (the split could be the model's), with intervals holding both answers; with
+    `hinge_gaps` (the split taken as the gaps') the mean, `ok`; with the shares given, the
+    replays have them from the start. Shares that are not one per hinge: one line before any
+    work."""
     import torch
 
     import freeplayid
-    from freeplayid.identification.verdict import LIMITS
     from freeplayid.simulate import Sweep, simulate_sweeps, sweep_dataset
 
     fin = _fin_c()
@@ -1052,25 +1053,25 @@ def test_identify_replays_the_split_the_test_shows_and_reports_the_hinges_mean()
                        units="g", noise=noise)
     r = freeplayid.identify(ds, system=fin, progress=False)
     split = r.model_error.split
-    assert r.replay.gap_shares is not None and split.shares == r.replay.gap_shares
-    assert r.delta == pytest.approx(d, rel=0.003) and r.kn == pytest.approx(900.0, rel=0.005)
+    assert r.replay.gap_shares is None and split.shares and not split.mean_reported
+    assert r.delta == split.common[1] and split.lean == pytest.approx(r.delta / d - 1, abs=0.003)
+    assert split.lean > 0.005  # one gap leans to the hinge that turns most
     assert [g["delta"] for g in r.hinge_gap_records()] == pytest.approx(gaps, rel=0.01)
-    assert split.p > LIMITS["cross_p"] and split.lean > 0.005
     check = {c.name: c for c in r.verdict.checks}["hinge_gaps"]
     assert r.verdict.status == "suspect" and not check.passed and "their mean" in check.message
-    lo, hi = r.delta_ci95
-    assert lo <= min(r.delta, split.common[1]) and hi >= max(r.delta, split.common[1])
-    assert "replayed with the hinges' gaps split" in r.report()
+    assert r.delta_ci95[0] <= d <= r.delta_ci95[1]
+    assert "delta is the one-gap answer" in r.report()
+    mean = freeplayid.identify(ds, system=fin, model={"hinge_gaps": True}, progress=False)
+    assert mean.replay.gap_shares is not None and mean.model_error.split.mean_reported
+    assert mean.delta == pytest.approx(d, rel=0.003) and mean.kn == pytest.approx(900, rel=0.005)
+    assert {c.name: c for c in mean.verdict.checks}["hinge_gaps"].passed
     given = freeplayid.identify(ds, system=fin, replay={"gap_shares": list(gaps / d)},
-                                model={"hinge_gaps": True}, progress=False)
+                                progress=False)
     assert given.replay.gap_shares == pytest.approx(tuple(gaps / d))
-    assert given.model_error.split.common is None
-    assert given.delta == pytest.approx(d, rel=0.003)
-    assert {c.name: c for c in given.verdict.checks}["hinge_gaps"].passed
+    assert given.model_error.split.common is None and given.delta == pytest.approx(d, rel=0.003)
     with pytest.raises(ValueError, match="`replay.gap_shares` must give one share per hinge"):
         freeplayid.identify(ds, system=fin, replay={"gap_shares": [1.0, 1.0, 1.0]},
                             progress=False)
-
 
 
 def test_draw_pairs_puts_two_draws_difference_in_units_of_their_precisions():

@@ -245,6 +245,10 @@ class ReplayedSplit:
     common : (float, float) or None
         With ``shares``: the answer (kn [N m/rad], delta [rad]) of the replays with one common
         gap, whose split put the shares (how far the hinges' mean lies from it: ``lean``).
+    mean_reported : bool
+        With ``common``: whether the reported answer is the hinges' mean (this replay's; with
+        ``linear_model.hinge_gaps``) or the one-gap answer (the default: the split may be the
+        linear model's or the noise's, and this replay measures how far the mean could lie).
     """
 
     hinges: tuple
@@ -255,6 +259,7 @@ class ReplayedSplit:
     delta: float
     shares: tuple = ()
     common: tuple | None = None
+    mean_reported: bool = True
 
     @property
     def lean(self) -> float | None:
@@ -331,7 +336,7 @@ class ReplayedSplit:
                 "n_copies": self.n_copies, "t": num(self.t), "p": self.p,
                 "mean_offset": self.mean_offset, "shares": list(self.shares),
                 "common": None if self.common is None else list(self.common),
-                "lean": self.lean}
+                "lean": self.lean, "mean_reported": self.mean_reported}
 
 
 def _gap_interval(gap: float, delta: float, delta_ci95, share: float) -> tuple[float, float]:
@@ -488,8 +493,10 @@ class ModelError:
         if self.split is not None and self.split.shares:
             return (f"; the hinges turn {'together' if r >= HINGES_TOGETHER else 'unequally'} "
                     f"in the identified mode (rotation ratio {r:.2f}), and the test was "
-                    "replayed with their gaps split as it showed: delta is the hinges' mean "
-                    "half-gap" + split)
+                    "replayed with their gaps split as it showed: " + (
+                        "delta is the hinges' mean half-gap" if self.split.mean_reported else
+                        "delta is the one-gap answer, and that replay measured how far the "
+                        "hinges' mean could lie") + split)
         if r >= HINGES_TOGETHER:
             return (f"; the hinges turn together in the identified mode (rotation ratio "
                     f"{r:.2f}): delta is one half-gap for all of them, their mean if they "

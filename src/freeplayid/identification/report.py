@@ -186,8 +186,10 @@ def _model(r) -> list[str]:
     gaps = r.hinge_gap_records()
     if gaps:
         sp = err.split
-        how = ("the test was replayed with the hinges' gaps split as it showed against one "
-               "common gap; delta is their mean" if sp is not None and sp.shares else
+        how = (("the test was replayed with the hinges' gaps split as it showed against one "
+                "common gap; " + ("delta is their mean" if sp.mean_reported else
+                                  "delta is the one-gap answer, these gaps as read"))
+               if sp is not None and sp.shares else
                "`linear_model.hinge_gaps`: the points fitted with each hinge's gap free, moved "
                "by the replay's correction of delta")
         lines += ["", f"One half-gap per hinge ({how}):", "",

@@ -61,11 +61,11 @@ compares the result or the data with a physical limit, never with a value tuned 
   statement, :func:`~freeplayid.identification.model_error.gap_split`), its message says so:
   delta is then their common half-gap, weighted towards the hinge that turns most. With the
   replay the split is read against the answer's replay, in units of its noisy copies; where it
-  is shown, the test is replayed again with each hinge's gap split so (delta then the hinges'
-  mean), and the check fails where a split is still shown against that replay, or where the
-  one-gap answer lay beyond half delta's bound from that mean (unless
-  ``linear_model.hinge_gaps`` takes the model's proportions as right): a model whose hinges
-  turn otherwise than the tested fin's shows such a split too.
+  is shown (``cross_p``), the test is replayed again with each hinge's gap split so, and the
+  check fails where a split is still shown against that replay, or where the one-gap answer
+  (reported) lies beyond half delta's bound from the hinges' mean: a model whose hinges turn
+  otherwise, or the noise, shows such a split too (``linear_model.hinge_gaps`` takes it as
+  the gaps' and reports their mean).
 - ``base_reading`` (with the replay driven by a base channel read over a narrowed band): in
   the seconds before each run's point, the narrowed reading against the wide band's, in units
   of their difference's own noise along the record; where some run's gap exceeds three of them
@@ -545,38 +545,44 @@ def model_checks(error) -> list[Check]:
 
 
 def _unequal_check(sp, per_hinge: bool) -> Check:
-    """``hinge_gaps`` where the answer was replayed with the hinges' gaps split as the test
-    showed against its one-gap replay (:class:`freeplayid.identification.model_error.
-    ReplayedSplit` with ``shares``): fails where a split is still shown against that replay
-    (at ``cross_p``: unequal gaps do not explain it), and, unless each hinge's gap was asked
-    for (``linear_model.hinge_gaps``: the model's proportions are then taken as right), where
-    the one-gap answer lay beyond ``without_delta`` from the hinges' mean: a linear model whose
-    hinges turn in other proportions than the tested fin's shows such a split too, and then the
-    mean of gaps that are not there is no answer, and kn is off with the model."""
+    """``hinge_gaps`` where the test was replayed with the hinges' gaps split as it showed
+    against its one-gap replay (:class:`freeplayid.identification.model_error.ReplayedSplit`
+    with ``shares``): fails where a split is still shown against that replay (at ``cross_p``:
+    unequal gaps do not explain it), and, unless each hinge's gap was asked for
+    (``linear_model.hinge_gaps``: the split taken as the gaps'), where the one-gap answer lies
+    beyond ``without_delta`` from the hinges' mean. A linear model whose hinges turn in other
+    proportions than the tested fin's shows such a split too, and so can the noise: then the
+    one-gap answer, which is reported (``mean_reported`` false), is right."""
     shown = sp.p is not None and sp.p < LIMITS["cross_p"]
     lean = sp.lean
     off = lean is not None and abs(lean) > LIMITS["without_delta"] and not per_hinge
-    head = ((f"the test showed the hinges' gaps differing against one common gap; delta is "
-             f"their mean, replayed with the gaps split so: {sp.describe()}") if lean is not None
-            else f"delta is the hinges' mean half-gap: {sp.describe()}")
+    if lean is None:
+        head = f"delta is the hinges' mean half-gap: {sp.describe()}"
+    elif sp.mean_reported:
+        head = (f"the test showed the hinges' gaps differing against one common gap; delta is "
+                f"their mean, replayed with the gaps split so: {sp.describe()}")
+    else:
+        head = (f"the test showed the hinges' gaps differing against one common gap; delta is "
+                f"the one-gap answer, and the test replayed with the gaps split so measured how "
+                f"far their mean lies: {sp.describe()}")
     if shown:
         why = (head + ". Against that replay the test still shows a split beyond its noise: "
                "unequal gaps do not explain it either; the linear model's hinges may turn in "
                "other proportions than the tested fin's (a part's stiffness off), and kn is "
                "off with it")
     elif off:
-        why = (head + f". One common gap put delta {100 * abs(lean):.2g} % from their mean, "
-               f"beyond {100 * LIMITS['without_delta']:g} %: so much rests on the split being "
-               "the gaps'. A linear model whose hinges turn in other proportions than the "
-               "tested fin's (a part's stiffness off, which three sealed modes can fit either "
-               "way) shows such a split too, and then kn is off with it and the one-gap "
-               "answer is the better delta; the intervals hold both answers "
-               "(`linear_model.hinge_gaps=true` takes the model as right and reports each "
-               "hinge's gap)")
+        why = (head + f". If the gaps differ so, delta lies {100 * abs(lean):.2g} % from "
+               f"their mean, beyond {100 * LIMITS['without_delta']:g} % (it leans to the hinge "
+               "that turns most); if the split is the linear model's (its hinges turning "
+               "otherwise than the tested fin's, which three sealed modes can fit either way: "
+               "then kn is off with it) or the noise's, delta is right. The data cannot tell "
+               "which; the intervals hold both answers (`linear_model.hinge_gaps=true` takes "
+               "the split as the gaps' and reports their mean and each hinge's)")
     else:
         why = head + ("; unequal gaps explain the test" + (
             "" if per_hinge or lean is None else
-            f", and one common gap lay {100 * abs(lean):.2g} % from their mean"))
+            f", and one common gap lies {100 * abs(lean):.2g} % from their mean, within "
+            f"{100 * LIMITS['without_delta']:g} %"))
     return Check("hinge_gaps", not (shown or off), why, sp.p)
 
 

@@ -32,9 +32,12 @@ class ModelOptions:
     hinge_gaps : bool
         With two or more hinges: report each hinge's half-gap with its interval, from the plain
         estimate's points fitted again with one half-gap per hinge
-        (:func:`freeplayid.identification.model_error.fit_hinge_gaps`, a few seconds). Off:
-        one delta for all; where the hinges turn unequally that fit still runs, to test
-        whether one delta explains the points (the verdict's ``hinge_gaps``).
+        (:func:`freeplayid.identification.model_error.fit_hinge_gaps`, a few seconds); where
+        the test shows the gaps split against its replay, the answer is that of the test
+        replayed with the split (delta the hinges' mean). Off: one delta for all; where the
+        hinges turn unequally that fit still runs, to test whether one delta explains the
+        points (the verdict's ``hinge_gaps``), and a split the test shows is replayed to
+        measure how far the hinges' mean lies from the reported one-gap delta.
     """
 
     update: bool = True
