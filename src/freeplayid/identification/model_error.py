@@ -73,7 +73,7 @@ from ..model import ModelOptions, SealedUpdate, modal_analysis, update_to_sealed
 
 __all__ = ["ModelError", "GapSplit", "HingeGaps", "ReplayedSplit", "update_model", "model_error",
            "hinge_ratio", "frequency_scale", "frequency_uncertainty", "gap_split",
-           "fit_hinge_gaps", "replayed_split"]
+           "fit_hinge_gaps", "replayed_split", "hinge_names"]
 
 # [-] hinge rotation ratio in the identified mode above which the hinges count as turning together
 HINGES_TOGETHER = 0.9
@@ -417,7 +417,7 @@ def replayed_split(system, measured, replayed, copies, *, kn: float, delta: floa
           np.full(g_m.size, np.nan))
     r = np.ones(g_m.size) if shares is None else np.asarray(shares, float)
     return ReplayedSplit(
-        hinges=_hinge_names(system),
+        hinges=hinge_names(system),
         half_gaps=tuple(float(v) for v in delta * r * g_m / g_r),
         log_split=tuple(float(v) for v in log_shares(g_m) - log_shares(g_r)),
         log_se=tuple(float(v) for v in se), n_copies=len(noise), delta=float(delta),
@@ -607,12 +607,12 @@ def fit_hinge_gaps(system, points, kn: float, delta: float, *, mode: int = 0,
     if common_residuals is not None:
         p = _common_gap_p(np.asarray(common_residuals, float), sol.fun, h)
     common_rms = float("nan") if common_residuals is None else _rms(common_residuals)
-    return HingeGaps(_hinge_names(system),
+    return HingeGaps(hinge_names(system),
                      tuple(float(v) for v in deltas), tuple(float(v) for v in half),
                      float(delta), _rms(sol.fun), common_rms, p)
 
 
-def _hinge_names(system) -> tuple:
+def hinge_names(system) -> tuple:
     """Each hinge's name, "outboard/inboard" DOFs."""
     return tuple(f"{o}/{i}" for o, i in system.hinge_pairs)
 

@@ -21,7 +21,14 @@ from ..quality import RecordCheckOptions
 from ..replay import Replay, corrected_fit
 from ..signal import Extraction
 from ..threads import one_blas_thread
-from .model_error import ModelError, model_error, replayed_split, update_model, widen
+from .model_error import (
+    ModelError,
+    hinge_names,
+    model_error,
+    replayed_split,
+    update_model,
+    widen,
+)
 from .records import checked_dataset, record_checks, record_options
 from .replay_checks import replay_checks, settled_sd
 from .result import Identification
@@ -144,12 +151,8 @@ def _check_gap_shares(replay: Replay | None, system) -> None:
     shares = None if replay is None else replay.gap_shares
     if shares is not None and len(shares) != system.n_hinges:
         raise ConfigError(f"`replay.gap_shares` must give one share per hinge of the model "
-                         f"({system.n_hinges}: {', '.join(_hinge_labels(system))}), got "
+                         f"({system.n_hinges}: {', '.join(hinge_names(system))}), got "
                          f"{len(shares)}")
-
-
-def _hinge_labels(system) -> list[str]:
-    return [f"{a}/{b}" for a, b in system.hinge_pairs]
 
 
 def _gaps_split(result: Identification, replay: Replay) -> bool:

@@ -243,7 +243,7 @@ def _gap_shares(system, gap_shares, engine: str, engine_cls) -> np.ndarray | Non
                          f"got {gap_shares!r}")
     if np.all(a == 1.0):
         return None
-    if not getattr(engine_cls, "gap_shares", False):
+    if not engine_cls.gap_shares:
         able = [n for n, c in ENGINES.items() if c.gap_shares]
         raise NotImplementedError(f"`gap_shares` (unequal gaps) is implemented in the engines "
                                   f"{able} only, got engine={engine!r}")
