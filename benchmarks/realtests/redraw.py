@@ -5,6 +5,7 @@ method.
     python benchmarks/realtests/redraw.py var14_finB_damper_strong --data D --out OUT --noise none
     python benchmarks/realtests/redraw.py var14_finB_damper_strong --data D --out OUT \\
         --noise responses --draws 0-15
+    python benchmarks/realtests/redraw.py var13_finC_fast_dip --data D --out OUT --noise-g 0.02
 
 Each draw is written as ``OUT/<case>/d<k>`` (noise on all channels), ``d<k>_responses`` or
 ``d<k>_base`` from the case's clean records (``D/<case>/clean.npz``, or its source's where it
@@ -41,12 +42,18 @@ def draws(text: str) -> list[int]:
     return out
 
 
-def redraw(name: str, data: Path, out: Path, noise: str, ks: list[int]) -> list[Path]:
+def redraw(name: str, data: Path, out: Path, noise: str, ks: list[int],
+           noise_g: float | None = None) -> list[Path]:
     """Write draws ``ks`` of case ``name`` with ``noise`` on the channels it names (module
-    docstring); return their folders."""
+    docstring), at ``noise_g`` [g] instead of the case's own level where given (the folders
+    then end in ``_<noise_g>g``); return their folders."""
     if noise not in NOISE:
         raise ValueError(f"--noise must be one of {NOISE}, got {noise!r}")
+    if noise_g is not None and not noise_g > 0:
+        raise ValueError(f"--noise-g must be > 0 [g], got {noise_g!r}")
     spec = cases.ALL_CASES[name]()
+    if noise_g is not None:
+        spec.noise_g = float(noise_g)
     needed = [spec.clean_from or name]
     if spec.profile_of_run is not None:
         needed.append(spec.params["profile_from"])
@@ -69,7 +76,8 @@ def redraw(name: str, data: Path, out: Path, noise: str, ks: list[int]) -> list[
 
     folders = []
     for k in ([0] if noise == "none" else ks):
-        folder = out / name / {"all": f"d{k}", "none": "d_none"}.get(noise, f"d{k}_{noise}")
+        folder = out / name / ({"all": f"d{k}", "none": "d_none"}.get(noise, f"d{k}_{noise}")
+                               + ("" if noise_g is None or noise == "none" else f"_{noise_g:g}g"))
         folder.mkdir(parents=True, exist_ok=True)
         cases.write_draw(folder, spec, clean, seed_of(k), jumps,
                          transform=None if noise == "all" else keep_clean)
@@ -85,6 +93,8 @@ def main(argv=None) -> None:
     ap.add_argument("--out", type=Path, required=True)
     ap.add_argument("--noise", choices=NOISE, default="all")
     ap.add_argument("--draws", default="0-1", help="draw numbers, e.g. 0-15 or 2,5")
+    ap.add_argument("--noise-g", type=float, default=None,
+                    help="the noise's standard deviation [g] instead of the case's own")
     args = ap.parse_args(argv)
     if args.case not in cases.ALL_CASES:
         ap.error(f"unknown case {args.case!r} (cases.py --list names them)")
@@ -93,8 +103,8 @@ def main(argv=None) -> None:
     except ValueError:
         ap.error(f"--draws: {args.draws!r} is not a list of numbers and ranges (e.g. 0-15 or 2,5)")
     try:
-        folders = redraw(args.case, args.data, args.out, args.noise, ks)
-    except FileNotFoundError as err:
+        folders = redraw(args.case, args.data, args.out, args.noise, ks, args.noise_g)
+    except (FileNotFoundError, ValueError) as err:
         raise SystemExit(f"redraw.py: {err}") from None
     for folder in folders:
         print(folder)

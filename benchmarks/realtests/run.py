@@ -78,13 +78,18 @@ def identify_case(path: str, corrected: bool, replay: dict | None = None) -> dic
                 # the answer's move for levels taken from level_g, and the levels the upper
                 # branches imply
                 "level": None if getattr(rep, "level", None) is None else rep.level.to_dict(),
+                # the base's narrowed reading against the wide one around the points, and the
+                # runs driven by the wide reading
+                "base_reading": None if getattr(rep, "base_reading", None) is None
+                else rep.base_reading.to_dict(),
+                "wide_base": list(getattr(rep, "wide_base", ())),
                 "branch": {run: float(m.branch) for run, m in (rep.resonance or {}).items()}},
             # the hinges' split read against the replay, and the one-gap answer where the test
             # was replayed with the split it showed
             "split": None if getattr(res.model_error, "split", None) is None
             else res.model_error.split.to_dict(),
             "checks_text": {c.name: str(c.message) for c in res.verdict.checks
-                            if c.name in ("replay_misfit", "hinge_gaps")}}
+                            if c.name in ("replay_misfit", "hinge_gaps", "base_reading")}}
 
 
 def _task(case: str, draw: str, folder: str, fit: str, replay: dict | None = None) -> dict:

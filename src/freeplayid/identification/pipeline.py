@@ -30,7 +30,7 @@ from .model_error import (
     widen,
 )
 from .records import checked_dataset, record_checks, record_options
-from .replay_checks import replay_checks, settled_sd
+from .replay_checks import reading_rests, reading_unmeasured, replay_checks, settled_sd
 from .result import Identification
 from .verdict import (
     LIMITS,
@@ -126,6 +126,7 @@ def identify(dataset, *, system: FreeplaySystem | None = None,
         dataset = read_dataset(dataset)
     system = _system(dataset, system)
     _check_gap_shares(replay, system)
+    _check_wide_base(replay, dataset)
     dataset, checked = checked_dataset(dataset, system, records)
     est = _plain_estimate(dataset, system, checked, extraction=extraction, fit=fit,
                           init=fit.init, progress=progress)
@@ -137,6 +138,12 @@ def identify(dataset, *, system: FreeplaySystem | None = None,
                         start=_network_start(est, fit, replay), precision_settled=_settled(error),
                         progress=progress)
     result = _corrected_result(dataset, system, est, rep, fit.mode, t0, error, checked)
+    misread = _base_misread(result, replay)
+    if misread:
+        result = _on_the_wide_reading(result, misread, dataset, system, est, extraction, fit,
+                                      replay, error, checked, t0, progress)
+        if getattr(result.replay, "wide_base", ()):  # the replays that follow read so too
+            replay = dataclasses.replace(replay, wide_base=result.replay.wide_base)
     if _statistics_disagree(result, replay):
         result = _on_the_other_statistic(result, dataset, system, est, extraction, fit, replay,
                                          error, checked, t0, progress)
@@ -153,6 +160,15 @@ def _check_gap_shares(replay: Replay | None, system) -> None:
         raise ConfigError(f"`replay.gap_shares` must give one share per hinge of the model "
                          f"({system.n_hinges}: {', '.join(hinge_names(system))}), got "
                          f"{len(shares)}")
+
+
+def _check_wide_base(replay: Replay | None, dataset) -> None:
+    """``replay.wide_base`` must name runs of the data set (before any work)."""
+    runs = [r.file for r in dataset.runs]
+    for name in () if replay is None else replay.wide_base:
+        if name not in runs:
+            raise ConfigError(f"`replay.wide_base`: {name!r} is not a run of {dataset.name} "
+                              f"(its runs: {', '.join(runs)})")
 
 
 def _gaps_split(result: Identification, replay: Replay) -> bool:
@@ -189,21 +205,19 @@ def _with_unequal_gaps(first: Identification, dataset, system, est, extraction, 
     if np.allclose(shares, 1.0, rtol=0, atol=1e-12):  # not even one such replay could be fitted
         return first
     # the answer from the last one's, with every check (the start is not the network's: said)
-    other = dataclasses.replace(replay, jump_point=rule, gap_shares=shares, start="network")
-    rep = corrected_fit(dataset, system, est, extraction=extraction, fit=fit, replay=other,
-                        start=at, precision_settled=_settled(error), progress=progress)
-    if rep.failure:
-        log.info("the replays with unequal gaps could not be fitted (%s): the one-gap answer "
-                 "stands", rep.failure)
+    other = dataclasses.replace(replay, jump_point=rule, gap_shares=shares)
+    rep = _refit_from(at, other, "the answer with the gaps' split read before",
+                      "with unequal gaps", dataset, system, est, extraction, fit, error, progress)
+    if rep is None:
         return first
-    began = ("the answer with the gaps' split read before" if rep.start == "network"
-             else rep.start)
-    rep = dataclasses.replace(rep, start=began)
     second = _corrected_result(dataset, system, est, rep, fit.mode, t0, error, checked,
                                common=(first.kn, first.delta), mean_reported=error.per_hinge)
     if error.per_hinge:  # the model's proportions taken as right: the hinges' mean
-        kept = tuple(c for c in first.verdict.checks if c.name == "replay_statistic")
-        return dataclasses.replace(second, verdict=make_verdict((*kept, *second.verdict.checks)),
+        # what led to these replays: another statistic, the base read wide in some runs
+        names = {"replay_statistic"} | ({"base_reading"} if replay.wide_base else set())
+        kept = tuple(c for c in first.verdict.checks if c.name in names)
+        own = tuple(c for c in second.verdict.checks if c.name not in {c.name for c in kept})
+        return dataclasses.replace(second, verdict=make_verdict((*kept, *own)),
                                    runtime_s=time.perf_counter() - t0)
     return _one_gap_stands(first, second, t0)
 
@@ -230,6 +244,21 @@ def _one_gap_stands(first: Identification, second: Identification,
         interval_source=first.interval_source + (
             ", joined with the answer of the test replayed with the hinges' gaps split as it "
             "shows them (their mean)"))
+
+
+def _refit_from(at: tuple, replay: Replay, began: str, what: str, dataset, system, est,
+                extraction, fit, error, progress):
+    """The corrected fit with ``replay``'s options started at ``at`` (kn, delta), every check
+    made, its start said as ``began``; None (logged: the replays ``what`` could not be fitted,
+    the answer before stands) where it fails."""
+    rep = corrected_fit(dataset, system, est, extraction=extraction, fit=fit,
+                        replay=dataclasses.replace(replay, start="network"), start=at,
+                        precision_settled=_settled(error), progress=progress)
+    if rep.failure:
+        log.info("the replays %s could not be fitted (%s): the answer before stands", what,
+                 rep.failure)
+        return None
+    return dataclasses.replace(rep, start=began if rep.start == "network" else rep.start)
 
 
 def _union(a: tuple, b: tuple) -> tuple:
@@ -308,6 +337,100 @@ def _settled(error: ModelError | None):
     too, with every copy (four copies left one equal-gap test of fin C 3.7 standard errors
     off, eight put the same record's split 1.4 standard errors off)."""
     return None if getattr(error, "hinge_gaps", None) is not None else settled_sd()
+
+
+def _base_misread(result: Identification, replay: Replay) -> tuple:
+    """The runs whose narrowed base reading the answer rests on: the wide reading's move of the
+    answer measured beyond the accuracy bounds even less its own noise (:class:`freeplayid.
+    replay.BaseReading`, :func:`.replay_checks.reading_rests`), the replays not yet driven by
+    the wide reading (``replay.wide_base`` empty); and where the gap is strong and that noise
+    too large to bound the move (:func:`.replay_checks.reading_unmeasured`: the narrowed
+    reading plainly off, the wide one only noisier; fin C's fast dips, delta -3.7 -> -0.6 %
+    and -2.8 -> -0.2 %); () otherwise. Not where the move lies within that noise on weaker
+    gaps: there the wide reading's answer is no better known than the narrowed one's
+    (realtests, the default fin's and fin B's weak bases, replayed wide so: two answers came
+    closer to the truth and two went further, by 0.7-2.7 %)."""
+    rep = result.replay
+    reading = None if rep is None or rep.failure else getattr(rep, "base_reading", None)
+    if replay.wide_base or reading is None or not reading.runs or reading.delta_move is None:
+        return ()
+    noisy = reading_unmeasured(reading)
+    misses = reading_rests(reading) > 1 or (noisy is not None and noisy > 1)
+    return tuple(reading.runs) if misses else ()
+
+
+def _on_the_wide_reading(first: Identification, runs: tuple, dataset, system, est, extraction,
+                         fit, replay, error, checked, t0, progress) -> Identification:
+    """The answer of replays driven by the base's wide reading in ``runs``, where the narrowed
+    reading misses the level around their points and ``first``'s answer rests on it beyond the
+    accuracy bounds (its ``base_reading`` failed): the narrow band rounds a flank the runs
+    cross in a second or two (a force-limited dip on a fast sweep), so ``first`` is biased by
+    that rounding (realtests' fin C at 0.4 Hz/s: delta -2.4 and -3.7 %), while the wide band
+    follows the flank at twice the noise, which its copies measured. Started where the wide
+    reading's replay put the answer; judged as any answer, the ``base_reading`` check then
+    saying what was read wide and why, and passing where the wide reading's own noise (95 %,
+    in the intervals) moves the answer within the bounds. ``first`` where those replays cannot
+    be fitted."""
+    reading = first.replay.base_reading
+    log.info("the base's narrowed reading misses the level around the points of %s, and the "
+             "answer rests on it (delta %+.2g %% read wide): replaying them with the wide "
+             "band's reading", ", ".join(runs), 100 * math.expm1(reading.delta_move))
+    other = dataclasses.replace(replay, jump_point=first.replay.jump_point, wide_base=runs)
+    at = (first.kn * math.exp(reading.kn_move), first.delta * math.exp(reading.delta_move))
+    rep = _refit_from(at, other, "the answer the wide reading's replay implied",
+                      "with the wide reading", dataset, system, est, extraction, fit, error,
+                      progress)
+    if rep is None:
+        return first
+    second = _corrected_result(dataset, system, est, rep, fit.mode, t0, error, checked)
+    kn_ci, delta_ci = second.kn_ci95, second.delta_ci95
+    noise = (reading.kn_noise, reading.delta_noise)
+    if None not in noise:  # that reading's own noise, measured by its copies
+        kn_ci, delta_ci = widen(kn_ci, second.kn, noise[0]), widen(delta_ci, second.delta,
+                                                                     noise[1])
+    note = _wide_reading_check(reading, first, second)
+    own = next((c for c in second.verdict.checks if c.name == "base_reading"), None)
+    if own is not None:  # other runs' narrowed readings, checked on the second answer
+        note = Check("base_reading", note.passed and own.passed,
+                     f"{note.message}; the other runs: {own.message}", note.value)
+    checks = [c for c in second.verdict.checks if c.name != "base_reading"] + [note]
+    return dataclasses.replace(
+        second, verdict=make_verdict(checks), kn_ci95=kn_ci, delta_ci95=delta_ci,
+        interval_source=second.interval_source + (
+            ", with the wide band's reading's own noise where it drives the replays"
+            if None not in noise else ""),
+        runtime_s=time.perf_counter() - t0)
+
+
+def _wide_reading_check(reading, first: Identification, second: Identification) -> Check:
+    """``base_reading`` of an answer replayed with the wide reading in ``reading.runs``: what was
+    read so and why, how far the narrowed reading's answer ``first`` lay, and whether that
+    reading's own noise (95 %, :class:`freeplayid.replay.BaseReading`'s copies) moves the
+    answer within the accuracy bounds."""
+    gaps = ", ".join(f"{run} {100 * reading.gaps[run][0]:+.2g} % ({reading.gaps[run][1]:+.2g} "
+                     "sd)" for run in reading.runs)
+    why = ("the answer rested on it" if reading_rests(reading) > 1 else
+           "the wide band's reading was too noisy to say how far the answer rested on it")
+    said = (f"around the points of {gaps}, the base's narrowed reading missed the level (a "
+            f"level profile faster than the narrow band follows) and {why}: "
+            "those runs were replayed with the wide band's reading, which follows it; the "
+            f"narrowed reading's answer lay delta {100 * (first.delta / second.delta - 1):+.2g} "
+            f"% and kn {100 * (first.kn / second.kn - 1):+.2g} % from this one")
+    if reading.delta_noise is None:
+        return Check("base_reading", False, said + "; the wide reading's own noise in the answer "
+                     "is not measured")
+    value = max(reading.delta_noise / LIMITS["reading_delta"],
+                reading.kn_noise / LIMITS["reading_kn"])
+    said += (f"; the wide reading's own noise moves it by ±{100 * reading.delta_noise:.2g} % and "
+             f"±{100 * reading.kn_noise:.2g} % (95 %, {reading.n_copies} copies; in the "
+             "intervals)")
+    bounds = (f"the accuracy bounds {100 * LIMITS['reading_delta']:g} % and "
+              f"{100 * LIMITS['reading_kn']:g} %")
+    if value <= 1:
+        return Check("base_reading", True, f"{said}, within {bounds}", value)
+    return Check("base_reading", False, f"{said}, beyond {bounds}: the answer is only as good as "
+                 "a noisy reading of the level where the runs jump; a slower sweep or a base "
+                 "channel with less noise would resolve it", value)
 
 
 def _statistics_disagree(result: Identification, replay: Replay) -> bool:
@@ -567,7 +690,7 @@ def _corrected_intervals(rep) -> tuple[tuple, tuple, str]:
         kn_ci = widen(kn_ci, rep.kn, reading.kn_shift)
         delta_ci = widen(delta_ci, rep.delta, reading.delta_shift)
         source += ", with the answer's move for the base read over the wide band where its " \
-            "narrowed reading misses the level before a jump"
+            "narrowed reading misses the level near a jump"
     damped = getattr(rep, "damping_sensitivity", None)
     if damped is not None:  # a damping the down-sweeps do not measure
         kn_ci = widen(kn_ci, rep.kn, damped.kn_shift)

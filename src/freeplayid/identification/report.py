@@ -260,7 +260,9 @@ def _replay(r) -> list[str]:
     lines += ["", "Excitation of the replays: " + (
         "each run's base channel as measured (its level profile, sweep law and direction)"
         if getattr(rep, "excitation", "law") == "measured" else "each run's sweep law at one "
-        "level") + "."]
+        "level") + (f"; the base of {', '.join(rep.wide_base)} read over the wide band, which "
+                    "follows the level around their points where the narrowed reading did not"
+                    if getattr(rep, "wide_base", ()) else "") + "."]
     excited = getattr(rep, "excitation_noise", None)
     if excited is not None:
         said = excited.describe()

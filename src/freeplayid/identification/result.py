@@ -293,6 +293,7 @@ class Identification:
             "jump_point": r.jump_point, "kn_statistic": r.kn_statistic,
             "gap_shares": None if getattr(r, "gap_shares", None) is None
             else list(r.gap_shares),
+            "wide_base": list(getattr(r, "wide_base", ())),
             "delta_statistic": r.delta_statistic,
             "statistic_ci95": _pairs(r.statistic_ci95),
             "replayed_ci95": _pairs(getattr(r, "replayed_ci95", None)),

@@ -138,7 +138,7 @@ LIMITS = {
     "damping_delta": ACCURACY_DELTA,
     "damping_kn": ACCURACY_KN,
     # [-] the answer's move when the base level is read over the wide band where the narrowed
-    # reading misses it before a jump (replay.BaseReading): beyond the accuracy bounds (and
+    # reading misses it near a jump (replay.BaseReading): beyond the accuracy bounds (and
     # that reading's own noise) the answer rests on that reading
     "reading_delta": ACCURACY_DELTA,
     "reading_kn": ACCURACY_KN,

@@ -16,7 +16,7 @@ from ..estimate import PlainEstimate, extract_points, plain_estimate, refit, wei
 from ..fit import BackboneModel, FitOptions, FittingPoints, fit_backbone
 from ..progress import progress_bar
 from ..signal import Extraction
-from ..signal.level import GAP_Z, reading_gap
+from ..signal.level import GAP_AROUND, GAP_Z_AROUND, reading_gap
 from .bootstrap import (
     PRECISION_MARGIN_HZ,
     ReplayBootstrap,
@@ -303,29 +303,34 @@ class BaseReading:
     few seconds): a force-limited dip whose flank a fast sweep crosses in 1.5-2 s, which is
     where the runs jump, is then read 1-4 % off in the seconds that decide the jump, and the
     answer's delta follows (realtests' fin C at 0.4 Hz/s: delta -3 %, verdict ``ok``). The
-    wide band follows such a flank, at twice the noise. For each run with a
-    point, :func:`freeplayid.signal.level.reading_gap` compares the two readings in the half
-    of the narrow band's time before the run's point, in units of that comparison's own noise
-    along the record; where the gap exceeds :data:`freeplayid.signal.level.GAP_Z` standard
-    deviations in some runs, the answer's replay is driven again with the wide band's reading
-    in those runs and fitted as the excitation copies are (each run around its point), and its
-    move, carried to the answer through the binding's slope, is the answer's dependence on the
-    reading: added to the intervals in quadrature. The wide reading carries its own noise,
-    which moves that replay too (on fin B's weak bases by 1-3 %): copies driven by it read
-    again under fresh noise measure how far. Where the move, less that noise (95 %), still
-    exceeds the accuracy bounds, the verdict's ``base_reading`` check fails (the answer then
-    is only as good as a level read there, which a slower sweep or a quieter base channel
-    would resolve).
+    wide band follows such a flank, at twice the noise. For each run with a point,
+    :func:`freeplayid.signal.level.reading_gap` compares the two readings over the half of the
+    narrow band's time, that window's end moved up to half its length either side of the run's
+    point (:data:`freeplayid.signal.level.GAP_AROUND`: a rounded flank lies above the level on
+    one side and below on the other, so one window can straddle the crossing), in units of that
+    comparison's own noise along the record; where the largest gap exceeds
+    :data:`freeplayid.signal.level.GAP_Z_AROUND` standard deviations in some runs (3.2: as
+    often crossed by noise as one window at ``GAP_Z``, 3), the answer's replay
+    is driven again with the wide band's reading in those runs and fitted as the excitation
+    copies are (each run around its point; on the runs that keep their points where the wide
+    reading loses one), and its move, carried to the answer through the binding's slope, is the
+    answer's dependence on the reading: added to the intervals in quadrature. The wide reading
+    carries its own noise, which moves that replay too (on fin B's weak bases by 1-3 %): copies
+    driven by it read again under fresh noise measure how far. The verdict's ``base_reading``
+    check fails where the move, less that noise (95 %), still exceeds the accuracy bounds: the
+    answer rests on the narrowed reading, and ``identify`` replays those runs with the wide
+    reading (``Replay.wide_base``).
 
     Attributes
     ----------
     gaps : dict of str -> (float, float)
-        Per run with a point and a narrow reading: the mean relative gap wide - chosen before
-        the point, and that gap in its noise's standard deviations.
+        Per run with a point and a narrow reading: the mean relative gap wide - chosen in the
+        window around the point where it stands furthest from its noise, and that gap in its
+        noise's standard deviations.
     runs : tuple of str
-        The runs whose gap exceeds ``GAP_Z``, replayed with the wide band's reading.
+        The runs whose gap exceeds ``GAP_Z_AROUND``, replayed with the wide band's reading.
     kn_shift, delta_shift : float or None [-]
-        |log| moves of the answer for that reading (None where no run is beyond ``GAP_Z`` or
+        |log| moves of the answer for that reading (None where no run is beyond the gate or
         the replay's points could not be fitted).
     kn_move, delta_move : float or None [-]
         The same, signed: the answer the wide band's reading implies, relative to the answer.
@@ -335,6 +340,9 @@ class BaseReading:
         again under fresh noise of its level and band; None with fewer than two fitted.
     n_copies : int
         Those copies fitted.
+    lost : tuple of str
+        Runs whose point the replay driven by the wide reading lost (its jump moved out of the
+        window): the move and its noise are then measured on the other runs.
     """
 
     gaps: dict
@@ -346,6 +354,7 @@ class BaseReading:
     kn_noise: float | None = None
     delta_noise: float | None = None
     n_copies: int = 0
+    lost: tuple = ()
 
     def to_dict(self) -> dict:
         return dataclasses.asdict(self)
@@ -353,17 +362,23 @@ class BaseReading:
     def describe(self) -> str:
         if not self.runs:
             worst = max((abs(z) for _, z in self.gaps.values() if math.isfinite(z)), default=0.0)
-            return (f"the base channel's reading follows the level before every run's point "
+            return (f"the base channel's reading follows the level around every run's point "
                     f"(its gap to the wide band's reading at most {worst:.2g} standard "
-                    f"deviations of that gap's noise; limit {GAP_Z:g})")
+                    f"deviations of that gap's noise; limit {GAP_Z_AROUND:.2g})")
         gaps = ", ".join(f"{run} {100 * self.gaps[run][0]:+.2g} % ({self.gaps[run][1]:+.2g} "
                          "sd)" for run in self.runs)
-        said = (f"in the seconds before the point of {gaps}, the wide band reads the base level "
+        said = (f"in the seconds around the point of {gaps}, the wide band reads the base level "
                 "away from the narrowed reading that drives the replays (a level profile faster "
                 "than the narrow band follows)")
         if self.delta_shift is None:
+            if self.lost:
+                return said + (f"; the replay with the wide band's reading lost the point of "
+                               f"{', '.join(self.lost)} (a run at the edge of jumping, whose "
+                               "jump the reading moves)")
             return said + "; the replay with the wide band's reading could not be fitted"
-        said += (f"; replayed with the wide band's reading, the answer moves delta by "
+        lost = (f" ({', '.join(self.lost)} lost its point there: measured without it)"
+                if self.lost else "")
+        said += (f"; replayed with the wide band's reading{lost}, the answer moves delta by "
                  f"{100 * math.expm1(self.delta_move):+.2g} % and kn by "
                  f"{100 * math.expm1(self.kn_move):+.2g} %")
         if self.delta_noise is None:
@@ -476,7 +491,7 @@ class ReplayResult:
         The answer's move for the base channel's noise in the excitation the replays are
         driven by; None without a measured excitation, a noise-free reading or copies.
     base_reading : BaseReading or None
-        Whether the base channel's narrowed reading follows the level before each run's point,
+        Whether the base channel's narrowed reading follows the level around each run's point,
         and the answer's move where it does not; None where no run was read narrowed.
     cross : CrossCheck or None
         The answer's replay on a second statistic (:class:`Replay` ``cross_check``).
@@ -489,6 +504,8 @@ class ReplayResult:
     gap_shares : tuple of float or None
         Each hinge's half-gap over their mean in the replays (``Replay.gap_shares``): delta is
         then the hinges' mean half-gap. None: one common gap.
+    wide_base : tuple of str
+        The runs driven by their base's wide reading (``Replay.wide_base``).
     statistic_points, replayed_points : FittingPoints or None
         The test's statistic points and its replay's at the answer (what else the replay
         measures against the test, e.g. the hinges' split of the gaps). Not saved.
@@ -525,6 +542,7 @@ class ReplayResult:
     excitation: str = "law"
     start: str = "statistic"
     gap_shares: tuple | None = None
+    wide_base: tuple = ()
     statistic_points: FittingPoints | None = dataclasses.field(default=None, repr=False,
                                                                 compare=False)
     replayed_points: FittingPoints | None = dataclasses.field(default=None, repr=False,
@@ -546,7 +564,8 @@ class _Test:
 
 
 def _replayed_test(dataset, system, plain: PlainEstimate, rule: str, extraction: Extraction,
-                   fit: FitOptions, measured: bool, progress: bool = False) -> _Test | str:
+                   fit: FitOptions, measured: bool, progress: bool = False,
+                   wide_base: tuple = ()) -> _Test | str:
     """The test to replay (:class:`_Test`), or why it cannot be replayed.
 
     Only the runs whose points were fitted are replayed: a run rejected in the test (e.g. it
@@ -554,7 +573,9 @@ def _replayed_test(dataset, system, plain: PlainEstimate, rule: str, extraction:
     With a statistic's rule other than the extraction's, the measured data are extracted again
     with it and with the sweep law the replays are simulated with as every run's hint (its
     frequency is read off that law, and a law estimated again from each replayed record would
-    move by up to 0.1 Hz between replays); the replays carry the same hints.
+    move by up to 0.1 Hz between replays); the replays carry the same hints. The runs named in
+    ``wide_base`` are driven by their base's wide reading where it was read narrowed
+    (``Replay.wide_base``).
     """
     fit = FitOptions(backbone=fit.backbone, mode=fit.mode)  # the replays' fits: no bootstrap
     used = {p.run for p in plain.points.used()}
@@ -583,7 +604,7 @@ def _replayed_test(dataset, system, plain: PlainEstimate, rule: str, extraction:
     excitations = {}
     if measured and dataset.base_channel:
         try:
-            excitations, levels = replay_excitations(dataset, sweeps)
+            excitations, levels = replay_excitations(dataset, sweeps, wide=wide_base)
         except ValueError as err:
             return f"the test cannot be replayed as measured: {err}"
     return _Test(stat_ds, sweeps, levels, stat, extraction, fit, excitations)
@@ -830,7 +851,8 @@ def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extracti
     source, zeta = damping_mode(system, opts.damping)
     rule = opts.statistic(extraction.jump_point, bool(dataset.base_channel))
     test = _replayed_test(dataset, system, plain, rule, extraction, fit,
-                          measured=opts.excitation == "measured", progress=progress)
+                          measured=opts.excitation == "measured", progress=progress,
+                          wide_base=opts.wide_base)
     if isinstance(test, str):
         return ReplayResult(kn=float(plain.kn), delta=float(plain.delta), jump_point=rule,
                             failure=test)
@@ -1240,7 +1262,7 @@ def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts
         resonance=resonance, cross=cross, level=level, damping_sensitivity=damped,
         excitation_noise=excited, base_reading=reading,
         excitation="measured" if b.test.excitations else "law", start=start,
-        gap_shares=opts.gap_shares,
+        gap_shares=opts.gap_shares, wide_base=opts.wide_base,
         statistic_points=stat.fitting_points() if rep is not None else None,
         replayed_points=rep.fitting_points() if rep is not None else None,
         sweeps={run: {"source": src, "law": sw.law, **sw.to_dict(),
@@ -1443,21 +1465,27 @@ def _fit_around(b: _Binding, centres: dict, ds) -> np.ndarray:
     IdentificationError
         A run's point left its window, or the fit failed.
     """
-    t = b.test
-    ds = dataclasses.replace(ds, runs=tuple(r for r in ds.runs if r.file in centres))
-    est = plain_estimate(windowed(ds, centres, PRECISION_MARGIN_HZ), b.system,
-                         init=(b.rep.kn, b.rep.delta), extraction=t.extraction, fit=t.fit,
-                         point_weights=b.weights)
+    est = _estimate_around(b, centres, ds)
     if frozenset(p.run for p in est.points.used()) != frozenset(centres) or \
             not est.fit.success:
         raise IdentificationError("a run's point left its window")
     return np.log([est.kn, est.delta])
 
 
+def _estimate_around(b: _Binding, centres: dict, ds) -> PlainEstimate:
+    """The plain estimate of :func:`_fit_around`, whichever runs gave points (IdentificationError
+    where none could be fitted)."""
+    t = b.test
+    ds = dataclasses.replace(ds, runs=tuple(r for r in ds.runs if r.file in centres))
+    return plain_estimate(windowed(ds, centres, PRECISION_MARGIN_HZ), b.system,
+                          init=(b.rep.kn, b.rep.delta), extraction=t.extraction, fit=t.fit,
+                          point_weights=b.weights)
+
+
 def _base_reading(b: _Binding, sol, theta, slope, answer_fit,
                   progress: bool = False) -> BaseReading | None:
-    """:class:`BaseReading`: each run's gap between its wide and narrowed base readings before
-    its measured point; where some exceed ``GAP_Z``, the answer's replay driven with the wide
+    """:class:`BaseReading`: each run's gap between its wide and narrowed base readings around
+    its measured point; where some exceed ``GAP_Z_AROUND``, the answer's replay driven with the wide
     band's reading in those runs, fitted around its points, its move from the answer's replay
     (so fitted: ``answer_fit()``) carried through ``slope`` (the identity where None; never
     below its own), and
@@ -1474,26 +1502,41 @@ def _base_reading(b: _Binding, sol, theta, slope, answer_fit,
             continue
         at = int(round(float(m.time_at(f)) * float(m.sample_rate)))
         gaps[run] = reading_gap(m.envelope_samples, m.wide.envelope_samples, m.sample_rate, at,
-                                m.reading_band_hz)
+                                m.reading_band_hz, around=GAP_AROUND)
     if not gaps:
         return None
-    runs = tuple(r for r, (_, z) in gaps.items() if abs(z) > GAP_Z)
+    runs = tuple(r for r, (_, z) in gaps.items() if abs(z) > GAP_Z_AROUND)
     if not runs:
         return BaseReading(gaps)
     centres = point_centres(b.rep.points.used())
     levels = {r: lv for r, lv in b.test.levels.items() if r in centres}
     zeta = _zeta_of(b, sol)
 
-    def fitted(read):  # the answer's replay with the wide reading ``read(m)`` in ``runs``
-        return _fit_around(b, centres, b.replayed(theta, zeta, levels, excitations={
-            r: (read(m.wide) if r in runs else m) for r, m in exc.items() if r in levels}))
+    def driven(read):  # the answer's replay with the wide reading ``read(m)`` in ``runs``
+        return b.replayed(theta, zeta, levels, excitations={
+            r: (read(m.wide) if r in runs else m) for r, m in exc.items() if r in levels})
 
     slope = np.eye(2) if slope is None else np.asarray(slope, float)
+    wide_ds, lost = driven(lambda w: w), ()
     try:
-        wide = fitted(lambda w: w)
+        wide = _fit_around(b, centres, wide_ds)
         move = wide - answer_fit()
     except IdentificationError:
-        return BaseReading(gaps, runs)
+        # the wide reading's replay lost some run's point (a run at the edge of jumping whose
+        # jump the reading moves): measured on the runs whose points both replays keep
+        try:
+            kept = {p.run for p in _estimate_around(b, centres, wide_ds).points.used()}
+            lost = tuple(r for r in centres if r not in kept)
+            centres = {r: f for r, f in centres.items() if r in kept}
+            if len(centres) < 2 or not set(runs) & set(centres):
+                raise IdentificationError("no read run or fewer than two runs kept points")
+            wide = _fit_around(b, centres, wide_ds)
+            move = wide - _fit_around(b, centres, b.rep_ds)
+        except IdentificationError:
+            return BaseReading(gaps, runs, lost=lost)
+
+    def fitted(read):
+        return _fit_around(b, centres, driven(read))
     # the replay with the wide reading fits `move` above the answer's: the test, read so, puts
     # the answer that far below (through the binding's slope)
     answer = -slope @ move
@@ -1510,7 +1553,7 @@ def _base_reading(b: _Binding, sol, theta, slope, answer_fit,
              if len(copies) >= 2 else (None, None))
     return BaseReading(gaps, runs, float(shift[0]), float(shift[1]), float(answer[0]),
                        float(answer[1]), *(None if v is None else float(v) for v in noise),
-                       len(copies))
+                       len(copies), lost)
 
 
 def _moved(b: _Binding, up: _Binding, sol, progress: bool) -> tuple[float, float, bool] | None:

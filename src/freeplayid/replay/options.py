@@ -133,6 +133,13 @@ class Replay:
         gap. ``identify`` replays with the shares the test shows where one common gap does not
         explain it (the verdict's ``hinge_gaps``; docs/identify.md §3c, "Replayed with the
         split it shows").
+    wide_base : sequence of str [-]
+        Runs (their file names) whose base channel drives the replays as read over the wide
+        band (the extraction's) even where its envelope is noisy enough for the narrow one
+        (:func:`freeplayid.replay.excitation.measured_sweep`). Empty (default): each run's band
+        as the noise chooses. ``identify`` names the runs where the narrowed reading misses the
+        level around a run's point and the answer rests on it (the verdict's ``base_reading``;
+        docs/identify.md §3c, "The reading checked where the runs jump").
     """
 
     damping: float | str | None = None
@@ -153,6 +160,7 @@ class Replay:
     excitation_copies: int = 2
     start: str = "statistic"
     gap_shares: tuple | None = None
+    wide_base: tuple = ()
 
     def __post_init__(self):
         d = self.damping
@@ -197,6 +205,13 @@ class Replay:
                                  f"or more), got {g!r}")
             mean = sum(vals) / len(vals)
             object.__setattr__(self, "gap_shares", tuple(v / mean for v in vals))
+        w = self.wide_base
+        if w is None:
+            w = ()
+        if isinstance(w, str) or not isinstance(w, (list, tuple)) or \
+                not all(isinstance(r, str) and r for r in w):
+            raise ValueError(f"`wide_base` must be a list of run file names, got {w!r}")
+        object.__setattr__(self, "wide_base", tuple(w))
         if self.engine is not None:
             # the engines' registry imports torch: only when an engine is named
             from ..simulate.engines import ENGINES

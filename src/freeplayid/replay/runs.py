@@ -63,9 +63,11 @@ def replay_levels(dataset, sweeps: dict | None = None) -> dict:
     return out
 
 
-def replay_excitations(dataset, sweeps: dict) -> tuple[dict, dict]:
+def replay_excitations(dataset, sweeps: dict, wide=()) -> tuple[dict, dict]:
     """Each usable run's excitation as its base channel measured it
-    (:func:`.excitation.measured_sweep`), and its level [g] from the same first harmonic.
+    (:func:`.excitation.measured_sweep`), and its level [g] from the same first harmonic. The
+    runs named in ``wide`` take the wide band's reading where their base was read narrowed
+    (``MeasuredSweep.wide``: the same level, the envelope and noise of the wide band).
 
     Returns
     -------
@@ -81,7 +83,8 @@ def replay_excitations(dataset, sweeps: dict) -> tuple[dict, dict]:
     for run in dataset.runs:
         if run.reason or run.file not in sweeps:
             continue
-        excitations[run.file], level = measured_sweep(dataset, run, sweeps[run.file][0])
+        m, level = measured_sweep(dataset, run, sweeps[run.file][0])
+        excitations[run.file] = m.wide if run.file in wide and m.wide is not None else m
         levels[run.file] = (level, "base channel, as measured")
     return excitations, levels
 

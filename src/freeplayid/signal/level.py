@@ -18,7 +18,8 @@ import numpy as np
 
 __all__ = ["window_amplitudes", "quiet_base", "envelope_noise", "reading_sd", "sharpened",
            "sharpened_gain", "rounds", "NARROW_BASE", "ENVELOPE_NOISE", "SHARPEN_STEPS",
-           "SHARPEN_FROM", "reading_gap", "GAP_Z"]
+           "SHARPEN_FROM", "reading_gap", "GAP_Z", "GAP_AROUND",
+           "GAP_Z_AROUND", "GAP_Z_STRONG"]
 
 # The base level is what the controller holds. A replay driven by the measured envelope feels
 # its noise as a level error: at the response extraction's bandwidth the envelope of a base
@@ -54,6 +55,33 @@ SHARPEN_FROM = 6.0
 # deviations says the chosen reading misses a profile there (the three standard errors that the
 # replay's other checks take as significant).
 GAP_Z = 3.0
+# [windows] how far either side of a run's point the window's end is moved to find its largest
+# gap (:func:`reading_gap`'s ``around``): the level that decides a run's point is read on its
+# approach, and the narrow band's rounding of a flank crosses the level there, so a single
+# window ending at the point can average a gap of each sign to none (realtests' fin C at
+# 0.4 Hz/s, d1: -1.4 standard deviations ending at the points, 8-19 one second later, and
+# delta -3.7 %, `ok`). Half a window (1 s at the quarter band) either side covers the flank
+# a run crosses on its way to the point and the jump that follows it.
+GAP_AROUND = 0.5
+
+
+def _scanned_z(z: float, around: float) -> float:
+    """The threshold on the largest of the gaps that :func:`reading_gap` scans ``around`` window
+    lengths either side of a point whose false alarm on white noise is that of one window at
+    ``z``: the scan spans 1 + 2 ``around`` independent windows (Sidak's correction)."""
+    import scipy.stats
+
+    one = 2.0 * float(scipy.stats.norm.sf(z))
+    return float(scipy.stats.norm.isf(0.5 * (1.0 - (1.0 - one) ** (1.0 / (1.0 + 2.0 * around)))))
+
+
+# the gate on the gap scanned around a point: 3.32 standard deviations for GAP_Z 3 scanned half
+# a window either side (three windows' worth), as often crossed by noise as one window at GAP_Z
+GAP_Z_AROUND = _scanned_z(GAP_Z, GAP_AROUND)
+# a gap that says the narrowed reading plainly misses a profile: twice the gate. On 206
+# realtests answers at constant levels (no dip or ramp), the largest gap read around their
+# jumps was 3.9 standard deviations; fast dips' runs reach 8-31
+GAP_Z_STRONG = 2.0 * GAP_Z_AROUND
 # [-] a reading noise below this counts as none (a noiseless record reads 1e-8 to 1e-6 from the
 # extraction's own error): a level error a hundred times below the 1 % that moves delta by 1 %
 EXACT_READING = 1e-4
@@ -209,15 +237,22 @@ def _shared(r: float) -> float:
             / _integral(lambda f: _low_pass(f, r) ** 2))
 
 
-def reading_gap(chosen, wide, sample_rate: float, at: int, band_hz: float) -> tuple[float, float]:
+def reading_gap(chosen, wide, sample_rate: float, at: int, band_hz: float, *,
+                around: float = 0.0) -> tuple[float, float]:
     """How far the wide band's reading of a base record lies from the ``chosen`` one where a run
     jumps: the mean of ``wide - chosen`` (relative envelopes of one level) over the half of the
     chosen band's time (0.5 / ``band_hz`` s) that ends at sample ``at``, and that mean in units
     of its noise: the robust scatter (1.4826 x MAD) of the same running mean along the whole
     record, away from its ends (1.25 / ``band_hz`` s, where the extraction's own edges are). A
     profile both readings follow cancels; a short feature the chosen band rounds shows where it
-    is; white noise scatters the running mean alike everywhere. (nan, nan) where the window or
-    the record is too short."""
+    is; white noise scatters the running mean alike everywhere.
+
+    With ``around`` > 0 the window's end may lie anywhere within ``around`` window lengths
+    either side of ``at`` (a step of an eighth of a window), and the one whose gap stands
+    furthest from its noise is returned: a reading that rounds a flank lies on both sides of the
+    level, above on one side of the flank and below on the other, so one window can straddle
+    the crossing and show no gap where the reading misses the profile on either side.
+    (nan, nan) where the window or the record is too short."""
     d = np.asarray(wide, dtype=float) - np.asarray(chosen, dtype=float)
     n = max(int(round(0.5 / band_hz * sample_rate)), 1)
     trim = int(1.25 / band_hz * sample_rate)
@@ -226,9 +261,13 @@ def reading_gap(chosen, wide, sample_rate: float, at: int, band_hz: float) -> tu
         return math.nan, math.nan
     c = np.concatenate(([0.0], np.cumsum(d)))
     running = (c[n:] - c[:-n]) / n  # running[k]: the mean of d[k:k + n]
-    gap = float(running[at - n])
+    reach = int(round(float(around) * n))
+    ends = np.arange(max(at - reach, n), min(at + reach, d.size) + 1,
+                     max(n // 8, 1) if reach else 1)
+    gaps = running[ends - n]
     core = running[trim:running.size - trim]
     sd = 1.4826 * float(np.median(np.abs(core - np.median(core))))
+    gap = float(gaps[int(np.argmax(np.abs(gaps)))])
     if not sd > 0:
         return gap, (0.0 if gap == 0 else math.copysign(math.inf, gap))
     return gap, gap / sd
