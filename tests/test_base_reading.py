@@ -250,8 +250,13 @@ def test_only_an_answer_resting_on_the_narrowed_reading_is_replayed_wide():
     from freeplayid.identification.pipeline import _base_misread
     from freeplayid.replay import Replay
 
-    def result(reading):
-        return SimpleNamespace(replay=SimpleNamespace(failure="", base_reading=reading))
+    def result(reading):  # judged by the verdict's own check, as identify judges it
+        from freeplayid.identification.replay_checks import _reading_check
+
+        rep = SimpleNamespace(failure="", base_reading=reading)
+        check = _reading_check(rep)
+        return SimpleNamespace(replay=rep, verdict=SimpleNamespace(
+            checks=() if check is None else (check,)))
 
     failing = _reading(0.034, 0.010)  # 3.4 % less 0.5 % of noise: beyond delta's 1 %
     assert _base_misread(result(failing), Replay()) == ("r1",)

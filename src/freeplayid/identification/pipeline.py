@@ -30,7 +30,7 @@ from .model_error import (
     widen,
 )
 from .records import checked_dataset, record_checks, record_options
-from .replay_checks import reading_rests, reading_unmeasured, replay_checks, settled_sd
+from .replay_checks import reading_rests, replay_checks, settled_sd
 from .result import Identification
 from .verdict import (
     LIMITS,
@@ -340,23 +340,22 @@ def _settled(error: ModelError | None):
 
 
 def _base_misread(result: Identification, replay: Replay) -> tuple:
-    """The runs whose narrowed base reading the answer rests on: the wide reading's move of the
-    answer measured beyond the accuracy bounds even less its own noise (:class:`freeplayid.
-    replay.BaseReading`, :func:`.replay_checks.reading_rests`), the replays not yet driven by
-    the wide reading (``replay.wide_base`` empty); and where the gap is strong and that noise
-    too large to bound the move (:func:`.replay_checks.reading_unmeasured`: the narrowed
-    reading plainly off, the wide one only noisier; fin C's fast dips, delta -3.7 -> -0.6 %
-    and -2.8 -> -0.2 %); () otherwise. Not where the move lies within that noise on weaker
-    gaps: there the wide reading's answer is no better known than the narrowed one's
-    (realtests, the default fin's and fin B's weak bases, replayed wide so: two answers came
-    closer to the truth and two went further, by 0.7-2.7 %)."""
+    """The runs whose narrowed base reading fails the verdict's ``base_reading`` with the wide
+    reading's move measured (:func:`.replay_checks._reading_check`): the answer rests on it
+    beyond the accuracy bounds even less the wide reading's own noise, or the gap is strong and
+    that noise too large to bound the move (the narrowed reading plainly off, the wide one only
+    noisier; fin C's fast dips, delta -3.7 -> -0.6 % and -2.8 -> -0.2 %); the replays not yet
+    driven by the wide reading (``replay.wide_base`` empty); () otherwise. Not where the move
+    lies within that noise on weaker gaps (the check passes): there the wide reading's answer
+    is no better known than the narrowed one's (realtests, the default fin's and fin B's weak
+    bases, replayed wide so: two answers came closer to the truth and two went further, by
+    0.7-2.7 %)."""
     rep = result.replay
     reading = None if rep is None or rep.failure else getattr(rep, "base_reading", None)
     if replay.wide_base or reading is None or not reading.runs or reading.delta_move is None:
         return ()
-    noisy = reading_unmeasured(reading)
-    misses = reading_rests(reading) > 1 or (noisy is not None and noisy > 1)
-    return tuple(reading.runs) if misses else ()
+    failed = any(c.name == "base_reading" and not c.passed for c in result.verdict.checks)
+    return tuple(reading.runs) if failed else ()
 
 
 def _on_the_wide_reading(first: Identification, runs: tuple, dataset, system, est, extraction,

@@ -67,13 +67,15 @@ compares the result or the data with a physical limit, never with a value tuned 
   otherwise, or the noise, shows such a split too (``linear_model.hinge_gaps`` takes it as
   the gaps' and reports their mean).
 - ``base_reading`` (with the replay driven by a base channel read over a narrowed band): in
-  the seconds before each run's point, the narrowed reading against the wide band's, in units
-  of their difference's own noise along the record; where some run's gap exceeds three of them
+  the seconds around each run's point, the narrowed reading against the wide band's, in units
+  of their difference's own noise along the record; where some run's gap exceeds 3.2 of them
   (a level profile the narrow band rounds, such as a dip's flank crossed in 1.5-2 s), the
   answer's replay driven by the wide band's reading in those runs: a move of the answer that,
   less what the wide reading's own noise can give it (95 %, replays driven by it read again
   under fresh noise), still exceeds the accuracy bounds (``reading_delta`` 1 %,
-  ``reading_kn`` 2 %) fails.
+  ``reading_kn`` 2 %) fails, and so does that noise alone beyond them where a gap exceeds 6.4
+  (the narrowed reading plainly off). ``identify`` then reports the answer replayed with the
+  wide reading in those runs, this check saying so.
 - ``base_level``: the base channel's amplitude against each run's ``level_g``: a factor 9.81,
   1/9.81 or 1000 is a units error, a ratio that varies as a power of the frequency is a quantity
   error (acceleration declared as displacement...).
