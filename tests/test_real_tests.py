@@ -1104,6 +1104,36 @@ def test_draw_pairs_puts_two_draws_difference_in_units_of_their_precisions():
     assert any(r.startswith("| down-sweeps | delta | 1 | 0.00 |") for r in table)
 
 
+def test_draw_spread_sets_the_draws_scatter_beside_what_their_copies_predicted():
+    """benchmarks/realtests/run.py's draw_spread: three draws of one condition with log delta
+    errors 0.01, 0.02 and 0.03 (mean 2 %, sd 1 %, by hand) whose copies predicted log sds
+    0.005, 0.01 and 0.02 (median 1 %: ratio 1.00); the one ``ok`` beyond delta's 1 % bound
+    counts, the two ``suspect`` do not; a condition with two draws is left out."""
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "benchmarks" / "realtests" / "run.py"
+    spec = importlib.util.spec_from_file_location("realtests_run", path)
+    run = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(run)
+    d, kn = 3e-3, 480.0
+
+    def rec(case, draw, err, sd, status):
+        hw = math.expm1(1.96 * sd)
+        return {"case": case, "condition": "c", "draw": draw, "fit": "corrected", "kn": kn,
+                "delta": d * math.exp(err), "kn_ci95": [kn, kn], "delta_ci95": [d, d],
+                "status": status, "reasons": [], "wall_s": 1.0,
+                "truth": {"kn": kn, "delta": d, "deltas": None},
+                "replay": {"precision": {"delta_halfwidth": hw, "kn_halfwidth": hw, "n": 8,
+                                         "n_fitted": 8, "settled": False}}}
+
+    results = [rec("a", "d0", 0.01, 0.005, "suspect"), rec("a", "d1", 0.02, 0.01, "ok"),
+               rec("a", "d2", 0.03, 0.02, "suspect"), rec("b", "d0", 0.0, 0.01, "ok"),
+               rec("b", "d1", 0.0, 0.01, "ok")]
+    rows = run.draw_spread(results).splitlines()
+    assert rows[2:] == ["| a | 3 | +2.00 | 1.00 | 1.00 | 1.00 | 1 |"]
+
+
 def test_the_benchmarks_replay_options_are_read_as_yaml_and_checked_before_any_work():
     import importlib.util
     from pathlib import Path

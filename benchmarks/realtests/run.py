@@ -72,6 +72,9 @@ def identify_case(path: str, corrected: bool, replay: dict | None = None) -> dic
                 # the noise's move of the answer (noisy copies, through the binding's slope)
                 "precision": None if getattr(rep, "precision", None) is None
                 else rep.precision.to_dict(),
+                # the base's reading noise, read as the replays' excitation (its copies' move)
+                "excitation_noise": None if getattr(rep, "excitation_noise", None) is None
+                else rep.excitation_noise.to_dict(),
                 # the answer's move for a damping the down-sweeps do not measure
                 "damping_sensitivity": None if getattr(rep, "damping_sensitivity", None) is None
                 else rep.damping_sensitivity.to_dict(),
@@ -233,6 +236,33 @@ def draw_pairs(results: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def draw_spread(results: list[dict], least: int = 3) -> str:
+    """The precision checked on many noise draws of one condition (``redraw.py``): per
+    condition with at least ``least`` corrected answers, the mean and the standard deviation of
+    their delta errors (in log, %) beside the standard deviation their noisy copies predicted
+    (the median over the draws), and how many answers are ``ok`` outside the bounds. Where the
+    copies are right, the ratio of the two spreads is near 1 (with eight draws its 95 % range
+    is about 0.6-1.5); the mean is the bias that no copy of the answer's own replay can show."""
+    by: dict = {}
+    for r in results:
+        if r["fit"] == "corrected" and "kn" in r and _log_sd(r, "delta") is not None:
+            by.setdefault(r["case"], []).append(r)
+    head = ["condition", "draws", "delta error mean [%]", "sd over the draws [%]",
+            "sd the copies predicted [%]", "ratio", "`ok` outside"]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for case, rows in sorted(by.items()):
+        if len(rows) < least:
+            continue
+        err = [math.log(r["delta"] / r["truth"]["delta"]) for r in rows]
+        mean = sum(err) / len(err)
+        sd = math.sqrt(sum((e - mean) ** 2 for e in err) / (len(err) - 1))
+        pred = sorted(_log_sd(r, "delta") for r in rows)[len(rows) // 2]
+        outside = sum(row_cells(r)[9].endswith("OUT**") for r in rows)
+        lines.append(f"| {case} | {len(rows)} | {100 * mean:+.2f} | {100 * sd:.2f} | "
+                     f"{100 * pred:.2f} | {sd / pred:.2f} | {outside} |")
+    return "\n".join(lines)
+
+
 def replay_options(pairs: list[str]) -> dict:
     """``KEY=VALUE`` pairs as replay options, each value read as YAML (0.6, true, estimate)."""
     import yaml
@@ -284,6 +314,8 @@ def main() -> None:
         print(table(sorted(results, key=sort_key(order))))
         print("\nThe precision on the two draws of each condition (draw_pairs):\n")
         print(draw_pairs(results))
+        print("\nThe precision on many draws of one condition (draw_spread):\n")
+        print(draw_spread(results))
         return
     if not cases:
         raise SystemExit(f"no data sets under {args.data} matching {patterns or 'anything'}")
