@@ -30,7 +30,7 @@ from .model_error import (
     widen,
 )
 from .records import checked_dataset, record_checks, record_options
-from .replay_checks import reading_rests, replay_checks, settled_sd
+from .replay_checks import reading_noise, reading_rests, replay_checks, settled_sd
 from .result import Identification
 from .verdict import (
     LIMITS,
@@ -406,20 +406,17 @@ def _wide_reading_check(reading, first: Identification, second: Identification) 
     read so and why, how far the narrowed reading's answer ``first`` lay, and whether that
     reading's own noise (95 %, :class:`freeplayid.replay.BaseReading`'s copies) moves the
     answer within the accuracy bounds."""
-    gaps = ", ".join(f"{run} {100 * reading.gaps[run][0]:+.2g} % ({reading.gaps[run][1]:+.2g} "
-                     "sd)" for run in reading.runs)
     why = ("the answer rested on it" if reading_rests(reading) > 1 else
            "the wide band's reading was too noisy to say how far the answer rested on it")
-    said = (f"around the points of {gaps}, the base's narrowed reading missed the level (a "
-            f"level profile faster than the narrow band follows) and {why}: "
+    said = (f"around the points of {reading.gated()}, the base's narrowed reading missed the "
+            f"level (a level profile faster than the narrow band follows) and {why}: "
             "those runs were replayed with the wide band's reading, which follows it; the "
             f"narrowed reading's answer lay delta {100 * (first.delta / second.delta - 1):+.2g} "
             f"% and kn {100 * (first.kn / second.kn - 1):+.2g} % from this one")
     if reading.delta_noise is None:
         return Check("base_reading", False, said + "; the wide reading's own noise in the answer "
                      "is not measured")
-    value = max(reading.delta_noise / LIMITS["reading_delta"],
-                reading.kn_noise / LIMITS["reading_kn"])
+    value = reading_noise(reading)
     said += (f"; the wide reading's own noise moves it by ±{100 * reading.delta_noise:.2g} % and "
              f"±{100 * reading.kn_noise:.2g} % (95 %, {reading.n_copies} copies; in the "
              "intervals)")

@@ -281,6 +281,12 @@ def reading_unmeasured(reading) -> float | None:
     zmax = max((abs(reading.gaps[r][1]) for r in reading.runs), default=0.0)
     if zmax < GAP_Z_STRONG or reading.delta_noise is None:
         return None
+    return reading_noise(reading)
+
+
+def reading_noise(reading) -> float:
+    """The wide reading's own noise in the answer (95 %, its copies' measured
+    ``delta_noise`` / ``kn_noise``) over the accuracy bounds, the larger of delta's and kn's."""
     return max(reading.delta_noise / LIMITS["reading_delta"],
                reading.kn_noise / LIMITS["reading_kn"])
 

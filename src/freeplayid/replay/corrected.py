@@ -359,17 +359,21 @@ class BaseReading:
     def to_dict(self) -> dict:
         return dataclasses.asdict(self)
 
+    def gated(self) -> str:
+        """The gated runs, each with its gap (relative, and in its noise's standard
+        deviations)."""
+        return ", ".join(f"{run} {100 * self.gaps[run][0]:+.2g} % ({self.gaps[run][1]:+.2g} "
+                         "sd)" for run in self.runs)
+
     def describe(self) -> str:
         if not self.runs:
             worst = max((abs(z) for _, z in self.gaps.values() if math.isfinite(z)), default=0.0)
             return (f"the base channel's reading follows the level around every run's point "
                     f"(its gap to the wide band's reading at most {worst:.2g} standard "
                     f"deviations of that gap's noise; limit {GAP_Z_AROUND:.2g})")
-        gaps = ", ".join(f"{run} {100 * self.gaps[run][0]:+.2g} % ({self.gaps[run][1]:+.2g} "
-                         "sd)" for run in self.runs)
-        said = (f"in the seconds around the point of {gaps}, the wide band reads the base level "
-                "away from the narrowed reading that drives the replays (a level profile faster "
-                "than the narrow band follows)")
+        said = (f"in the seconds around the point of {self.gated()}, the wide band reads the base "
+                "level away from the narrowed reading that drives the replays (a level profile "
+                "faster than the narrow band follows)")
         if self.delta_shift is None:
             if self.lost:
                 return said + (f"; the replay with the wide band's reading lost the point of "
