@@ -64,20 +64,24 @@ class RunSpec:
     sweep: dict
     profile: Callable | None = None
     declared_level_g: float | None = None  # what the manifest says (default: level_g)
+    phase: Callable | None = None  # the base's phase added to the sweep's [rad], of (t, f)
 
     @property
     def file(self) -> str:
         return f"sweep_{self.declared_level_g or self.level_g:.2f}g.csv.gz"
 
     def base_accel(self):
-        sw, lv, prof = self.sweep, self.level_g, self.profile
+        sw, lv, prof, lag = self.sweep, self.level_g, self.profile, self.phase
         law = {k: sw[k] for k in ("rate_hz_per_s", "octaves_per_min") if k in sw}
 
         def a_g(t):
             ph = es.sweep_phase(t, sw["start_hz"], sw["stop_hz"], **law)
             amp = lv * es.G0
+            f = es.sweep_frequency(t, sw["start_hz"], sw["stop_hz"], **law)
             if prof is not None:
-                amp = amp * prof(t, es.sweep_frequency(t, sw["start_hz"], sw["stop_hz"], **law))
+                amp = amp * prof(t, f)
+            if lag is not None:
+                ph = ph + lag(t, f)
             return amp * np.sin(ph)
 
         return a_g
@@ -399,24 +403,33 @@ def fin_level_profile(name, condition, profile_of_run, params, *, src="fin_nomin
     return spec
 
 
-def fin_level_dip(*, depth=0.3, flat_hz=0.5, taper_hz=0.5, **kw) -> CaseSpec:
+def fin_level_dip(*, depth=0.3, flat_hz=0.5, taper_hz=0.5, lag_rad=0.0, **kw) -> CaseSpec:
     """Level reduced by ``depth`` within +-flat_hz of each run's jump (found on the constant-level
-    records), cosine tapers of taper_hz; a run without a jump keeps its level."""
+    records), cosine tapers of taper_hz; a run without a jump keeps its level. With ``lag_rad``
+    the base's phase lags the sweep's by that much in the same window (a shaker table that lags
+    its drive as the load resonates): the base channel records it, and it drives the fin."""
+    def window(f, f_jump):
+        x = np.abs(f - f_jump)
+        return np.where(x <= flat_hz, 1.0, np.where(
+            x >= flat_hz + taper_hz, 0.0, 0.5 * (1 + np.cos(np.pi * (x - flat_hz) / taper_hz))))
+
     def profile_of_run(k, f_jump):
         if not np.isfinite(f_jump):
             return None
+        prof = None if depth == 0 else (lambda t, f: 1.0 - depth * window(f, f_jump))
+        if not lag_rad:
+            return prof
+        return prof, (lambda t, f: -lag_rad * window(f, f_jump))
 
-        def prof(t, f):
-            x = np.abs(f - f_jump)
-            w = np.where(x <= flat_hz, 1.0, np.where(
-                x >= flat_hz + taper_hz, 0.0, 0.5 * (1 + np.cos(np.pi * (x - flat_hz) / taper_hz))))
-            return 1.0 - depth * w
-        return prof
-
-    return fin_level_profile("fin_level_dip", f"level dips {100 * depth:g} % around each jump "
-                             "(force-limited shaker), base channel records it", profile_of_run,
-                             {"dip_depth": depth, "dip_flat_hz": flat_hz,
-                              "dip_taper_hz": taper_hz}, **kw)
+    condition = (f"level dips {100 * depth:g} % around each jump (force-limited shaker)"
+                 if depth else "level constant")
+    if lag_rad:
+        condition += f", the base's phase lags {lag_rad:g} rad there"
+    params = {"dip_depth": depth, "dip_flat_hz": flat_hz, "dip_taper_hz": taper_hz}
+    if lag_rad:
+        params["lag_rad"] = lag_rad
+    return fin_level_profile("fin_level_dip", condition + ", base channel records it",
+                             profile_of_run, params, **kw)
 
 
 def fin_level_ramp(*, ramp=0.15, **kw) -> CaseSpec:
@@ -1330,6 +1343,21 @@ VARIANTS.update({
         "var14_beam_kn4000_d3"),
 })
 
+# A fifteenth set (2026-12-02, session 37), made to test the base's phase read against the sweep
+# law where the base's phase moves at the jumps (no earlier set has a base whose phase is not the
+# sweep's): fin B's noisy dip with the table lagging in it, fin B and the default fin with the
+# phase swinging alone at a constant level.
+VARIANTS.update({
+    "var15_finB_dip_lag": _variant(lambda **kw: _also(fin_level_dip(
+        depth=0.3, lag_rad=0.15, src="var5_finB_nominal", **_fin_b_kw(**kw)), "fin B"),
+        "var15_finB_dip_lag"),
+    "var15_finB_phase_swing": _variant(lambda **kw: _also(fin_level_dip(
+        depth=0.0, flat_hz=0.3, taper_hz=0.6, lag_rad=0.1, src="var5_finB_nominal",
+        **_fin_b_kw(**kw)), "fin B"), "var15_finB_phase_swing"),
+    "var15_fin_phase_swing": _variant(lambda **kw: dataclasses.replace(fin_level_dip(
+        depth=0.0, lag_rad=0.12, **kw), noise_g=0.1), "var15_fin_phase_swing"),
+})
+
 ALL_CASES = {**CONDITIONS, **VARIANTS}
 
 def set_profiles(spec: CaseSpec, out: Path) -> None:
@@ -1337,7 +1365,8 @@ def set_profiles(spec: CaseSpec, out: Path) -> None:
     records (``out/<profile_from>``, generated)."""
     jumps = load_clean(out / spec.params["profile_from"])["truth"]["runs"]
     for k, run in enumerate(spec.runs):
-        run.profile = spec.profile_of_run(k, jumps[k]["f_jump_hz"])
+        got = spec.profile_of_run(k, jumps[k]["f_jump_hz"])
+        run.profile, run.phase = got if isinstance(got, tuple) else (got, None)
     spec.params["dip_centres_hz"] = [j["f_jump_hz"] for j in jumps]
 
 

@@ -15,6 +15,7 @@ from ..signal.level import (
     SHARPEN_STEPS,
     envelope_noise,
     quiet_base,
+    quiet_phase,
     reading_sd,
     rounds,
     sharpened,
@@ -35,9 +36,11 @@ def measured_sweep(dataset, run, law) -> tuple[MeasuredSweep, float]:
     extraction's default bandwidth ``max(1 Hz, 2 s x rate)``: a quarter of it where the
     envelope is noisy, its amplitude then :func:`freeplayid.signal.level.sharpened` where the
     reading shows a profile the band rounds, :func:`freeplayid.signal.level.rounds`: a dip
-    shorter than the band's time) gives its amplitude and phase at
-    every sample; amplitudes in the
-    data's quantity become accelerations (``A w^(2 - order)``). The level is their median [g];
+    shorter than the band's time) gives its amplitude and phase at every sample; amplitudes in
+    the data's quantity become accelerations (``A w^(2 - order)``). Where the band is the narrow
+    one the phase is read against ``law`` (:func:`freeplayid.signal.level.quiet_phase`: the
+    law's phase plus a smooth offset, unless the base's phase moves within the record). The
+    level is their median [g];
     the envelope the amplitude over it; its reading noise (:func:`freeplayid.signal.level.
     reading_sd`) and band go with it (``MeasuredSweep.reading_sd``, ``reading_band_hz``: the
     replay's excitation copies, :func:`read_again`), and where the band is the narrow one the
@@ -73,8 +76,9 @@ def measured_sweep(dataset, run, law) -> tuple[MeasuredSweep, float]:
         raise ValueError(f"run {run.file}: the base channel has no usable first harmonic")
     level = float(np.median(amp))
     env = np.maximum(amp / level, 1e-6)
-    # x = A cos(psi): the simulator's excitation is A sin(phase), phase = psi + pi / 2
-    phase = mode.phase + np.pi / 2
+    # x = A cos(psi): the simulator's excitation is A sin(phase), phase = psi + pi / 2; a noisy
+    # base's phase read against the sweep law where it follows it (signal.level.law_phase)
+    phase = quiet_phase(wide, narrow, law, fs) + np.pi / 2
     # the wide band's reading beside a narrow one, for the check of the jumps' levels
     read_wide = None
     if mode is not wide:

@@ -19,7 +19,7 @@ import numpy as np
 from ..quantity import check_quantity
 from .acmp import ChirpMode
 from .jump import REASON_FAILED, REASON_NOISY, find_jump_peak, reason_dead
-from .level import NARROW_BASE, quiet_base
+from .level import NARROW_BASE, quiet_phase
 from .options import EXTRACTION_METHODS, Extraction, with_options
 from .peak import JUMP_POINTS, NEEDS_BASE
 from .sweeplaw import estimate_sweep
@@ -437,11 +437,12 @@ def _first_harmonic(x, fs, *, trim, sweep, opts: Extraction, quantity, band_scal
 def _base_phase(base, fs, *, trim, sweep, opts: Extraction, quantity) -> np.ndarray:
     """The base channel's first-harmonic phase [rad] at every sample (the quadrature rule's
     reference), extracted as the responses are, over the band the replay's excitation is read
-    over (:func:`.level.quiet_base`: a quarter of the responses' where the base is noisy)."""
-    wide, narrow = (_first_harmonic(base, fs, trim=trim, sweep=sweep, opts=opts,
-                                    quantity=quantity, band_scale=scale)[0]
-                    for scale in (1.0, NARROW_BASE))
-    return quiet_base(wide, narrow).phase
+    over and read as it is (:func:`.level.quiet_phase`: a quarter of the responses' band where
+    the base is noisy, its phase then read against the sweep law where it follows it)."""
+    (wide, law, *_), (narrow, *_) = (_first_harmonic(base, fs, trim=trim, sweep=sweep, opts=opts,
+                                                     quantity=quantity, band_scale=scale)
+                                     for scale in (1.0, NARROW_BASE))
+    return quiet_phase(wide, narrow, law, fs)
 
 
 def noise_floor(residual, fs: float) -> float:

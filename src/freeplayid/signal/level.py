@@ -19,7 +19,9 @@ import numpy as np
 __all__ = ["window_amplitudes", "quiet_base", "envelope_noise", "reading_sd", "sharpened",
            "sharpened_gain", "rounds", "NARROW_BASE", "ENVELOPE_NOISE", "SHARPEN_STEPS",
            "SHARPEN_FROM", "reading_gap", "GAP_Z", "GAP_AROUND",
-           "GAP_Z_AROUND", "GAP_Z_STRONG"]
+           "GAP_Z_AROUND", "GAP_Z_STRONG", "quiet_phase", "law_phase", "phase_sd", "PHASE_DEGREE",
+           "PHASE_TIMES_PER_TERM",
+           "PHASE_Z"]
 
 # The base level is what the controller holds. A replay driven by the measured envelope feels
 # its noise as a level error: at the response extraction's bandwidth the envelope of a base
@@ -82,6 +84,31 @@ GAP_Z_AROUND = _scanned_z(GAP_Z, GAP_AROUND)
 # realtests answers at constant levels (no dip or ramp), the largest gap read around their
 # jumps was 3.9 standard deviations; fast dips' runs reach 8-31
 GAP_Z_STRONG = 2.0 * GAP_Z_AROUND
+# The phase of a noisy base read over the narrow band still scatters: on fin B (0.05 g of noise
+# on 0.13-0.39 g) by 0.011-0.036 rad, which moves the quadrature point, where the response's
+# phase crosses the base's on the way to its jump, and put delta's answer 0.9-1.7 % off (sd
+# over draws). A shaker holds the base at the controller's sweep, so the base's phase is the
+# sweep law's plus an offset that moves slowly with frequency (the shaker's and fixture's phase,
+# and the law's own error): read as the law's phase plus a polynomial in time of this degree
+# fitted to the narrow reading's offset (:func:`law_phase`), its noise falls to 0.0015-0.009
+# rad on those records (degree 8 on the whole record). Degree 4 follows a constant, a law's error in its start and rate
+# (quadratic) and a smooth drift over the band; what it cannot follow, the gate below catches.
+PHASE_DEGREE = 4
+# [-] narrow-band times (1 / band) per term of that polynomial: a reading's noise is
+# correlated over about one such time, so a stretch of 2 k of them carries k terms' worth (at
+# 0.25 Hz: a 65-s stretch the full degree, 30 s a parabola, 10-16 s a constant; a window cut
+# around a jump for the answer's noisy copies, 15-22 s with 5 s at each end, a constant or none)
+PHASE_TIMES_PER_TERM = 2.0
+# Where the base's phase moves within the record (a shaker table that lags its drive as the load
+# resonates, a controller's step), the polynomial misses it: the narrow reading's offset about
+# it, away from the record's ends, beyond this many of the reading's phase noise
+# (:func:`phase_sd`) keeps the narrow reading (:func:`law_phase` returns None). On 1320
+# realtests base records read over the narrow band (d0 and d1), none with a phase move, the
+# largest excursion was 3.7 of that noise in the median, 5.5 at the 99th percentile and 7.0 at
+# most (3.4 % beyond 5; level dips raise it, and keep their narrow readings); a lag of
+# 0.1-0.15 rad around each jump (the fifteenth set: fin B, the default fin) reached 5.4-20 in
+# the runs that jump.
+PHASE_Z = 5.0
 # [-] a reading noise below this counts as none (a noiseless record reads 1e-8 to 1e-6 from the
 # extraction's own error): a level error a hundred times below the 1 % that moves delta by 1 %
 EXACT_READING = 1e-4
@@ -131,6 +158,73 @@ def quiet_base(wide, narrow):
     ``wide``'s envelope is noisier than :data:`ENVELOPE_NOISE` (:func:`envelope_noise`), else
     ``wide`` (ChirpMode each)."""
     return narrow if envelope_noise(wide.amplitude, narrow.amplitude) > ENVELOPE_NOISE else wide
+
+
+def quiet_phase(wide, narrow, law, sample_rate: float) -> np.ndarray:
+    """The base record's first-harmonic phase [rad] at every sample, of the ChirpMode
+    :func:`quiet_base` picks: the wide band's as read; the narrow band's, where the base is
+    noisy, read against the sweep law (:func:`law_phase`, its noise :func:`phase_sd`) unless
+    its phase moves within the record, where it is kept as read."""
+    chosen = quiet_base(wide, narrow)
+    if chosen is wide or law is None:
+        return np.asarray(chosen.phase, dtype=float)
+    smooth = law_phase(chosen, law, sample_rate, phase_sd(wide, narrow))
+    return np.asarray(chosen.phase, dtype=float) if smooth is None else smooth
+
+
+def phase_sd(wide, narrow) -> float:
+    """The standard deviation [rad] of the phase of ``narrow`` from white noise, from its
+    difference to ``wide``'s (two readings of one record, ChirpModes) as :func:`reading_sd`
+    takes the envelope's: the robust scatter (1.4826 x MAD) of the wrapped difference, less
+    the noise the two bands share, over the narrow band. A phase move both bands follow
+    cancels; one the narrow band rounds, where it lasts a few seconds, touches too few samples
+    to move the median."""
+    d = np.angle(np.exp(1j * (np.asarray(wide.phase, float) - np.asarray(narrow.phase, float))))
+    d = d[np.isfinite(d)]
+    if d.size == 0:
+        return 0.0
+    r = min(max(float(narrow.bandwidth_hz) / float(wide.bandwidth_hz), 1e-3), 0.9)
+    share = 1.0 + r - 2.0 * _shared(r) * r
+    mad = 1.4826 * float(np.median(np.abs(d - np.median(d))))
+    return mad / math.sqrt(max(share, 1e-3)) * math.sqrt(r)
+
+
+def law_phase(mode, law, sample_rate: float, noise_sd: float, *, degree: int = PHASE_DEGREE,
+              z: float = PHASE_Z) -> np.ndarray | None:
+    """``mode``'s phase (a ChirpMode of a base record, sample 0 at ``law``'s t = 0) read as
+    the sweep law's phase plus a Legendre polynomial in time least-squares fitted to the
+    unwrapped offset ``mode.phase - law.phase(t)`` away from the record's ends (1.25 / band
+    seconds, where the extraction's own edges are) and continued along its tangent over them.
+    Its degree is ``degree`` (:data:`PHASE_DEGREE`) on a long record and less on a short one:
+    one term per two of the narrow band's times (1 / band) in the fitted stretch
+    (:data:`PHASE_TIMES_PER_TERM`), so that a window cut around a jump (the answer's noisy
+    copies, 15-20 s at 0.25 Hz) is read with a constant or a line, not a polynomial that
+    follows its noise and swings at its ends. None where the offset's residual exceeds ``z``
+    (:data:`PHASE_Z`) times ``noise_sd`` (the reading's phase noise, :func:`phase_sd`)
+    anywhere away from the ends: a phase that moves faster than the polynomial follows, which
+    the reading keeps. None too where no stretch is left to fit."""
+    phase = np.asarray(mode.phase, dtype=float)
+    n = phase.size
+    t = np.arange(n) / float(sample_rate)
+    swept = np.asarray(law.phase(t), dtype=float)
+    offset = np.unwrap(phase - swept)
+    band = float(mode.bandwidth_hz)
+    trim = int(1.25 / band * sample_rate)
+    lo, hi = trim, n - trim
+    terms = int((hi - lo) / sample_rate * band / PHASE_TIMES_PER_TERM)
+    if terms < 1 or hi - lo < 16 or not np.all(np.isfinite(offset[lo:hi])):
+        return None
+    deg = min(int(degree), terms - 1)
+    x = (t - t[lo]) / (t[hi - 1] - t[lo]) * 2.0 - 1.0
+    coef = np.polynomial.legendre.legfit(x[lo:hi], offset[lo:hi], deg)
+    slope = np.polynomial.legendre.legder(coef)
+    fitted = np.polynomial.legendre.legval(np.clip(x, -1.0, 1.0), coef)
+    # over the ends, the tangent at the fitted stretch's ends (a polynomial there would swing)
+    ends = np.clip(x, -1.0, 1.0)
+    fitted = fitted + (x - ends) * np.polynomial.legendre.legval(ends, slope)
+    if float(np.max(np.abs(offset - fitted)[lo:hi])) > z * noise_sd:
+        return None
+    return swept + fitted
 
 
 def envelope_noise(wide, narrow) -> float:
