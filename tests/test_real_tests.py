@@ -473,7 +473,10 @@ def test_the_replayed_answer_reads_each_hinges_half_gap_against_its_replay():
     """The bundled example (equal gaps) with ``hinge_gaps`` and the replay: the split is read
     against the answer's replay on every one of the eight noisy copies (none stops early), shows
     nothing beyond its noise, and the check passes, in the report, the JSON and the per-hinge
-    table, whose half-gaps lie about the reported delta."""
+    table, whose half-gaps lie either side of the reported delta, their mean within 1 % of it.
+    (Their intervals held delta too until the base's phase was read against the sweep law,
+    session 37: the copies' spread halved, the split of 3.45 / 2.58 mrad did not move, and each
+    hinge's interval now misses delta, docs/identify.md §3c "Hinges".)"""
     import json
     from pathlib import Path
 
@@ -488,7 +491,8 @@ def test_the_replayed_answer_reads_each_hinges_half_gap_against_its_replay():
     assert check.passed and "against the answer's replay" in check.message
     gaps = res.hinge_gap_records()
     assert [g["delta"] for g in gaps] == pytest.approx(split.half_gaps)
-    assert all(g["delta_ci95"][0] < res.delta < g["delta_ci95"][1] for g in gaps)
+    low, high = sorted(g["delta"] for g in gaps)
+    assert low < res.delta < high and abs((low + high) / 2 / res.delta - 1) < 0.01
     record = json.loads(json.dumps(res.to_dict()))
     assert record["model_error"]["split"]["n_copies"] == 8
 

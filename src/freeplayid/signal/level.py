@@ -91,8 +91,9 @@ GAP_Z_STRONG = 2.0 * GAP_Z_AROUND
 # sweep law's plus an offset that moves slowly with frequency (the shaker's and fixture's phase,
 # and the law's own error): read as the law's phase plus a polynomial in time of this degree
 # fitted to the narrow reading's offset (:func:`law_phase`), its noise falls to 0.0015-0.009
-# rad on those records (degree 8 on the whole record). Degree 4 follows a constant, a law's error in its start and rate
-# (quadratic) and a smooth drift over the band; what it cannot follow, the gate below catches.
+# rad on those records (degree 4 on the whole record). Degree 4 follows a constant, a law's
+# error in its start and rate (quadratic) and a smooth drift over the band; what it cannot
+# follow, the gate below catches.
 PHASE_DEGREE = 4
 # [-] narrow-band times (1 / band) per term of that polynomial: a reading's noise is
 # correlated over about one such time, so a stretch of 2 k of them carries k terms' worth (at
