@@ -19,9 +19,8 @@ import numpy as np
 __all__ = ["window_amplitudes", "quiet_base", "envelope_noise", "reading_sd", "sharpened",
            "sharpened_gain", "rounds", "NARROW_BASE", "ENVELOPE_NOISE", "SHARPEN_STEPS",
            "SHARPEN_FROM", "reading_gap", "GAP_Z", "GAP_AROUND",
-           "GAP_Z_AROUND", "GAP_Z_STRONG", "quiet_phase", "law_phase", "phase_sd", "PHASE_DEGREE",
-           "PHASE_TIMES_PER_TERM",
-           "PHASE_Z"]
+           "GAP_Z_AROUND", "GAP_Z_STRONG", "quiet_phase", "law_phase", "phase_sd",
+           "PHASE_DEGREE", "PHASE_TIMES_PER_TERM", "PHASE_Z"]
 
 # The base level is what the controller holds. A replay driven by the measured envelope feels
 # its noise as a level error: at the response extraction's bandwidth the envelope of a base
@@ -184,10 +183,8 @@ def phase_sd(wide, narrow) -> float:
     d = d[np.isfinite(d)]
     if d.size == 0:
         return 0.0
-    r = min(max(float(narrow.bandwidth_hz) / float(wide.bandwidth_hz), 1e-3), 0.9)
-    share = 1.0 + r - 2.0 * _shared(r) * r
-    mad = 1.4826 * float(np.median(np.abs(d - np.median(d))))
-    return mad / math.sqrt(max(share, 1e-3)) * math.sqrt(r)
+    sd_wide, r = _wide_sd(1.4826 * float(np.median(np.abs(d - np.median(d)))), wide, narrow)
+    return sd_wide * math.sqrt(r)
 
 
 def law_phase(mode, law, sample_rate: float, noise_sd: float, *, degree: int = PHASE_DEGREE,
@@ -218,11 +215,10 @@ def law_phase(mode, law, sample_rate: float, noise_sd: float, *, degree: int = P
     deg = min(int(degree), terms - 1)
     x = (t - t[lo]) / (t[hi - 1] - t[lo]) * 2.0 - 1.0
     coef = np.polynomial.legendre.legfit(x[lo:hi], offset[lo:hi], deg)
-    slope = np.polynomial.legendre.legder(coef)
-    fitted = np.polynomial.legendre.legval(np.clip(x, -1.0, 1.0), coef)
     # over the ends, the tangent at the fitted stretch's ends (a polynomial there would swing)
-    ends = np.clip(x, -1.0, 1.0)
-    fitted = fitted + (x - ends) * np.polynomial.legendre.legval(ends, slope)
+    leg = np.polynomial.legendre
+    inner = np.clip(x, -1.0, 1.0)
+    fitted = leg.legval(inner, coef) + (x - inner) * leg.legval(inner, leg.legder(coef))
     if float(np.max(np.abs(offset - fitted)[lo:hi])) > z * noise_sd:
         return None
     return swept + fitted
@@ -318,11 +314,19 @@ def reading_sd(wide, narrow, chosen) -> float:
     the narrow band's noise. Checked on a constant-level sweep with white noise (0.05-0.2 g
     against 0.2-1 g, tests/test_real_tests.py). A level profile both bands follow does not
     count; one the narrow band rounds (a dip shorter than its time) counts in part, as noise."""
-    r = min(max(float(narrow.bandwidth_hz) / float(wide.bandwidth_hz), 1e-3), 0.9)
-    share = 1.0 + r - 2.0 * _shared(r) * r
-    sd_wide = envelope_noise(wide.amplitude, narrow.amplitude) / math.sqrt(max(share, 1e-3))
+    sd_wide, r = _wide_sd(envelope_noise(wide.amplitude, narrow.amplitude), wide, narrow)
     sd = sd_wide * math.sqrt(r) if chosen is narrow else sd_wide
     return sd if sd >= EXACT_READING else 0.0
+
+
+def _wide_sd(difference_sd: float, wide, narrow) -> tuple[float, float]:
+    """(the wide reading's white-noise standard deviation, the bands' ratio r = narrow / wide)
+    from ``difference_sd``, that of the difference of the two readings (:func:`reading_sd`:
+    ``var(wide - narrow) = var(wide) (1 + r - 2 k r)``); the narrow one's is ``sqrt(r)`` times
+    it."""
+    r = min(max(float(narrow.bandwidth_hz) / float(wide.bandwidth_hz), 1e-3), 0.9)
+    share = 1.0 + r - 2.0 * _shared(r) * r
+    return difference_sd / math.sqrt(max(share, 1e-3)), r
 
 
 @functools.lru_cache(maxsize=64)
