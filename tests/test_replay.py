@@ -1054,6 +1054,79 @@ def test_the_answers_precision_carries_each_copy_through_the_bindings_slope(meas
     np.testing.assert_allclose(narrowed, plain, rtol=1e-9)
 
 
+def test_the_answers_precision_measures_the_mean_move_the_noise_gives_the_statistic(
+        measured, system, monkeypatch):
+    """``noise_bias``: the copies' mean log (kn, delta) less that of the same (windowed) replay
+    read without noise, carried through the binding's slope. Copies without noise are that
+    replay: no move, no spread. Copies whose responses read 1 % high (the same for all, no
+    noise) move the statistic's delta by log 1.01 and leave kn: a freeplay backbone's frequency
+    depends on the amplitude over delta alone; through a slope diag(1, 2) the answer's delta
+    moves twice that."""
+    from freeplayid.estimate import plain_estimate
+    from freeplayid.fit import FitOptions
+    from freeplayid.replay import bootstrap, precision_by_replay
+    from freeplayid.signal import Extraction
+
+    ext = Extraction(jump_point="quadrature")
+    est = plain_estimate(measured, system, extraction=ext, fit=FitOptions(),
+                         init=(WN * WN, ref.DELTA))
+
+    def run(noise, slope=None):
+        return precision_by_replay(measured, system, noise, points=est.points.used(),
+                                   theta_rep=np.array([est.kn, est.delta]), n=3, seed=3,
+                                   extraction=ext, fit=FitOptions(), point_weights=None,
+                                   binding_slope=slope)
+
+    quiet = run({r.file: [0.0, 0.0] for r in measured.runs})
+    np.testing.assert_allclose(quiet.noise_bias, [0.0, 0.0], atol=1e-12)
+    np.testing.assert_allclose(quiet.noise_bias_se, [0.0, 0.0], atol=1e-12)
+
+    def high(ds, noise, rng):  # every copy's responses 1 % high, the base as it was
+        return dataclasses.replace(ds, runs=tuple(dataclasses.replace(r, data=1.01 * r.data)
+                                                  for r in ds.runs))
+
+    monkeypatch.setattr(bootstrap, "noisy_copy", high)
+    noise = {r.file: [0.01, 0.01] for r in measured.runs}
+    plain = run(noise)
+    np.testing.assert_allclose(plain.noise_bias, [0.0, math.log(1.01)], atol=2e-4)
+    np.testing.assert_allclose(plain.noise_bias_se, [0.0, 0.0], atol=1e-9)
+    doubled = run(noise, np.diag([1.0, 2.0]))
+    np.testing.assert_allclose(doubled.noise_bias, [0.0, 2 * math.log(1.01)], atol=4e-4)
+    assert "on average it moves delta by +2" in doubled.describe()
+    assert doubled.to_dict()["noise_bias"] == list(doubled.noise_bias)
+
+
+def test_a_cut_that_reads_other_curves_than_the_whole_records_is_not_used(measured, system,
+                                                                          monkeypatch):
+    """The copies' cut must read the statistic the whole records give: where the noise-free
+    cut takes its points from other (run, channel) curves (here a cut that loses a run), the
+    copies read the whole records instead (``margin_hz`` None), and their centre is the whole
+    replay's own fit (no mean move without noise)."""
+    from freeplayid.estimate import plain_estimate
+    from freeplayid.fit import FitOptions
+    from freeplayid.replay import bootstrap, precision_by_replay
+    from freeplayid.signal import Extraction
+
+    ext = Extraction(jump_point="quadrature")
+    est = plain_estimate(measured, system, extraction=ext, fit=FitOptions(),
+                         init=(WN * WN, ref.DELTA))
+    kw = dict(points=est.points.used(), theta_rep=np.array([est.kn, est.delta]), n=3, seed=3,
+              extraction=ext, fit=FitOptions(), point_weights=None)
+    quiet = {r.file: [0.0, 0.0] for r in measured.runs}
+    assert precision_by_replay(measured, system, quiet, **kw).margin_hz is not None
+    cut = bootstrap.windowed
+
+    def losing(ds, centres, margin):  # the cut without the last run with a point
+        last = sorted(centres)[-1]
+        kept = cut(ds, centres, margin)
+        return dataclasses.replace(kept, runs=tuple(r for r in kept.runs if r.file != last))
+
+    monkeypatch.setattr(bootstrap, "windowed", losing)
+    whole = precision_by_replay(measured, system, quiet, **kw)
+    assert whole.margin_hz is None and whole.n_fitted == 3
+    np.testing.assert_allclose(whole.noise_bias, [0.0, 0.0], atol=1e-12)
+
+
 def test_the_answers_slope_inverts_the_bindings_jacobian_and_holds_the_damping_equation():
     """answer_slope: the inverse of a 2 x 2 Jacobian (by the cofactor formula); with the
     estimated damping's third equation, the answer's move with its amplitude equation held, by

@@ -719,6 +719,33 @@ def test_an_answer_the_noise_alone_puts_outside_the_bounds_is_suspect(delta_hw, 
         assert "8 noisy copies" in check.message
 
 
+def test_a_mean_move_of_the_noise_counts_in_the_chance_of_leaving_the_bounds():
+    """The copies' mean move (``noise_bias``) centres the error's distribution, its standard
+    error adds to the spread: by hand, sd 0.3 % and se 0.4 % make a 0.5 % spread (3-4-5), so
+    log 1.01 lies 1.99 of them out (chance 4.66 %); the same copies moved 0.5 % on average put
+    it (0.995 - 0.5) / 0.5 out on that side and (0.995 + 0.5) / 0.5 on the other (16.2 % in all);
+    moved 1 %, an answer whose scatter alone passed the check (5 %) fails it."""
+    from freeplayid.identification.replay_checks import noise_outside_chance, precision_check
+    from freeplayid.replay import ReplayPrecision
+
+    hw = math.expm1(1.96 * 0.003)
+    b = math.log(1.01)
+    assert math.isclose(noise_outside_chance(hw, 0.01, 0.0, 0.004),
+                        2 * scipy.stats.norm.sf(b / 0.005), rel_tol=1e-9)
+    assert math.isclose(noise_outside_chance(hw, 0.01, 0.0, 0.004), 0.0466, abs_tol=5e-4)
+    moved = noise_outside_chance(hw, 0.01, 0.005, 0.004)
+    assert math.isclose(moved, scipy.stats.norm.sf((b - 0.005) / 0.005)
+                        + scipy.stats.norm.cdf((-b - 0.005) / 0.005), rel_tol=1e-9)
+    assert math.isclose(moved, 0.1625, abs_tol=2e-4)
+    assert noise_outside_chance(0.0, 0.01, 0.02) == 1.0  # a move beyond the bound, no spread
+    centred = ReplayPrecision(kn_halfwidth=0.002, delta_halfwidth=0.01, n=8, n_fitted=8)
+    assert precision_check(centred).passed
+    shifted = dataclasses.replace(centred, noise_bias=(0.0, 0.01), noise_bias_se=(0.0, 0.001))
+    check = precision_check(shifted)
+    assert not check.passed and check.value > 0.4
+    assert "on average it moves delta by +1 ± 0.1 %" in check.message
+
+
 def test_a_precision_not_measured_is_no_check():
     from freeplayid.identification.replay_checks import precision_check
     from freeplayid.replay import ReplayPrecision

@@ -627,10 +627,11 @@ def _corrected_intervals(rep) -> tuple[tuple, tuple, str]:
     statistic (the binding's slope, :func:`_further`); with the bootstrap by replay, the
     smallest interval holding both; where the loop did not converge, reaching to where the
     binding's slope puts its solution (:func:`_reaching`); never narrower than the spread the
-    noise alone gives the answer (:func:`_noise_floor`); widened by the answer's move for the
-    levels' uncertainty where they came from ``level_g``, for the damping's where down-sweeps
-    rest on one they do not measure, for an estimated damping's, and for the base channel's
-    noise that the replays' measured excitation carries."""
+    noise alone gives the answer (:func:`_noise_floor`), and reaching back by the mean move it
+    gives the answer's noisy copies (``ReplayPrecision.noise_bias``); widened by the answer's
+    move for the levels' uncertainty where they came from ``level_g``, for the damping's where
+    down-sweeps rest on one they do not measure, for an estimated damping's, and for the base
+    channel's noise that the replays' measured excitation carries."""
     replayed = getattr(rep, "replayed_ci95", None)
     (kn_ci, delta_ci) = rep.statistic_ci95 if replayed is None else replayed
     sk, sd = rep.kn / rep.kn_statistic, rep.delta / rep.delta_statistic
@@ -667,6 +668,10 @@ def _corrected_intervals(rep) -> tuple[tuple, tuple, str]:
                            ((kn_ci, rep.kn, floor[0]), (delta_ci, rep.delta, floor[1])))
         source += (", at least the spread that the noise alone gives the answer on noisy "
                    "copies of its replay")
+    shift = getattr(getattr(rep, "precision", None), "noise_bias", None)
+    if shift is not None:  # the noise moves the answer on average: the truth lies that far back
+        kn_ci, delta_ci = _reaching(kn_ci, -shift[0]), _reaching(delta_ci, -shift[1])
+        source += ", reaching back by the mean move the noise gives its copies"
     level = getattr(rep, "level", None)
     if level is not None:  # the levels taken from `level_g` are uncertain
         scale = getattr(level, "scale", 1.0)  # or off by more, as the upper branches say

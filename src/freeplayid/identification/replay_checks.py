@@ -26,7 +26,9 @@
   fits, carried to the answer through the binding's slope): fails where the chance that the
   noise alone puts delta beyond its accuracy bound (``accuracy_delta``, 1 %) or kn beyond its
   own (``accuracy_kn``, 2 %) exceeds ``noise_outside`` (20 %), the error taken as normal with
-  that spread. On the default
+  that spread about the mean move the copies show against the same replay read without noise
+  (``noise_bias``: a statistic read under noise need not be centred on the noise-free one),
+  that mean's standard error added to the spread. On the default
   fin at 0.05 g of noise the copies spread by about 0.5 % (sd) in delta (a 5 % chance), on a
   fin whose responses are three times weaker against the same noise by about 1 % (32 %).
 - ``replay_level`` (runs whose levels come from ``level_g``: no base channel): the levels the
@@ -459,13 +461,17 @@ def _sweep_law_check(replay, misfit: dict, limit: float) -> Check:
                  worst)
 
 
-def noise_outside_chance(halfwidth: float, bound: float) -> float:
+def noise_outside_chance(halfwidth: float, bound: float, shift: float = 0.0,
+                         shift_se: float = 0.0) -> float:
     """The chance that an error with the 95 % half-width ``halfwidth`` (relative, normal in
-    log, centred) lies beyond ``bound`` (relative)."""
-    sd = math.log1p(halfwidth) / 1.96
+    log) lies beyond ``bound`` (relative): centred, or about a mean ``shift`` (log) known to
+    a standard error ``shift_se`` (log), which adds to its spread (the predictive chance of a
+    mean estimated from the copies)."""
+    sd = math.hypot(math.log1p(halfwidth) / 1.96, shift_se)
+    b = math.log1p(bound)
     if sd <= 0:
-        return 0.0
-    return float(2 * scipy.stats.norm.sf(math.log1p(bound) / sd))
+        return float(abs(shift) > b)
+    return float(scipy.stats.norm.sf((b - shift) / sd) + scipy.stats.norm.cdf((-b - shift) / sd))
 
 
 # the chance of leaving the accuracy bounds by noise alone below which the precision's noisy
@@ -488,7 +494,10 @@ def precision_check(precision) -> Check | None:
         return None
     hw = {"delta": precision.delta_halfwidth, "kn": precision.kn_halfwidth}
     bound = {"delta": LIMITS["accuracy_delta"], "kn": LIMITS["accuracy_kn"]}
-    chance = {k: noise_outside_chance(hw[k], bound[k]) for k in hw}
+    shift = dict(zip(("kn", "delta"), getattr(precision, "noise_bias", None) or (0.0, 0.0)))
+    shift_se = dict(zip(("kn", "delta"),
+                        getattr(precision, "noise_bias_se", None) or (0.0, 0.0)))
+    chance = {k: noise_outside_chance(hw[k], bound[k], shift[k], shift_se[k]) for k in hw}
     worst = max(chance, key=chance.get)
     said = (f"{precision.describe()}: a {100 * chance['delta']:.2g} % chance that it puts delta "
             f"beyond {100 * bound['delta']:g} %, {100 * chance['kn']:.2g} % that it puts kn "
