@@ -298,12 +298,11 @@ def precision_by_replay(replayed, system, noise: dict, *, points, theta_rep, n: 
             return None
         return est if est.fit.success else None
 
-    pairs = _pairs(points)
     clean = None
     if margin_hz is not None:
         cut = windowed(replayed, point_centres(points), margin_hz)
         clean = read(cut)
-        if clean is not None and _pairs(clean.points.used()) == pairs:
+        if clean is not None and _pairs(clean.points.used()) == _pairs(points):
             replayed = cut
         else:  # the cut reads other points than the whole records: the whole records
             clean, margin_hz = None, None
@@ -327,11 +326,11 @@ def precision_by_replay(replayed, system, noise: dict, *, points, theta_rep, n: 
             settled = made < n
             break
     kn_hw = delta_hw = own = bias = bias_se = None
-    if len(logs) >= 3 and clean is not None:
-        moved = (np.asarray(logs) - clean) @ slope.T
-        bias = tuple(float(v) for v in moved.mean(axis=0))
-        bias_se = tuple(float(v) for v in moved.std(axis=0, ddof=1) / math.sqrt(len(logs)))
     if len(logs) >= 3:
+        if clean is not None:  # the copies' mean move from the replay read without noise
+            moved = (np.asarray(logs) - clean) @ slope.T
+            bias = tuple(float(v) for v in moved.mean(axis=0))
+            bias_se = tuple(float(v) for v in moved.std(axis=0, ddof=1) / math.sqrt(len(logs)))
         # the answer's scatter: each copy's log (kn, delta) carried through the slope, never
         # below the copies' own (a slope learnt from a few replays is not trusted to narrow it);
         # where the copies stopped early, the upper bounds that stopped them (``settled``)
