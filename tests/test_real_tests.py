@@ -1001,6 +1001,9 @@ def test_a_replay_with_the_split_the_test_shows_leaves_none_and_delta_is_the_mea
     check = _unequal_check(dataclasses.replace(got, mean_reported=False), per_hinge=False)
     assert not check.passed and "their mean" in check.message and "model" in check.message
     assert "both answers" in check.message
+    # its first words name both causes of such a split, not the gaps alone
+    assert check.message.startswith("the test's points split between the hinges otherwise")
+    assert "(unequal gaps, or a linear model whose hinges turn" in check.message.split(";")[0]
     assert _unequal_check(got, per_hinge=True).passed
     near = dataclasses.replace(got, common=(common.kn, 2e-3 * 1.003))
     assert _unequal_check(near, per_hinge=False).passed

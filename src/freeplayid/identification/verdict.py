@@ -561,12 +561,15 @@ def _unequal_check(sp, per_hinge: bool) -> Check:
     if lean is None:
         head = f"delta is the hinges' mean half-gap: {sp.describe()}"
     elif sp.mean_reported:
-        head = (f"the test showed the hinges' gaps differing against one common gap; delta is "
+        head = (f"the test's points split between the hinges otherwise than one common gap "
+                f"in this model gives; taken as the gaps' (`linear_model.hinge_gaps`), delta is "
                 f"their mean, replayed with the gaps split so: {sp.describe()}")
     else:
-        head = (f"the test showed the hinges' gaps differing against one common gap; delta is "
-                f"the one-gap answer, and the test replayed with the gaps split so measured how "
-                f"far their mean lies: {sp.describe()}")
+        head = (f"the test's points split between the hinges otherwise than one common gap "
+                f"in this model gives (unequal gaps, or a linear model whose hinges turn "
+                f"otherwise than the tested fin's); delta is the one-gap answer, and the test "
+                f"replayed with the gaps split so measured how far their mean would lie: "
+                f"{sp.describe()}")
     if shown:
         why = (head + ". Against that replay the test still shows a split beyond its noise: "
                "unequal gaps do not explain it either; the linear model's hinges may turn in "
