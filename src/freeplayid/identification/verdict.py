@@ -546,6 +546,11 @@ def model_checks(error) -> list[Check]:
     return checks
 
 
+# how `hinge_gaps` opens where the test showed a split against one common gap's replay
+_SPLIT_SHOWN = ("the test's points split between the hinges otherwise than one common gap in "
+                "this model gives")
+
+
 def _unequal_check(sp, per_hinge: bool) -> Check:
     """``hinge_gaps`` where the test was replayed with the hinges' gaps split as it showed
     against its one-gap replay (:class:`freeplayid.identification.model_error.ReplayedSplit`
@@ -561,15 +566,12 @@ def _unequal_check(sp, per_hinge: bool) -> Check:
     if lean is None:
         head = f"delta is the hinges' mean half-gap: {sp.describe()}"
     elif sp.mean_reported:
-        head = (f"the test's points split between the hinges otherwise than one common gap "
-                f"in this model gives; taken as the gaps' (`linear_model.hinge_gaps`), delta is "
+        head = (f"{_SPLIT_SHOWN}; taken as the gaps' (`linear_model.hinge_gaps`), delta is "
                 f"their mean, replayed with the gaps split so: {sp.describe()}")
     else:
-        head = (f"the test's points split between the hinges otherwise than one common gap "
-                f"in this model gives (unequal gaps, or a linear model whose hinges turn "
-                f"otherwise than the tested fin's); delta is the one-gap answer, and the test "
-                f"replayed with the gaps split so measured how far their mean would lie: "
-                f"{sp.describe()}")
+        head = (f"{_SPLIT_SHOWN} (unequal gaps, or a linear model whose hinges turn otherwise "
+                "than the tested fin's); delta is the one-gap answer, and the test replayed "
+                f"with the gaps split so measured how far their mean would lie: {sp.describe()}")
     if shown:
         why = (head + ". Against that replay the test still shows a split beyond its noise: "
                "unequal gaps do not explain it either; the linear model's hinges may turn in "
