@@ -1495,19 +1495,69 @@ def test_a_form_held_on_its_upper_bound_is_not_taken(fin_hinge_damped, monkeypat
     """The same data with the share bounded to 0.2 (the truth 0.4 beyond it): the loop ends on
     the bound with the peaks still drifting, so the answer stays the one ratio's and the note
     says why."""
-    import freeplayid.replay.corrected as corrected
-
-    monkeypatch.setitem(corrected.FORM_PARAMETERS, "hinge",
-                        dataclasses.replace(corrected.FORM_PARAMETERS["hinge"], bounds=(0.0, 0.2)))
-    ds, model = fin_hinge_damped
-    out = identify(ds, system=model, progress=False,
-                   replay={"damping_hinge": "estimate", **QUICK})
+    out = _share_bounded(fin_hinge_damped, monkeypatch, 0.2)
     d = out.replay.damping
     assert not d.hinge_estimated and d.hinge == 0.0
     assert "stopped at its upper bound 0.2" in d.hinge_note
     kn1, delta1 = d.single_ratio_answer
     assert (out.kn, out.delta) == (kn1, delta1)
     assert all(i.hinge is None for i in out.replay.iterations)
+
+
+def _share_bounded(fin_hinge_damped, monkeypatch, upper: float):
+    """The hinge-damped fin identified with q estimated within [0, ``upper``]."""
+    import freeplayid.replay.corrected as corrected
+
+    monkeypatch.setitem(corrected.FORM_PARAMETERS, "hinge", dataclasses.replace(
+        corrected.FORM_PARAMETERS["hinge"], bounds=(0.0, upper)))
+    ds, model = fin_hinge_damped
+    return identify(ds, system=model, progress=False,
+                    replay={"damping_hinge": "estimate", **QUICK})
+
+
+def test_a_form_whose_interval_reaches_its_upper_bound_is_not_taken(fin_hinge_damped,
+                                                                    monkeypatch):
+    """The same data with the share bounded to 0.45 (the truth 0.4 inside it) and the peaks'
+    trend 100 times noisier than measured: the loop ends at q = 0.4, inside the bound, but its
+    95 % interval reaches it, so the data cannot tell this form from one stopped at its bound
+    and the answer stays the one ratio's, the note saying why."""
+    import freeplayid.replay.corrected as corrected
+
+    trend = corrected._Binding.trend
+
+    def noisy(self, rep):
+        at = trend(self, rep)
+        return None if at is None else at._replace(se=100 * at.se)
+
+    monkeypatch.setattr(corrected._Binding, "trend", noisy)
+    out = _share_bounded(fin_hinge_damped, monkeypatch, 0.45)
+    d = out.replay.damping
+    assert not d.hinge_estimated and d.hinge == 0.0
+    assert "reaches its upper bound 0.45 (estimate 0.4)" in d.hinge_note
+    assert (out.kn, out.delta) == d.single_ratio_answer
+
+
+def test_a_form_interval_is_the_trend_noise_through_the_loops_jacobian():
+    """:func:`_form_interval` against a hand-inverted Jacobian: the parameter's half-width is
+    1.96 se times the inverse's last diagonal entry, clipped to the bounds; the answer's
+    moves the inverse's last column's first two entries."""
+    from types import SimpleNamespace
+
+    from freeplayid.replay.corrected import _form_interval
+
+    jac = np.diag([1.0, 2.0, 4.0, 0.5])  # inverse: diag(1, 0.5, 0.25, 2)
+    jac[0, 3], jac[1, 3] = 0.2, -0.4
+    at = SimpleNamespace(se=0.01)
+    ci, shift = _form_interval(jac, at, 0.3, (0.0, 0.95))
+    inv = np.linalg.inv(jac)
+    half = 1.96 * 0.01 * abs(inv[3, 3])
+    assert half == pytest.approx(0.0392)
+    assert ci == pytest.approx((0.3 - half, 0.3 + half))
+    assert shift == pytest.approx(np.abs(inv[:2, 3]) * 1.96 * 0.01)
+    assert shift[0] == pytest.approx(0.2 * 2 * 1.96 * 0.01)  # -J03 / (J00 J33)
+    assert _form_interval(jac, at, 0.94, (0.0, 0.95))[0][1] == 0.95
+    assert _form_interval(jac, SimpleNamespace(se=np.inf), 0.3, (0.0, 0.95)) == (None, None)
+    assert _form_interval(np.zeros((4, 4)), at, 0.3, (0.0, 0.95)) == (None, None)
 
 
 def test_an_estimated_exponent_on_one_ratio_in_every_mode_stays_near_zero():

@@ -86,6 +86,9 @@ def identify_case(path: str, corrected: bool, replay: dict | None = None) -> dic
                 "base_reading": None if getattr(rep, "base_reading", None) is None
                 else rep.base_reading.to_dict(),
                 "wide_base": list(getattr(rep, "wide_base", ())),
+                # the replay's damping: its ratio, the form estimated (or why not), the one
+                # ratio's answer
+                "damping": None if rep.damping is None else rep.damping.to_dict(),
                 "branch": {run: float(m.branch) for run, m in (rep.resonance or {}).items()}},
             # the hinges' split read against the replay, and the one-gap answer where the test
             # was replayed with the split it showed

@@ -1041,28 +1041,46 @@ def _fit_form(b: _Binding, sol, progress: bool, form: _Form):
         return kept("its loop did not converge in "
                     f"{b.opts.max_iter + EXPONENT_MORE_ITER} replays"
                     + (f" ({b.failure or b.stopped})" if b.failure or b.stopped else ""))
-    if float(four.u[3]) >= hi - 1e-9:  # on its upper bound: the trend is left, not this form's
+    v = float(four.u[3])
+    if v >= hi - 1e-9:  # on its upper bound: the trend is left, not this form's
         return kept(f"it stopped at its upper bound {hi:g} with the replayed peaks still "
                     "drifting with the level: the damping has another form")
+    at = b.trend(b.rep)  # the loop converged: its last replay is the answer's
+    ci, shift = _form_interval(four.jacobian, at, v, form.bounds)
+    if ci is not None and ci[1] >= hi - 1e-9:
+        # the trend's noise reaches the bound: the data cannot tell this form's answer from
+        # one on its bound, which the rule above does not take either
+        return kept(f"its 95 % interval ({ci[0]:.2g} ... {hi:g} and beyond) reaches its upper "
+                    f"bound {hi:g} (estimate {v:.2g}): the replayed peaks' trend with the level "
+                    "does not tell it from one stopped at its bound with the trend left; the "
+                    "damping has another form")
     b.settle(four)
-    v = float(four.u[3])
     setattr(b, name, v)
-    at = b.trend(b.rep)
     out = {f"{name}_estimated": True, "trend": at.slope if at else None,
            "trend_se": at.se if at else None, **single}
     if v == lo:
         out[note] = f"{what} stopped at its bound {v:g}"
-    if at is not None and np.isfinite(at.se):
-        half = 1.96 * at.se
-        try:
-            inv = np.linalg.inv(four.jacobian)
-        except np.linalg.LinAlgError:
-            inv = None
-        if inv is not None and np.all(np.isfinite(inv)):
-            dv = abs(float(inv[3, 3])) * half
-            out[f"{name}_ci95"] = (max(lo, v - dv), min(hi, v + dv))
-            out["shift"] = np.abs(inv[:2, 3] * half)
+    if ci is not None:
+        out[f"{name}_ci95"], out["shift"] = ci, shift
     return BindingSolve(four.u[:3], True, four.jacobian[:3, :3], None, sol.n + 1 + four.n), out
+
+
+def _form_interval(jacobian, at, v: float, bounds: tuple):
+    """A form parameter's 95 % interval (within ``bounds``) and the answer's 95 % move (log kn,
+    log delta) from the noise of its residual, the replayed peaks' trend ``at`` (its standard
+    error through the loop's Jacobian); (None, None) where the trend or the Jacobian cannot
+    give them."""
+    if at is None or not np.isfinite(at.se):
+        return None, None
+    half = 1.96 * at.se
+    try:
+        inv = np.linalg.inv(jacobian)
+    except np.linalg.LinAlgError:
+        return None, None
+    if not np.all(np.isfinite(inv)):
+        return None, None
+    dv = abs(float(inv[3, 3])) * half
+    return (max(bounds[0], v - dv), min(bounds[1], v + dv)), np.abs(inv[:2, 3] * half)
 
 
 def _first_solution(binding: _Binding, hat: np.ndarray, origin: np.ndarray, unknowns,

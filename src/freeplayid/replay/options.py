@@ -101,7 +101,8 @@ class Replay:
         damping ratio where a base channel is replayed, so that the replayed peaks have no trend
         with the level (one more unknown of the replay loop, after it has solved with q = 0;
         bounds :data:`freeplayid.replay.corrected.HINGE_BOUNDS`; where it cannot be read, or
-        ends on its upper bound, q stays 0 and the report says why). A number: that share.
+        ends on its upper bound or with its 95 % interval reaching it, q stays 0 and the report
+        says why). A number: that share.
         ``damping_exponent="estimate"`` estimates p instead, with q held at 0 (or at the number
         given). On the real-tests records q takes the drift out of the Rayleigh-damped beams
         (every δ within 0.45 %, one ratio's up to 1.02 %) and leaves fins within 0.05 % of one
