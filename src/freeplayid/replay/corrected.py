@@ -977,8 +977,9 @@ def _fit_form(b: _Binding, sol, progress: bool, form: _Form):
     :class:`.damping_estimate.ReplayDamping` it fills (``shift``: its 95 % move of the answer).
     Where it cannot be estimated (fewer than three levels, no measured excitation, runs with
     points that sweep down, a failed replay, a trend that does not move with it or that would
-    need it negative or beyond its upper bound) the answer stays the loop's with it at 0 and the
-    note says why."""
+    need it negative or beyond its upper bound, a loop that ends on that bound or with the
+    parameter's 95 % interval reaching it) the answer stays the loop's with it at 0 and the note
+    says why."""
     name, sym, what = form.attr, form.symbol, form.what
     i = len(b.history) - 1 if sol.converged or sol.closest is None else sol.closest
     it, rep, rep_ds, ratios = b.history[i], b.rep, b.rep_ds, b.ratios
