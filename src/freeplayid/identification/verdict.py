@@ -76,6 +76,15 @@ compares the result or the data with a physical limit, never with a value tuned 
   ``reading_kn`` 2 %) fails, and so does that noise alone beyond them where a gap exceeds 6.4
   (the narrowed reading plainly off). ``identify`` then reports the answer replayed with the
   wide reading in those runs, this check saying so.
+- ``drop_window`` (with replays matching drop points, no base channel, where the test's noise
+  alone could put delta beyond its bound on points read over one window): the test replayed
+  again with the drop points read over ``Replay.noisy_window`` windows, less noisy but further
+  down the upper branch. Passes, that answer reported, where the two answers agree within the
+  noise of their difference (the square root of the difference of their noisy copies'
+  variances, at ``cross_p``); fails, the one-window answer reported, where they do not:
+  something other than the noise moves the upper branch (damping of another form than the
+  replay's, a level other than the one replayed), or the noise moved the test's points further
+  than it moves the replay's.
 - ``base_level``: the base channel's amplitude against each run's ``level_g``: a factor 9.81,
   1/9.81 or 1000 is a units error, a ratio that varies as a power of the frequency is a quantity
   error (acceleration declared as displacement...).

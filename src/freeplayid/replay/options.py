@@ -141,6 +141,17 @@ class Replay:
         as the noise chooses. ``identify`` names the runs where the narrowed reading misses the
         level around a run's point and the answer rests on it (the verdict's ``base_reading``;
         docs/identify.md §3c, "The reading checked where the runs jump").
+    noisy_window : float [-]
+        Where the replays match drop points (no base channel, ``jump_point`` "auto" or
+        "drop"), the extraction reads them over one window (``Extraction.drop_window``) and the
+        test's noise alone could put delta beyond its 1 % bound (the precision copies' 95 %
+        half-width reaches it), ``identify`` replays the test again with the drop points read
+        over this many windows (about half the noise, but read further down the upper branch,
+        which damping of another form than the replay's moves more) and reports that answer
+        where it agrees with the first within the noise their difference allows (3 standard
+        deviations); the first stands otherwise, with the verdict's ``drop_window`` failed (the
+        two windows disagree: something other than noise moves the upper branch). 1: never
+        (docs/identify.md §3c, "A noisy test without a base channel").
     """
 
     damping: float | str | None = None
@@ -162,6 +173,7 @@ class Replay:
     start: str = "statistic"
     gap_shares: tuple | None = None
     wide_base: tuple = ()
+    noisy_window: float = 4.0
 
     def __post_init__(self):
         d = self.damping
@@ -184,6 +196,7 @@ class Replay:
         check_choice("excitation", self.excitation, EXCITATIONS)
         check_number("level_uncertainty", self.level_uncertainty, 0.0, 0.5)
         check_number("damping_uncertainty", self.damping_uncertainty, 0.0, 1.0)
+        check_number("noisy_window", self.noisy_window, 1.0, 16.0)
         p = self.damping_exponent
         if p != "estimate" and not (is_number(p) and -1.0 <= p <= 2.0):
             raise ValueError(f"`damping_exponent` must be a number in [-1, 2] or 'estimate', "
