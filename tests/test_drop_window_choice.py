@@ -84,3 +84,16 @@ def test_a_wider_window_no_more_precise_is_not_taken():
     ok, message, _ = _windows_agree(first, _answer(900.0, 3.0e-3, hw_kn=None, hw_delta=None),
                                     4.0)
     assert ok is None and "no precision" in message
+
+
+def test_the_message_names_kn_s_move_where_kn_has_no_half_width():
+    """kn's copies gave no half-width: judged on delta alone, and the message still gives kn's
+    own move, not delta's."""
+    first = _answer(900.0, 3.0e-3, hw_kn=None, hw_delta=0.02)
+    second = _answer(909.0, 3.03e-3, hw_kn=None, hw_delta=0.01)
+    ok, message, z = _windows_agree(first, second, 4.0)
+    s1, s2 = 0.02 / 1.96, 0.01 / 1.96
+    assert z == pytest.approx(math.log(1.01) / math.sqrt(s1 ** 2 - s2 ** 2), rel=1e-9)
+    assert ok and "delta +1 %, kn +1 %" in message
+    second = _answer(918.0, 3.03e-3, hw_kn=None, hw_delta=0.01)
+    assert "delta +1 %, kn +2 %" in _windows_agree(first, second, 4.0)[1]

@@ -507,20 +507,19 @@ def _windows_agree(first: Identification, second: Identification,
                       f"(delta +-{100 * h2:.2g} % against +-{100 * p1.delta_halfwidth:.2g} %)"
                       if h2 is not None else f"the answer with the drop points read over {w:g} "
                       "windows has no precision (too few of its noisy copies fitted)"), None
-    moves, sds = [], []
-    for name, a, b in (("delta", p1.delta_halfwidth, p2.delta_halfwidth),
-                       ("kn", p1.kn_halfwidth, p2.kn_halfwidth)):
-        if a is None or b is None:
-            continue
-        s1, s2 = a / 1.96, b / 1.96
-        sds.append(max(math.sqrt(max(s1 * s1 - s2 * s2, 0.0)), 0.5 * s1))
-        moves.append(math.log(getattr(second, name) / getattr(first, name)))
-    z = max(abs(m) / s for m, s in zip(moves, sds))
+    moves = {name: math.log(getattr(second, name) / getattr(first, name))
+             for name in ("delta", "kn")}
+    z = 0.0
+    for name in moves:  # delta's half-widths exist here; kn's where its copies gave them
+        a, b = getattr(p1, f"{name}_halfwidth"), getattr(p2, f"{name}_halfwidth")
+        if a is not None and b is not None:
+            s1, s2 = a / 1.96, b / 1.96  # half-widths are 1.96 standard deviations
+            z = max(z, abs(moves[name]) / max(math.sqrt(max(s1 * s1 - s2 * s2, 0.0)), 0.5 * s1))
     said = (f"the test's noise alone moves delta by +-{100 * p1.delta_halfwidth:.2g} % (95 %) "
             f"with the drop points read over one window, as far as its "
             f"{100 * LIMITS['accuracy_delta']:.0f} % bound; read over {w:g} windows, by "
-            f"+-{100 * h2:.2g} %, and that answer lies delta {100 * moves[0]:+.2g} %, kn "
-            f"{100 * moves[-1]:+.2g} % from the first")
+            f"+-{100 * h2:.2g} %, and that answer lies delta {100 * moves['delta']:+.2g} %, kn "
+            f"{100 * moves['kn']:+.2g} % from the first")
     if z <= z_lim:
         return True, (f"{said}, within the noise of their difference ({z:.1f} of its standard "
                       f"deviations; limit {z_lim:.0f}): reported, the answer read over {w:g} "
