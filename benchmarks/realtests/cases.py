@@ -1358,6 +1358,18 @@ VARIANTS.update({
         depth=0.0, lag_rad=0.12, **kw), noise_g=0.1), "var15_fin_phase_swing"),
 })
 
+# A sixteenth set (2026-12-04, session 45), made to test the noisy-window rule (docs/identify.md
+# §3c) where it is meant to run, on records it did not make: fin C without its base channel at
+# 0.3 g of noise, with Rayleigh damping (no C in the model file: another form than the replay's)
+# and, as the control, with the model's own damping. Draw as many as wanted with redraw.py.
+def _noisy_no_base(src: str):
+    name = f"var16_{src.split('_', 1)[1]}_noisy_no_base"
+    return name, lambda **kw: dataclasses.replace(
+        _also(fin_no_base(name=name, src=src), "0.3 g of noise"), noise_g=0.3)
+
+
+VARIANTS.update(dict(_noisy_no_base(src) for src in ("var6_finC_rayleigh", "var6_finC_nominal")))
+
 ALL_CASES = {**CONDITIONS, **VARIANTS}
 
 def set_profiles(spec: CaseSpec, out: Path) -> None:
