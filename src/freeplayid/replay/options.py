@@ -150,7 +150,9 @@ class Replay:
         which damping of another form than the replay's moves more) and reports that answer
         where it agrees with the first within the noise their difference allows (3 standard
         deviations); the first stands otherwise, with the verdict's ``drop_window`` failed (the
-        two windows disagree: something other than noise moves the upper branch). 1: never
+        two windows disagree: something other than noise moves the upper branch);
+        ``drop_window`` fails too where they agree but lie further apart than delta's or kn's
+        accuracy bound (the intervals then hold both answers). 1: never
         (docs/identify.md §3c, "A noisy test without a base channel").
     """
 
