@@ -9,7 +9,7 @@ from types import SimpleNamespace
 
 import pytest
 
-from freeplayid.identification.pipeline import _apart, _hull, _noisy_drops, _windows_agree
+from freeplayid.identification.pipeline import _apart, _noisy_drops, _union, _windows_agree
 from freeplayid.replay import Replay
 from freeplayid.signal import Extraction
 
@@ -120,6 +120,8 @@ def test_answers_that_agree_within_the_noise_but_lie_further_apart_than_the_boun
     assert ("delta" in why) == any("delta" in n for n in named)
 
 
-def test_the_joined_interval_holds_both_intervals_and_the_first_answer():
-    assert _hull((1.0, 2.0), (1.5, 2.5), 1.2) == (1.0, 2.5)
-    assert _hull((1.4, 2.0), (1.5, 2.5), 1.2) == (1.2, 2.5)
+def test_the_joined_interval_holds_both_intervals_and_so_the_first_answer():
+    """The answers' intervals hold their answers, so the join of the two holds the one-window
+    answer too (the hinges' split joins its intervals with the same ``_union``)."""
+    assert _union((1.0, 2.0), (1.5, 2.5)) == (1.0, 2.5)
+    assert _union((1.2, 2.0), (1.5, 2.5)) == (1.2, 2.5)

@@ -488,19 +488,14 @@ def _on_a_wider_window(first: Identification, dataset, system, est, extraction: 
     if apart is not None:  # within the noise, but not within the bounds: the interval holds both
         message = f"{message}; {apart}"
         chosen = dataclasses.replace(
-            chosen, kn_ci95=_hull(first.kn_ci95, second.kn_ci95, first.kn),
-            delta_ci95=_hull(first.delta_ci95, second.delta_ci95, first.delta),
+            chosen, kn_ci95=_union(first.kn_ci95, second.kn_ci95),
+            delta_ci95=_union(first.delta_ci95, second.delta_ci95),
             interval_source=f"{chosen.interval_source}, joined with the one-window answer's "
-            "interval and that answer")
+            "interval")
     verdict = make_verdict((Check("drop_window", passed and apart is None, message, value),
                             *chosen.verdict.checks))
     return (dataclasses.replace(chosen, verdict=verdict, runtime_s=time.perf_counter() - t0),
             wide if passed else extraction)
-
-
-def _hull(a: tuple, b: tuple, point: float) -> tuple:
-    """The smallest interval holding intervals ``a`` and ``b`` and ``point``."""
-    return (min(a[0], b[0], point), max(a[1], b[1], point))
 
 
 def _apart(first: Identification, second: Identification) -> str | None:
