@@ -149,9 +149,10 @@ def test_smoothing_factor_kept_per_length_and_weight():
                                    np.linalg.solve(d.T @ d / beta + np.eye(n), z), rtol=1e-10)
 
 
-def _numpy_pursuit(x, f, fsd, *, alpha, alpha_min, beta, adapt, tol, max_iter):
+def _numpy_pursuit(x, f, fsd, *, alpha, alpha_min, beta, adapt, tol, max_iter, step=None):
     """The pursuit's loop written with the numpy operators checked above against dense solves
-    (the module's phase rule, np.gradient): the reference of the compiled loop."""
+    (the module's phase rule, np.gradient): the reference of the compiled loop. ``step(df,
+    a2)``: the increment's smoothing (default every sample alike, P / beta + I)."""
     phase = importlib.import_module("freeplayid.signal.acmp")._phase
     prev, converged, it = None, False, 0
     for it in range(1, max_iter + 1):  # noqa: B007
@@ -159,8 +160,10 @@ def _numpy_pursuit(x, f, fsd, *, alpha, alpha_min, beta, adapt, tol, max_iter):
         u, v = demodulate(x, phi, alpha)
         xm = u * np.cos(phi) + v * np.sin(phi)
         du, dv = np.gradient(u) * fsd, np.gradient(v) * fsd
-        df = (v * du - u * dv) / (2 * np.pi * np.maximum(u * u + v * v, 1e-300))
-        f = np.clip(f + smooth_second_difference(df, beta), 1e-6 * fsd, 0.5 * fsd)
+        a2 = u * u + v * v
+        df = (v * du - u * dv) / (2 * np.pi * np.maximum(a2, 1e-300))
+        smoothed = smooth_second_difference(df, beta) if step is None else step(df, a2)
+        f = np.clip(f + smoothed, 1e-6 * fsd, 0.5 * fsd)
         if adapt and float(xm @ x) > 0:
             alpha = max(alpha_min, min(alpha * float(xm @ xm) / float(xm @ x), alpha))
         if prev is not None and float(np.sum((xm - prev) ** 2)) / float(prev @ prev) < tol:
@@ -208,26 +211,6 @@ def _weighted_step(df, a2, beta, span):
     return scipy.linalg.solveh_banded(ab, w * df)
 
 
-def _numpy_weighted_pursuit(x, f, fsd, *, alpha, beta, span, tol, max_iter):
-    """:func:`_numpy_pursuit` with the increment smoothed by :func:`_weighted_step` (no
-    adaptation): the reference of ``if_weighting="local"``."""
-    phase = importlib.import_module("freeplayid.signal.acmp")._phase
-    prev, converged, it = None, False, 0
-    for it in range(1, max_iter + 1):  # noqa: B007
-        phi = phase(f, fsd)
-        u, v = demodulate(x, phi, alpha)
-        xm = u * np.cos(phi) + v * np.sin(phi)
-        du, dv = np.gradient(u) * fsd, np.gradient(v) * fsd
-        a2 = u * u + v * v
-        df = (v * du - u * dv) / (2 * np.pi * np.maximum(a2, 1e-300))
-        f = np.clip(f + _weighted_step(df, a2, beta, span), 1e-6 * fsd, 0.5 * fsd)
-        if prev is not None and float(np.sum((xm - prev) ** 2)) / float(prev @ prev) < tol:
-            converged = True
-            break
-        prev = xm
-    return f, alpha, it, converged
-
-
 def test_compiled_weighted_pursuit_is_the_scipy_composition():
     # a chirp whose amplitude collapses, then a free transient at another frequency: the
     # weights matter; the compiled loop (running maximum, banded factor) against scipy's
@@ -243,7 +226,9 @@ def test_compiled_weighted_pursuit_is_the_scipy_composition():
             "beta": acmp_module.bandwidth_weight(1.0, fs), "tol": 1e-8, "max_iter": 30}
     f, _, it, converged = acmp_module._pursue(x, f0.copy(), fs, alpha_min=opts["alpha"],
                                               adapt=False, span=37, **opts)
-    f_ref, _, it_ref, converged_ref = _numpy_weighted_pursuit(x, f0.copy(), fs, span=37, **opts)
+    f_ref, _, it_ref, converged_ref = _numpy_pursuit(
+        x, f0.copy(), fs, alpha_min=opts["alpha"], adapt=False,
+        step=lambda df, a2: _weighted_step(df, a2, opts["beta"], 37), **opts)
     assert it > 3 and (it, converged) == (it_ref, converged_ref)
     np.testing.assert_allclose(f, f_ref, rtol=0, atol=1e-7)
     plain, *_ = acmp_module._pursue(x, f0.copy(), fs, alpha_min=opts["alpha"], adapt=False,

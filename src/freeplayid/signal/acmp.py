@@ -104,9 +104,10 @@ MAX_INVERSE_WEIGHT = 1e12
 # side of a sample over which its mode's strongest squared amplitude is taken as the reference of
 # its weight. The plain pursuit (weights 1) does not converge on records whose first harmonic
 # collapses at a jump: 3 of the bundled example's 10 channels and 4 of 10 on a realtests fin
-# stop at ``max_iter`` = 100, their amplitude around the drop moved by 7-76 % between 100 and
-# 400 iterations and the drop point's amplitude by up to 0.3 %, so a point's reading depends on
-# where the iterations stopped and on the noise's path through them. With the weights all of
+# stop at ``max_iter`` = 100, their amplitude around the drop moved by 7-11 % (the example) and
+# 14-1060 % (the fin) between 100 and 400 iterations and the fin's drop points' amplitude by up
+# to 0.09 % (0.3 % by 1600), so a point's reading depends on where the iterations stopped and on
+# the noise's path through them. With the weights all of
 # them converge (16-65 iterations) and the points are the same at 100 and 400 iterations
 # (benchmarks/pursuit_convergence.py). Two filter times reach across the drop's transient
 # (a few cycles) to the upper branch before it.
