@@ -242,7 +242,7 @@ def test_running_max_is_scipys(n, h):
 
     acmp_module = importlib.import_module("freeplayid.signal.acmp")
     a = np.random.default_rng(n + h).random(n)
-    out = acmp_module._running_max(a, h, np.empty(n), np.empty(n))
+    out = acmp_module._running_max(a, h, np.empty(n), np.empty(n), np.empty(n))
     np.testing.assert_array_equal(out, scipy.ndimage.maximum_filter1d(a, 2 * h + 1,
                                                                       mode="nearest"))
 

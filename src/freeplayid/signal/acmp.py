@@ -451,8 +451,8 @@ def _pursuit(x, f, fsd, alpha, alpha_min, smoothing, p0, p1, p2, adapt, tol,
     or with ``span`` > 0 its weighted form; tests/test_signal.py checks the two agree)."""
     n = x.shape[0]
     a2 = np.empty(n)
-    if span > 0:  # the weighted smoothing's matrix, its weights and the running maximum's work
-        sab, w, peak, left = np.empty((3, n)), np.empty(n), np.empty(n), np.empty(n)
+    if span > 0:  # the weighted smoothing's matrix and the running maximum's arrays
+        sab, peak, left, right = np.empty((3, n)), np.empty(n), np.empty(n), np.empty(n)
     phi, u, v = np.empty(n), np.empty(n), np.empty(n)
     c, s, xm, prev, df = np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n)
     ab = np.empty((5, 2 * n))
@@ -479,13 +479,13 @@ def _pursuit(x, f, fsd, alpha, alpha_min, smoothing, p0, p1, p2, adapt, tol,
             a2[k] = u[k] * u[k] + v[k] * v[k]
             df[k] = (v[k] * (du * fsd) - u[k] * (dv * fsd)) / (two_pi * max(a2[k], 1e-300))
         if span > 0:
-            _running_max(a2, span, peak, left)
+            _running_max(a2, span, peak, left, right)
             for k in range(n):
-                w[k] = max(a2[k] / max(peak[k], 1e-300), MIN_IF_WEIGHT)
-                sab[2, k] = w[k] + inv_beta * p0[k]
+                wk = max(a2[k] / max(peak[k], 1e-300), MIN_IF_WEIGHT)
+                sab[2, k] = wk + inv_beta * p0[k]
                 sab[1, k] = inv_beta * p1[k - 1] if k >= 1 else 0.0
                 sab[0, k] = inv_beta * p2[k - 2] if k >= 2 else 0.0
-                df[k] *= w[k]
+                df[k] *= wk
             bad = _factor_kd(sab, 2)
             if bad:
                 return f, alpha, it, converged, bad
@@ -518,39 +518,27 @@ MIN_IF_WEIGHT = 1e-9
 
 
 @numba.njit(nogil=True, cache=True)
-def _running_max(a, h, out, work):  # pragma: no cover (compiled)
+def _running_max(a, h, out, left, right):  # pragma: no cover (compiled)
     """``out[k]`` <- max of ``a[k - h .. k + h]`` (within the record), in O(n): van Herk /
-    Gil-Werman, blocks of 2h + 1 with their running maxima from the left (``work``) and from
-    the right (``out``, then combined)."""
+    Gil-Werman, blocks of 2h + 1 with their running maxima from the left (``left``) and from the
+    right (``right``); a window spans two blocks, or lies in one from its start (the record's
+    start) or to its end (the record's end)."""
     n = a.shape[0]
     m = 2 * h + 1
-    right = np.empty(n)
     for b0 in range(0, n, m):
         b1 = min(n, b0 + m)
-        work[b0] = a[b0]
+        left[b0] = a[b0]
         for k in range(b0 + 1, b1):
-            work[k] = max(work[k - 1], a[k])
+            left[k] = max(left[k - 1], a[k])
         right[b1 - 1] = a[b1 - 1]
         for k in range(b1 - 2, b0 - 1, -1):
             right[k] = max(right[k + 1], a[k])
-    for k in range(n):  # the window k - h .. k + h spans at most two blocks
+    for k in range(n):
         lo, hi = max(0, k - h), min(n - 1, k + h)
         if lo // m != hi // m:
-            out[k] = max(right[lo], work[hi])
-        elif lo % m == 0:  # one block from its start (a window at the record's start)
-            out[k] = work[hi]
-        elif hi == min(n, (lo // m + 1) * m) - 1:  # one block to its end (the record's end)
+            out[k] = max(right[lo], left[hi])
+        elif lo % m == 0:
+            out[k] = left[hi]
+        else:
             out[k] = right[lo]
-        else:  # cannot happen for windows of the block's length; kept exact
-            out[k] = _block_max(a, lo, hi)
     return out
-
-
-@numba.njit(inline="always")
-def _block_max(a, lo, hi):  # pragma: no cover (compiled)
-    """max of ``a[lo .. hi]``: a window within one block (only at the record's ends, where
-    the window is clipped)."""
-    best = a[lo]
-    for k in range(lo + 1, hi + 1):
-        best = max(best, a[k])
-    return best
