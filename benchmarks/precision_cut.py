@@ -1,5 +1,5 @@
 """Whether the precision copies' cut reads the noise's mean move as the whole records do, with
-ACMP's plain pursuit (the default) and with the locally weighted one that converges.
+ACMP's plain pursuit ("none") and with the locally weighted one that converges (the default).
 
     python benchmarks/precision_cut.py DATA [--copies 30] [--margins 2.5,10]
 

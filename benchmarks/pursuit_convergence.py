@@ -1,6 +1,6 @@
 """Whether ACMP's pursuit converges on sweep records with a jump, and what its stopping point
-does to the backbone points: the plain pursuit (``if_weighting="none"``, the default) beside the
-locally weighted one (``"local"``) in the same run.
+does to the backbone points: the plain pursuit (``if_weighting="none"``, the default before
+2026-12-04) beside the locally weighted one (``"local"``, the default) in the same run.
 
     python benchmarks/pursuit_convergence.py                          # the bundled example
     python benchmarks/pursuit_convergence.py --data DIR [DIR ...] --jump-point drop

@@ -270,9 +270,9 @@ def test_local_if_weighting_converges_through_a_drop():
     # the drop by the demodulation filter)
     x, fs, sweep, amp = _drop_record()
     k = int(99.0 * fs)  # one second before the drop
-    plain = [acmp(x, fs, sweep=sweep, bandwidth_hz=1.0, max_iter=m) for m in (100, 400)]
-    local = [acmp(x, fs, sweep=sweep, bandwidth_hz=1.0, max_iter=m, if_weighting="local")
+    plain = [acmp(x, fs, sweep=sweep, bandwidth_hz=1.0, max_iter=m, if_weighting="none")
              for m in (100, 400)]
+    local = [acmp(x, fs, sweep=sweep, bandwidth_hz=1.0, max_iter=m) for m in (100, 400)]
     assert not plain[0].converged
     assert np.max(np.abs(plain[1].amplitude / plain[0].amplitude - 1)) > 0.1
     assert local[0].converged and local[0].iterations < 100

@@ -36,16 +36,20 @@ BOUNDS = {"delta": 0.01, "kn": 0.02}  # the issue's success bounds (relative)
 FITS = ("plain", "corrected")
 
 
-def identify_case(path: str, corrected: bool, replay: dict | None = None) -> dict:
+def identify_case(path: str, corrected: bool, replay: dict | None = None,
+                  acmp: dict | None = None) -> dict:
     """The one call into freeplayid: the default corrected answer (with the ``replay`` options
     given, if any) or the plain fit of a data set, as a plain dict (kn, delta, intervals,
-    verdict and reasons) or {"refused": message}."""
+    verdict and reasons) or {"refused": message}. ``acmp``: options of the default extraction's
+    pursuit (``Extraction(options=acmp)``), if any."""
     import freeplayid
+    from freeplayid.signal import Extraction
 
+    kw = {"extraction": Extraction(options=acmp)} if acmp else {}
     try:
         with contextlib.redirect_stderr(io.StringIO()):  # the progress bars
-            res = (freeplayid.identify(path, **({"replay": replay} if replay else {}))
-                   if corrected else freeplayid.identify(path, replay=None))
+            res = (freeplayid.identify(path, **kw, **({"replay": replay} if replay else {}))
+                   if corrected else freeplayid.identify(path, replay=None, **kw))
     except freeplayid.InputError as exc:
         return {"refused": " ".join(str(exc).split())}
     rep = res.replay
@@ -98,10 +102,11 @@ def identify_case(path: str, corrected: bool, replay: dict | None = None) -> dic
                             if c.name in ("replay_misfit", "hinge_gaps", "base_reading")}}
 
 
-def _task(case: str, draw: str, folder: str, fit: str, replay: dict | None = None) -> dict:
+def _task(case: str, draw: str, folder: str, fit: str, replay: dict | None = None,
+          acmp: dict | None = None) -> dict:
     t0 = time.perf_counter()
     try:
-        out = identify_case(folder, fit == "corrected", replay)
+        out = identify_case(folder, fit == "corrected", replay, acmp)
     except Exception as exc:  # a crash is a result of the benchmark too
         out = {"error": f"{type(exc).__name__}: {' '.join(str(exc).split())[:300]}"}
     truth = json.loads((Path(folder) / "truth.json").read_text())
@@ -266,23 +271,25 @@ def draw_spread(results: list[dict], least: int = 3) -> str:
     return "\n".join(lines)
 
 
-def replay_options(pairs: list[str]) -> dict:
-    """``KEY=VALUE`` pairs as replay options, each value read as YAML (0.6, true, estimate)."""
+def replay_options(pairs: list[str], flag: str = "--replay") -> dict:
+    """``KEY=VALUE`` pairs as replay options (``flag`` "--replay") or the extraction's pursuit
+    options ("--acmp"), each value read as YAML (0.6, true, estimate)."""
     import yaml
 
     out = {}
     for pair in pairs:
         key, sep, value = pair.partition("=")
         if not sep or not key:
-            raise SystemExit(f"--replay takes KEY=VALUE, got {pair!r}")
+            raise SystemExit(f"{flag} takes KEY=VALUE, got {pair!r}")
         out[key.strip()] = yaml.safe_load(value)
     if out:
         from freeplayid.replay import Replay
+        from freeplayid.signal import Extraction
 
-        try:
-            Replay(**out)  # a wrong option or value, before any long work
+        try:  # a wrong option or value, before any long work
+            Replay(**out) if flag == "--replay" else Extraction(options=out)
         except (TypeError, ValueError) as err:
-            raise SystemExit(f"--replay: {err}") from None
+            raise SystemExit(f"{flag}: {err}") from None
     return out
 
 
@@ -302,8 +309,12 @@ def main() -> None:
     ap.add_argument("--replay", action="append", default=[], metavar="KEY=VALUE",
                     help="a replay option for the corrected fits (repeatable), e.g. "
                     "damping_exponent=estimate")
+    ap.add_argument("--acmp", action="append", default=[], metavar="KEY=VALUE",
+                    help="an option of the extraction's pursuit (repeatable), e.g. "
+                    "if_weighting=none")
     args = ap.parse_args()
     replay = replay_options(args.replay)
+    acmp = replay_options(args.acmp, "--acmp")
     patterns = [p for p in args.cases.split(",") if p]
     cases = find_cases(Path(args.data), patterns)
     draws = [d for d in args.draws.split(",") if d]
@@ -323,7 +334,7 @@ def main() -> None:
     if not cases:
         raise SystemExit(f"no data sets under {args.data} matching {patterns or 'anything'}")
     fits = [f for f in args.fits.split(",") if f]
-    tasks = [(c, d, str(f), fit, replay) for c, d, f in cases for fit in fits]
+    tasks = [(c, d, str(f), fit, replay, acmp) for c, d, f in cases for fit in fits]
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     for case in order:  # fresh files for the cases this run covers

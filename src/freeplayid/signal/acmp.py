@@ -15,10 +15,11 @@ narrow-band (slowly varying). Iteration n (Chen et al., MSSP 116 (2019) 566-584)
 4. bandwidth adaptation ``alpha <- alpha (x_m^T x_m) / (x_m^T x)`` (residual orthogonal to mode),
 5. stop when ``||x_m^n - x_m^{n-1}||^2 / ||x_m^{n-1}||^2 < tol``.
 
-With ``if_weighting="local"`` step 3 weights each sample's increment by the mode's local
-strength, ``w = a^2 / max(a^2 within +-IF_WEIGHT_SPAN filter times of the IF smoothing)``, and
-solves ``(P / beta + W) s = W df^`` (a weighted Whittaker smoother): where the mode collapses
-next to where it was strong (the drop after a freeplay jump, where the record is the free
+With ``if_weighting="local"`` (the default) step 3 weights each sample's increment by the
+mode's local strength,
+``w = a^2 / max(a^2 within +-IF_WEIGHT_SPAN filter times of the IF smoothing)``, and solves
+``(P / beta + W) s = W df^`` (a weighted Whittaker smoother): where the mode collapses next to
+where it was strong (the drop after a freeplay jump, where the record is the free
 transient at another frequency) the frequency follows from the strong side instead of from
 the transient, which otherwise pulls it by up to 17 Hz and back, so that the plain pursuit
 never settles (module block comment at :data:`IF_WEIGHT_SPAN`).
@@ -255,7 +256,7 @@ def acmp(
     tol: float = 1e-8,
     max_iter: int = 100,
     decimate_to: float | None = 4.0,
-    if_weighting: str = "none",
+    if_weighting: str = "local",
 ) -> ChirpMode:
     """Extract one chirp mode (first harmonic) with adaptive chirp mode pursuit.
 
@@ -291,10 +292,11 @@ def acmp(
         Besides speed, this keeps narrow bands well conditioned: bandwidths below
         ``fs_work / 6283`` (0.33 Hz at 2048 Hz, 0.04 Hz at 256 Hz) raise ValueError.
     if_weighting : {"none", "local"}
-        How the frequency increment is smoothed: "none" (default), every sample alike (Chen et
-        al.); "local", each sample weighted by its mode's squared amplitude relative to the
-        strongest within :data:`IF_WEIGHT_SPAN` IF-filter times (module docstring), so that
-        the pursuit converges through a jump's drop.
+        How the frequency increment is smoothed: "local" (default), each sample weighted by
+        its mode's squared amplitude relative to the strongest within :data:`IF_WEIGHT_SPAN`
+        IF-filter times (module docstring), so that the pursuit converges through a jump's
+        drop; "none", every sample alike (Chen et al.), which there stops at ``max_iter``
+        with a mode that depends on where it stopped.
 
     Returns
     -------
