@@ -1157,6 +1157,12 @@ def test_the_benchmarks_replay_options_are_read_as_yaml_and_checked_before_any_w
                        (["foo=1"], "foo")):
         with pytest.raises(SystemExit, match=words):
             run.replay_options(bad)
+    assert run.acmp_options(["if_weighting=none", "max_iter=50"]) == {"if_weighting": "none",
+                                                                       "max_iter": 50}
+    for bad, words in ((["if_weighting=bogus"], "if_weighting.*'none', 'local'"),
+                       (["foo=1"], "--acmp: unknown option.*foo"), (["x"], "KEY=VALUE")):
+        with pytest.raises(SystemExit, match=words):
+            run.acmp_options(bad)
 
 
 def test_redraw_puts_the_noise_only_where_it_is_asked(tmp_path):

@@ -271,9 +271,9 @@ def draw_spread(results: list[dict], least: int = 3) -> str:
     return "\n".join(lines)
 
 
-def replay_options(pairs: list[str], flag: str = "--replay") -> dict:
-    """``KEY=VALUE`` pairs as replay options (``flag`` "--replay") or the extraction's pursuit
-    options ("--acmp"), each value read as YAML (0.6, true, estimate)."""
+def key_values(pairs: list[str], flag: str, check) -> dict:
+    """``KEY=VALUE`` pairs of ``flag``, each value read as YAML (0.6, true, estimate), checked
+    by ``check(options)`` (a TypeError or ValueError ends the run before any long work)."""
     import yaml
 
     out = {}
@@ -283,14 +283,45 @@ def replay_options(pairs: list[str], flag: str = "--replay") -> dict:
             raise SystemExit(f"{flag} takes KEY=VALUE, got {pair!r}")
         out[key.strip()] = yaml.safe_load(value)
     if out:
-        from freeplayid.replay import Replay
-        from freeplayid.signal import Extraction
-
-        try:  # a wrong option or value, before any long work
-            Replay(**out) if flag == "--replay" else Extraction(options=out)
+        try:
+            check(out)
         except (TypeError, ValueError) as err:
             raise SystemExit(f"{flag}: {err}") from None
     return out
+
+
+def _check_replay(options: dict) -> None:
+    from freeplayid.replay import Replay
+
+    Replay(**options)
+
+
+def replay_options(pairs: list[str]) -> dict:
+    """``--replay``'s pairs as replay options."""
+    return key_values(pairs, "--replay", _check_replay)
+
+
+def _check_acmp(options: dict) -> None:
+    """The pursuit's keyword options: known names (its signature), values as ``acmp`` checks
+    them, on a short chirp."""
+    import inspect
+
+    import numpy as np
+
+    from freeplayid.signal import acmp
+
+    names = [p.name for p in inspect.signature(acmp).parameters.values()
+             if p.kind is p.KEYWORD_ONLY and p.name not in ("sweep", "bandwidth_hz")]
+    unknown = sorted(set(options) - set(names))
+    if unknown:
+        raise TypeError(f"unknown option(s) {unknown}; valid: {names}")
+    t = np.arange(512) / 256.0
+    acmp(np.sin(2 * np.pi * (20 * t + t * t)), 256.0, **options)
+
+
+def acmp_options(pairs: list[str]) -> dict:
+    """``--acmp``'s pairs as the extraction's pursuit options (``Extraction(options=...)``)."""
+    return key_values(pairs, "--acmp", _check_acmp)
 
 
 def sort_key(order: dict):
@@ -314,7 +345,7 @@ def main() -> None:
                     "if_weighting=none")
     args = ap.parse_args()
     replay = replay_options(args.replay)
-    acmp = replay_options(args.acmp, "--acmp")
+    acmp = acmp_options(args.acmp)
     patterns = [p for p in args.cases.split(",") if p]
     cases = find_cases(Path(args.data), patterns)
     draws = [d for d in args.draws.split(",") if d]
