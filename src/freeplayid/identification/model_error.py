@@ -50,11 +50,14 @@ has the answer's delta. The sweep bends each hinge's share as much in the replay
 (on fin C's equal-gap records the test's shares lie up to 18 % off one, and the replay's follow
 them within their noise, 0.04-0.07 in log), so their ratio is the split the hinges' gaps make,
 and the noisy copies of the replay (:func:`freeplayid.replay.precision_by_replay`) give its
-noise. The verdict's
-``hinge_gaps`` then fails where that split lies beyond its noise as far as the two-sided
-``cross_p`` allows (Student's t at the copies' count) and puts delta beyond half its bound from
-the hinges' mean (``without_delta``): delta is then no hinge's half-gap. Each hinge's half-gap
-is estimated as delta times its split share (:attr:`ReplayedSplit.half_gaps`).
+noise. Where that split is suggested (p below the verdict's ``split_p``; Student's t at the
+copies' count), the identification replays the test with it, and the verdict's ``hinge_gaps``
+judges how far the one-gap answer lies from the hinges' mean (:attr:`ReplayedSplit.lean`) by
+its chance of lying beyond delta's bound (:meth:`ReplayedSplit.lean_outside`). Without that
+replay, ``hinge_gaps`` fails where the split lies beyond its noise as far as the two-sided
+``cross_p`` allows and puts delta beyond half its bound from the hinges' mean
+(``without_delta``): delta is then no hinge's half-gap. Each hinge's half-gap is estimated as
+delta times its split share (:attr:`ReplayedSplit.half_gaps`).
 """
 
 from __future__ import annotations
@@ -249,6 +252,10 @@ class ReplayedSplit:
         With ``common``: whether the reported answer is the hinges' mean (this replay's; with
         ``linear_model.hinge_gaps``) or the one-gap answer (the default: the split may be the
         linear model's or the noise's, and this replay measures how far the mean could lie).
+    common_t : float
+        With ``common``: the ``t`` of the split that one common gap left (the reading that set
+        the shares; nan where not known). The lean is in proportion to that split, so its
+        relative standard error is one over it (:meth:`lean_outside`).
     """
 
     hinges: tuple
@@ -260,12 +267,34 @@ class ReplayedSplit:
     shares: tuple = ()
     common: tuple | None = None
     mean_reported: bool = True
+    common_t: float = math.nan
 
     @property
     def lean(self) -> float | None:
         """The common gap's delta over the hinges' mean (delta replayed with ``shares``), less
         1; None without them."""
         return None if self.common is None else self.common[1] / self.delta - 1.0
+
+    @property
+    def lean_se(self) -> float | None:
+        """The lean's standard error in log: its size over ``common_t``, the split that set it
+        read to that many standard errors (0 where ``common_t`` is not known); None without
+        ``common``."""
+        if self.common is None:
+            return None
+        t = self.common_t
+        return abs(math.log1p(self.lean)) / t if math.isfinite(t) and t > 0 else 0.0
+
+    def lean_outside(self, bound: float) -> float | None:
+        """The chance that the one-gap answer lies beyond ``bound`` (relative) from the hinges'
+        mean, were the gaps split as the test shows them: the lean (log), normal about its
+        reading with :attr:`lean_se`; None without ``common``."""
+        if self.common is None:
+            return None
+        m, sd, b = math.log1p(self.lean), self.lean_se, math.log1p(bound)
+        if sd <= 0:
+            return float(abs(m) > b)
+        return float(scipy.stats.norm.sf((b - m) / sd) + scipy.stats.norm.cdf((-b - m) / sd))
 
     @property
     def t(self) -> float:
@@ -336,7 +365,8 @@ class ReplayedSplit:
                 "n_copies": self.n_copies, "t": num(self.t), "p": self.p,
                 "mean_offset": self.mean_offset, "shares": list(self.shares),
                 "common": None if self.common is None else list(self.common),
-                "lean": self.lean, "mean_reported": self.mean_reported}
+                "lean": self.lean, "lean_se": self.lean_se,
+                "common_t": num(self.common_t), "mean_reported": self.mean_reported}
 
 
 def _gap_interval(gap: float, delta: float, delta_ci95, share: float) -> tuple[float, float]:
@@ -361,7 +391,8 @@ def _subset(keyed: dict, keys: list):
 
 
 def replayed_split(system, measured, replayed, copies, *, kn: float, delta: float,
-                   mode: int = 0, shares=None, common=None) -> ReplayedSplit | None:
+                   mode: int = 0, shares=None, common=None,
+                   common_t: float = math.nan) -> ReplayedSplit | None:
     """The hinges' split of the gaps read against the answer's replay (module docstring).
 
     Parameters
@@ -378,6 +409,8 @@ def replayed_split(system, measured, replayed, copies, *, kn: float, delta: floa
         The replay's gap shares (hinge j at ``delta * shares[j]``); None: one common gap.
     common : (float, float) or None
         With ``shares``: the one-gap answer whose split set them (:attr:`ReplayedSplit.lean`).
+    common_t : float
+        With ``common``: the ``t`` of that split (:attr:`ReplayedSplit.lean_se`).
 
     Returns None with one hinge, fewer than three points the test and its replay share, or
     where a per-hinge fit cannot be made.
@@ -422,7 +455,8 @@ def replayed_split(system, measured, replayed, copies, *, kn: float, delta: floa
         log_split=tuple(float(v) for v in log_shares(g_m) - log_shares(g_r)),
         log_se=tuple(float(v) for v in se), n_copies=len(noise), delta=float(delta),
         shares=() if shares is None else tuple(float(v) for v in r),
-        common=None if shares is None or common is None else tuple(float(v) for v in common))
+        common=None if shares is None or common is None else tuple(float(v) for v in common),
+        common_t=math.nan if shares is None or common is None else float(common_t))
 
 
 @dataclass(frozen=True)

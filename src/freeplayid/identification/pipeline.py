@@ -175,13 +175,16 @@ def _check_wide_base(replay: Replay | None, dataset) -> None:
 
 
 def _gaps_split(result: Identification, replay: Replay) -> bool:
-    """Whether the test shows the hinges' gaps split against the answer's replay with one
-    common gap (the split's p below the verdict's ``cross_p``): then it is replayed with the
-    split it shows (:func:`_with_unequal_gaps`)."""
+    """Whether the test suggests the hinges' gaps split against the answer's replay with one
+    common gap (the split's p below the verdict's ``split_p``): then it is replayed with the
+    split it shows (:func:`_with_unequal_gaps`), which measures how far the hinges' mean lies
+    from the one-gap answer. With ``linear_model.hinge_gaps`` that replay's answer, the
+    hinges' mean, is reported, so the split must be shown (p below ``cross_p``)."""
     err, rep = result.model_error, result.replay
     sp = None if err is None else err.split
+    cut = LIMITS["cross_p"] if err is not None and err.per_hinge else LIMITS["split_p"]
     return (replay.gap_shares is None and rep is not None and not rep.failure
-            and sp is not None and sp.p is not None and sp.p < LIMITS["cross_p"]
+            and sp is not None and sp.p is not None and sp.p < cut
             and all(g > 0 and math.isfinite(g) for g in sp.half_gaps))
 
 
@@ -214,7 +217,8 @@ def _with_unequal_gaps(first: Identification, dataset, system, est, extraction, 
     if rep is None:
         return first
     second = _corrected_result(dataset, system, est, rep, fit.mode, t0, error, checked,
-                               common=(first.kn, first.delta), mean_reported=error.per_hinge)
+                               common=(first.kn, first.delta), mean_reported=error.per_hinge,
+                               common_t=sp.t)
     if error.per_hinge:  # the model's proportions taken as right: the hinges' mean
         # what led to these replays: another statistic, the base read wide in some runs
         names = {"replay_statistic"} | ({"base_reading"} if replay.wide_base else set())
@@ -832,13 +836,13 @@ def _corrected_intervals(rep) -> tuple[tuple, tuple, str]:
 
 def _corrected_result(dataset, system, plain: PlainEstimate, rep, mode: int, t0: float,
                       error: ModelError, records=None, common=None,
-                      mean_reported: bool = True) -> Identification:
+                      mean_reported: bool = True, common_t: float = math.nan) -> Identification:
     """The corrected estimate as an :class:`Identification`, judged as reported: the data's
     checks, the answer's own (bound, contact margin, backbone range and intervals at the
     corrected estimate), the replay's at the answer and the zero-clearance check at the
     reported kn. A replay that failed keeps the plain estimate, judged on its fit, and makes
     the verdict ``suspect``. ``common``: the one-gap answer (kn, delta) where the replays had
-    unequal gaps (``rep.gap_shares``)."""
+    unequal gaps (``rep.gap_shares``), ``common_t`` the t of the split it left."""
     result = _plain_result(dataset, system, plain, mode, t0, error, records)
     if rep.failure:
         verdict = make_verdict(result.verdict.checks + tuple(replay_checks(rep)))
@@ -851,7 +855,8 @@ def _corrected_result(dataset, system, plain: PlainEstimate, rep, mode: int, t0:
         error = dataclasses.replace(error, split=replayed_split(
             system, rep.statistic_points, rep.replayed_points,
             () if precision is None else precision.copy_points, kn=rep.kn, delta=rep.delta,
-            mode=mode, shares=getattr(rep, "gap_shares", None), common=common))
+            mode=mode, shares=getattr(rep, "gap_shares", None), common=common,
+            common_t=common_t))
         if error.split is not None and common is not None:
             error = dataclasses.replace(error, split=dataclasses.replace(
                 error.split, mean_reported=mean_reported))

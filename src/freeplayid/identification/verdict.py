@@ -61,11 +61,12 @@ compares the result or the data with a physical limit, never with a value tuned 
   statement, :func:`~freeplayid.identification.model_error.gap_split`), its message says so:
   delta is then their common half-gap, weighted towards the hinge that turns most. With the
   replay the split is read against the answer's replay, in units of its noisy copies; where it
-  is shown (``cross_p``), the test is replayed again with each hinge's gap split so, and the
-  check fails where a split is still shown against that replay, or where the one-gap answer
-  (reported) lies beyond half delta's bound from the hinges' mean: a model whose hinges turn
-  otherwise, or the noise, shows such a split too (``linear_model.hinge_gaps`` takes it as
-  the gaps' and reports their mean).
+  is suggested (``split_p``), the test is replayed again with each hinge's gap split so, and
+  the check fails where a split is still shown against that replay (``cross_p``), or where the
+  chance that the one-gap answer (reported) lies beyond delta's bound from the hinges' mean
+  exceeds ``noise_outside``, the lean's noise that of the split that set it: a model whose
+  hinges turn otherwise, or the noise, shows such a split too (``linear_model.hinge_gaps``
+  takes it as the gaps' and reports their mean).
 - ``base_reading`` (with the replay driven by a base channel read over a narrowed band): in
   the seconds around each run's point, the narrowed reading against the wide band's, in units
   of their difference's own noise along the record; where some run's gap exceeds 3.2 of them
@@ -143,6 +144,13 @@ LIMITS = {
     # [-] ... or, whichever is larger, its standard error times Student's t at this two-sided
     # tail probability (that of 3 normal standard errors) and the error's degrees of freedom
     "cross_p": 0.0027,
+    # [-] the hinges' split read against the one-gap replay: below this p (a split suggested,
+    # not shown) the test is replayed with it, to measure how far the hinges' mean lies, which
+    # ``hinge_gaps`` judges by its chance of lying beyond delta's bound. Above it the split is
+    # taken as the noise's. With equal gaps about 1 test in 10 passes this gate, and of those
+    # only the ones whose lean, with its noise, reaches ``noise_outside`` fail (1 in 16 or
+    # fewer: the lean must be read beyond ~1.86 of its standard errors)
+    "split_p": 0.1,
     "model_scale": 0.2,  # [-] an update to sealed modes scaling the stiffness by more is no fix
     # [-] the answer's move for the stated uncertainty of a damping down-sweeps do not measure:
     # beyond the accuracy bounds (delta 1 %, kn 2 %) that damping alone could put it outside
@@ -565,13 +573,25 @@ def _unequal_check(sp, per_hinge: bool) -> Check:
     against its one-gap replay (:class:`freeplayid.identification.model_error.ReplayedSplit`
     with ``shares``): fails where a split is still shown against that replay (at ``cross_p``:
     unequal gaps do not explain it), and, unless each hinge's gap was asked for
-    (``linear_model.hinge_gaps``: the split taken as the gaps'), where the one-gap answer lies
-    beyond ``without_delta`` from the hinges' mean. A linear model whose hinges turn in other
-    proportions than the tested fin's shows such a split too, and so can the noise: then the
-    one-gap answer, which is reported (``mean_reported`` false), is right."""
+    (``linear_model.hinge_gaps``: the split taken as the gaps'), where the chance that the
+    one-gap answer lies beyond delta's bound (``accuracy_delta``) from the hinges' mean exceeds
+    ``noise_outside``: its lean, read with the noise of the split that set it
+    (:meth:`~freeplayid.identification.model_error.ReplayedSplit.lean_outside`). A linear model
+    whose hinges turn in other proportions than the tested fin's shows such a split too, and
+    so can the noise: then the one-gap answer, which is reported (``mean_reported`` false), is
+    right."""
     shown = sp.p is not None and sp.p < LIMITS["cross_p"]
     lean = sp.lean
-    off = lean is not None and abs(lean) > LIMITS["without_delta"] and not per_hinge
+    bound = LIMITS["accuracy_delta"]
+    chance = sp.lean_outside(bound)
+    off = chance is not None and chance > LIMITS["noise_outside"] and not per_hinge
+    said = ("" if lean is None else
+            f"{100 * abs(lean):.2g} %" + (f" (se {100 * sp.lean_se:.2g} %: the split that set "
+                                         f"it was read at {sp.common_t:.2g} of its standard "
+                                         "errors)" if sp.lean_se else ""))
+    beyond = ("" if chance is None else
+              f"a {100 * chance:.2g} % chance of lying beyond {100 * bound:g} % (limit "
+              f"{100 * LIMITS['noise_outside']:g} %)")
     if lean is None:
         head = f"delta is the hinges' mean half-gap: {sp.describe()}"
     elif sp.mean_reported:
@@ -587,9 +607,9 @@ def _unequal_check(sp, per_hinge: bool) -> Check:
                "other proportions than the tested fin's (a part's stiffness off), and kn is "
                "off with it")
     elif off:
-        why = (head + f". If the gaps differ so, delta lies {100 * abs(lean):.2g} % from "
-               f"their mean, beyond {100 * LIMITS['without_delta']:g} % (it leans to the hinge "
-               "that turns most); if the split is the linear model's (its hinges turning "
+        why = (head + f". If the gaps differ so, delta lies {said} from their mean, {beyond} "
+               "(it leans to the hinge that turns most); if the split is the linear model's "
+               "(its hinges turning "
                "otherwise than the tested fin's, which three sealed modes can fit either way: "
                "then kn is off with it) or the noise's, delta is right. The data cannot tell "
                "which; the intervals hold both answers (`linear_model.hinge_gaps=true` takes "
@@ -597,8 +617,7 @@ def _unequal_check(sp, per_hinge: bool) -> Check:
     else:
         why = head + ("; unequal gaps explain the test" + (
             "" if per_hinge or lean is None else
-            f", and one common gap lies {100 * abs(lean):.2g} % from their mean, within "
-            f"{100 * LIMITS['without_delta']:g} %"))
+            f", and one common gap lies {said} from their mean, {beyond}"))
     return Check("hinge_gaps", not (shown or off), why, sp.p)
 
 
