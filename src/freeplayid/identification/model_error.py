@@ -73,6 +73,7 @@ from ..backbone import amplitude_grid, dfa_backbone
 from ..estimate import PlainEstimate, refit
 from ..fit import FitOptions, gap_ratios, jacobian_halfwidths
 from ..model import ModelOptions, SealedUpdate, modal_analysis, update_to_sealed_modes
+from .replay_checks import noise_outside_chance
 
 __all__ = ["ModelError", "GapSplit", "HingeGaps", "ReplayedSplit", "update_model", "model_error",
            "hinge_ratio", "frequency_scale", "frequency_uncertainty", "gap_split",
@@ -291,10 +292,7 @@ class ReplayedSplit:
         reading with :attr:`lean_se`; None without ``common``."""
         if self.common is None:
             return None
-        m, sd, b = math.log1p(self.lean), self.lean_se, math.log1p(bound)
-        if sd <= 0:
-            return float(abs(m) > b)
-        return float(scipy.stats.norm.sf((b - m) / sd) + scipy.stats.norm.cdf((-b - m) / sd))
+        return noise_outside_chance(0.0, bound, math.log1p(self.lean), self.lean_se)
 
     @property
     def t(self) -> float:
