@@ -142,6 +142,9 @@ def run_case(args) -> dict:
         zeta_est=r.damping.zeta if r.damping else math.nan,
         kn_ci95=list(res.kn_ci95), delta_ci95=list(res.delta_ci95),
         damping=None if r.damping is None else r.damping.to_dict(),  # zeta's CI, its move
+        # the levels' sensitivity (no base channel: the levels come from `level_g`)
+        level=None if getattr(r, "level", None) is None else r.level.to_dict(),
+        failed_checks=[c.name for c in res.verdict.checks if not c.passed],
         n_points=len(res.points.used()),
         theta_ratio_min=_min_ratio(res),
         closest_misfit_se=r.closest_misfit_se,
