@@ -825,7 +825,6 @@ def test_the_level_check_says_what_the_answer_owes_to_the_levels(errors, shifts,
         failure, misfit, sweeps, damping, converged, resonance = "", {}, {}, None, True, {}
         jump_point, excitation = "drop", "law"
         iterations = [ReplayIteration(480.0, 3e-3, 480.0, 3e-3, n_evaluations=10)]
-        level = None
 
     Rep.level = level
     check = {c.name: c for c in replay_checks(Rep())}["replay_level"]

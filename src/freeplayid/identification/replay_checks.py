@@ -50,9 +50,10 @@
   answer; a constant level 4-5 % off, a level ramp, Rayleigh damping, a log sweep, more noise
   leave it within 1.3 % (40 answers of benchmarks/realtests, docs/results.md).
   The check also states how far the levels' stated uncertainty moves the answer
-  (:func:`level_condition`): the answer is conditional on ``level_g``, with no limit, since
-  where the damping is estimated from the same amplitudes the branches cannot show a level
-  error (docs/identify.md §3c, "What the answer owes to the levels").
+  (:meth:`freeplayid.replay.LevelSensitivity.describe`, which the report shows too): the
+  answer is conditional on ``level_g``, with no limit, since where the damping is estimated
+  from the same amplitudes the branches cannot show a level error (docs/identify.md §3c,
+  "What the answer owes to the levels").
 - ``damping_form`` (the damping's exponent or its hinge damper's share estimated,
   ``replay.damping_exponent`` / ``replay.damping_hinge``): how far it moved the answer from
   one ratio's, reported (its value: that move over the
@@ -225,20 +226,6 @@ def _form_check(replay) -> Check | None:
                                                 abs(move[0]) / LIMITS["accuracy_kn"]))
 
 
-def level_condition(level) -> str:
-    """What the answer owes to levels taken from ``level_g`` (:class:`freeplayid.replay.
-    LevelSensitivity`): its move for their stated uncertainty, or for the larger error the
-    upper branches imply (``scale``), which its intervals take in. No limit: the upper
-    branches cannot check the levels where the damping is estimated from the same amplitudes
-    (the damping takes up a level error), so the answer is conditional on ``level_g`` as kn is
-    on the linear model."""
-    error = (f"their {100 * level.uncertainty:g} % uncertainty" if level.scale <= 1 else
-             f"the {100 * level.implied_error:.2g} % error the upper branches imply")
-    return (f"the answer is conditional on `level_g` (no base channel records the levels): "
-            f"{error} moves delta by {100 * level.scale * level.delta_shift:.2g} % and kn by "
-            f"{100 * level.scale * level.kn_shift:.2g} % (in the intervals)")
-
-
 def _level_check(replay) -> Check | None:
     """``replay_level``: the levels the upper branches imply and the kn their channels' ratios
     imply (module docstring); None where no run's level came from ``level_g``."""
@@ -253,7 +240,7 @@ def _level_check(replay) -> Check | None:
              f" (beyond its {100 * level.uncertainty:g} % uncertainty: the intervals take "
              f"{100 * level.implied_error:.2g} %; a `level_g` off the true level, or a level that "
              "varies during the runs, which no base channel records)")
-    said += "; " + level_condition(level)
+    said += "; " + level.describe()
     ratio = getattr(level, "ratio_kn", None)
     if ratio is None:
         return Check("replay_level", True, said + "; one channel reads them, so their ratio "

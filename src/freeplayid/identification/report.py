@@ -275,12 +275,7 @@ def _replay(r) -> list[str]:
                   + (" (in the intervals)." if reading.delta_shift is not None else ".")]
     level = getattr(rep, "level", None)
     if level is not None:
-        lines += [f"Levels from `level_g` ({', '.join(level.runs)}): a {100 * level.uncertainty:g} "
-                  f"% error of them moves kn by {100 * level.kn_shift:.2g} % and delta by "
-                  f"{100 * level.delta_shift:.2g} % (in the intervals"
-                  + ("" if getattr(level, "scale", 1.0) <= 1 else
-                     f", carried to the {100 * level.implied_error:.2g} % that the upper "
-                     "branches imply") + ")."]
+        lines += [f"Levels from `level_g` ({', '.join(level.runs)}): {level.describe()}."]
         implied = getattr(level, "implied", None) or {}
         if implied:
             lines += ["Levels the upper branches imply at the answer, against `level_g`: "

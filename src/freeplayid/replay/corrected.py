@@ -244,6 +244,18 @@ class LevelSensitivity(_Sensitivity):
                 "implied": {r: v.to_dict() for r, v in self.implied.items()},
                 "implied_error": self.implied_error, "scale": self.scale}
 
+    def describe(self) -> str:
+        """What the answer owes to these levels: its move for their stated uncertainty, or for
+        the larger error the upper branches imply (``scale``), as the intervals take it in. The
+        answer is conditional on ``level_g`` as kn is on the linear model: where the damping is
+        estimated from the same amplitudes, it takes up a level error, which the branches then
+        cannot show."""
+        error = (f"their {100 * self.uncertainty:g} % uncertainty" if self.scale <= 1 else
+                 f"the {100 * self.implied_error:.2g} % error the upper branches imply")
+        return (f"the answer is conditional on `level_g` (no base channel records the levels): "
+                f"{error} moves delta by {100 * self.scale * self.delta_shift:.2g} % and kn by "
+                f"{100 * self.scale * self.kn_shift:.2g} % (in the intervals)")
+
 
 @dataclass(frozen=True)
 class ExcitationNoise:
