@@ -23,7 +23,7 @@ def _answer(kn, delta, *, hw_kn, hw_delta, rule="drop", failure=""):
 @pytest.mark.parametrize(("change", "tried"), [
     ({}, True),  # drop points, noise as far as delta's 1 % bound
     ({"hw_delta": 0.009}, False),  # the noise keeps delta within its bound
-    ({"rule": "quadrature"}, False),  # a base channel: the phase resonance, no drop window
+    ({"rule": "quadrature"}, False),  # a base channel: tried, not kept (identify.md 3c)
     ({"failure": "no replay could be fitted"}, False),
     ({"hw_delta": None}, False),  # no precision measured
 ])

@@ -1370,6 +1370,32 @@ def _noisy_no_base(src: str):
 
 VARIANTS.update(dict(_noisy_no_base(src) for src in ("var6_finC_rayleigh", "var6_finC_nominal")))
 
+
+# A seventeenth set (2026-12-04, session 51), made to test the noisy-window rule where it reads
+# the quadrature points' amplitudes (with a base channel), on records it did not make: the
+# records of three structures with a damping of another form than the replay's (Rayleigh, no C
+# in the model file) and, as controls, with the model's own damping, their noise raised to where
+# the rule runs (fin B's responses are a third of the others', so half the noise). The clean
+# records are their sources'; chosen before any of their answers was seen.
+def _noisy_with_base(name: str, src: str, noise_g: float):
+    def build(**kw) -> CaseSpec:
+        spec = ALL_CASES[src](**kw)
+        spec.name, spec.clean_from, spec.noise_g = name, src, noise_g
+        spec.condition += f"; {noise_g:g} g of noise ({src} records)"
+        spec.params.update(records_of=src)
+        return spec
+    return name, build
+
+
+VARIANTS.update(dict(_noisy_with_base(*a) for a in (
+    ("var17_finC_rayleigh_noisy", "var6_finC_rayleigh", 0.3),
+    ("var17_finC_nominal_noisy", "var6_finC_nominal", 0.3),
+    ("var17_fin_rayleigh_noisy", "fin_rayleigh_noC", 0.3),
+    ("var17_fin_nominal_noisy", "fin_nominal", 0.3),
+    ("var17_finB_rayleigh_noisy", "var5_finB_rayleigh", 0.15),
+    ("var17_beam_rayleigh_noisy", "beam_rayleigh", 0.3),
+)))
+
 ALL_CASES = {**CONDITIONS, **VARIANTS}
 
 def set_profiles(spec: CaseSpec, out: Path) -> None:

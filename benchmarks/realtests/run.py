@@ -99,7 +99,8 @@ def identify_case(path: str, corrected: bool, replay: dict | None = None,
             "split": None if getattr(res.model_error, "split", None) is None
             else res.model_error.split.to_dict(),
             "checks_text": {c.name: str(c.message) for c in res.verdict.checks
-                            if c.name in ("replay_misfit", "hinge_gaps", "base_reading")}}
+                            if c.name in ("replay_misfit", "hinge_gaps", "base_reading",
+                                          "drop_window")}}
 
 
 def _task(case: str, draw: str, folder: str, fit: str, replay: dict | None = None,

@@ -51,11 +51,16 @@ class Extraction:
     drop_window : float [-]
         The drop point's amplitude (``jump_point="drop"``, and the drop that the quadrature
         rule falls back to) is read over this many times the extractor's window, centred as
-        many filter times ahead of the drop (1: one, the default). The frequency stays the
-        drop's. Longer windows average more noise but read the upper branch further from the
-        drop, where the form of the damping moves it more and where, on records of another
-        integrator, the replays missed it (docs/signal.md section 6, docs/inverse.md section 4,
-        ``benchmarks/drop_window.py``): for studies of the statistic, not for tests.
+        many filter times ahead of the drop (1: one, the default); the quadrature point's
+        (``jump_point="quadrature"``) over this many times the window about the phase
+        resonance, still cut at the drop. The frequencies stay the drop's and the lag's
+        crossing. Longer windows average more noise but read more of the upper branch, where
+        the form of the damping moves it more and where, on records of another integrator, the
+        replays of drop points missed it (docs/signal.md section 6, docs/inverse.md section 4,
+        ``benchmarks/drop_window.py``): for studies of the statistic. ``identify`` reads the drop
+        points wider itself where the noise needs it and the data agree
+        (``Replay.noisy_window``), not the quadrature points (tried and not kept:
+        docs/identify.md section 3c).
     use_sweep_hint : bool
         Use the runs' ``sweep`` hints (ACMP's start, the band, the rate); False, or a run without
         one: each run's law is estimated from its base channel, else its best-tracked response.

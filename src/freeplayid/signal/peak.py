@@ -277,7 +277,7 @@ def _quadrature_point(k, *, x, fs, mode, trim, xi, ratio, steep_after, bandwidth
     i = int(flip[0])
     crossing = _fitted_crossing(cos_lag, start + i + float(c[i] / (c[i] - c[i + 1])),
                                 lo=start, hi=c0, half=fs / bandwidth_hz)
-    amp = one_sided_amplitude(x, mode.phase, fs, sigma_s=gaussian_sigma(bandwidth_hz),
+    amp = one_sided_amplitude(x, mode.phase, fs, sigma_s=window * gaussian_sigma(bandwidth_hz),
                               center=trim + crossing, edge=trim + c0)
     if not np.isfinite(amp):
         return drop()
