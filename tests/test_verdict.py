@@ -754,6 +754,20 @@ def test_a_precision_not_measured_is_no_check():
     assert precision_check(ReplayPrecision(None, None, n=8, n_fitted=2)) is None
 
 
+
+def _level_check(level):
+    """The ``replay_level`` check of a converged drop-point replay whose levels came from
+    `level_g` with sensitivity ``level`` (a stand-in for the replay result)."""
+    from freeplayid.identification.replay_checks import replay_checks
+
+    class Rep:
+        failure, misfit, sweeps, damping, converged, resonance = "", {}, {}, None, True, {}
+        jump_point, excitation = "drop", "law"
+        iterations = [ReplayIteration(480.0, 3e-3, 480.0, 3e-3, n_evaluations=10)]
+
+    Rep.level = level
+    return {c.name: c for c in replay_checks(Rep())}["replay_level"]
+
 @pytest.mark.parametrize("errors, ratio_kn, se, passed, scale", [
     ((-0.044, -0.049), -0.0018, 0.001, True, 1.0),  # level_g 5 % high: within the uncertainty
     ((-0.09, 0.025), -0.007, 0.0014, True, 1.8),  # a ramp: levels beyond it, one level per run
@@ -769,7 +783,6 @@ def test_the_level_check_judges_the_channels_ratio_and_widens_for_implied_levels
     `fin_dip_no_base` (levels -10.5 to -11.1 %, channels 7.6-8.1 % apart, ratio kn +5.0 +-
     0.19 % where the answer is 3.7 % low); the held-out study's case 37 (an accurate answer,
     ratio kn -3.6 +- 3.9 %: runs whose channels hardly move with kn)."""
-    from freeplayid.identification.replay_checks import replay_checks
     from freeplayid.replay.corrected import LevelSensitivity
     from freeplayid.replay.misfit import ImpliedLevel
 
@@ -780,13 +793,7 @@ def test_the_level_check_judges_the_channels_ratio_and_widens_for_implied_levels
                              0 if se is None else 3)
     assert level.scale == pytest.approx(scale, rel=1e-2)
 
-    class Rep:
-        failure, misfit, sweeps, damping, converged, resonance = "", {}, {}, None, True, {}
-        jump_point, excitation = "drop", "law"
-        iterations = [ReplayIteration(480.0, 3e-3, 480.0, 3e-3, n_evaluations=10)]
-
-    Rep.level = level
-    check = {c.name: c for c in replay_checks(Rep())}["replay_level"]
+    check = _level_check(level)
     assert check.passed is passed, check.message
     assert ("beyond its 5 % uncertainty" in check.message) is (scale > 1)
     if ratio_kn is None:
@@ -814,20 +821,13 @@ def test_the_level_check_says_what_the_answer_owes_to_the_levels(errors, shifts,
     by 1.2-3.6 %). So the check states the move and passes (session 50: a limit on it marked 3
     of the study's first 6 accurate answers `suspect`). Numbers measured on the realtests
     records (benchmarks/realtests, the independent exact integrator)."""
-    from freeplayid.identification.replay_checks import replay_checks
     from freeplayid.replay.corrected import LevelSensitivity
     from freeplayid.replay.misfit import ImpliedLevel
 
     implied = {f"run{k}": ImpliedLevel(e, 0.002, {"a": e}) for k, e in enumerate(errors)}
     level = LevelSensitivity(0.05, shifts[0], shifts[1], tuple(implied), True, implied)
 
-    class Rep:
-        failure, misfit, sweeps, damping, converged, resonance = "", {}, {}, None, True, {}
-        jump_point, excitation = "drop", "law"
-        iterations = [ReplayIteration(480.0, 3e-3, 480.0, 3e-3, n_evaluations=10)]
-
-    Rep.level = level
-    check = {c.name: c for c in replay_checks(Rep())}["replay_level"]
+    check = _level_check(level)
     assert check.passed, check.message
     assert "the answer is conditional on `level_g`" in check.message
     assert said in check.message, check.message
