@@ -746,6 +746,37 @@ def test_a_mean_move_of_the_noise_counts_in_the_chance_of_leaving_the_bounds():
     assert "on average it moves delta by +1 ± 0.1 %" in check.message
 
 
+def test_the_base_channels_noise_in_the_excitation_counts_in_the_chance_of_leaving_the_bounds():
+    """An answer whose replays are driven by a noisy base record carries that noise too: the
+    excitation copies' half-widths add to the response copies' in quadrature (log). Numbers of
+    an independent record (realtests ``var17_finC_nominal_noisy`` d2, delta +1.63 % off): the
+    copies alone put delta's 95 % half-width at 0.80 % (a 3 % chance of leaving 1 %, `ok`); the
+    base's noise in the excitation at 1.76 %; together 1.93 %, a 32 % chance (by hand, scipy's
+    normal tails about the copies' mean move)."""
+    from freeplayid.identification.replay_checks import precision_check
+    from freeplayid.replay import ReplayPrecision
+    from freeplayid.replay.corrected import ExcitationNoise
+
+    p = ReplayPrecision(kn_halfwidth=0.003322, delta_halfwidth=0.007961, n=8, n_fitted=8,
+                        noise_bias=(-0.001011, -0.001760), noise_bias_se=(0.000598, 0.001430))
+    alone = precision_check(p)
+    assert alone.passed and math.isclose(alone.value, 0.031, abs_tol=0.002)
+    exc = ExcitationNoise(kn_halfwidth=0.008980, delta_halfwidth=0.017557,
+                          reading_sd={"run": 0.0238}, n=2, n_fitted=2)
+    check = precision_check(p, exc)
+    sd = math.hypot(math.hypot(math.log(1.007961), math.log(1.017557)) / 1.96, 0.001430)
+    b, m = math.log(1.01), -0.001760
+    want = scipy.stats.norm.sf((b - m) / sd) + scipy.stats.norm.cdf((-b - m) / sd)
+    assert math.isclose(check.value, want, rel_tol=1e-6) and 0.3 < want < 0.34
+    assert not check.passed
+    assert "the base channel's noise, read as the replays' excitation" in check.message
+    assert "together ±1.9 %" in check.message
+    assert "most of it the base channel's" in check.message  # 1.76 % against the copies' 0.80 %
+    # not measured (too few copies fitted): the copies' own chance, unchanged
+    unmeasured = ExcitationNoise(None, None, {"run": 0.0238}, n=2, n_fitted=1)
+    assert precision_check(p, unmeasured) == alone
+
+
 def test_a_precision_not_measured_is_no_check():
     from freeplayid.identification.replay_checks import precision_check
     from freeplayid.replay import ReplayPrecision

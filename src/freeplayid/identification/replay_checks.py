@@ -28,7 +28,9 @@
   own (``accuracy_kn``, 2 %) exceeds ``noise_outside`` (20 %), the error taken as normal with
   that spread about the mean move the copies show against the same replay read without noise
   (``noise_bias``: a statistic read under noise need not be centred on the noise-free one),
-  that mean's standard error added to the spread. On the default
+  that mean's standard error added to the spread, and where the replays are driven by a noisy
+  base record, that noise's own spread (:class:`freeplayid.replay.ExcitationNoise`) added in
+  quadrature, as in the intervals. On the default
   fin at 0.05 g of noise the copies spread by about 0.5 % (sd) in delta (a 5 % chance), on a
   fin whose responses are three times weaker against the same noise by about 1 % (32 %).
 - ``replay_level`` (runs whose levels come from ``level_g``: no base channel): the levels the
@@ -347,7 +349,8 @@ def replay_checks(replay, *, down_runs=()) -> list[Check]:
               _level_check(replay), _form_check(replay), _reading_check(replay),
               _sweep_law_check(replay, misfit, LIMITS["replay_misfit"]),
               _binding_check(replay.iterations), _converged_check(replay),
-              precision_check(getattr(replay, "precision", None))]
+              precision_check(getattr(replay, "precision", None),
+                              getattr(replay, "excitation_noise", None))]
     damping = getattr(replay, "damping", None)
     if damping is not None and damping.source == "estimated":
         ci = damping.zeta_ci95
@@ -493,25 +496,39 @@ def settled_sd() -> tuple[float, float]:
     return (math.log1p(LIMITS["accuracy_kn"]) / z, math.log1p(LIMITS["accuracy_delta"]) / z)
 
 
-def precision_check(precision) -> Check | None:
+def precision_check(precision, excitation=None) -> Check | None:
     """``noise_precision`` (module docstring); None when not measured (no copies, or fewer
-    than three of them could be fitted)."""
+    than three of them could be fitted). ``excitation``: the base channel's noise in the
+    replays' excitation (:class:`freeplayid.replay.ExcitationNoise`), where measured, adds its
+    half-widths to the copies' in quadrature (log), as the intervals do."""
     if precision is None or precision.delta_halfwidth is None:
         return None
-    hw = {"delta": precision.delta_halfwidth, "kn": precision.kn_halfwidth}
+    own = hw = {"delta": precision.delta_halfwidth, "kn": precision.kn_halfwidth}
+    base = None if excitation is None or excitation.delta_halfwidth is None else \
+        {"delta": excitation.delta_halfwidth, "kn": excitation.kn_halfwidth}
+    if base is not None:
+        hw = {k: math.expm1(math.hypot(math.log1p(own[k]), math.log1p(base[k]))) for k in own}
     bound = {"delta": LIMITS["accuracy_delta"], "kn": LIMITS["accuracy_kn"]}
     shift = dict(zip(("kn", "delta"), getattr(precision, "noise_bias", None) or (0.0, 0.0)))
     shift_se = dict(zip(("kn", "delta"),
                         getattr(precision, "noise_bias_se", None) or (0.0, 0.0)))
     chance = {k: noise_outside_chance(hw[k], bound[k], shift[k], shift_se[k]) for k in hw}
     worst = max(chance, key=chance.get)
-    said = (f"{precision.describe()}: a {100 * chance['delta']:.2g} % chance that it puts delta "
+    said = precision.describe()
+    if base is not None:
+        said += (f"; {excitation.describe()}; together ±{100 * hw['delta']:.2g} % and "
+                 f"±{100 * hw['kn']:.2g} %")
+    said = (f"{said}: a {100 * chance['delta']:.2g} % chance that the noise puts delta "
             f"beyond {100 * bound['delta']:g} %, {100 * chance['kn']:.2g} % that it puts kn "
             f"beyond {100 * bound['kn']:g} %")
     if chance[worst] <= LIMITS["noise_outside"]:
         return Check("noise_precision", True, said, chance[worst])
+    mostly_base = base is not None and base[worst] > own[worst]
     return Check("noise_precision", False,
                  f"{said} (limit {100 * LIMITS['noise_outside']:g} %): the answer is only as "
-                 "precise as the test's noise allows, whatever the intervals; more runs at "
-                 "levels whose jumps lie well inside the band, a slower sweep or less noise "
-                 "would narrow it", chance[worst])
+                 "precise as the test's noise allows, whatever the intervals; "
+                 + ("most of it the base channel's, which drives the replays: a quieter base "
+                    "accelerometer would narrow it most; more runs or "
+                    "a slower sweep would too" if mostly_base else
+                    "more runs at levels whose jumps lie well inside the band, a slower sweep "
+                    "or less noise would narrow it"), chance[worst])
