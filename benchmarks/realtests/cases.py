@@ -1396,6 +1396,20 @@ VARIANTS.update(dict(_noisy_with_base(*a) for a in (
     ("var17_beam_rayleigh_noisy", "beam_rayleigh", 0.3),
 )))
 
+# An eighteenth set (2026-12-05, session 52), made to test the noise check with the base
+# channel's noise counted in it (docs/identify.md §3c) on records it was not made from: other
+# conditions with a base channel (a damper at each hinge, a level dip, a log sweep, more damping
+# in contact, a level ramp) on the three fins, their noise raised to 0.2-0.25 g (fin B 0.1 g).
+# Chosen before any of their answers was seen.
+VARIANTS.update(dict(_noisy_with_base(*a) for a in (
+    ("var18_finC_damper_noisy", "var7_finC_hinge_damper", 0.2),
+    ("var18_fin_dip_noisy", "var_fin_level_dip", 0.2),
+    ("var18_finC_log_noisy", "var6_finC_log", 0.2),
+    ("var18_fin_contact_noisy", "var_fin_contact_damping", 0.2),
+    ("var18_finB_damper_noisy", "var5_finB_damper", 0.1),
+    ("var18_fin_ramp_noisy", "var_fin_level_ramp", 0.25),
+)))
+
 ALL_CASES = {**CONDITIONS, **VARIANTS}
 
 def set_profiles(spec: CaseSpec, out: Path) -> None:
