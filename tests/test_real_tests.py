@@ -694,9 +694,9 @@ def test_one_step_reads_the_noise_as_the_whole_pursuit_does(monkeypatch):
 
 
 def test_intervals_take_in_the_base_channels_noise():
-    """The excitation copies' half-widths join the intervals in quadrature (by hand); the noise
-    check stays the responses' (on 27 realtests answers with noisy bases adding them to it made
-    4 accurate answers ``suspect`` and caught none outside the bounds)."""
+    """The excitation copies' half-widths join the intervals in quadrature (by hand), and the
+    noise check's spread alike (since session 52: on 364 stored realtests answers it caught 4
+    ``ok`` answers outside the bounds and made 2 accurate ones ``suspect``)."""
     from types import SimpleNamespace
 
     from freeplayid.identification.pipeline import _corrected_intervals
@@ -715,6 +715,36 @@ def test_intervals_take_in_the_base_channels_noise():
     assert math.log(delta_ci[1] / 3e-3) == pytest.approx(math.hypot(own, math.log1p(0.008)))
     assert "base channel" in source
     assert precision_check(p).value == pytest.approx(noise_outside_chance(0.006, 0.01))
+    both = math.expm1(math.hypot(math.log1p(0.006), math.log1p(0.008)))
+    assert precision_check(p, e).value == pytest.approx(noise_outside_chance(both, 0.01))
+
+
+def test_an_excitation_copy_that_cannot_be_fitted_is_drawn_again():
+    """A copy whose fit fails is no move: it is drawn again, up to the attempts allowed, so
+    that two copies measure the base's noise where one failed (before, the one left counted
+    for nothing, and the base's noise was left out of the noise check)."""
+    from freeplayid.errors import IdentificationError
+    from freeplayid.replay.corrected import EXCITATION_TRIES, fitted_moves
+
+    def script(outcomes):
+        it = iter(outcomes)
+        calls = []
+
+        def move():
+            calls.append(1)
+            out = next(it)
+            if out is None:
+                raise IdentificationError("a run's point left its window")
+            return out
+        return move, calls
+
+    move, calls = script([None, 0.1, 0.2, 0.3])
+    assert fitted_moves(move, 2, range(EXCITATION_TRIES * 2)) == [0.1, 0.2] and len(calls) == 3
+    move, calls = script([0.1, 0.2, 0.3])  # no failure: the first two, as before the retries
+    assert fitted_moves(move, 2, range(4)) == [0.1, 0.2] and len(calls) == 2
+    move, calls = script([None, None, None, 0.4])  # the attempts run out
+    assert fitted_moves(move, 2, range(4)) == [0.4] and len(calls) == 4
+    assert EXCITATION_TRIES >= 2
 
 
 def test_copies_that_stopped_early_give_their_bound_without_students_t():

@@ -118,9 +118,10 @@ class Replay:
         Replays at the answer driven by the measured excitation read again under fresh noise of
         the base record's level (:class:`freeplayid.replay.ExcitationNoise`): how far the base
         channel's noise, which the replays' excitation carries, moves the answer; added to the
-        intervals. Only with a measured excitation read with noise; one replay each (about 2.2 s
-        on the bundled example: two keep it under 15 s; the root mean square of two moves is
-        known to about 50 %, of four to 35 %). 0: not measured.
+        intervals and to the noise check's spread; a copy that cannot be fitted is drawn again
+        (up to twice as many attempts). Only with a measured excitation read with noise; one
+        replay each (about 2.2 s on the bundled example: two keep it under 15 s; the root mean
+        square of two moves is known to about 50 %, of four to 35 %). 0: not measured.
     start : {"statistic", "network"}
         Where the replay loop starts: "statistic" (default) the fit of the measured points with
         the replays' rule; "network" the inverse model's estimate (``inverse.checkpoint``), or
