@@ -267,7 +267,8 @@ def _replay(r) -> list[str]:
     if excited is not None:
         said = excited.describe()
         lines += [said[0].upper() + said[1:]
-                  + (", in the intervals." if excited.delta_halfwidth is not None else ".")]
+                  + (", in the intervals and the noise check." if excited.delta_halfwidth
+                     is not None else ".")]
     reading = getattr(rep, "base_reading", None)
     if reading is not None:
         said = reading.describe()
