@@ -273,7 +273,7 @@ class ExcitationNoise:
     noisy it can be most of the answer's noise: on realtests' fin C at 0.3 g, four draws of the
     test scattered delta by 1.0 % (sd), the response copies alone by 0.35-0.64 % and these by
     0.6-0.9 %. On 364 realtests answers (session 52, re-judged from their stored runs) counting
-    it there turned 4 ``ok`` answers outside the bounds ``suspect`` and 2 within them (at 29-30 %
+    it there turned 4 ``ok`` answers outside the bounds ``suspect`` and 2 within them (at 28-30 %
     chances); in an earlier round, on 27 answers, 4 within and none outside.
 
     Attributes
