@@ -1603,13 +1603,10 @@ def _base_reading(b: _Binding, sol, theta, slope, answer_fit,
     answer = -slope @ move
     shift = np.maximum(np.abs(answer), np.abs(move))
     rng = np.random.default_rng([b.opts.seed, 5])  # not the other copies'
-    copies = []
-    for _ in progress_bar(range(READING_COPIES), desc="the base's wide reading: noise copies",
-                          unit="copy", show=progress, leave=False):
-        try:
-            copies.append(fitted(lambda w: read_again(w, rng)) - wide)
-        except IdentificationError:
-            continue
+    copies = fitted_moves(lambda: fitted(lambda w: read_again(w, rng)) - wide, READING_COPIES,
+                          progress_bar(range(READING_COPIES),
+                                       desc="the base's wide reading: noise copies",
+                                       unit="copy", show=progress, leave=False))
     noise = (1.96 * answer_sd(np.asarray(copies), slope, about=np.zeros(2))
              if len(copies) >= 2 else (None, None))
     return BaseReading(gaps, runs, float(shift[0]), float(shift[1]), float(answer[0]),
