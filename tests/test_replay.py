@@ -11,13 +11,15 @@ import math
 
 import numpy as np
 import pytest
+import scipy.signal
 
 import sdof_reference as ref
 from freeplayid import identify
 from freeplayid.errors import IdentificationError
 from freeplayid.io import Dataset, Run
 from freeplayid.model import sdof_system
-from freeplayid.replay import replay_dataset, replay_levels
+from freeplayid.replay import Replay, replay_dataset, replay_levels
+from freeplayid.simulate import design_decimator
 from freeplayid.sweep import Sweep
 
 RATE = 1.0  # [Hz/s]
@@ -1574,3 +1576,64 @@ def test_an_estimated_exponent_on_one_ratio_in_every_mode_stays_near_zero():
     kn1, delta1 = d.single_ratio_answer
     assert abs(res.delta / delta1 - 1) < 5e-4 and abs(res.kn / kn1 - 1) < 5e-4
     assert abs(res.truth_error["delta"]) < 1e-3 and d.zeta == pytest.approx(0.02, rel=0.01)
+
+
+# ------------------------------------------------------------------- the records' anti-alias filter
+def _decimated(taps, factor: int):
+    """The reference's runs decimated by ``factor`` through the FIR ``taps`` (an acquisition's
+    anti-alias filter): the points then lie at 0.35-0.37 of the sample rate."""
+    sweep = Sweep(30.0, 50.0, RATE)
+    hint = {"start_hz": 30.0, "stop_hz": 50.0, "rate_hz_per_s": RATE}
+    fs = ref.FS / factor
+    runs = []
+    for lv in LEVELS:
+        _, _, a, ag = ref.simulate_sdof_sweep(lv, sweep)
+        y, b = (scipy.signal.resample_poly(x, 1, factor, window=taps / taps.sum())
+                for x in (a + ag, ag))
+        runs.append(Run(file=f"s{lv:.1f}.csv", time=np.arange(y.size) / fs, data=y[None, :],
+                        level_g=lv, sweep=hint, base=b))
+    return Dataset(name="decimated", model=None, quantity="acceleration", units="m/s^2",
+                   sample_rate=fs, channels={"acc": "x"}, runs=tuple(runs),
+                   base_channel="acc_base", truth={"kn": WN * WN, "delta": ref.DELTA})
+
+
+def test_points_where_the_replays_filter_attenuates_carry_the_records_own(system):
+    # the independent reference recorded at 128 Hz through an acquisition flat to 0.45 of its
+    # rate (Kaiser, written here) and through the replay's own filter: the points at 45-47 Hz
+    # (0.35-0.37 fs) keep 88-97 % of their amplitude in the replay
+    factor = 16
+    fs = ref.FS / factor
+    n, beta = scipy.signal.kaiserord(120.0, 0.1 * fs / (ref.FS / 2))
+    flat = scipy.signal.firwin(n | 1, 0.45 * fs, window=("kaiser", beta), fs=ref.FS)
+    fit = {"multistart": MULTISTART}
+    res = identify(_decimated(flat, factor), system=system, progress=False, fit=fit,
+                   replay=QUICK)
+    a = res.replay.antialias
+    assert a is not None and 0.34 < a.band[0] < a.band[1] < 0.38 and a.gain < 0.95
+    # the replay's filter makes the answer for flat records confidently wrong; the move the
+    # check states takes it back to the truth, the intervals reach to it, the verdict says why
+    assert res.truth_error["delta"] < -0.03
+    assert abs(math.exp(a.delta_shift) * (1 + res.truth_error["delta"]) - 1) < 0.01
+    assert abs(math.exp(a.kn_shift) * (1 + res.truth_error["kn"]) - 1) < 0.01
+    assert res.delta_ci95[0] < ref.DELTA < res.delta_ci95[1]
+    assert res.kn_ci95[0] < WN * WN < res.kn_ci95[1]
+    check = next(c for c in res.verdict.checks if c.name == "antialias")
+    assert not check.passed and "anti-alias filter" in check.message
+    assert res.to_dict()["replay"]["antialias"]["delta_shift"] == a.delta_shift
+    assert "Anti-alias filter:" in res.report()
+    # records decimated as the replay's are, said so: the answer within the bounds, no check
+    same = identify(_decimated(design_decimator(factor), factor), system=system,
+                    progress=False, fit=fit, replay={**QUICK, "antialias": "replay"})
+    assert same.replay.antialias is None
+    assert "antialias" not in {c.name for c in same.verdict.checks}
+    assert abs(same.truth_error["delta"]) < 0.01 and abs(same.truth_error["kn"]) < 0.01
+
+
+def test_points_in_the_replays_flat_band_need_no_filter_check(measured, system):
+    # 2048 Hz, points at 40-50 Hz: nothing depends on the records' filter
+    res = identify(measured, system=system, progress=False, fit={"multistart": MULTISTART},
+                   replay=QUICK)
+    assert res.replay.antialias is None
+    assert "antialias" not in {c.name for c in res.verdict.checks}
+    with pytest.raises(ValueError, match="antialias"):
+        Replay(antialias="flat")

@@ -12,6 +12,7 @@ from freeplayid.simulate import (
     G,
     StreamingDecimator,
     Sweep,
+    decimator_gain,
     design_decimator,
     simulate_sweeps,
 )
@@ -313,6 +314,27 @@ def test_streaming_decimator_matches_one_shot_and_rejects_aliases():
     mid = slice(100, -100)
     assert np.abs(y[0, mid] - np.sin(2 * np.pi * 37.0 * tk[mid])).max() < 2e-6
     assert np.abs(y[1, mid]).max() < 1e-5  # would alias to 380 Hz without the filter
+
+
+def test_the_decimators_gain_is_what_it_keeps_of_a_sinusoid():
+    # the gain the replay's anti-alias check reads (decimator_gain) against the streaming
+    # decimator's own output amplitude, at another factor than the one the gain is read at
+    m, fs_out = 6, 256.0
+    d = StreamingDecimator(design_decimator(m), m, dtype=torch.float64, device="cpu")
+    t = np.arange(60000) / (m * fs_out)
+    freqs = (40.0, 76.8, 82.0, 86.0, 95.0, 102.4)
+    y = d.push(torch.from_numpy(np.stack([np.sin(2 * np.pi * f * t) for f in freqs]))).numpy()
+    tk = np.arange(y.shape[1]) / fs_out
+    mid = slice(200, -200)
+    kept = [np.linalg.lstsq(np.stack([np.sin(2 * np.pi * f * tk[mid]),
+                                      np.cos(2 * np.pi * f * tk[mid])], axis=1),
+                            y[i, mid], rcond=None)[0] for i, f in enumerate(freqs)]
+    gain = decimator_gain(np.array(freqs), fs_out)
+    np.testing.assert_allclose(gain, [np.hypot(*c) for c in kept], atol=2e-6)
+    assert gain[0] == pytest.approx(1.0, abs=1e-5) and gain[1] == pytest.approx(1.0, abs=1e-5)
+    assert 0.99 < gain[3] < 0.995 and gain[-1] == pytest.approx(0.5, abs=1e-3)
+    with pytest.raises(ValueError, match="decimator_gain"):
+        decimator_gain([-1.0], fs_out)
 
 
 def test_bad_arguments_name_the_argument(fin):

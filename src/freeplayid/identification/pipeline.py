@@ -824,6 +824,12 @@ def _corrected_intervals(rep) -> tuple[tuple, tuple, str]:
         delta_ci = widen(delta_ci, rep.delta, reading.delta_shift)
         source += ", with the answer's move for the base read over the wide band where its " \
             "narrowed reading misses the level near a jump"
+    acquisition = getattr(rep, "antialias", None)
+    if acquisition is not None:  # the records' anti-alias filter, where the replay's attenuates
+        kn_ci = _reaching(kn_ci, acquisition.kn_shift)
+        delta_ci = _reaching(delta_ci, acquisition.delta_shift)
+        source += (", reaching to the answer for records whose anti-alias filter is flat at "
+                   "the points")
     damped = getattr(rep, "damping_sensitivity", None)
     if damped is not None:  # a damping the down-sweeps do not measure
         kn_ci = widen(kn_ci, rep.kn, damped.kn_shift)

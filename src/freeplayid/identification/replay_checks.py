@@ -62,6 +62,12 @@
   accuracy bounds). It is estimated only with a base channel to replay: without one a level
   that drifts during the runs drifts the replayed peaks with the level as damping that rises
   with the mode does.
+- ``antialias`` (points above 0.3 of the sample rate, where the replay's anti-alias filter
+  attenuates: -0.8 % at 0.336): the answer's move were the records' own filter flat there
+  (:class:`freeplayid.replay.AcquisitionFilter`; the intervals reach to it); fails beyond half
+  the accuracy bounds (``antialias_delta`` 0.5 %, ``antialias_kn`` 1 %), as a second
+  statistic's move does: the answer then rests on a filter the data set does not state
+  (``Replay.antialias``). Fin C's points at 0.31-0.34 fs move delta by +1.2 %.
 - ``sweep_law``, ``replay_binding``, ``replay_converged``, ``damping_estimate``: where the laws
   came from, a replayed fit that jumps, convergence and an estimated damping the amplitudes pin
   down (:mod:`freeplayid.identification.verdict`).
@@ -340,6 +346,25 @@ def _reading_check(replay) -> Check | None:
                  "intervals", value)
 
 
+def _antialias_check(replay) -> Check | None:
+    """``antialias``: the answer's move were the records' anti-alias filter flat where the
+    replay's attenuates (module docstring); None where every point lies in its flat band."""
+    acquisition = getattr(replay, "antialias", None)
+    if acquisition is None:
+        return None
+    value = max(abs(acquisition.delta_shift) / LIMITS["antialias_delta"],
+                abs(acquisition.kn_shift) / LIMITS["antialias_kn"])
+    said = acquisition.describe()
+    if value <= 1:
+        return Check("antialias", True, said, value)
+    return Check("antialias", False,
+                 f"{said}; that is beyond half the accuracy bounds (delta "
+                 f"{100 * LIMITS['antialias_delta']:g} %, kn {100 * LIMITS['antialias_kn']:g} %), "
+                 "so the answer rests on a filter the data set does not state; say which "
+                 "(`replay.antialias=replay` where the records were decimated as the replay's "
+                 "are) or sample faster (points below 0.3 of the sample rate)", value)
+
+
 def replay_checks(replay, *, down_runs=()) -> list[Check]:
     """The replay's self-check (module docstring); ``down_runs``: the runs that sweep down."""
     if getattr(replay, "failure", ""):
@@ -347,6 +372,7 @@ def replay_checks(replay, *, down_runs=()) -> list[Check]:
     misfit = {r: m for r, m in (replay.misfit or {}).items() if math.isfinite(m)}
     checks = [_resonance_check(replay, tuple(down_runs)), _consistency_check(replay),
               _level_check(replay), _form_check(replay), _reading_check(replay),
+              _antialias_check(replay),
               _sweep_law_check(replay, misfit, LIMITS["replay_misfit"]),
               _binding_check(replay.iterations), _converged_check(replay),
               precision_check(getattr(replay, "precision", None),

@@ -284,6 +284,11 @@ def _replay(r) -> list[str]:
                       + ("" if getattr(level, "ratio_kn", None) is None else
                          f"; the channels' amplitude ratios put kn {100 * level.ratio_kn:+.2g} % "
                          "from the answer") + "."]
+    acquisition = getattr(rep, "antialias", None)
+    if acquisition is not None:
+        said = acquisition.describe()
+        lines += [f"Anti-alias filter: {said} (`replay.antialias=replay` where the records were "
+                  "decimated as the replay's are)."]
     damped = getattr(rep, "damping_sensitivity", None)
     if damped is not None:
         lines += [f"Damping of the down-sweeps ({', '.join(damped.runs)}), which they do not "

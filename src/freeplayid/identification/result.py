@@ -322,6 +322,8 @@ class Identification:
             else r.excitation_noise.to_dict(),
             "base_reading": None if getattr(r, "base_reading", None) is None
             else r.base_reading.to_dict(),
+            "antialias": None if getattr(r, "antialias", None) is None
+            else r.antialias.to_dict(),
         }
 
     def backbone_overlay(self) -> dict:

@@ -139,6 +139,8 @@ LIMITS = {
     "without_delta": ACCURACY_DELTA / 2,
     "without_kn": ACCURACY_KN / 2,
     "peak_amplitude": 0.05,  # [-] a run's peak: beyond this the report says the damping differs
+    "antialias_delta": ACCURACY_DELTA / 2,  # [-] the records' filter's move (half the bounds)
+    "antialias_kn": ACCURACY_KN / 2,
     "cross_delta": ACCURACY_DELTA / 2,  # [-] a second statistic's move of delta (half its bound)
     "cross_kn": ACCURACY_KN / 2,  # [-] ... and of kn (half its bound) ...
     # [-] ... or, whichever is larger, its standard error times Student's t at this two-sided

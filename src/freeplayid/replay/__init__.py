@@ -77,6 +77,7 @@ solve), ``bootstrap`` (the bootstrap by replay), ``misfit`` (the self-check's cu
 
 from .bootstrap import ReplayBootstrap, ReplayPrecision, precision_by_replay, windowed
 from .corrected import (
+    AcquisitionFilter,
     BaseReading,
     CrossCheck,
     DampingSensitivity,
@@ -97,7 +98,7 @@ from .weights import WEIGHT_FLOOR, PointWeight, noise_levels, point_weights
 __all__ = ["Replay", "ReplayResult", "ReplayIteration", "PointOffset", "PointWeight",
            "ReplayBootstrap", "ReplayPrecision", "precision_by_replay", "windowed",
            "ReplayDamping", "CrossCheck", "LevelSensitivity", "ExcitationNoise", "BaseReading",
-           "DampingSensitivity", "replay_sweeps",
+           "DampingSensitivity", "AcquisitionFilter", "replay_sweeps",
            "replay_levels",
            "replay_dataset", "corrected_fit", "curve_misfit", "damped_system", "noise_levels",
            "initial_zeta", "point_weights", "replayed_intervals", "WEIGHT_FLOOR", "ZETA_START",

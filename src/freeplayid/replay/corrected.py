@@ -441,6 +441,60 @@ class DampingSensitivity(_Sensitivity):
     closest_misfit_se: float | None = None
 
 
+# the replay's filter gain at the points below which the records' own anti-alias filter is
+# measured: 1e-4 of amplitude moves delta by about 2e-4 (fin C: 1.6 x the amplitude's move)
+FILTER_GAIN_TOL = 1e-4
+
+
+@dataclass(frozen=True)
+class AcquisitionFilter:
+    """How far the records' anti-alias filter moves the answer, where the points lie in the
+    replay's filter's transition band.
+
+    The replays' records are decimated to the data's sample rate by the simulator's filter
+    (:func:`freeplayid.simulate.design_decimator`: flat to 0.3 of the sample rate, -0.8 % at
+    0.336, -6 dB at 0.4). The test's records went through the acquisition's own, which the
+    data set does not state: one like the replay's (another simulator's decimation) or one
+    flat well beyond 0.3 fs (a sigma-delta acquisition, flat to 0.4-0.45 fs). Both read a
+    point's frequency alike (zero or linear phase, the same on every channel), but its
+    amplitude differs by the replay's gain there, which moves the points off the backbone:
+    were the acquisition flat at the points, the replayed points' amplitudes over the replay's
+    gain are what the test's would be matched against. Their fit, carried to the answer
+    through the binding's slope, is the answer's move.
+
+    Attributes
+    ----------
+    band : tuple of float [-]
+        The lowest and highest frequency of the answer's replayed points over the sample rate.
+    band_hz : tuple of float [Hz]
+        The same in Hz.
+    gain : float [-]
+        The replay's filter's lowest gain at those points.
+    kn_shift, delta_shift : float [-]
+        The answer's log move were the records' filter flat at the points (signed: the answer
+        for such records lies at ``answer * exp(shift)``). The intervals reach to it.
+    """
+
+    band: tuple
+    band_hz: tuple
+    gain: float
+    kn_shift: float
+    delta_shift: float
+
+    def to_dict(self) -> dict:
+        return {"band": list(self.band), "band_hz": list(self.band_hz), "gain": self.gain,
+                "kn_shift": self.kn_shift, "delta_shift": self.delta_shift}
+
+    def describe(self) -> str:
+        """What the answer owes to the acquisition's filter (the report and the verdict)."""
+        return (f"the points lie at {self.band_hz[0]:.4g}-{self.band_hz[1]:.4g} Hz, "
+                f"{self.band[0]:.3f}-{self.band[1]:.3f} of the sample rate, where the replay's "
+                f"anti-alias filter keeps {100 * self.gain:.4g} % of the amplitude; were the "
+                "records' own filter flat there (an acquisition flat to 0.4-0.45 of its rate), "
+                f"the answer would move by delta {100 * math.expm1(self.delta_shift):+.2g} %, kn "
+                f"{100 * math.expm1(self.kn_shift):+.2g} % (the intervals reach to it)")
+
+
 @dataclass(frozen=True)
 class ReplayResult:
     """The bias-corrected estimate and its iterations.
@@ -513,6 +567,10 @@ class ReplayResult:
     base_reading : BaseReading or None
         Whether the base channel's narrowed reading follows the level around each run's point,
         and the answer's move where it does not; None where no run was read narrowed.
+    antialias : AcquisitionFilter or None
+        The answer's move were the records' anti-alias filter flat at the points, which lie
+        where the replay's own attenuates (``Replay.antialias`` "unknown"); None where every
+        point lies in its flat band, or with ``antialias="replay"``.
     cross : CrossCheck or None
         The answer's replay on a second statistic (:class:`Replay` ``cross_check``).
     excitation : str
@@ -558,6 +616,7 @@ class ReplayResult:
     damping_sensitivity: DampingSensitivity | None = None
     excitation_noise: ExcitationNoise | None = None
     base_reading: BaseReading | None = None
+    antialias: AcquisitionFilter | None = None
     cross: CrossCheck | None = None
     excitation: str = "law"
     start: str = "statistic"
@@ -1225,13 +1284,50 @@ def _answer_move(J, half: float) -> np.ndarray | None:
     return shift if np.all(np.isfinite(shift)) else None
 
 
+def _acquisition_filter(b: _Binding, slope) -> AcquisitionFilter | None:
+    """:class:`AcquisitionFilter` of the answer's replay: its used points' amplitudes over the
+    replay's filter gain at their frequencies, fitted with the statistic's weights, against the
+    same points fitted as they are; the difference carried to the answer through ``slope``
+    (identity where the loop has none). None where every point keeps at least
+    1 - ``FILTER_GAIN_TOL`` of its amplitude, or a fit fails."""
+    from ..simulate.resample import decimator_gain  # the simulator (torch) only here
+
+    rep = b.rep
+    if rep is None:
+        return None
+    fs = float(b.test.dataset.sample_rate)
+    used = [p for p in rep.points.points if p.used]
+    if not used:
+        return None
+    f = np.array([p.f_hz for p in used])
+    gains = decimator_gain(f, fs)
+    if float(np.min(gains)) >= 1.0 - FILTER_GAIN_TOL:
+        return None
+    gain = dict(zip(((p.run, p.channel) for p in used), gains, strict=True))
+    flat = tuple(dataclasses.replace(p, amplitude_m=p.amplitude_m / gain[(p.run, p.channel)])
+                 if p.used else p for p in rep.points.points)
+    moved = dataclasses.replace(rep, points=dataclasses.replace(rep.points, points=flat))
+    try:
+        fits = [refit(e, b.system, b.test.fit, point_weights=b.weights) for e in (rep, moved)]
+    except (IdentificationError, ValueError, np.linalg.LinAlgError):
+        return None
+    d = np.log([fits[1].kn, fits[1].delta]) - np.log([fits[0].kn, fits[0].delta])
+    shift = -(np.eye(2) if slope is None else np.asarray(slope)) @ d
+    if not np.all(np.isfinite(shift)):
+        return None
+    return AcquisitionFilter(band=(float(f.min() / fs), float(f.max() / fs)),
+                             band_hz=(float(f.min()), float(f.max())),
+                             gain=float(np.min(gains)), kn_shift=float(shift[0]),
+                             delta_shift=float(shift[1]))
+
+
 def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts,
             progress, start: str = "statistic", settled=None) -> ReplayResult:
     """The :class:`ReplayResult` of a finished loop (started at ``start``): offsets, curve
     misfits and the bootstrap at the answer's replay (:meth:`_Binding.settle`)."""
     rep, stat = b.rep, b.stat
     offsets, misfit, boot, resonance, cross, level, damped = (), {}, None, {}, None, None, None
-    excited = reading = None
+    excited = reading = acquisition = None
     precision = None
     # how the answer moves with the statistic: the binding's slope regressed on the replays
     # (not where the damping moved between them: the regression does not separate it)
@@ -1272,6 +1368,8 @@ def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts
                                                            progress)
         reading = None if b.failure else _base_reading(b, sol, theta, slope, answer_fit,
                                                        progress)
+        acquisition = None if b.failure or opts.antialias != "unknown" else \
+            _acquisition_filter(b, slope)
         if opts.n_bootstrap > 0 and not b.failure:
             boot = bootstrap_by_replay(
                 b.rep_ds, system, noise(), theta=theta,
@@ -1299,7 +1397,7 @@ def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts
         precision=precision,
         weights=b.weight_table or None,
         resonance=resonance, cross=cross, level=level, damping_sensitivity=damped,
-        excitation_noise=excited, base_reading=reading,
+        excitation_noise=excited, base_reading=reading, antialias=acquisition,
         excitation="measured" if b.test.excitations else "law", start=start,
         gap_shares=opts.gap_shares, wide_base=opts.wide_base,
         statistic_points=stat.fitting_points() if rep is not None else None,

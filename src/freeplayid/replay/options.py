@@ -18,6 +18,8 @@ EXCITATIONS = ("measured", "law")
 # where the replay loop starts: the fit of the measured statistic (the binding's target) or the
 # network's estimate (the plain fit's given start)
 STARTS = ("statistic", "network")
+# the records' anti-alias filter (`Replay.antialias`)
+ANTIALIAS = ("unknown", "replay")
 
 
 @dataclass(frozen=True)
@@ -155,6 +157,15 @@ class Replay:
         ``drop_window`` fails too where they agree but lie further apart than delta's or kn's
         accuracy bound (the intervals then hold both answers). 1: never
         (docs/identify.md §3c, "A noisy test without a base channel").
+    antialias : {"unknown", "replay"}
+        The anti-alias filter the test's records went through, where the points lie above 0.3
+        of the sample rate (the replay's own filter attenuates there: -0.8 % at 0.336, -6 dB
+        at 0.4; below 0.3 nothing depends on it). "unknown" (default): the replays keep their
+        own filter, and the answer's move were the records' filter flat at the points is
+        measured (:class:`freeplayid.replay.AcquisitionFilter`), reached to by the intervals
+        and checked by the verdict (``antialias``). "replay": the records were decimated as
+        the replay's are (the simulator's :func:`freeplayid.simulate.design_decimator`, or a
+        filter of the same response), nothing measured.
     """
 
     damping: float | str | None = None
@@ -177,6 +188,7 @@ class Replay:
     gap_shares: tuple | None = None
     wide_base: tuple = ()
     noisy_window: float = 4.0
+    antialias: str = "unknown"
 
     def __post_init__(self):
         d = self.damping
@@ -200,6 +212,7 @@ class Replay:
         check_number("level_uncertainty", self.level_uncertainty, 0.0, 0.5)
         check_number("damping_uncertainty", self.damping_uncertainty, 0.0, 1.0)
         check_number("noisy_window", self.noisy_window, 1.0, 16.0)
+        check_choice("antialias", self.antialias, ANTIALIAS)
         p = self.damping_exponent
         if p != "estimate" and not (is_number(p) and -1.0 <= p <= 2.0):
             raise ValueError(f"`damping_exponent` must be a number in [-1, 2] or 'estimate', "

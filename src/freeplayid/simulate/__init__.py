@@ -12,7 +12,7 @@ from .formulation import ModalForm, ModalTruncation, build_modal_form, rk4_step_
 from .plan import DEFAULT_OMEGA_DT, rk4_step_count
 from .quasistatic import QuasiStatic
 from .records import default_columns, sweep_dataset
-from .resample import StreamingDecimator, design_decimator
+from .resample import StreamingDecimator, decimator_gain, design_decimator
 from .run import SweepResult, simulate_sweeps
 
 __all__ = [
@@ -29,6 +29,7 @@ __all__ = [
     "rk4_step_limit",
     "rk4_step_count",
     "design_decimator",
+    "decimator_gain",
     "StreamingDecimator",
     "DEFAULT_OMEGA_DT",
 ]
