@@ -1581,7 +1581,7 @@ def test_an_estimated_exponent_on_one_ratio_in_every_mode_stays_near_zero():
 # ------------------------------------------------------------------- the records' anti-alias filter
 def _decimated(taps, factor: int):
     """The reference's runs decimated by ``factor`` through the FIR ``taps`` (an acquisition's
-    anti-alias filter): the points then lie at 0.35-0.37 of the sample rate."""
+    anti-alias filter)."""
     sweep = Sweep(30.0, 50.0, RATE)
     hint = {"start_hz": 30.0, "stop_hz": 50.0, "rate_hz_per_s": RATE}
     fs = ref.FS / factor
@@ -1597,36 +1597,50 @@ def _decimated(taps, factor: int):
                    base_channel="acc_base", truth={"kn": WN * WN, "delta": ref.DELTA})
 
 
-def test_points_where_the_replays_filter_attenuates_carry_the_records_own(system):
-    # the independent reference recorded at 128 Hz through an acquisition flat to 0.45 of its
-    # rate (Kaiser, written here) and through the replay's own filter: the points at 45-47 Hz
-    # (0.35-0.37 fs) keep 88-97 % of their amplitude in the replay
-    factor = 16
+def test_points_where_the_default_filter_attenuates_are_replayed_flat_and_checked(system):
+    # the independent reference recorded at 137 Hz through an acquisition flat to 0.45 of its
+    # rate (Kaiser, written here) and through the simulator's default filter (flat to 0.3): the
+    # points at 45-47 Hz (0.33-0.35 fs) keep 97-99 % of their amplitude through the latter
+    factor = 15
     fs = ref.FS / factor
     n, beta = scipy.signal.kaiserord(120.0, 0.1 * fs / (ref.FS / 2))
     flat = scipy.signal.firwin(n | 1, 0.45 * fs, window=("kaiser", beta), fs=ref.FS)
     fit = {"multistart": MULTISTART}
-    res = identify(_decimated(flat, factor), system=system, progress=False, fit=fit,
-                   replay=QUICK)
+    flat_ds, default_ds = _decimated(flat, factor), _decimated(design_decimator(factor), factor)
+
+    def checked(res):
+        return {c.name: c for c in res.verdict.checks}
+
+    # undeclared: the replays are decimated flat, the answer for flat records is right; how far
+    # it moves were the records' filter the default is stated, reached to and checked
+    res = identify(flat_ds, system=system, progress=False, fit=fit, replay=QUICK)
     a = res.replay.antialias
-    assert a is not None and 0.34 < a.band[0] < a.band[1] < 0.38 and a.gain < 0.95
-    # the replay's filter makes the answer for flat records confidently wrong; the move the
-    # check states takes it back to the truth, the intervals reach to it, the verdict says why
-    assert res.truth_error["delta"] < -0.03
+    assert a is not None and a.replayed_flat and 0.32 < a.band[0] < a.band[1] < 0.36
+    assert a.gain < 0.99
+    assert abs(res.truth_error["delta"]) < 0.01 and abs(res.truth_error["kn"]) < 0.01
+    assert a.delta_shift < -0.015  # a default-filtered record's answer lies that far
+    check = checked(res)["antialias"]
+    assert not check.passed and "flat only to 0.3" in check.message
+    assert res.to_dict()["replay"]["antialias"]["delta_shift"] == a.delta_shift
+    assert "Anti-alias filter:" in res.report()
+    # undeclared, records through the default filter: the answer is off, the stated move takes
+    # it back to the truth, the intervals reach to it, the verdict says why
+    res = identify(default_ds, system=system, progress=False, fit=fit, replay=QUICK)
+    a = res.replay.antialias
+    assert res.truth_error["delta"] > 0.015
     assert abs(math.exp(a.delta_shift) * (1 + res.truth_error["delta"]) - 1) < 0.01
     assert abs(math.exp(a.kn_shift) * (1 + res.truth_error["kn"]) - 1) < 0.01
     assert res.delta_ci95[0] < ref.DELTA < res.delta_ci95[1]
     assert res.kn_ci95[0] < WN * WN < res.kn_ci95[1]
-    check = next(c for c in res.verdict.checks if c.name == "antialias")
-    assert not check.passed and "anti-alias filter" in check.message
-    assert res.to_dict()["replay"]["antialias"]["delta_shift"] == a.delta_shift
-    assert "Anti-alias filter:" in res.report()
-    # records decimated as the replay's are, said so: the answer within the bounds, no check
-    same = identify(_decimated(design_decimator(factor), factor), system=system,
-                    progress=False, fit=fit, replay={**QUICK, "antialias": "replay"})
-    assert same.replay.antialias is None
-    assert "antialias" not in {c.name for c in same.verdict.checks}
-    assert abs(same.truth_error["delta"]) < 0.01 and abs(same.truth_error["kn"]) < 0.01
+    assert not checked(res)["antialias"].passed
+    # declared, each: the answer within the bounds, nothing left to check
+    for ds, declared in ((flat_ds, "flat"), (default_ds, "replay")):
+        res = identify(ds, system=system, progress=False, fit=fit,
+                       replay={**QUICK, "antialias": declared})
+        assert res.replay.antialias is None and res.replay.records_filter == declared
+        assert "antialias" not in checked(res)
+        assert abs(res.truth_error["delta"]) < 0.01 and abs(res.truth_error["kn"]) < 0.01
+    assert "declared as the replay's own" in res.report()
 
 
 def test_points_in_the_replays_flat_band_need_no_filter_check(measured, system):
@@ -1636,4 +1650,4 @@ def test_points_in_the_replays_flat_band_need_no_filter_check(measured, system):
     assert res.replay.antialias is None
     assert "antialias" not in {c.name for c in res.verdict.checks}
     with pytest.raises(ValueError, match="antialias"):
-        Replay(antialias="flat")
+        Replay(antialias="sigma-delta")

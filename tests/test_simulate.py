@@ -335,6 +335,16 @@ def test_the_decimators_gain_is_what_it_keeps_of_a_sinusoid():
     assert 0.99 < gain[3] < 0.995 and gain[-1] == pytest.approx(0.5, abs=1e-3)
     with pytest.raises(ValueError, match="decimator_gain"):
         decimator_gain([-1.0], fs_out)
+    # flat to 0.45 of the rate (a sigma-delta acquisition's), still nothing above 0.5
+    wide = design_decimator(m, passband=0.45)
+    assert len(wide) > 3 * len(design_decimator(m))
+    np.testing.assert_allclose(decimator_gain(np.array(freqs[:-1]), fs_out, passband=0.45), 1.0,
+                               atol=1e-5)
+    w = 2 * np.pi * 0.52 * fs_out / (m * fs_out)
+    k = np.arange(wide.size) - (wide.size - 1) / 2
+    assert abs(np.cos(w * k) @ wide) < 1e-5
+    with pytest.raises(ValueError, match="passband"):
+        design_decimator(m, passband=0.5)
 
 
 def test_bad_arguments_name_the_argument(fin):

@@ -62,12 +62,13 @@
   accuracy bounds). It is estimated only with a base channel to replay: without one a level
   that drifts during the runs drifts the replayed peaks with the level as damping that rises
   with the mode does.
-- ``antialias`` (points above 0.3 of the sample rate, where the replay's anti-alias filter
-  attenuates: -0.8 % at 0.336): the answer's move were the records' own filter flat there
+- ``antialias`` (points above 0.3 of the sample rate, where the simulator's default
+  anti-alias filter attenuates: -0.8 % at 0.336; the replays are then decimated flat): the
+  answer's move were the records' own filter that default instead
   (:class:`freeplayid.replay.AcquisitionFilter`; the intervals reach to it); fails beyond half
   the accuracy bounds (``antialias_delta`` 0.5 %, ``antialias_kn`` 1 %), as a second
   statistic's move does: the answer then rests on a filter the data set does not state
-  (``Replay.antialias``). Fin C's points at 0.31-0.34 fs move delta by +1.2 %.
+  (``Replay.antialias``). Fin C's points at 0.31-0.34 fs move delta by about 1.2 %.
 - ``sweep_law``, ``replay_binding``, ``replay_converged``, ``damping_estimate``: where the laws
   came from, a replayed fit that jumps, convergence and an estimated damping the amplitudes pin
   down (:mod:`freeplayid.identification.verdict`).
@@ -361,8 +362,9 @@ def _antialias_check(replay) -> Check | None:
                  f"{said}; that is beyond half the accuracy bounds (delta "
                  f"{100 * LIMITS['antialias_delta']:g} %, kn {100 * LIMITS['antialias_kn']:g} %), "
                  "so the answer rests on a filter the data set does not state; say which "
-                 "(`replay.antialias=replay` where the records were decimated as the replay's "
-                 "are) or sample faster (points below 0.3 of the sample rate)", value)
+                 "(`replay.antialias=flat` for an acquisition flat to 0.45 of its rate, "
+                 "`replay.antialias=replay` for records decimated as the simulator's are) or "
+                 "sample faster (points below 0.3 of the sample rate)", value)
 
 
 def replay_checks(replay, *, down_runs=()) -> list[Check]:

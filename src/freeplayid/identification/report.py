@@ -284,6 +284,12 @@ def _replay(r) -> list[str]:
                       + ("" if getattr(level, "ratio_kn", None) is None else
                          f"; the channels' amplitude ratios put kn {100 * level.ratio_kn:+.2g} % "
                          "from the answer") + "."]
+    declared = getattr(rep, "records_filter", "unknown")
+    if declared != "unknown":
+        lines += ["Anti-alias filter of the records: declared " + (
+            "flat to 0.45 of the sample rate (`replay.antialias=flat`); the replays are "
+            "decimated so." if declared == "flat" else "as the replay's own, flat to 0.3 of the "
+            "sample rate (`replay.antialias=replay`).")]
     acquisition = getattr(rep, "antialias", None)
     if acquisition is not None:
         said = acquisition.describe()

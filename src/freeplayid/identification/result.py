@@ -324,6 +324,7 @@ class Identification:
             else r.base_reading.to_dict(),
             "antialias": None if getattr(r, "antialias", None) is None
             else r.antialias.to_dict(),
+            "records_filter": getattr(r, "records_filter", "unknown"),
         }
 
     def backbone_overlay(self) -> dict:

@@ -34,7 +34,7 @@ from .broyden import BindingSolve, solve_binding
 from .damping_estimate import ZETA_RTOL, ReplayDamping, damped_system, damping_mode, initial_zeta
 from .excitation import read_again
 from .misfit import implied_levels, offset_noise, resonance_misfits, run_misfits
-from .options import Replay
+from .options import FLAT_PASSBAND, Replay
 from .runs import (
     replay_dataset,
     replay_excitations,
@@ -449,18 +449,20 @@ FILTER_GAIN_TOL = 1e-4
 @dataclass(frozen=True)
 class AcquisitionFilter:
     """How far the records' anti-alias filter moves the answer, where the points lie in the
-    replay's filter's transition band.
+    transition band of the simulator's default filter.
 
-    The replays' records are decimated to the data's sample rate by the simulator's filter
-    (:func:`freeplayid.simulate.design_decimator`: flat to 0.3 of the sample rate, -0.8 % at
-    0.336, -6 dB at 0.4). The test's records went through the acquisition's own, which the
-    data set does not state: one like the replay's (another simulator's decimation) or one
-    flat well beyond 0.3 fs (a sigma-delta acquisition, flat to 0.4-0.45 fs). Both read a
-    point's frequency alike (zero or linear phase, the same on every channel), but its
-    amplitude differs by the replay's gain there, which moves the points off the backbone:
-    were the acquisition flat at the points, the replayed points' amplitudes over the replay's
-    gain are what the test's would be matched against. Their fit, carried to the answer
-    through the binding's slope, is the answer's move.
+    The simulator decimates its records to the data's sample rate by a filter flat to 0.3 of
+    it (:func:`freeplayid.simulate.design_decimator`: -0.8 % at 0.336, -6 dB at 0.4). The
+    test's records went through the acquisition's own, which the data set does not state: one
+    flat well beyond 0.3 fs (a sigma-delta acquisition, flat to 0.45 fs; scipy's ``decimate``
+    and ``resample_poly``; records sampled from an integrator's output) or one like the
+    simulator's default. Both read a point's frequency alike (zero or linear phase, the same
+    on every channel), but its amplitude differs by that filter's gain there, which moves the
+    point off the backbone. Where the test's points lie there and ``Replay.antialias`` is
+    "unknown", the replays are decimated flat (``replayed_flat``) and the other filter's gain
+    applied to the replayed points' amplitudes gives what the test's would be matched against
+    had its records gone through it; their fit, carried to the answer through the binding's
+    slope, is the answer's move.
 
     Attributes
     ----------
@@ -469,10 +471,13 @@ class AcquisitionFilter:
     band_hz : tuple of float [Hz]
         The same in Hz.
     gain : float [-]
-        The replay's filter's lowest gain at those points.
+        The simulator's default filter's lowest gain at those points.
     kn_shift, delta_shift : float [-]
-        The answer's log move were the records' filter flat at the points (signed: the answer
-        for such records lies at ``answer * exp(shift)``). The intervals reach to it.
+        The answer's log move were the records' filter the other one (signed: the answer for
+        such records lies at ``answer * exp(shift)``). The intervals reach to it.
+    replayed_flat : bool
+        The replays were decimated flat at the points, the other filter is the simulator's
+        default (else the other way round).
     """
 
     band: tuple
@@ -480,18 +485,25 @@ class AcquisitionFilter:
     gain: float
     kn_shift: float
     delta_shift: float
+    replayed_flat: bool = True
 
     def to_dict(self) -> dict:
         return {"band": list(self.band), "band_hz": list(self.band_hz), "gain": self.gain,
-                "kn_shift": self.kn_shift, "delta_shift": self.delta_shift}
+                "kn_shift": self.kn_shift, "delta_shift": self.delta_shift,
+                "replayed_flat": self.replayed_flat}
 
     def describe(self) -> str:
         """What the answer owes to the acquisition's filter (the report and the verdict)."""
-        return (f"the points lie at {self.band_hz[0]:.4g}-{self.band_hz[1]:.4g} Hz, "
-                f"{self.band[0]:.3f}-{self.band[1]:.3f} of the sample rate, where the replay's "
-                f"anti-alias filter keeps {100 * self.gain:.4g} % of the amplitude; were the "
-                "records' own filter flat there (an acquisition flat to 0.4-0.45 of its rate), "
-                f"the answer would move by delta {100 * math.expm1(self.delta_shift):+.2g} %, kn "
+        where = (f"the points lie at {self.band_hz[0]:.4g}-{self.band_hz[1]:.4g} Hz, "
+                 f"{self.band[0]:.3f}-{self.band[1]:.3f} of the sample rate, where a filter flat "
+                 f"only to 0.3 of it (the simulator's default decimation) keeps "
+                 f"{100 * self.gain:.4g} % of the amplitude")
+        other = ("the replays are decimated flat there (as an acquisition flat to 0.45 of its "
+                 "rate, scipy's decimate or resample_poly, or records sampled from an "
+                 "integrator's output are); were the records' own filter flat only to 0.3"
+                 if self.replayed_flat else "were the records' own filter flat there")
+        return (f"{where}; {other}, the answer would move by delta "
+                f"{100 * math.expm1(self.delta_shift):+.2g} %, kn "
                 f"{100 * math.expm1(self.kn_shift):+.2g} % (the intervals reach to it)")
 
 
@@ -568,9 +580,13 @@ class ReplayResult:
         Whether the base channel's narrowed reading follows the level around each run's point,
         and the answer's move where it does not; None where no run was read narrowed.
     antialias : AcquisitionFilter or None
-        The answer's move were the records' anti-alias filter flat at the points, which lie
-        where the replay's own attenuates (``Replay.antialias`` "unknown"); None where every
-        point lies in its flat band, or with ``antialias="replay"``.
+        Where the points lie where the simulator's default decimation attenuates (above 0.3 of
+        the sample rate) and ``Replay.antialias`` is "unknown": the answer's move were the
+        records' anti-alias filter that default rather than flat there, as replayed; None
+        where every point lies in its flat band, or with the records' filter declared.
+    records_filter : str
+        The records' anti-alias filter as ``Replay.antialias`` declared it ("unknown",
+        "replay", "flat": the replays then decimated flat to 0.45 of the sample rate).
     cross : CrossCheck or None
         The answer's replay on a second statistic (:class:`Replay` ``cross_check``).
     excitation : str
@@ -617,6 +633,7 @@ class ReplayResult:
     excitation_noise: ExcitationNoise | None = None
     base_reading: BaseReading | None = None
     antialias: AcquisitionFilter | None = None
+    records_filter: str = "unknown"
     cross: CrossCheck | None = None
     excitation: str = "law"
     start: str = "statistic"
@@ -717,6 +734,7 @@ class _Binding:
         self.weights, self.weight_table = None, None if opts.weighted else ()
         self.ratios = np.array([])
         self.stat = test.statistic
+        self.passband = _replay_passband(opts, test)
         self.stat_ci95 = by_run_intervals(self.stat)
         self._hats = {}  # the statistic's (kn, delta) on a subset of its runs
 
@@ -743,7 +761,8 @@ class _Binding:
             damped_system(self.system, zeta, float(theta[0]), self.exponent, self.hinge)
         return replay_dataset(t.dataset, sys_k, *theta, levels=levels or t.levels,
                               sweeps=t.sweeps, excitations=excitations or t.excitations,
-                              engine=self.opts.engine, gap_shares=self.opts.gap_shares)
+                              engine=self.opts.engine, gap_shares=self.opts.gap_shares,
+                              passband=self.passband)
 
     def replay(self, theta, zeta, levels: dict | None = None):
         """The plain estimate of the test replayed at theta = (kn, delta) with ``zeta`` (and
@@ -1284,12 +1303,33 @@ def _answer_move(J, half: float) -> np.ndarray | None:
     return shift if np.all(np.isfinite(shift)) else None
 
 
+def _replay_passband(opts: Replay, test: _Test) -> float | None:
+    """The replays' decimating filter's flat band over the sample rate (None: the simulator's
+    default, 0.3): ``FLAT_PASSBAND`` where the records' filter is declared flat, or is not
+    declared and some point of the test's statistic lies where the default filter attenuates
+    (loses more than ``FILTER_GAIN_TOL``): the filters of acquisitions and of most simulators'
+    records are flat there (a sigma-delta acquisition's to 0.45 fs; scipy's ``decimate`` and
+    ``resample_poly`` within 0.3 % to 0.35 fs; a record sampled from an integrator's output,
+    exactly), the simulator's default is not."""
+    if opts.antialias != "unknown":
+        return opts.passband
+    from ..simulate.resample import decimator_gain  # the simulator (torch) only here
+
+    f = [p.f_hz for p in test.statistic.points.used()]
+    if f and float(np.min(decimator_gain(f, float(test.dataset.sample_rate)))) < \
+            1.0 - FILTER_GAIN_TOL:
+        return FLAT_PASSBAND
+    return None
+
+
 def _acquisition_filter(b: _Binding, slope) -> AcquisitionFilter | None:
-    """:class:`AcquisitionFilter` of the answer's replay: its used points' amplitudes over the
-    replay's filter gain at their frequencies, fitted with the statistic's weights, against the
-    same points fitted as they are; the difference carried to the answer through ``slope``
-    (identity where the loop has none). None where every point keeps at least
-    1 - ``FILTER_GAIN_TOL`` of its amplitude, or a fit fails."""
+    """:class:`AcquisitionFilter` of the answer's replay: its used points' amplitudes times the
+    other filter's gain over the replays' at their frequencies (replays decimated flat: the
+    simulator's default filter, flat only to 0.3 fs; replays at that default: a flat one),
+    fitted with the statistic's weights, against the same points fitted as they are; the
+    difference carried to the answer through ``slope`` (identity where the loop has none). None
+    where every point keeps at least 1 - ``FILTER_GAIN_TOL`` of its amplitude through the
+    default filter, or a fit fails."""
     from ..simulate.resample import decimator_gain  # the simulator (torch) only here
 
     rep = b.rep
@@ -1303,8 +1343,11 @@ def _acquisition_filter(b: _Binding, slope) -> AcquisitionFilter | None:
     gains = decimator_gain(f, fs)
     if float(np.min(gains)) >= 1.0 - FILTER_GAIN_TOL:
         return None
-    gain = dict(zip(((p.run, p.channel) for p in used), gains, strict=True))
-    flat = tuple(dataclasses.replace(p, amplitude_m=p.amplitude_m / gain[(p.run, p.channel)])
+    flat_replays = b.passband is not None
+    # the other filter's gain over the replays': the default's where they are flat, else 1/it
+    ratio = gains / decimator_gain(f, fs, passband=b.passband) if flat_replays else 1 / gains
+    scale = dict(zip(((p.run, p.channel) for p in used), ratio, strict=True))
+    flat = tuple(dataclasses.replace(p, amplitude_m=p.amplitude_m * scale[(p.run, p.channel)])
                  if p.used else p for p in rep.points.points)
     moved = dataclasses.replace(rep, points=dataclasses.replace(rep.points, points=flat))
     try:
@@ -1318,7 +1361,7 @@ def _acquisition_filter(b: _Binding, slope) -> AcquisitionFilter | None:
     return AcquisitionFilter(band=(float(f.min() / fs), float(f.max() / fs)),
                              band_hz=(float(f.min()), float(f.max())),
                              gain=float(np.min(gains)), kn_shift=float(shift[0]),
-                             delta_shift=float(shift[1]))
+                             delta_shift=float(shift[1]), replayed_flat=flat_replays)
 
 
 def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts,
@@ -1398,6 +1441,7 @@ def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts
         weights=b.weight_table or None,
         resonance=resonance, cross=cross, level=level, damping_sensitivity=damped,
         excitation_noise=excited, base_reading=reading, antialias=acquisition,
+        records_filter=opts.antialias,
         excitation="measured" if b.test.excitations else "law", start=start,
         gap_shares=opts.gap_shares, wide_base=opts.wide_base,
         statistic_points=stat.fitting_points() if rep is not None else None,

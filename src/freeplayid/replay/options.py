@@ -19,7 +19,10 @@ EXCITATIONS = ("measured", "law")
 # network's estimate (the plain fit's given start)
 STARTS = ("statistic", "network")
 # the records' anti-alias filter (`Replay.antialias`)
-ANTIALIAS = ("unknown", "replay")
+ANTIALIAS = ("unknown", "replay", "flat")
+# the replays' decimating filter's flat band over the sample rate with antialias="flat" (None:
+# the simulator's own, 0.3; freeplayid.simulate.resample.MAX_PASSBAND)
+FLAT_PASSBAND = 0.45
 
 
 @dataclass(frozen=True)
@@ -157,15 +160,20 @@ class Replay:
         ``drop_window`` fails too where they agree but lie further apart than delta's or kn's
         accuracy bound (the intervals then hold both answers). 1: never
         (docs/identify.md §3c, "A noisy test without a base channel").
-    antialias : {"unknown", "replay"}
+    antialias : {"unknown", "replay", "flat"}
         The anti-alias filter the test's records went through, where the points lie above 0.3
-        of the sample rate (the replay's own filter attenuates there: -0.8 % at 0.336, -6 dB
-        at 0.4; below 0.3 nothing depends on it). "unknown" (default): the replays keep their
-        own filter, and the answer's move were the records' filter flat at the points is
-        measured (:class:`freeplayid.replay.AcquisitionFilter`), reached to by the intervals
-        and checked by the verdict (``antialias``). "replay": the records were decimated as
-        the replay's are (the simulator's :func:`freeplayid.simulate.design_decimator`, or a
-        filter of the same response), nothing measured.
+        of the sample rate (the simulator's default filter attenuates there: -0.8 % at 0.336,
+        -6 dB at 0.4; below 0.3 nothing depends on it). "unknown" (default): where the test's
+        points lie there, the replays are decimated flat to 0.45 of the sample rate (as an
+        acquisition's filter, scipy's ``decimate`` and ``resample_poly``, or records sampled
+        from an integrator's output are flat there), and the answer's move were the records'
+        filter the simulator's default instead is measured
+        (:class:`freeplayid.replay.AcquisitionFilter`), reached to by the intervals and checked
+        by the verdict (``antialias``). "flat": the records' filter is flat to 0.45 of the
+        sample rate: the replays are decimated so (``FLAT_PASSBAND``; 4 x the filter's taps)
+        wherever the points lie, nothing measured. "replay": the records were decimated as the
+        simulator's are (:func:`freeplayid.simulate.design_decimator`, or a filter of the same
+        response; benchmarks/realtests/exact_sim.py's), nothing measured.
     """
 
     damping: float | str | None = None
@@ -249,6 +257,12 @@ class Replay:
             if self.engine not in ("auto", *ENGINES):
                 raise ValueError(f"`engine` must be None or one of {['auto', *ENGINES]}, "
                                  f"got {self.engine!r}")
+
+    @property
+    def passband(self) -> float | None:
+        """The replays' decimating filter's flat band over the sample rate (None: the
+        simulator's default)."""
+        return FLAT_PASSBAND if self.antialias == "flat" else None
 
     def statistic(self, extraction_rule: str, has_base: bool) -> str:
         """The jump-point rule the replays match for a data set with (or without) a base

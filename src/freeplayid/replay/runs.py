@@ -91,7 +91,7 @@ def replay_excitations(dataset, sweeps: dict, wide=()) -> tuple[dict, dict]:
 
 def replay_dataset(dataset, system, kn: float, delta: float, *, levels: dict | None = None,
                    sweeps: dict | None = None, excitations: dict | None = None, dtype=None,
-                   engine: str | None = None, gap_shares=None):
+                   engine: str | None = None, gap_shares=None, passband: float | None = None):
     """The data set's usable runs simulated at (kn, delta): a data set of the same layout.
 
     Runs sharing a sweep law are simulated in one batch; a run with a measured excitation
@@ -103,7 +103,9 @@ def replay_dataset(dataset, system, kn: float, delta: float, *, levels: dict | N
     carries the measured run's sweep hint (or none), so both go through the same extraction.
     ``engine``: a simulator engine name (:data:`freeplayid.simulate.engines.ENGINES` or
     "auto"); None: the exponential engine when available, else "auto". ``gap_shares``: hinge
-    j's half-gap is ``delta * gap_shares[j]`` (None: one common gap).
+    j's half-gap is ``delta * gap_shares[j]`` (None: one common gap). ``passband``: the
+    decimating filter's flat band over the sample rate (``simulate_sweeps``'s
+    ``antialias_passband``; None: the simulator's default, 0.3).
     """
     # the simulator (torch) only when a replay runs: `import freeplayid.identification` stays
     # light for a notebook that reads results
@@ -134,7 +136,8 @@ def replay_dataset(dataset, system, kn: float, delta: float, *, levels: dict | N
                               quantity=dataset.quantity, frame=frame,
                               sample_rate=dataset.sample_rate,
                               dtype=torch.float64 if dtype is None else dtype, progress=False,
-                              engine=engine, gap_shares=gap_shares)
+                              engine=engine, gap_shares=gap_shares,
+                              **({} if passband is None else {"antialias_passband": passband}))
         ds = sweep_dataset(res, columns=dataset.channels, units=dataset.units, run_names=files)
         return [dataclasses.replace(r, sweep=hints[r.file],
                                     base=r.base if dataset.base_channel else None)

@@ -19,7 +19,7 @@ from ..sweep import Sweep
 from .engines.protocol import rk4_max_step
 from .formulation import ModalForm, build_modal_form
 from .quasistatic import QuasiStaticForm, condense_modal_form
-from .resample import derivative_taps, design_decimator
+from .resample import PASSBAND, derivative_taps, design_decimator
 
 __all__ = ["StepPlan", "step_plan", "output_samples", "rk4_step_count", "DEFAULT_OMEGA_DT"]
 
@@ -74,7 +74,7 @@ def output_samples(sweep, sample_rate: float) -> int:
 def step_plan(system, *, kn_max, sweep, sample_rate, channels, quantity, frame, method,
               cutoff_hz, quasi_static_hz, omega_dt, steps_per_sample, large_mass_ratio,
               filters: bool = True, max_step=rk4_max_step, distinct_kn: int = 1,
-              differentiate: bool = False) -> StepPlan:
+              differentiate: bool = False, passband: float = PASSBAND) -> StepPlan:
     """The :class:`StepPlan` of a simulation: the modal form, the step and the step count.
 
     The arguments are those of :func:`.run.simulate_sweeps` (``kn_max``: the batch's largest
@@ -116,7 +116,7 @@ def step_plan(system, *, kn_max, sweep, sample_rate, channels, quantity, frame, 
     if not filters:
         return StepPlan(form=form, qs=qs, m=m, h=h, taps=None, taps_d=None, n_out=n_out,
                          look=0, n_steps=(n_out - 1) * m + 1)
-    taps = design_decimator(m)
+    taps = design_decimator(m, passband=passband)
     taps_d = None
     if (qs is not None or differentiate) and quantity != "displacement":
         # the fast part's derivative (or the whole record's, ``differentiate``) is decimated by

@@ -18,10 +18,18 @@ import numpy as np
 import scipy.signal
 import torch
 
+from ..arguments import is_number
+
 __all__ = ["design_decimator", "decimator_gain", "derivative_taps", "StreamingDecimator"]
 
 
-def design_decimator(factor: int, *, attenuation_db: float = 120.0) -> np.ndarray:
+# the flat band of the decimating filter, as a fraction of the output rate: the simulator's
+# default, and the most it takes (a transition of 0.05 fs to the Nyquist frequency: 4 x the taps)
+PASSBAND, MAX_PASSBAND = 0.3, 0.45
+
+
+def design_decimator(factor: int, *, attenuation_db: float = 120.0,
+                     passband: float = PASSBAND) -> np.ndarray:
     """Zero-phase anti-aliasing FIR for decimation by ``factor``.
 
     Parameters
@@ -30,6 +38,10 @@ def design_decimator(factor: int, *, attenuation_db: float = 120.0) -> np.ndarra
         Step rate over output rate.
     attenuation_db : float [dB]
         Stop-band attenuation above the output Nyquist frequency.
+    passband : float [-], in [0.1, 0.45]
+        Where the filter stays flat, as a fraction of the output rate (0.3: the transition
+        0.3 -> 0.5, -0.8 % at 0.336, -6 dB at 0.4; 0.45: flat to 0.45 like a sigma-delta
+        acquisition, with 4 x the taps).
 
     Returns
     -------
@@ -38,14 +50,17 @@ def design_decimator(factor: int, *, attenuation_db: float = 120.0) -> np.ndarra
     """
     if not (isinstance(factor, (int, np.integer)) and factor >= 1):
         raise ValueError(f"`factor` must be an integer >= 1, got {factor!r}")
+    if not (is_number(passband) and 0.1 <= passband <= MAX_PASSBAND):
+        raise ValueError(f"`passband` must be a number in [0.1, {MAX_PASSBAND}] (of the output "
+                         f"rate), got {passband!r}")
     if factor == 1:
         return np.ones(1)
-    # transition 0.3 -> 0.5 of the output rate, in units of the step-rate Nyquist frequency
-    width = 0.4 / factor
+    # transition passband -> 0.5 of the output rate, in units of the step-rate Nyquist frequency
+    width = 2 * (0.5 - passband) / factor
     numtaps, beta = scipy.signal.kaiserord(attenuation_db, width)
     half = math.ceil((numtaps - 1) / (2 * factor))  # K output samples of delay
     numtaps = 2 * half * factor + 1
-    h = scipy.signal.firwin(numtaps, 0.8 / factor, window=("kaiser", beta))
+    h = scipy.signal.firwin(numtaps, (passband + 0.5) / factor, window=("kaiser", beta))
     return h / h.sum()
 
 
@@ -54,16 +69,18 @@ def design_decimator(factor: int, *, attenuation_db: float = 120.0) -> np.ndarra
 _GAIN_FACTOR = 8
 
 
-def decimator_gain(f_hz, sample_rate: float) -> np.ndarray:
+def decimator_gain(f_hz, sample_rate: float, passband: float = PASSBAND) -> np.ndarray:
     """The gain of :func:`design_decimator`'s filter at ``f_hz`` for output rate
     ``sample_rate``: what the simulator's records keep of a sinusoid there (1 to ~1e-6 below
-    0.3 ``sample_rate``, falling through its transition band to the output Nyquist frequency:
-    0.99 at 0.336, 0.5 at 0.4).
+    ``passband`` x ``sample_rate``, falling through its transition band to the output Nyquist
+    frequency; with the default 0.3: 0.99 at 0.336, 0.5 at 0.4).
 
     Parameters
     ----------
     f_hz : array_like [Hz], >= 0
     sample_rate : float [Hz], > 0
+    passband : float [-]
+        That of :func:`design_decimator`.
 
     Returns
     -------
@@ -73,20 +90,20 @@ def decimator_gain(f_hz, sample_rate: float) -> np.ndarray:
     if not (sample_rate > 0 and np.all(np.isfinite(f)) and np.all(f >= 0)):
         raise ValueError(f"`decimator_gain` needs finite frequencies >= 0 and a sample rate "
                          f"> 0, got {f_hz!r} at {sample_rate!r}")
-    taps = _gain_taps()
+    taps = _gain_taps(float(passband))
     w = 2 * np.pi * f.reshape(-1) / (sample_rate * _GAIN_FACTOR)
     # zero phase: the centred filter's response is real, sum_j h[j] cos(w (j - centre))
     k = np.arange(taps.size) - (taps.size - 1) / 2
     return np.abs(np.cos(np.outer(w, k)) @ taps).reshape(f.shape)
 
 
-_TAPS: list = []
+_TAPS: dict = {}
 
 
-def _gain_taps() -> np.ndarray:
-    if not _TAPS:
-        _TAPS.append(design_decimator(_GAIN_FACTOR))
-    return _TAPS[0]
+def _gain_taps(passband: float) -> np.ndarray:
+    if passband not in _TAPS:
+        _TAPS[passband] = design_decimator(_GAIN_FACTOR, passband=passband)
+    return _TAPS[passband]
 
 
 # 5-point central stencils of the first and second derivative, sample spacing 1, as correlation
