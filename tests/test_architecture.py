@@ -13,8 +13,8 @@ SRC = pathlib.Path(__file__).resolve().parents[1] / "src" / "freeplayid"
 
 LAYERS = [
     # ground floor
-    ("errors", "arguments", "atomic", "quantity", "sweep", "dataset", "plots", "progress",
-     "threads"),
+    ("errors", "arguments", "atomic", "quantity", "sweep", "acquisition", "dataset", "plots",
+     "progress", "threads"),
     ("model",),
     ("io",),
     ("simulate",),

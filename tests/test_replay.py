@@ -1651,3 +1651,34 @@ def test_points_in_the_replays_flat_band_need_no_filter_check(measured, system):
     assert "antialias" not in {c.name for c in res.verdict.checks}
     with pytest.raises(ValueError, match="antialias"):
         Replay(antialias="sigma-delta")
+
+
+def test_a_stated_filter_response_is_divided_out_of_the_records(system):
+    # the independent reference at 137 Hz through a filter that is neither flat nor the
+    # simulator's (flat to 0.29 fs, its transition band over the points at 0.33-0.35 fs), the
+    # data set stating its response (scipy's freqz of it): identified as through a flat one
+    from freeplayid.acquisition import FilterResponse
+
+    factor = 15
+    fs = ref.FS / factor
+    n, beta = scipy.signal.kaiserord(120.0, 0.18 * fs / (ref.FS / 2))
+    taps = scipy.signal.firwin(n | 1, 0.38 * fs, window=("kaiser", beta), fs=ref.FS)
+    taps = taps / taps.sum()
+    ds = _decimated(taps, factor)
+    f = np.linspace(0.0, fs / 2, 401)
+    _, h = scipy.signal.freqz(taps, worN=f, fs=ref.FS)
+    stated = dataclasses.replace(ds, antialias=FilterResponse(f, np.abs(h)))
+    assert 0.9 < abs(h[np.argmin(abs(f - 0.34 * fs))]) < 0.96  # the points' gain
+    fit = {"multistart": MULTISTART}
+    res = identify(stated, system=system, progress=False, fit=fit, replay=QUICK)
+    assert abs(res.truth_error["delta"]) < 0.005 and abs(res.truth_error["kn"]) < 0.005
+    assert res.replay.records_filter == "flat" and res.replay.antialias is None
+    checks = {c.name: c for c in res.verdict.checks}
+    assert checks["antialias"].passed and res.verdict.status == "ok"
+    assert res.dataset["antialias"] == "response"
+    assert "divided by it" in res.report()
+    assert res.to_dict()["dataset"]["antialias_response"]["gain"][0] == pytest.approx(1.0)
+    # unstated, the same records are answered far off, and the verdict says why
+    res = identify(ds, system=system, progress=False, fit=fit, replay=QUICK)
+    assert abs(res.truth_error["delta"]) > 0.02
+    assert not {c.name: c for c in res.verdict.checks}["antialias"].passed

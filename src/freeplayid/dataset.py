@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .acquisition import check_antialias
 from .errors import DatasetError
 from .quantity import UNIT_SCALE, check_units
 from .sweep import Sweep
@@ -100,6 +101,10 @@ class Dataset:
         What the channels record (:data:`FRAMES`): the absolute motion (accelerometers; the
         default), from which the extraction subtracts a base channel where there is one; or the
         motion relative to the base (no base channel then). The replays are simulated in it.
+    antialias : {"unknown", "flat", "replay"} or FilterResponse
+        The anti-alias filter the records went through (:mod:`freeplayid.acquisition`):
+        not stated (default), flat to 0.45 of the sample rate, the simulator's own, or a stated
+        response that ``identify`` divides out of the records before reading them.
     """
 
     name: str
@@ -114,9 +119,11 @@ class Dataset:
     path: Path | None = None
     reference_modes: dict | None = None
     frame: str = "absolute"
+    antialias: object = "unknown"
 
     def __post_init__(self):
         check_frame(self.frame, self.base_channel, "")
+        object.__setattr__(self, "antialias", check_antialias(self.antialias))
 
     @property
     def si_scale(self) -> float:
@@ -132,7 +139,8 @@ class Dataset:
                     sample_rate: float | None = None, time=None, base=None,
                     base_channel: str | None = None, levels_g=None, sweeps=None,
                     model: str | os.PathLike | None = None, name: str = "arrays",
-                    run_names: Sequence[str] | None = None, frame: str = "absolute") -> Dataset:
+                    run_names: Sequence[str] | None = None, frame: str = "absolute",
+                    antialias="unknown") -> Dataset:
         """A validated data set from arrays (a notebook's), checked as a manifest is.
 
         Parameters
@@ -167,6 +175,9 @@ class Dataset:
         frame : {"absolute", "relative"}
             What ``data`` record (:attr:`Dataset.frame`): absolute motion (accelerometers), or
             motion relative to the base (then without ``base``).
+        antialias : {"unknown", "flat", "replay"}, FilterResponse or mapping
+            The records' anti-alias filter (:attr:`Dataset.antialias`; a mapping
+            ``{frequency_hz, gain, phase_deg}`` states a response).
 
         Returns
         -------
@@ -182,9 +193,10 @@ class Dataset:
             (a transposed one says so), counts of ``time``, ``base``, ``levels_g``, ``sweeps``
             or ``run_names`` that differ from the runs, a bad time axis or sample rate, a
             model file that is missing or lacks a channel's DOF, a ``frame`` not in
-            :data:`FRAMES` or relative with a base.
+            :data:`FRAMES` or relative with a base, an ``antialias`` that is none of its forms.
         """
         check_quantity_units(quantity, units, "")
+        antialias = check_antialias(antialias)
         channels, base_channel = check_channels(channels, base_channel, "",
                                                 default_base="base" if base is not None else None)
         check_frame(frame, base_channel, "")
@@ -212,7 +224,7 @@ class Dataset:
                            reason=run_reason(cols, times[k], hints[k], fs)))
         return cls(name=str(name), model=model_path, quantity=quantity, units=units,
                    sample_rate=float(fs), channels=dict(channels), runs=tuple(out),
-                   base_channel=base_channel, frame=frame)
+                   base_channel=base_channel, frame=frame, antialias=antialias)
 
 
 # --------------------------------------------------------------------------- the shared rules

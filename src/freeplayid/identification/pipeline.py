@@ -12,6 +12,7 @@ from collections.abc import Mapping
 import numpy as np
 import scipy.stats
 
+from ..acquisition import FilterResponse, describe_antialias, equalized
 from ..errors import ConfigError, DatasetError, IdentificationError
 from ..estimate import PlainEstimate, plain_estimate
 from ..fit import FitOptions
@@ -43,6 +44,7 @@ from .verdict import (
     make_verdict,
     model_checks,
     replayed_channel_check,
+    stated_filter_checks,
     sweep_direction_check,
     validation_checks,
 )
@@ -128,6 +130,7 @@ def identify(dataset, *, system: FreeplaySystem | None = None,
     _check_gap_shares(replay, system)
     _check_wide_base(replay, dataset)
     dataset, checked = checked_dataset(dataset, system, records)
+    dataset, replay = _stated_filter(dataset, replay)
     est = _plain_estimate(dataset, system, checked, extraction=extraction, fit=fit,
                           init=fit.init, progress=progress)
     system, est, update = update_model(dataset, system, est, fit, model)
@@ -154,6 +157,26 @@ def identify(dataset, *, system: FreeplaySystem | None = None,
         result = _with_unequal_gaps(result, dataset, system, est, extraction, fit, replay,
                                     error, checked, t0, progress)
     return result
+
+
+def _stated_filter(dataset, replay: Replay | None):
+    """The records' anti-alias filter as the data set states it (:mod:`freeplayid.acquisition`):
+    a stated response divided out of the records (then replayed flat), a named filter handed
+    to the replay. ``replay.antialias``, where set, overrides the data set's statement (the
+    records then left as they are, the data set's record saying what was used)."""
+    stated = getattr(dataset, "antialias", "unknown")
+    if replay is not None and replay.antialias != "unknown":
+        if stated != "unknown" and stated != replay.antialias:
+            log.warning("replay.antialias=%s overrides the data set's `antialias` (%s)",
+                        replay.antialias, describe_antialias(stated))
+            dataset = dataclasses.replace(dataset, antialias=replay.antialias)
+        return dataset, replay
+    if isinstance(stated, FilterResponse):
+        dataset = equalized(dataset)
+        stated = "flat"
+    if replay is not None and stated != "unknown":
+        replay = dataclasses.replace(replay, antialias=stated)
+    return dataset, replay
 
 
 def _check_gap_shares(replay: Replay | None, system) -> None:
@@ -657,8 +680,17 @@ def _record(dataset) -> dict:
             "sample_rate": float(dataset.sample_rate), "n_runs": len(dataset.runs),
             "channels": dict(dataset.channels), "base_channel": dataset.base_channel,
             "frame": getattr(dataset, "frame", "absolute"),
+            **_filter_record(getattr(dataset, "antialias", "unknown")),
             "levels": {run.file: None if run.level_g is None else float(run.level_g)
                        for run in dataset.runs}}
+
+
+def _filter_record(stated) -> dict:
+    """The records' anti-alias filter as the data set stated it: its name or response."""
+    if isinstance(stated, FilterResponse):
+        return {"antialias": "response", "antialias_response": stated.to_dict(),
+                "antialias_said": describe_antialias(stated)}
+    return {"antialias": stated, "antialias_said": describe_antialias(stated)}
 
 
 def _plain_result(dataset, system, est: PlainEstimate, mode: int, t0: float,
@@ -667,6 +699,7 @@ def _plain_result(dataset, system, est: PlainEstimate, mode: int, t0: float,
     checks' report (``records``, None when off); kn's interval takes in the model's error."""
     validation = _zero_clearance_check(dataset, system, est.kn)
     verdict = make_verdict(record_checks(records) + base_level_checks(dataset)
+                           + stated_filter_checks(dataset, est.points)
                            + fit_checks(est.fitting_points(), est.fit, system, est.points,
                                         mode=mode)
                            + model_checks(error) + validation_checks(validation))
@@ -878,6 +911,7 @@ def _corrected_result(dataset, system, plain: PlainEstimate, rep, mode: int, t0:
     channels = replayed_channel_check(rep.resonance or {})
     verdict = make_verdict(
         record_checks(records) + base_level_checks(dataset)
+        + stated_filter_checks(dataset, plain.points)
         + (channel_checks(plain.points) if channels is None else [channels])
         + answer_checks(plain.fitting_points(), rep.kn, rep.delta, kn_ci, delta_ci, system,
                         mode=mode, replayed=True) + ([direction] if direction is not None else [])

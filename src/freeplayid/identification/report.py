@@ -61,6 +61,8 @@ def _header(r) -> list[str]:
         + (f", base channel `{ds['base_channel']}` subtracted" if ds.get("base_channel") else
            ", motion relative to the base" if ds.get("frame") == "relative" else
            ", absolute motion without a base channel"),
+        *([f"- anti-alias filter of the records: {ds['antialias_said']} (the data set's "
+             "`antialias`)"] if ds.get("antialias", "unknown") != "unknown" else []),
         f"- backbone: {r.backbone}, start: {r.init}, runtime {r.runtime_s:.2f} s", "",
         "## Result", "",
         "| parameter | identified | 95 % CI (Jacobian) |" + (" 95 % CI (bootstrap) |" if boot
@@ -287,9 +289,10 @@ def _replay(r) -> list[str]:
     declared = getattr(rep, "records_filter", "unknown")
     if declared != "unknown":
         lines += ["Anti-alias filter of the records: declared " + (
-            "flat to 0.45 of the sample rate (`replay.antialias=flat`); the replays are "
-            "decimated so." if declared == "flat" else "as the replay's own, flat to 0.3 of the "
-            "sample rate (`replay.antialias=replay`).")]
+            "flat to 0.45 of the sample rate (`replay.antialias=flat` or the data set's "
+            "`antialias`); the replays are decimated so." if declared == "flat" else
+            "as the replay's own, flat to 0.3 of the sample rate (`replay.antialias=replay` or "
+            "the data set's `antialias`).")]
     acquisition = getattr(rep, "antialias", None)
     if acquisition is not None:
         said = acquisition.describe()

@@ -98,6 +98,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..acquisition import GAIN_FLOOR, FilterResponse, unrestored_points
 from ..fit import MIN_GAP_RATIO, gap_ratios
 from ..quantity import G, check_quantity
 from ..signal import window_amplitudes
@@ -347,6 +348,26 @@ def _by_run(extraction) -> dict[str, list[float]]:
     for p in extraction.used():
         by_run.setdefault(p.run, []).append(p.f_hz)
     return by_run
+
+
+def stated_filter_checks(dataset, extraction) -> list[Check]:
+    """``antialias`` where the data set states its filter's response
+    (:mod:`freeplayid.acquisition`): failed where a used point lies where that gain is below
+    ``GAIN_FLOOR`` (the records there divided by at most 1 / ``GAIN_FLOOR``, not restored);
+    none where no response is stated (the replay checks an unstated filter)."""
+    stated = getattr(dataset, "antialias", "unknown")
+    if not isinstance(stated, FilterResponse):
+        return []
+    f = [p.f_hz for p in extraction.used()]
+    lost = unrestored_points(stated, f)
+    if not lost:
+        return [Check("antialias", True, "the records divided by the stated anti-alias "
+                      f"filter's response; every point where its gain is {GAIN_FLOOR:g} or more")]
+    return [Check("antialias", False,
+                  f"{len(lost)} of {len(f)} points lie where the stated anti-alias filter passes "
+                  f"less than {GAIN_FLOOR:g} of the amplitude ({min(lost):.4g}-{max(lost):.4g} "
+                  "Hz), where the records cannot be restored: sample faster, or sweep below "
+                  f"{stated.passband_edge():.4g} Hz", float(len(lost)))]
 
 
 def replayed_channel_check(resonance: dict) -> Check | None:

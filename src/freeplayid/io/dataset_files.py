@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from ..acquisition import FilterResponse, check_antialias
 from ..atomic import atomic_path, atomic_write_text
 from ..dataset import (
     Dataset,
@@ -117,6 +118,7 @@ def read_dataset(path: str | os.PathLike, *, check_model: bool = True) -> Datase
         path=manifest.path.resolve(),
         reference_modes=manifest.reference_modes,
         frame=manifest.frame,
+        antialias=manifest.antialias,
     )
 
 
@@ -195,6 +197,7 @@ def write_dataset(
     float_format: str = "%.10g",
     time_format: str | None = None,
     frame: str = "absolute",
+    antialias="unknown",
 ) -> Path:
     """Write a data set folder and return the path of its ``manifest.yaml``.
 
@@ -225,9 +228,13 @@ def write_dataset(
     frame : {"absolute", "relative"}
         What the runs record (:attr:`freeplayid.dataset.Dataset.frame`); written to the manifest
         when relative (absolute is the manifest's default).
+    antialias : {"unknown", "flat", "replay"}, FilterResponse or mapping
+        The records' anti-alias filter (:mod:`freeplayid.acquisition`); written to the manifest
+        when stated (a response as its lists).
     """
     cols = _check_columns(quantity, units, sample_rate, channels, base_channel)
     check_frame(frame, base_channel, "")
+    antialias = check_antialias(antialias)
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     fmt = (time_format or float_format, float_format)
@@ -246,6 +253,10 @@ def write_dataset(
         manifest["base_channel"] = base_channel
     if frame != "absolute":
         manifest["frame"] = frame
+    if isinstance(antialias, FilterResponse):
+        manifest["antialias"] = antialias.to_dict()
+    elif antialias != "unknown":
+        manifest["antialias"] = antialias
     if truth is not None:
         manifest["truth"] = {k: float(v) for k, v in dict(truth).items()}
     manifest["runs"] = entries

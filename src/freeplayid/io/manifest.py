@@ -10,6 +10,7 @@ units: g                        # g | m/s^2 for acceleration; m, m/s otherwise
 sample_rate: 2048               # Hz; if absent, the runs' 'time' column defines it
 channels: {acc_tl: uz_top_left, acc_lr: uz_lower_right}   # run-file column -> model DOF
 base_channel: acc_base          # optional
+antialias: flat                 # optional: unknown | flat | replay | {response: filter.csv}
 runs:
   - {file: sweep_0.60g.csv, level_g: 0.60, sweep: {start_hz: 30, stop_hz: 50, rate_hz_per_s: 0.1}}
   - {file: sweep_0.80g.csv, level_g: 0.80, sweep: {start_hz: 20, stop_hz: 80, octaves_per_min: 2}}
@@ -36,6 +37,7 @@ from pathlib import Path
 
 import yaml
 
+from ..acquisition import check_antialias
 from ..dataset import (
     SWEEP_KEYS,
     SWEEP_RATE_KEYS,
@@ -59,7 +61,8 @@ __all__ = ["Manifest", "RunEntry", "read_manifest", "check_quantity_units",
 
 LAYOUT_KEYS = tuple(f.name for f in fields(Layouts))  # the blocks that declare a file layout
 MANIFEST_KEYS = ("name", "model", "quantity", "units", "sample_rate", "channels",
-                 "base_channel", "frame", "truth", "runs", "reference_modes", *LAYOUT_KEYS)
+                 "base_channel", "frame", "truth", "runs", "reference_modes", "antialias",
+                 *LAYOUT_KEYS)
 RUN_KEYS = ("file", "level_g", "sweep")
 
 
@@ -111,6 +114,8 @@ class Manifest:
     layouts : Layouts
         The run files' layout as declared by the ``csv:`` and ``mat:`` blocks (defaults
         without them).
+    antialias : {"unknown", "flat", "replay"} or FilterResponse
+        The records' anti-alias filter (:mod:`freeplayid.acquisition`; default "unknown").
     """
 
     path: Path
@@ -126,6 +131,7 @@ class Manifest:
     runs: tuple
     layouts: Layouts = field(default_factory=Layouts)
     frame: str = "absolute"
+    antialias: object = "unknown"
 
     @property
     def columns(self) -> list[str]:
@@ -149,7 +155,8 @@ def read_manifest(path: str | os.PathLike, *, check_model: bool = True) -> Manif
         not a ``.yaml`` manifest, a binary file, invalid YAML, a key given twice in a mapping
         (with its line), unknown fields, bad quantity/units, two columns on one DOF, channels
         not in the model, a `frame` not absolute or relative (or relative with a base
-        channel), bad reference modes, a run file that is missing, outside the data-set
+        channel), bad reference modes, an ``antialias`` that is none of its forms (a name, a
+        response's lists or its CSV file), a run file that is missing, outside the data-set
         folder (absolute or ``..``) or of an unknown suffix (the message lists the valid ones),
         no runs, a ``csv:`` or ``mat:`` block with an unknown field or a value outside its
         allowed set (:class:`~freeplayid.io.readers.csv.CsvLayout`,
@@ -185,6 +192,7 @@ def read_manifest(path: str | os.PathLike, *, check_model: bool = True) -> Manif
         runs=_run_entries(m["runs"], root, where),
         layouts=_layouts(m, where),
         frame=frame,
+        antialias=check_antialias(m.get("antialias"), where, root),
     )
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from ..acquisition import ANTIALIAS
 from ..arguments import check_bool, check_choice, check_int, check_number, is_number
 from ..signal import JUMP_POINTS
 
@@ -18,8 +19,6 @@ EXCITATIONS = ("measured", "law")
 # where the replay loop starts: the fit of the measured statistic (the binding's target) or the
 # network's estimate (the plain fit's given start)
 STARTS = ("statistic", "network")
-# the records' anti-alias filter (`Replay.antialias`)
-ANTIALIAS = ("unknown", "replay", "flat")
 # the replays' decimating filter's flat band over the sample rate with antialias="flat" (None:
 # the simulator's own, 0.3; freeplayid.simulate.resample.MAX_PASSBAND)
 FLAT_PASSBAND = 0.45
@@ -163,7 +162,9 @@ class Replay:
     antialias : {"unknown", "replay", "flat"}
         The anti-alias filter the test's records went through, where the points lie above 0.3
         of the sample rate (the simulator's default filter attenuates there: -0.8 % at 0.336,
-        -6 dB at 0.4; below 0.3 nothing depends on it). "unknown" (default): where the test's
+        -6 dB at 0.4; below 0.3 nothing depends on it). "unknown" (default): as the data set
+        states (:attr:`freeplayid.io.Dataset.antialias`; a stated response is divided out of
+        the records and the replays decimated flat); where it states nothing and the test's
         points lie there, the replays are decimated flat to 0.45 of the sample rate (as an
         acquisition's filter, scipy's ``decimate`` and ``resample_poly``, or records sampled
         from an integrator's output are flat there), and the answer's move were the records'
@@ -173,7 +174,8 @@ class Replay:
         sample rate: the replays are decimated so (``FLAT_PASSBAND``; 4 x the filter's taps)
         wherever the points lie, nothing measured. "replay": the records were decimated as the
         simulator's are (:func:`freeplayid.simulate.design_decimator`, or a filter of the same
-        response; benchmarks/realtests/exact_sim.py's), nothing measured.
+        response; benchmarks/realtests/exact_sim.py's), nothing measured. Either overrides the
+        data set's statement.
     """
 
     damping: float | str | None = None
