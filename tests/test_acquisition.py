@@ -165,15 +165,19 @@ def test_the_manifest_states_the_filter_and_write_dataset_writes_it(tmp_path):
     assert "antialias" not in yaml.safe_load(written.read_text())
 
 
+def _tone(antialias) -> Dataset:
+    """One 20 s run of an 85 Hz tone on both channels (amplitude 1 g) and the base (0.1 g)."""
+    t = np.arange(int(20 * FS)) / FS
+    tone = np.sin(2 * np.pi * 85 * t)
+    return Dataset.from_arrays(np.array([np.vstack([tone] * 2)]),
+                               channels={"a": "uz_top_left", "b": "uz_lower_right"},
+                               quantity="acceleration", units="g", sample_rate=FS,
+                               base=np.array([0.1 * tone]), antialias=antialias)
+
+
 def test_every_usable_record_and_its_base_is_divided_and_the_points_checked():
     response = _stated(_kaiser(0.36, 0.1))
-    t = np.arange(int(20 * FS)) / FS
-    ds = Dataset.from_arrays(np.array([np.vstack([np.sin(2 * np.pi * 85 * t)] * 2)]),
-                             channels={"a": "uz_top_left", "b": "uz_lower_right"},
-                             quantity="acceleration", units="g", sample_rate=FS,
-                             base=np.array([0.1 * np.sin(2 * np.pi * 85 * t)]),
-                             antialias={"frequency_hz": response.frequency_hz,
-                                        "gain": response.gain})
+    ds = _tone({"frequency_hz": response.frequency_hz, "gain": response.gain})
     bad = dataclasses.replace(ds.runs[0], reason="rejected")
     ds2 = dataclasses.replace(ds, runs=(ds.runs[0], bad))
     out = equalized(ds2)
@@ -202,11 +206,7 @@ def test_identify_takes_the_data_sets_statement_unless_the_replay_option_overrid
     from freeplayid.replay import Replay
 
     response = _stated(_kaiser(0.36, 0.1))
-    t = np.arange(int(20 * FS)) / FS
-    ds = Dataset.from_arrays(np.array([np.vstack([np.sin(2 * np.pi * 85 * t)] * 2)]),
-                             channels={"a": "uz_top_left", "b": "uz_lower_right"},
-                             quantity="acceleration", units="g", sample_rate=FS,
-                             antialias=response)
+    ds = _tone(response)
     g = abs(response(85.0))[()]
     out, rep = _stated_filter(ds, Replay())
     assert rep.antialias == "flat"  # divided out: the replays decimated flat

@@ -185,7 +185,8 @@ def describe_antialias(value) -> str:
                 f"{value.frequency_hz[0]:g}-{value.frequency_hz[-1]:g} Hz"
                 + ("" if value.phase_deg is None else ", with phase")
                 + (f"; gain below {GAIN_FLOOR:g} from {edge:.4g} Hz" if math.isfinite(edge)
-                   else "") + "): the records were divided by it, the replays decimated flat")
+                   else "") + "): the records were divided by it (replayed through a flat "
+                "filter)")
     return {"unknown": "not stated", "flat": "stated flat to 0.45 of the sample rate",
             "replay": "stated as the replay's own"}[value]
 
@@ -216,7 +217,7 @@ def equalized(dataset):
     fs = float(dataset.sample_rate)
     runs = []
     for run in dataset.runs:
-        if run.reason or run.data is None or np.size(run.data) == 0:
+        if run.reason or np.size(run.data) == 0:
             runs.append(run)
             continue
         runs.append(dataclasses.replace(
@@ -231,6 +232,4 @@ def unrestored_points(response, frequencies) -> list[float]:
     if not isinstance(response, FilterResponse):
         return []
     f = np.asarray(list(frequencies), float)
-    if f.size == 0:
-        return []
     return [float(v) for v in f[np.abs(response(f)) < GAIN_FLOOR]]

@@ -196,7 +196,6 @@ class Dataset:
             :data:`FRAMES` or relative with a base, an ``antialias`` that is none of its forms.
         """
         check_quantity_units(quantity, units, "")
-        antialias = check_antialias(antialias)
         channels, base_channel = check_channels(channels, base_channel, "",
                                                 default_base="base" if base is not None else None)
         check_frame(frame, base_channel, "")
