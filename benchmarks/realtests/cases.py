@@ -1410,6 +1410,36 @@ VARIANTS.update(dict(_noisy_with_base(*a) for a in (
     ("var18_fin_ramp_noisy", "var_fin_level_ramp", 0.25),
 )))
 
+
+# A nineteenth set (2026-12-05, session 56): every case above is sampled at 256 Hz, where a
+# test's accelerometers are usually read at 0.5-2 kHz. Conditions of the three fins simulated
+# again at another sample rate (the same knot rate, 16384 Hz, so the same integration), their
+# noise std scaled by sqrt(rate / 256) so that its density, and the noise in the band, are the
+# 256 Hz cases' (an accelerometer's noise floor is a density). Chosen before any of their answers
+# was seen.
+def _at_rate(name: str, src: str, rate: float):
+    def build(**kw) -> CaseSpec:
+        spec = ALL_CASES[src](**kw)
+        if spec.clean_from is not None or spec.profile_of_run is not None:
+            raise ValueError(f"{src}: a case with its own records only")
+        spec.name, spec.sample_rate = name, rate
+        spec.knots_per_sample = int(round(FS * 64 / rate))
+        spec.noise_g = round(spec.noise_g * float(np.sqrt(rate / FS)), 4)
+        spec.condition += (f"; sampled at {rate:g} Hz ({spec.noise_g:g} g of noise, the same "
+                           "density)")
+        spec.params.update(sample_rate=rate, condition_of=src)
+        return spec
+    return name, build
+
+
+VARIANTS.update(dict(_at_rate(*a) for a in (
+    ("var19_finC_nominal_1024", "var6_finC_nominal", 1024.0),
+    ("var19_finC_rayleigh_512", "var6_finC_rayleigh", 512.0),
+    ("var19_fin_rayleigh_512", "fin_rayleigh_noC", 512.0),
+    ("var19_finB_nominal_2048", "var5_finB_nominal", 2048.0),
+    ("var19_fin_hinge_damper_1024", "fin_hinge_damper", 1024.0),
+)))
+
 ALL_CASES = {**CONDITIONS, **VARIANTS}
 
 def set_profiles(spec: CaseSpec, out: Path) -> None:
