@@ -65,13 +65,15 @@ class RunSpec:
     profile: Callable | None = None
     declared_level_g: float | None = None  # what the manifest says (default: level_g)
     phase: Callable | None = None  # the base's phase added to the sweep's [rad], of (t, f)
+    harmonics: tuple = ()  # the base's distortion: (order k, amplitude / level's, phase [rad])
 
     @property
     def file(self) -> str:
         return f"sweep_{self.declared_level_g or self.level_g:.2f}g.csv.gz"
 
     def base_accel(self):
-        sw, lv, prof, lag = self.sweep, self.level_g, self.profile, self.phase
+        sw, lv, prof, lag, harm = (self.sweep, self.level_g, self.profile, self.phase,
+                                   self.harmonics)
         law = {k: sw[k] for k in ("rate_hz_per_s", "octaves_per_min") if k in sw}
 
         def a_g(t):
@@ -82,7 +84,10 @@ class RunSpec:
                 amp = amp * prof(t, f)
             if lag is not None:
                 ph = ph + lag(t, f)
-            return amp * np.sin(ph)
+            wave = np.sin(ph)
+            for k, rel, phi in harm:
+                wave = wave + rel * np.sin(k * ph + phi)
+            return amp * wave
 
         return a_g
 
@@ -112,6 +117,7 @@ class CaseSpec:
     noise_g: float = NOISE_G
     sample_rate: float = FS
     knots_per_sample: int = 64
+    base_delay_s: float = 0.0  # the base channel read this late against the others [s]
 
 
 # --------------------------------------------------------------------------- structures
@@ -568,7 +574,8 @@ def write_draw(folder: Path, spec: CaseSpec, clean: dict, seed: int, jumps: list
     for k in range(len(spec.runs)):
         t = clean["time"][k]
         data = clean["accel"][k] / es.G0 + rng.normal(0.0, spec.noise_g, clean["accel"][k].shape)
-        base = clean["base"][k] / es.G0 + rng.normal(0.0, spec.noise_g, t.size)
+        base = (_delayed(clean["base"][k], spec.base_delay_s * spec.sample_rate) / es.G0
+                + rng.normal(0.0, spec.noise_g, t.size))
         runs.append({"t": t, "data": data, "base": base})
     if transform is not None:
         runs = transform(runs)
@@ -597,6 +604,16 @@ def write_draw(folder: Path, spec: CaseSpec, clean: dict, seed: int, jumps: list
                       for r, j in zip(spec.runs, jumps)]}
     atomic_write_text(folder / "truth.json", json.dumps(truth, indent=1) + "\n")
     return manifest
+
+
+def _delayed(x: np.ndarray, samples: float) -> np.ndarray:
+    """``x`` delayed by a (fractional) number of samples, by its spectrum, zero-padded so that
+    nothing wraps; the records are band-limited by their decimator, so this is exact."""
+    if samples == 0:
+        return x
+    n = 2 * x.size
+    f = np.fft.rfftfreq(n)
+    return np.fft.irfft(np.fft.rfft(x, n) * np.exp(-2j * np.pi * f * samples), n)[:x.size]
 
 
 def _jsonable(x):
@@ -1438,6 +1455,58 @@ VARIANTS.update(dict(_at_rate(*a) for a in (
     ("var19_fin_rayleigh_512", "fin_rayleigh_noC", 512.0),
     ("var19_finB_nominal_2048", "var5_finB_nominal", 2048.0),
     ("var19_fin_hinge_damper_1024", "fin_hinge_damper", 1024.0),
+)))
+
+
+# A twentieth set (2026-12-05, session 56): the base's harmonic distortion. A shaker's table
+# carries harmonics of the drive (its own distortion, and the fin's impacts feeding back into
+# it); the controller holds the fundamental, the base channel records them all. Four conditions
+# with the base's 2nd and 3rd harmonics at 3-10 % of the fundamental, the fundamental's level
+# unchanged. Chosen before any of their answers was seen.
+def _distorted(name: str, src: str, harmonics: tuple):
+    def build(**kw) -> CaseSpec:
+        spec = ALL_CASES[src](**kw)
+        if spec.clean_from is not None or spec.profile_of_run is not None:
+            raise ValueError(f"{src}: a case with its own records only")
+        spec.name = name
+        for run in spec.runs:
+            run.harmonics = tuple(harmonics)
+        spec.condition += "; the base distorted: " + ", ".join(
+            f"{100 * rel:g} % at {k}x" for k, rel, _ in harmonics)
+        spec.params.update(base_harmonics=[list(h) for h in harmonics], condition_of=src)
+        return spec
+    return name, build
+
+
+VARIANTS.update(dict(_distorted(*a) for a in (
+    ("var20_fin_distorted", "fin_nominal", ((2, 0.05, 0.3), (3, 0.05, 1.1))),
+    ("var20_fin_rayleigh_distorted", "fin_rayleigh_noC", ((3, 0.05, -0.7),)),
+    ("var20_finB_distorted", "var5_finB_nominal", ((3, 0.10, 0.5),)),
+    ("var20_finC_distorted_1024", "var19_finC_nominal_1024", ((2, 0.03, 2.0), (3, 0.08, 0.0))),
+)))
+
+
+# A twenty-first set (2026-12-05, session 56): the base channel read at another instant than the
+# response channels (a multiplexed acquisition reads its channels one after another; a base
+# channel from the controller's front end has another filter delay). The clean records are the
+# sources'; the base record is delayed by a fraction of a sample. Chosen before any answer.
+def _skewed(name: str, src: str, samples: float):
+    def build(**kw) -> CaseSpec:
+        spec = ALL_CASES[src](**kw)
+        spec.name, spec.clean_from = name, src
+        spec.base_delay_s = samples / spec.sample_rate
+        spec.condition += (f"; the base channel read {abs(samples):g} sample "
+                           f"{'late' if samples > 0 else 'early'} ({src} records)")
+        spec.params.update(base_delay_samples=samples, records_of=src)
+        return spec
+    return name, build
+
+
+VARIANTS.update(dict(_skewed(*a) for a in (
+    ("var21_fin_base_late", "fin_nominal", 0.25),
+    ("var21_finB_base_early", "var5_finB_nominal", -0.5),
+    ("var21_finC_base_late_1024", "var19_finC_nominal_1024", 0.75),
+    ("var21_fin_rayleigh_base_late", "fin_rayleigh_noC", 0.75),
 )))
 
 ALL_CASES = {**CONDITIONS, **VARIANTS}
