@@ -72,13 +72,14 @@
 - ``replay_branch`` (points read at the phase resonance, against the base channel's phase):
   each run's upper branch, the replay at the answer against the test (:attr:`freeplayid.replay.
   RunMisfit.branch`: the median difference over the lobe up to the point, relative to the
-  peak), within ``branch`` (1.5 %). With the base channel the replay is driven at the measured
-  level and phase, so its branch follows the test's whatever the damping's form (0.05-0.54 % on
-  30 accurate answers of other integrators' records, session 56); where the phase-resonance
-  points themselves are read wrong, the fit matches them at another (kn, delta) and the branch
+  peak): the median run's within ``branch`` (1.5 %). With the base channel the replay is driven
+  at the measured level and phase, so its branches follow the test's; where the points
+  themselves are read wrong, the fit matches them at another (kn, delta) and every run's branch
   parts from the test's: a base channel read a quarter sample late at 256 Hz (14 degrees at 40
-  Hz) gave delta -3 %, kn +2 % and a branch 2.5 % off; the points (their relative motion and
-  phase) rest on the base's timing against the responses, which no other check reads.
+  Hz) gave delta -3 %, kn +2 % and every run's branch 2.1-2.5 % off; the points (their relative
+  motion and phase) rest on the base's timing against the responses, which no other check
+  reads. Damping of another form than the replay's parts the lowest run's branch most (more
+  damping in contact: 1.8 % there, 0.2-0.9 % on the others), so one run is not a reading error.
 - ``sweep_law``, ``replay_binding``, ``replay_converged``, ``damping_estimate``: where the laws
   came from, a replayed fit that jumps, convergence and an estimated damping the amplitudes pin
   down (:mod:`freeplayid.identification.verdict`).
@@ -90,6 +91,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import scipy.stats
 
 from ..replay.corrected import FORM_PARAMETERS
@@ -367,22 +369,25 @@ def _branch_check(replay) -> Check | None:
     if not branch:
         return None
     limit = LIMITS["branch"]
-    worst = max(branch.values())
-    off = [f"{run} {100 * b:.2g} %" for run, b in branch.items() if b > limit]
-    if not off:
+    typical, worst = float(np.median(list(branch.values()))), max(branch.values())
+    rule = (f"the median run's {100 * typical:.2g} % of the peak against the limit "
+            f"{100 * limit:g} %")
+    if typical <= limit:
         return Check("replay_branch", True,
-                     f"the replay at the answer follows every run's upper branch (within "
-                     f"{100 * worst:.2g} % of the peak; limit {100 * limit:g} %)", worst / limit)
+                     f"the replay at the answer follows the runs' upper branches ({rule}; the "
+                     f"farthest run {100 * worst:.2g} %: one run's branch is a damping's form, "
+                     "every run's a reading)", typical / limit)
+    off = [f"{run} {100 * b:.2g} %" for run, b in branch.items() if b > limit]
     return Check("replay_branch", False,
-                 f"the replay at the answer misses the test's upper branches by up to "
-                 f"{100 * worst:.2g} % of the peak ({', '.join(off)}; limit {100 * limit:g} %) "
+                 f"the replay at the answer misses the test's upper branches ({rule}; "
+                 f"{', '.join(off)}) "
                  "though it is driven at the base's measured level: the test's motion relative "
                  "to the base and its phase-resonance points are read from the responses "
                  "against the base channel at the same instants, so a base channel read out of "
                  "step with the response channels (a delay t turns the phase by 360 f t "
                  "degrees: a quarter sample at 256 Hz is 14 degrees at 40 Hz; a multiplexed "
                  "acquisition, or a base channel from another front end), or a structure the "
-                 "replay is not (its damping or linear model)?", worst / limit)
+                 "replay is not (its damping or linear model)?", typical / limit)
 
 
 def _antialias_check(replay) -> Check | None:
