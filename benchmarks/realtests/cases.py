@@ -1394,12 +1394,26 @@ VARIANTS.update(dict(_noisy_no_base(src) for src in ("var6_finC_rayleigh", "var6
 # in the model file) and, as controls, with the model's own damping, their noise raised to where
 # the rule runs (fin B's responses are a third of the others', so half the noise). The clean
 # records are their sources'; chosen before any of their answers was seen.
+def _derived(name: str, src: str, kw: dict, *, records_of_src: bool) -> CaseSpec:
+    """The case ``src`` under the name ``name``: on its clean records (``records_of_src``) or
+    simulated again (then ``src`` must make its own records, without a level profile)."""
+    spec = ALL_CASES[src](**kw)
+    if records_of_src:
+        spec.clean_from = src
+        spec.params.update(records_of=src)
+    elif spec.clean_from is not None or spec.profile_of_run is not None:
+        raise ValueError(f"{src}: a case with its own records only")
+    else:
+        spec.params.update(condition_of=src)
+    spec.name = name
+    return spec
+
+
 def _noisy_with_base(name: str, src: str, noise_g: float):
     def build(**kw) -> CaseSpec:
-        spec = ALL_CASES[src](**kw)
-        spec.name, spec.clean_from, spec.noise_g = name, src, noise_g
+        spec = _derived(name, src, kw, records_of_src=True)
+        spec.noise_g = noise_g
         spec.condition += f"; {noise_g:g} g of noise ({src} records)"
-        spec.params.update(records_of=src)
         return spec
     return name, build
 
@@ -1436,15 +1450,13 @@ VARIANTS.update(dict(_noisy_with_base(*a) for a in (
 # was seen.
 def _at_rate(name: str, src: str, rate: float):
     def build(**kw) -> CaseSpec:
-        spec = ALL_CASES[src](**kw)
-        if spec.clean_from is not None or spec.profile_of_run is not None:
-            raise ValueError(f"{src}: a case with its own records only")
-        spec.name, spec.sample_rate = name, rate
+        spec = _derived(name, src, kw, records_of_src=False)
+        spec.sample_rate = rate
         spec.knots_per_sample = int(round(FS * 64 / rate))
         spec.noise_g = round(spec.noise_g * float(np.sqrt(rate / FS)), 4)
         spec.condition += (f"; sampled at {rate:g} Hz ({spec.noise_g:g} g of noise, the same "
                            "density)")
-        spec.params.update(sample_rate=rate, condition_of=src)
+        spec.params.update(sample_rate=rate)
         return spec
     return name, build
 
@@ -1465,15 +1477,12 @@ VARIANTS.update(dict(_at_rate(*a) for a in (
 # unchanged. Chosen before any of their answers was seen.
 def _distorted(name: str, src: str, harmonics: tuple):
     def build(**kw) -> CaseSpec:
-        spec = ALL_CASES[src](**kw)
-        if spec.clean_from is not None or spec.profile_of_run is not None:
-            raise ValueError(f"{src}: a case with its own records only")
-        spec.name = name
+        spec = _derived(name, src, kw, records_of_src=False)
         for run in spec.runs:
             run.harmonics = tuple(harmonics)
         spec.condition += "; the base distorted: " + ", ".join(
             f"{100 * rel:g} % at {k}x" for k, rel, _ in harmonics)
-        spec.params.update(base_harmonics=[list(h) for h in harmonics], condition_of=src)
+        spec.params.update(base_harmonics=[list(h) for h in harmonics])
         return spec
     return name, build
 
@@ -1492,12 +1501,11 @@ VARIANTS.update(dict(_distorted(*a) for a in (
 # sources'; the base record is delayed by a fraction of a sample. Chosen before any answer.
 def _skewed(name: str, src: str, samples: float):
     def build(**kw) -> CaseSpec:
-        spec = ALL_CASES[src](**kw)
-        spec.name, spec.clean_from = name, src
+        spec = _derived(name, src, kw, records_of_src=True)
         spec.base_delay_s = samples / spec.sample_rate
         spec.condition += (f"; the base channel read {abs(samples):g} sample "
                            f"{'late' if samples > 0 else 'early'} ({src} records)")
-        spec.params.update(base_delay_samples=samples, records_of=src)
+        spec.params.update(base_delay_samples=samples)
         return spec
     return name, build
 

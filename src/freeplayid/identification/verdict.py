@@ -140,10 +140,10 @@ LIMITS = {
     "without_delta": ACCURACY_DELTA / 2,
     "without_kn": ACCURACY_KN / 2,
     "peak_amplitude": 0.05,  # [-] a run's peak: beyond this the report says the damping differs
-    # [-] a run's upper branch, replayed against measured (median |difference| over the lobe up
-    # to the phase-resonance point, relative to the peak), where the base channel gives the
-    # levels and the points are read against its phase: beyond this the replay at the answer is
-    # not the test (replay_checks' ``replay_branch``)
+    # [-] the runs' upper branches, replayed against measured (each run's median |difference|
+    # over the lobe up to the phase-resonance point, relative to the peak; the median run's),
+    # where the points are read against the base channel: beyond this the replay at the answer
+    # is not the test (replay_checks' ``replay_branch``)
     "branch": 0.015,
     "antialias_delta": ACCURACY_DELTA / 2,  # [-] the records' filter's move (half the bounds)
     "antialias_kn": ACCURACY_KN / 2,
