@@ -1,5 +1,6 @@
 """The records' anti-alias filter as a data set states it (freeplayid.acquisition): the
-manifest's ``antialias`` field, a stated response divided out of the records, and its check.
+manifest's ``antialias`` field, a stated response divided out of the records, and its check;
+the base channel's stated delay (``base_delay_s``) shifted out of its records.
 
 The references are scipy's: the filters are scipy FIR / IIR designs applied with numpy and
 scipy, their responses ``scipy.signal.freqz``'s; the package only states and divides."""
@@ -16,9 +17,11 @@ import yaml
 from freeplayid.acquisition import (
     GAIN_FLOOR,
     FilterResponse,
+    base_aligned,
     check_antialias,
     equalize,
     equalized,
+    shifted,
     unrestored_points,
 )
 from freeplayid.errors import DatasetError
@@ -221,3 +224,90 @@ def test_identify_takes_the_data_sets_statement_unless_the_replay_option_overrid
     assert _stated_filter(named, Replay())[1].antialias == "replay"
     assert _stated_filter(dataclasses.replace(ds, antialias="unknown"),
                           Replay())[1].antialias == "unknown"
+
+
+# --------------------------------------------------------------------------- the base's timing
+def _chirp(t, f0=30.0, rate=0.5):
+    """A linear chirp from ``f0`` [Hz] at ``rate`` [Hz/s], evaluated analytically at ``t``."""
+    return np.sin(2 * np.pi * (f0 * t + 0.5 * rate * t ** 2))
+
+
+@pytest.mark.parametrize("samples", [0.25, -0.5, 0.75, 3.5])
+def test_shifted_reads_a_band_limited_record_at_another_instant(samples):
+    # reference: the chirp evaluated analytically at the shifted instants (nothing of the package)
+    t = np.arange(int(30 * FS)) / FS
+    advance = samples / FS
+    out = shifted(_chirp(t), FS, advance)
+    middle = slice(int(2 * FS), -int(2 * FS))  # the abrupt start and end are not band-limited
+    assert np.max(np.abs(out - _chirp(t + advance))[middle]) < 1e-3
+    assert np.max(np.abs(_chirp(t) - _chirp(t + advance))[middle]) > 0.1  # it did move
+    assert shifted(_chirp(t), FS, 0.0) == pytest.approx(_chirp(t))
+
+
+def test_the_base_delay_is_stated_checked_and_written(tmp_path):
+    runs, kw = _small()
+    path = write_dataset(tmp_path / "late", runs=runs, base_delay_s=0.001, **kw)
+    assert yaml.safe_load(path.read_text())["base_delay_s"] == 0.001
+    assert read_dataset(path, check_model=False).base_delay_s == 0.001
+    m = yaml.safe_load(path.read_text())
+    for bad in ("1 ms", 0.5, True, float("nan")):
+        m["base_delay_s"] = bad
+        path.write_text(yaml.safe_dump(m))
+        with pytest.raises(DatasetError, match=r"manifest.yaml: `base_delay_s` must be the base "
+                                               r"channel's delay .* within \+-0.05"):
+            read_dataset(path, check_model=False)
+    m["base_delay_s"] = -0.002
+    del m["base_channel"]
+    path.write_text(yaml.safe_dump(m))
+    with pytest.raises(DatasetError, match=r"manifest.yaml: `base_delay_s` is -0.002 but the "
+                                           "data set has no `base_channel`"):
+        read_dataset(path, check_model=False)
+    written = write_dataset(tmp_path / "none", runs=runs, **kw)
+    assert "base_delay_s" not in yaml.safe_load(written.read_text())
+    assert read_dataset(written, check_model=False).base_delay_s == 0.0
+    with pytest.raises(DatasetError, match="no `base_channel`"):
+        Dataset.from_arrays(np.zeros((1, 2, 64)), channels={"a": "x", "b": "y"},
+                            quantity="acceleration", units="g", sample_rate=FS,
+                            base_delay_s=0.001)
+
+
+def test_a_stated_delay_puts_the_base_back_into_step_and_nothing_else():
+    t = np.arange(int(30 * FS)) / FS
+    late = 0.25 / FS  # the base read a quarter sample late: its sample k holds the motion at
+    resp = np.vstack([3 * _chirp(t)] * 2)  # t_k - late
+    ds = Dataset.from_arrays([resp, resp], channels={"a": "uz_top_left", "b": "uz_lower_right"},
+                             quantity="acceleration", units="g", sample_rate=FS,
+                             base=[_chirp(t - late), _chirp(t - late)], base_delay_s=late)
+    bad = dataclasses.replace(ds.runs[1], reason="rejected")
+    out = base_aligned(dataclasses.replace(ds, runs=(ds.runs[0], bad)))
+    middle = slice(int(2 * FS), -int(2 * FS))
+    assert np.max(np.abs(out.runs[0].base - _chirp(t))[middle]) < 1e-3
+    assert out.runs[0].data is ds.runs[0].data and out.runs[1] is bad
+    assert base_aligned(dataclasses.replace(ds, base_delay_s=0.0)).runs[0].base is \
+        ds.runs[0].base
+
+
+def test_identify_reads_the_base_shifted_by_the_stated_delay():
+    from freeplayid import identify
+    from freeplayid.io import bundled_example
+
+    example = read_dataset(bundled_example())
+    example = dataclasses.replace(example, runs=tuple(
+        r for r in example.runs if r.level_g in (0.8, 1.2)))
+    late = 0.5 / example.sample_rate
+    skewed = dataclasses.replace(example, runs=tuple(
+        dataclasses.replace(r, base=shifted(r.base, example.sample_rate, -late))
+        for r in example.runs))
+    opts = dict(progress=False, replay=None, records=None, fit={"multistart": {"n": 3}})
+
+    def amplitudes(ds):
+        res = identify(ds, **opts)
+        return np.array([p.amplitude_m for p in res.points.points]), res
+
+    ref, _ = amplitudes(example)
+    unstated, _ = amplitudes(skewed)
+    stated, res = amplitudes(dataclasses.replace(skewed, base_delay_s=late))
+    assert np.max(np.abs(unstated / ref - 1)) > 1e-3  # half a sample moves the points
+    assert stated == pytest.approx(ref, rel=1e-4)
+    assert res.dataset["base_delay_s"] == late
+    assert "base channel's timing: 1.953 ms (0.5 sample) late" in res.report()

@@ -19,6 +19,18 @@ A response is interpolated linearly in frequency and held at its end values outs
 Where its gain is below ``GAIN_FLOOR`` (0.5) the division is limited to 1 / ``GAIN_FLOOR``: a
 point there is not restored, and the verdict's ``antialias`` check says so
 (:func:`unrestored_points`).
+
+The base channel read at another instant than the responses. The test's motion relative to the
+base and its phase-resonance points are read from the responses against the base at the same
+instants, so a base channel read ``t`` seconds late turns every phase by 360 f t degrees (a
+quarter sample at 256 Hz is 14 degrees at 40 Hz) and moved delta by -3 % on the default fin
+(docs/identify.md §3c, "The base channel's timing"). A multiplexed acquisition that reads the
+base after the responses, or a base channel from the controller's front end with another filter
+delay, does so. A data set states that delay in ``base_delay_s`` (manifest field, or
+``Dataset.from_arrays(base_delay_s=)``; > 0: the base read late, < 0: early; at most
+``MAX_BASE_DELAY`` either way, a larger one being a unit slip), and ``identify`` advances every
+usable base record by it (:func:`base_aligned`: a fractional shift by the record's spectrum,
+zero-padded so that nothing wraps) before anything is read from it.
 """
 
 from __future__ import annotations
@@ -33,8 +45,9 @@ import numpy as np
 
 from .errors import DatasetError
 
-__all__ = ["ANTIALIAS", "GAIN_FLOOR", "FilterResponse", "check_antialias", "equalized",
-           "equalize", "describe_antialias", "unrestored_points"]
+__all__ = ["ANTIALIAS", "GAIN_FLOOR", "MAX_BASE_DELAY", "FilterResponse", "check_antialias",
+           "check_base_delay", "equalized", "equalize", "shifted", "base_aligned",
+           "describe_antialias", "describe_base_delay", "unrestored_points"]
 
 # the records' filter by name (`Dataset.antialias`, `Replay.antialias`)
 ANTIALIAS = ("unknown", "replay", "flat")
@@ -44,6 +57,9 @@ RESPONSE_KEYS = ("frequency_hz", "gain", "phase_deg")
 # zeros on each side of a record before its spectrum is divided (the correction's kernel is
 # short where the response is smooth; this keeps its circular wrap off the record)
 PAD = 2048
+# the largest base channel's delay a data set may state [s]: a multiplexed scan or a front end's
+# filter delay is a few samples at most; 50 ms is a duration written in ms where s was meant
+MAX_BASE_DELAY = 0.05
 
 
 @dataclass(frozen=True)
@@ -194,18 +210,72 @@ def describe_antialias(value) -> str:
 def equalize(x, sample_rate: float, response: FilterResponse) -> np.ndarray:
     """``x`` (..., T) divided by ``response`` in the frequency domain (the gain limited below by
     ``GAIN_FLOOR``): the record a flat acquisition would have made."""
+    def inverse(f):
+        h = response(f)
+        gain = np.abs(h)
+        return 1.0 / np.where(gain >= GAIN_FLOOR, h, GAIN_FLOOR * np.exp(1j * np.angle(h)))
+    return _through(x, sample_rate, inverse)
+
+
+def shifted(x, sample_rate: float, advance_s: float) -> np.ndarray:
+    """``x`` (..., T) read ``advance_s`` seconds earlier (a fractional shift by its spectrum:
+    ``x(t + advance_s)`` for a record band-limited below half the sample rate; < 0 delays)."""
+    if advance_s == 0:
+        return np.asarray(x, float)
+    return _through(x, sample_rate, lambda f: np.exp(2j * np.pi * f * advance_s))
+
+
+def _through(x, sample_rate: float, h) -> np.ndarray:
+    """``x`` (..., T) times the response ``h(f)`` in the frequency domain, zero-padded by
+    ``PAD`` on each side so that the correction's kernel does not wrap onto the record."""
     x = np.asarray(x, float)
     n = x.shape[-1]
     pad = min(PAD, n)
     m = n + 2 * pad
     f = np.fft.rfftfreq(m, 1.0 / sample_rate)
-    h = response(f)
-    gain = np.abs(h)
-    h = np.where(gain >= GAIN_FLOOR, h, GAIN_FLOOR * np.exp(1j * np.angle(h)))
     padded = np.concatenate([np.zeros(x.shape[:-1] + (pad,)), x,
                              np.zeros(x.shape[:-1] + (pad,))], axis=-1)
-    y = np.fft.irfft(np.fft.rfft(padded, axis=-1) / h, n=m, axis=-1)
+    y = np.fft.irfft(np.fft.rfft(padded, axis=-1) * h(f), n=m, axis=-1)
     return y[..., pad:pad + n]
+
+
+def check_base_delay(value, base_channel, where: str = "") -> float:
+    """A data set's ``base_delay_s`` [s] (None: 0) as a float; a one-line
+    :class:`DatasetError` naming the field for anything but a finite number within
+    +-``MAX_BASE_DELAY``, or a delay stated where there is no base channel."""
+    if value is None:
+        return 0.0
+    ok = isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(
+        value, (bool, np.bool_))
+    if not ok or not math.isfinite(value) or abs(value) > MAX_BASE_DELAY:
+        raise DatasetError(f"{where}`base_delay_s` must be the base channel's delay against the "
+                           f"responses in seconds, a number within +-{MAX_BASE_DELAY:g} "
+                           f"(> 0: read late), got {value!r}")
+    if value != 0 and base_channel is None:
+        raise DatasetError(f"{where}`base_delay_s` is {value!r} but the data set has no "
+                           "`base_channel` to shift")
+    return float(value)
+
+
+def describe_base_delay(delay_s: float, sample_rate: float) -> str:
+    """One phrase for the report."""
+    samples = delay_s * sample_rate
+    return (f"{1e3 * abs(delay_s):.4g} ms ({abs(samples):.3g} sample) "
+            f"{'late' if delay_s > 0 else 'early'} against the responses, as stated: the base "
+            "records were shifted back into step")
+
+
+def base_aligned(dataset):
+    """``dataset`` with every usable run's base record advanced by its stated ``base_delay_s``
+    (the data set itself where it states none)."""
+    delay = float(getattr(dataset, "base_delay_s", 0.0) or 0.0)
+    if delay == 0:
+        return dataset
+    fs = float(dataset.sample_rate)
+    runs = tuple(run if run.reason or run.base is None or np.size(run.base) == 0
+                 else dataclasses.replace(run, base=shifted(run.base, fs, delay))
+                 for run in dataset.runs)
+    return dataclasses.replace(dataset, runs=runs)
 
 
 def equalized(dataset):

@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .acquisition import check_antialias
+from .acquisition import check_antialias, check_base_delay
 from .errors import DatasetError
 from .quantity import UNIT_SCALE, check_units
 from .sweep import Sweep
@@ -105,6 +105,9 @@ class Dataset:
         The anti-alias filter the records went through (:mod:`freeplayid.acquisition`):
         not stated (default), flat to 0.45 of the sample rate, the simulator's own, or a stated
         response that ``identify`` divides out of the records before reading them.
+    base_delay_s : float [s]
+        How late the base channel was read against the responses (< 0: early; 0: in step, the
+        default): ``identify`` advances the base records by it (:mod:`freeplayid.acquisition`).
     """
 
     name: str
@@ -120,10 +123,13 @@ class Dataset:
     reference_modes: dict | None = None
     frame: str = "absolute"
     antialias: object = "unknown"
+    base_delay_s: float = 0.0
 
     def __post_init__(self):
         check_frame(self.frame, self.base_channel, "")
         object.__setattr__(self, "antialias", check_antialias(self.antialias))
+        object.__setattr__(self, "base_delay_s",
+                           check_base_delay(self.base_delay_s, self.base_channel))
 
     @property
     def si_scale(self) -> float:
@@ -140,7 +146,7 @@ class Dataset:
                     base_channel: str | None = None, levels_g=None, sweeps=None,
                     model: str | os.PathLike | None = None, name: str = "arrays",
                     run_names: Sequence[str] | None = None, frame: str = "absolute",
-                    antialias="unknown") -> Dataset:
+                    antialias="unknown", base_delay_s: float = 0.0) -> Dataset:
         """A validated data set from arrays (a notebook's), checked as a manifest is.
 
         Parameters
@@ -178,6 +184,9 @@ class Dataset:
         antialias : {"unknown", "flat", "replay"}, FilterResponse or mapping
             The records' anti-alias filter (:attr:`Dataset.antialias`; a mapping
             ``{frequency_hz, gain, phase_deg}`` states a response).
+        base_delay_s : float [s]
+            How late ``base`` was read against ``data`` (:attr:`Dataset.base_delay_s`; within
+            +-0.05 s, and only with ``base``).
 
         Returns
         -------
@@ -193,7 +202,8 @@ class Dataset:
             (a transposed one says so), counts of ``time``, ``base``, ``levels_g``, ``sweeps``
             or ``run_names`` that differ from the runs, a bad time axis or sample rate, a
             model file that is missing or lacks a channel's DOF, a ``frame`` not in
-            :data:`FRAMES` or relative with a base, an ``antialias`` that is none of its forms.
+            :data:`FRAMES` or relative with a base, an ``antialias`` that is none of its forms, a
+            ``base_delay_s`` that is not a number within +-0.05 s or is given without ``base``.
         """
         check_quantity_units(quantity, units, "")
         channels, base_channel = check_channels(channels, base_channel, "",
@@ -223,7 +233,8 @@ class Dataset:
                            reason=run_reason(cols, times[k], hints[k], fs)))
         return cls(name=str(name), model=model_path, quantity=quantity, units=units,
                    sample_rate=float(fs), channels=dict(channels), runs=tuple(out),
-                   base_channel=base_channel, frame=frame, antialias=antialias)
+                   base_channel=base_channel, frame=frame, antialias=antialias,
+                   base_delay_s=base_delay_s)
 
 
 # --------------------------------------------------------------------------- the shared rules

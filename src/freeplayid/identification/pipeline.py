@@ -12,7 +12,13 @@ from collections.abc import Mapping
 import numpy as np
 import scipy.stats
 
-from ..acquisition import FilterResponse, describe_antialias, equalized
+from ..acquisition import (
+    FilterResponse,
+    base_aligned,
+    describe_antialias,
+    describe_base_delay,
+    equalized,
+)
 from ..errors import ConfigError, DatasetError, IdentificationError
 from ..estimate import PlainEstimate, plain_estimate
 from ..fit import FitOptions
@@ -131,6 +137,7 @@ def identify(dataset, *, system: FreeplaySystem | None = None,
     _check_wide_base(replay, dataset)
     dataset, checked = checked_dataset(dataset, system, records)
     dataset, replay = _stated_filter(dataset, replay)
+    dataset = base_aligned(dataset)
     est = _plain_estimate(dataset, system, checked, extraction=extraction, fit=fit,
                           init=fit.init, progress=progress)
     system, est, update = update_model(dataset, system, est, fit, model)
@@ -681,6 +688,7 @@ def _record(dataset) -> dict:
             "channels": dict(dataset.channels), "base_channel": dataset.base_channel,
             "frame": getattr(dataset, "frame", "absolute"),
             **_filter_record(getattr(dataset, "antialias", "unknown")),
+            **_delay_record(dataset),
             "levels": {run.file: None if run.level_g is None else float(run.level_g)
                        for run in dataset.runs}}
 
@@ -691,6 +699,15 @@ def _filter_record(stated) -> dict:
         return {"antialias": "response", "antialias_response": stated.to_dict(),
                 "antialias_said": describe_antialias(stated)}
     return {"antialias": stated, "antialias_said": describe_antialias(stated)}
+
+
+def _delay_record(dataset) -> dict:
+    """The base channel's delay as the data set stated it (nothing where it states none)."""
+    delay = float(getattr(dataset, "base_delay_s", 0.0) or 0.0)
+    if delay == 0:
+        return {}
+    return {"base_delay_s": delay,
+            "base_delay_said": describe_base_delay(delay, float(dataset.sample_rate))}
 
 
 def _plain_result(dataset, system, est: PlainEstimate, mode: int, t0: float,

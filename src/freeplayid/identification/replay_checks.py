@@ -386,8 +386,9 @@ def _branch_check(replay) -> Check | None:
                  "against the base channel at the same instants, so a base channel read out of "
                  "step with the response channels (a delay t turns the phase by 360 f t "
                  "degrees: a quarter sample at 256 Hz is 14 degrees at 40 Hz; a multiplexed "
-                 "acquisition, or a base channel from another front end), or a structure the "
-                 "replay is not (its damping or linear model)?", typical / limit)
+                 "acquisition, or a base channel from another front end; where the delay is "
+                 "known, the data set's `base_delay_s` shifts the base back into step), or a "
+                 "structure the replay is not (its damping or linear model)?", typical / limit)
 
 
 def _antialias_check(replay) -> Check | None:

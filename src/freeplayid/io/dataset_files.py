@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from ..acquisition import FilterResponse, check_antialias
+from ..acquisition import FilterResponse, check_antialias, check_base_delay
 from ..atomic import atomic_path, atomic_write_text
 from ..dataset import (
     Dataset,
@@ -119,6 +119,7 @@ def read_dataset(path: str | os.PathLike, *, check_model: bool = True) -> Datase
         reference_modes=manifest.reference_modes,
         frame=manifest.frame,
         antialias=manifest.antialias,
+        base_delay_s=manifest.base_delay_s,
     )
 
 
@@ -198,6 +199,7 @@ def write_dataset(
     time_format: str | None = None,
     frame: str = "absolute",
     antialias="unknown",
+    base_delay_s: float = 0.0,
 ) -> Path:
     """Write a data set folder and return the path of its ``manifest.yaml``.
 
@@ -231,10 +233,13 @@ def write_dataset(
     antialias : {"unknown", "flat", "replay"}, FilterResponse or mapping
         The records' anti-alias filter (:mod:`freeplayid.acquisition`); written to the manifest
         when stated (a response as its lists).
+    base_delay_s : float [s]
+        How late the base channel was read against the others; written when not 0.
     """
     cols = _check_columns(quantity, units, sample_rate, channels, base_channel)
     check_frame(frame, base_channel, "")
     antialias = check_antialias(antialias)
+    base_delay_s = check_base_delay(base_delay_s, base_channel)
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     fmt = (time_format or float_format, float_format)
@@ -257,6 +262,8 @@ def write_dataset(
         manifest["antialias"] = antialias.to_dict()
     elif antialias != "unknown":
         manifest["antialias"] = antialias
+    if base_delay_s != 0:
+        manifest["base_delay_s"] = base_delay_s
     if truth is not None:
         manifest["truth"] = {k: float(v) for k, v in dict(truth).items()}
     manifest["runs"] = entries

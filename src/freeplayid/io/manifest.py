@@ -11,6 +11,7 @@ sample_rate: 2048               # Hz; if absent, the runs' 'time' column defines
 channels: {acc_tl: uz_top_left, acc_lr: uz_lower_right}   # run-file column -> model DOF
 base_channel: acc_base          # optional
 antialias: flat                 # optional: unknown | flat | replay | {response: filter.csv}
+base_delay_s: 0.0               # optional: how late the base channel is read against the others [s]
 runs:
   - {file: sweep_0.60g.csv, level_g: 0.60, sweep: {start_hz: 30, stop_hz: 50, rate_hz_per_s: 0.1}}
   - {file: sweep_0.80g.csv, level_g: 0.80, sweep: {start_hz: 20, stop_hz: 80, octaves_per_min: 2}}
@@ -37,7 +38,7 @@ from pathlib import Path
 
 import yaml
 
-from ..acquisition import check_antialias
+from ..acquisition import check_antialias, check_base_delay
 from ..dataset import (
     SWEEP_KEYS,
     SWEEP_RATE_KEYS,
@@ -62,7 +63,7 @@ __all__ = ["Manifest", "RunEntry", "read_manifest", "check_quantity_units",
 LAYOUT_KEYS = tuple(f.name for f in fields(Layouts))  # the blocks that declare a file layout
 MANIFEST_KEYS = ("name", "model", "quantity", "units", "sample_rate", "channels",
                  "base_channel", "frame", "truth", "runs", "reference_modes", "antialias",
-                 *LAYOUT_KEYS)
+                 "base_delay_s", *LAYOUT_KEYS)
 RUN_KEYS = ("file", "level_g", "sweep")
 
 
@@ -116,6 +117,8 @@ class Manifest:
         without them).
     antialias : {"unknown", "flat", "replay"} or FilterResponse
         The records' anti-alias filter (:mod:`freeplayid.acquisition`; default "unknown").
+    base_delay_s : float [s]
+        How late the base channel is read against the responses (default 0).
     """
 
     path: Path
@@ -132,6 +135,7 @@ class Manifest:
     layouts: Layouts = field(default_factory=Layouts)
     frame: str = "absolute"
     antialias: object = "unknown"
+    base_delay_s: float = 0.0
 
     @property
     def columns(self) -> list[str]:
@@ -156,9 +160,10 @@ def read_manifest(path: str | os.PathLike, *, check_model: bool = True) -> Manif
         (with its line), unknown fields, bad quantity/units, two columns on one DOF, channels
         not in the model, a `frame` not absolute or relative (or relative with a base
         channel), bad reference modes, an ``antialias`` that is none of its forms (a name, a
-        response's lists or its CSV file), a run file that is missing, outside the data-set
-        folder (absolute or ``..``) or of an unknown suffix (the message lists the valid ones),
-        no runs, a ``csv:`` or ``mat:`` block with an unknown field or a value outside its
+        response's lists or its CSV file), a ``base_delay_s`` that is not a number within
+        +-0.05 s or is stated without a base channel, a run file that is missing, outside the
+        data-set folder (absolute or ``..``) or of an unknown suffix (the message lists the valid
+        ones), no runs, a ``csv:`` or ``mat:`` block with an unknown field or a value outside its
         allowed set (:class:`~freeplayid.io.readers.csv.CsvLayout`,
         :class:`~freeplayid.io.readers.mat.MatLayout`).
     """
@@ -193,6 +198,7 @@ def read_manifest(path: str | os.PathLike, *, check_model: bool = True) -> Manif
         layouts=_layouts(m, where),
         frame=frame,
         antialias=check_antialias(m.get("antialias"), where, root),
+        base_delay_s=check_base_delay(m.get("base_delay_s"), base_channel, where),
     )
 
 
