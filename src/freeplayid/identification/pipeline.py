@@ -8,6 +8,7 @@ import math
 import os
 import time
 from collections.abc import Mapping
+from typing import NamedTuple
 
 import numpy as np
 import scipy.stats
@@ -138,16 +139,13 @@ def identify(dataset, *, system: FreeplaySystem | None = None,
     dataset, checked = checked_dataset(dataset, system, records)
     dataset, replay = _stated_filter(dataset, replay)
     dataset = base_aligned(dataset)
-    est = _plain_estimate(dataset, system, checked, extraction=extraction, fit=fit,
-                          init=fit.init, progress=progress)
-    system, est, update = update_model(dataset, system, est, fit, model)
-    error = model_error(system, est, fit, model, update)
+    answer = _answer(dataset, system, checked, extraction, fit, replay, model, t0, progress)
+    if replay is not None:
+        answer = _with_the_base_in_step(answer, system, checked, extraction, fit, replay, model,
+                                        t0, progress)
+    dataset, system, est, error, result = answer
     if replay is None:
-        return _plain_result(dataset, system, est, fit.mode, t0, error, checked)
-    rep = corrected_fit(dataset, system, est, extraction=extraction, fit=fit, replay=replay,
-                        start=_network_start(est, fit, replay), precision_settled=_settled(error),
-                        progress=progress)
-    result = _corrected_result(dataset, system, est, rep, fit.mode, t0, error, checked)
+        return result
     misread = _base_misread(result, replay)
     if misread:
         result = _on_the_wide_reading(result, misread, dataset, system, est, extraction, fit,
@@ -164,6 +162,126 @@ def identify(dataset, *, system: FreeplaySystem | None = None,
         result = _with_unequal_gaps(result, dataset, system, est, extraction, fit, replay,
                                     error, checked, t0, progress)
     return result
+
+
+class _Answer(NamedTuple):
+    """One answer and what it was identified from (the data set as read, the linear model as
+    updated, the plain estimate, the model's error)."""
+
+    dataset: object
+    system: object
+    est: PlainEstimate
+    error: object
+    result: Identification
+
+
+def _answer(dataset, system, checked, extraction, fit, replay, model, t0,
+            progress) -> _Answer:
+    """The plain estimate, the model's update and error, and the corrected fit's answer (the
+    plain one where ``replay`` is None); ``system``: the data set's model as given."""
+    est = _plain_estimate(dataset, system, checked, extraction=extraction, fit=fit,
+                          init=fit.init, progress=progress)
+    system, est, update = update_model(dataset, system, est, fit, model)
+    error = model_error(system, est, fit, model, update)
+    if replay is None:
+        return _Answer(dataset, system, est, error,
+                       _plain_result(dataset, system, est, fit.mode, t0, error, checked))
+    rep = corrected_fit(dataset, system, est, extraction=extraction, fit=fit, replay=replay,
+                        start=_network_start(est, fit, replay), precision_settled=_settled(error),
+                        progress=progress)
+    return _Answer(dataset, system, est, error,
+                   _corrected_result(dataset, system, est, rep, fit.mode, t0, error, checked))
+
+
+TIMING_ROUNDS = 2  # most identifications of the test with its base shifted by the estimate
+
+
+def _out_of_step(result: Identification):
+    """The answer's :class:`freeplayid.replay.BaseTiming` where its ``base_timing`` check fails
+    with the runs reading one delay (a base channel read out of step); None otherwise."""
+    rep = result.replay
+    timing = None if rep is None or rep.failure else getattr(rep, "base_timing", None)
+    if timing is None or not math.isfinite(timing.delay_s) or not timing.agree:
+        return None
+    return timing if abs(timing.turn_deg) > LIMITS["timing_turn"] else None
+
+
+def _branch(result: Identification) -> float:
+    """The median run's upper branch, replayed against measured (NaN where none was read)."""
+    values = [m.branch for m in (getattr(result.replay, "resonance", None) or {}).values()
+              if math.isfinite(m.branch)]
+    return float(np.median(values)) if values else math.nan
+
+
+def _with_the_base_in_step(first: _Answer, system, checked, extraction, fit, replay, model, t0,
+                           progress) -> _Answer:
+    """``first``, or where its base channel reads out of step with the responses
+    (:func:`_out_of_step`) and the data set states no delay, the answer of the test with its
+    base shifted back by the estimated delay (up to ``TIMING_ROUNDS`` times, each shift adding
+    what the last answer's replay still reads). A shifted answer is kept only where its replay
+    reads less than half the delay before and follows the test's upper branches more closely
+    (where both answers read them): a turn that a shift does not remove is not a delay. The
+    kept answer's ``base_timing`` check says what was estimated and shifted, how far the first
+    answer lay, and what remains."""
+    timing = _out_of_step(first.result)
+    if timing is None or getattr(first.dataset, "base_delay_s", 0.0):
+        return first
+    best, total = first, 0.0
+    for _ in range(TIMING_ROUNDS):
+        total += timing.delay_s
+        log.info("the base channel reads %.3g ms (%.2g sample) %s against the responses "
+                 "(the test's phase against its replay's): identifying the test again with the "
+                 "base shifted back by %.3g ms", 1e3 * abs(timing.delay_s), abs(timing.samples),
+                 "late" if timing.delay_s > 0 else "early", 1e3 * total)
+        shifted = base_aligned(dataclasses.replace(first.dataset, base_delay_s=total))
+        try:
+            nxt = _answer(shifted, system, checked, extraction, fit, replay, model, t0,
+                          progress)
+        except IdentificationError as err:
+            log.info("the test with its base shifted could not be identified (%s)", err)
+            break
+        after = getattr(nxt.result.replay, "base_timing", None)
+        branches = (_branch(nxt.result), _branch(best.result))
+        closer = (after is not None and math.isfinite(after.delay_s)
+                  and abs(after.delay_s) < abs(timing.delay_s) / 2
+                  and (not all(map(math.isfinite, branches)) or branches[0] < branches[1]))
+        if not closer:
+            log.info("the shift did not bring the replay closer to the test: kept the answer "
+                     "before it")
+            break
+        best = nxt
+        timing = _out_of_step(best.result)
+        if timing is None:
+            break
+    if best is first:
+        return first
+    return best._replace(result=_shifted_result(best.result, first.result, total))
+
+
+def _shifted_result(result: Identification, first: Identification,
+                    delay: float) -> Identification:
+    """``result`` (the answer with the base shifted by ``delay`` [s], estimated) with its data
+    set's record and its ``base_timing`` check saying so."""
+    fs = float(result.dataset["sample_rate"])
+    timing = first.replay.base_timing
+    said = (f"the base channel read {1e3 * abs(delay):.3g} ms ({abs(delay) * fs:.2g} sample) "
+            f"{'late' if delay > 0 else 'early'} against the responses, estimated from the "
+            "test's phase against its replay's away from the resonances (the first answer's "
+            f"replay: {1e3 * timing.delay_s:+.3g} ms, the runs "
+            f"{1e3 * min(timing.runs.values()):+.3g} to {1e3 * max(timing.runs.values()):+.3g}"
+            " ms); the base records were shifted back into step and the test identified "
+            f"again: the answer before lay delta {100 * (first.delta / result.delta - 1):+.2g} "
+            f"%, kn {100 * (first.kn / result.kn - 1):+.2g} % from this one, the median run's "
+            f"upper branch {100 * _branch(first):.2g} % of the peak off against "
+            f"{100 * _branch(result):.2g} % now")
+    dataset = {**result.dataset, "base_delay_s": delay, "base_delay_source": "estimated",
+               "base_delay_said": said}
+    own = next((c for c in result.verdict.checks if c.name == "base_timing"), None)
+    note = Check("base_timing", True if own is None else own.passed,
+                 said + ("" if own is None else f"; what remains: {own.message}"),
+                 None if own is None else own.value)
+    checks = [c for c in result.verdict.checks if c.name != "base_timing"] + [note]
+    return dataclasses.replace(result, dataset=dataset, verdict=make_verdict(checks))
 
 
 def _stated_filter(dataset, replay: Replay | None):

@@ -80,6 +80,13 @@
   motion and phase) rest on the base's timing against the responses, which no other check
   reads. Damping of another form than the replay's parts the lowest run's branch most (more
   damping in contact: 1.8 % there, 0.2-0.9 % on the others), so one run is not a reading error.
+- ``base_timing`` (a base channel): how late the base channel reads against the responses,
+  from the test's phase against the replay's at the answer away from the resonances
+  (:class:`freeplayid.replay.BaseTiming`), as the turn it gives the phase at the points'
+  frequency: within ``timing_turn`` (3 degrees). Where the runs read one delay beyond it, the
+  answer rests on a base read out of step (``identify`` then shifts the base by the estimate
+  and identifies the test again, :func:`freeplayid.identification.pipeline.identify`); where
+  they disagree, the phase is not turned by a delay but by a structure the replay is not.
 - ``sweep_law``, ``replay_binding``, ``replay_converged``, ``damping_estimate``: where the laws
   came from, a replayed fit that jumps, convergence and an estimated damping the amplitudes pin
   down (:mod:`freeplayid.identification.verdict`).
@@ -391,6 +398,31 @@ def _branch_check(replay) -> Check | None:
                  "structure the replay is not (its damping or linear model)?", typical / limit)
 
 
+def _timing_check(replay) -> Check | None:
+    """``base_timing``: the base channel's delay against the responses, read from the test's
+    phase against the replay's at the answer (:mod:`freeplayid.replay.base_timing`); None
+    without a base channel or where no run could be read."""
+    timing = getattr(replay, "base_timing", None)
+    if timing is None or not math.isfinite(timing.delay_s):
+        return None
+    limit = LIMITS["timing_turn"]
+    value = abs(timing.turn_deg) / limit
+    said = f"{timing.describe()}; limit {limit:g} degrees"
+    if value <= 1:
+        return Check("base_timing", True, said, value)
+    if not timing.agree:
+        return Check("base_timing", False,
+                     f"{said}: the responses' phase against the base differs from the replay's "
+                     "away from the resonances, but not by one delay (the runs disagree): a "
+                     "structure the replay is not (a damping of another form, a linear model "
+                     "off) or a base channel that does not follow the table", value)
+    return Check("base_timing", False,
+                 f"{said}: the points are read against the base channel at the same instants, "
+                 "so the answer rests on a base read out of step with the responses (a "
+                 "multiplexed acquisition, another front end's filter delay); the data set's "
+                 "`base_delay_s` shifts it back into step", value)
+
+
 def _antialias_check(replay) -> Check | None:
     """``antialias``: the answer's move were the records' anti-alias filter flat where the
     replay's attenuates (module docstring); None where every point lies in its flat band."""
@@ -418,7 +450,7 @@ def replay_checks(replay, *, down_runs=()) -> list[Check]:
     misfit = {r: m for r, m in (replay.misfit or {}).items() if math.isfinite(m)}
     checks = [_resonance_check(replay, tuple(down_runs)), _consistency_check(replay),
               _level_check(replay), _form_check(replay), _reading_check(replay),
-              _antialias_check(replay), _branch_check(replay),
+              _antialias_check(replay), _branch_check(replay), _timing_check(replay),
               _sweep_law_check(replay, misfit, LIMITS["replay_misfit"]),
               _binding_check(replay.iterations), _converged_check(replay),
               precision_check(getattr(replay, "precision", None),

@@ -63,8 +63,9 @@ def _header(r) -> list[str]:
            ", absolute motion without a base channel"),
         *([f"- anti-alias filter of the records: {ds['antialias_said']} (the data set's "
              "`antialias`)"] if ds.get("antialias", "unknown") != "unknown" else []),
-        *([f"- base channel's timing: {ds['base_delay_said']} (the data set's `base_delay_s`)"]
-          if ds.get("base_delay_s") else []),
+        *([f"- base channel's timing: {ds['base_delay_said']}"
+           + ("" if ds.get("base_delay_source") == "estimated" else
+              " (the data set's `base_delay_s`)")] if ds.get("base_delay_s") else []),
         f"- backbone: {r.backbone}, start: {r.init}, runtime {r.runtime_s:.2f} s", "",
         "## Result", "",
         "| parameter | identified | 95 % CI (Jacobian) |" + (" 95 % CI (bootstrap) |" if boot

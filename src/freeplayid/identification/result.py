@@ -325,6 +325,8 @@ class Identification:
             "antialias": None if getattr(r, "antialias", None) is None
             else r.antialias.to_dict(),
             "records_filter": getattr(r, "records_filter", "unknown"),
+            "base_timing": None if getattr(r, "base_timing", None) is None
+            else r.base_timing.to_dict(),
         }
 
     def backbone_overlay(self) -> dict:

@@ -145,6 +145,12 @@ LIMITS = {
     # where the points are read against the base channel: beyond this the replay at the answer
     # is not the test (replay_checks' ``replay_branch``)
     "branch": 0.015,
+    # [deg] the base channel's delay against the responses, as the turn it gives the phase at
+    # the points' frequency (replay_checks' ``base_timing``): a quarter sample at 256 Hz is 14
+    # degrees at 40 Hz and moved delta by -3.3 % on the default fin, so 3 degrees moves it by
+    # about 0.7 %, within its bound; with the base in step the estimate read at most 1.1 degrees
+    # on 15 answers of three fins and a beam (docs/results.md, session 57)
+    "timing_turn": 3.0,
     "antialias_delta": ACCURACY_DELTA / 2,  # [-] the records' filter's move (half the bounds)
     "antialias_kn": ACCURACY_KN / 2,
     "cross_delta": ACCURACY_DELTA / 2,  # [-] a second statistic's move of delta (half its bound)

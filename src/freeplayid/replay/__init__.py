@@ -72,9 +72,11 @@ Parts: ``options`` (:class:`Replay`), ``runs`` (the test replayed: sweep laws, l
 simulated runs), ``damping`` (the replay's damping and its first guess), ``weights`` (noise
 levels, point weights), ``statistic`` (the statistic's standard errors), ``broyden`` (the
 solve), ``bootstrap`` (the bootstrap by replay), ``misfit`` (the self-check's curve misfit),
+``base_timing`` (the base channel's delay against the responses, read against the replay),
 ``corrected`` (:func:`corrected_fit`, :class:`ReplayResult`).
 """
 
+from .base_timing import BaseTiming, base_timing
 from .bootstrap import ReplayBootstrap, ReplayPrecision, precision_by_replay, windowed
 from .corrected import (
     AcquisitionFilter,
@@ -98,7 +100,7 @@ from .weights import WEIGHT_FLOOR, PointWeight, noise_levels, point_weights
 __all__ = ["Replay", "ReplayResult", "ReplayIteration", "PointOffset", "PointWeight",
            "ReplayBootstrap", "ReplayPrecision", "precision_by_replay", "windowed",
            "ReplayDamping", "CrossCheck", "LevelSensitivity", "ExcitationNoise", "BaseReading",
-           "DampingSensitivity", "AcquisitionFilter", "replay_sweeps",
+           "DampingSensitivity", "AcquisitionFilter", "BaseTiming", "base_timing", "replay_sweeps",
            "replay_levels",
            "replay_dataset", "corrected_fit", "curve_misfit", "damped_system", "noise_levels",
            "initial_zeta", "point_weights", "replayed_intervals", "WEIGHT_FLOOR", "ZETA_START",

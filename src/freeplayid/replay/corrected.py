@@ -17,6 +17,7 @@ from ..fit import BackboneModel, FitOptions, FittingPoints, fit_backbone
 from ..progress import progress_bar
 from ..signal import Extraction
 from ..signal.level import GAP_AROUND, GAP_Z_AROUND, reading_gap
+from .base_timing import BaseTiming, base_timing
 from .bootstrap import (
     PRECISION_MARGIN_HZ,
     ReplayBootstrap,
@@ -587,6 +588,10 @@ class ReplayResult:
     records_filter : str
         The records' anti-alias filter as ``Replay.antialias`` declared it ("unknown",
         "replay", "flat": the replays then decimated flat to 0.45 of the sample rate).
+    base_timing : BaseTiming or None
+        How late the base channel reads against the responses, from the test's phase against
+        the answer's replay's away from the resonances (:mod:`.base_timing`); None without a
+        base channel.
     cross : CrossCheck or None
         The answer's replay on a second statistic (:class:`Replay` ``cross_check``).
     excitation : str
@@ -634,6 +639,7 @@ class ReplayResult:
     base_reading: BaseReading | None = None
     antialias: AcquisitionFilter | None = None
     records_filter: str = "unknown"
+    base_timing: BaseTiming | None = None
     cross: CrossCheck | None = None
     excitation: str = "law"
     start: str = "statistic"
@@ -1370,7 +1376,7 @@ def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts
     misfits and the bootstrap at the answer's replay (:meth:`_Binding.settle`)."""
     rep, stat = b.rep, b.stat
     offsets, misfit, boot, resonance, cross, level, damped = (), {}, None, {}, None, None, None
-    excited = reading = acquisition = None
+    excited = reading = acquisition = timing = None
     precision = None
     # how the answer moves with the statistic: the binding's slope regressed on the replays
     # (not where the damping moved between them: the regression does not separate it)
@@ -1413,6 +1419,9 @@ def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts
                                                        progress)
         acquisition = None if b.failure or opts.antialias != "unknown" else \
             _acquisition_filter(b, slope)
+        timing = None if b.failure else base_timing(
+            b.test.dataset, b.rep_ds, b.test.sweeps,
+            float(np.median([p.f_hz for p in stat.points.used()])))
         if opts.n_bootstrap > 0 and not b.failure:
             boot = bootstrap_by_replay(
                 b.rep_ds, system, noise(), theta=theta,
@@ -1441,6 +1450,7 @@ def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts
         weights=b.weight_table or None,
         resonance=resonance, cross=cross, level=level, damping_sensitivity=damped,
         excitation_noise=excited, base_reading=reading, antialias=acquisition,
+        base_timing=timing,
         records_filter=opts.antialias,
         excitation="measured" if b.test.excitations else "law", start=start,
         gap_shares=opts.gap_shares, wide_base=opts.wide_base,
