@@ -118,6 +118,7 @@ class CaseSpec:
     sample_rate: float = FS
     knots_per_sample: int = 64
     base_delay_s: float = 0.0  # the base channel read this late against the others [s]
+    base_scan_knots: int = 0  # the base sampled this many knots late by the integrator
 
 
 # --------------------------------------------------------------------------- structures
@@ -533,7 +534,8 @@ def simulate_clean(spec: CaseSpec, log=print) -> dict:
         t1 = time.perf_counter()
         rec = es.simulate(st, run.base_accel(), duration=run.duration(),
                           sample_rate=spec.sample_rate, channels=chans,
-                          knots_per_sample=spec.knots_per_sample, props=props)
+                          knots_per_sample=spec.knots_per_sample, props=props,
+                          base_delay_knots=spec.base_scan_knots)
         out["time"].append(rec.time)
         out["accel"].append(rec.accel)
         out["base"].append(rec.base)
@@ -1515,6 +1517,31 @@ VARIANTS.update(dict(_skewed(*a) for a in (
     ("var21_finB_base_early", "var5_finB_nominal", -0.5),
     ("var21_finC_base_late_1024", "var19_finC_nominal_1024", 0.75),
     ("var21_fin_rayleigh_base_late", "fin_rayleigh_noC", 0.75),
+)))
+
+
+# A twenty-second set (2026-12-05, session 57): the base channel sampled late or early by the
+# integrator itself, at the knot rate before the common anti-alias decimation, as a scanning
+# acquisition samples its channels in turn (set 21 shifts the decimated base by its spectrum,
+# as the package's correction does; this one shares nothing with it). Simulated again. Chosen
+# before any answer.
+def _scanned(name: str, src: str, knots: int):
+    def build(**kw) -> CaseSpec:
+        spec = _derived(name, src, kw, records_of_src=False)
+        spec.base_scan_knots = knots
+        samples = knots / spec.knots_per_sample
+        spec.condition += (f"; the base channel sampled {abs(samples):g} sample "
+                           f"{'late' if knots > 0 else 'early'} by the integrator")
+        spec.params.update(base_delay_samples=samples, base_scan_knots=knots)
+        return spec
+    return name, build
+
+
+VARIANTS.update(dict(_scanned(*a) for a in (
+    ("var22_fin_scan_late", "fin_nominal", 24),
+    ("var22_finB_scan_late", "var5_finB_nominal", 8),
+    ("var22_fin_damper_scan_early", "fin_hinge_damper", -20),
+    ("var22_fin_rayleigh_scan_late", "fin_rayleigh_noC", 12),
 )))
 
 ALL_CASES = {**CONDITIONS, **VARIANTS}

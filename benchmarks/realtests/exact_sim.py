@@ -373,12 +373,14 @@ class Record:
 def simulate(st: Structure, a_g, *, duration: float, sample_rate: float, channels,
              knots_per_sample: int = 64, levels: int = LEVELS, z0=None, base_rate=None,
              log_events: int = 0, keep_theta: bool = False, tail_s: float | None = None,
-             props=None) -> Record:
+             props=None, base_delay_knots: int = 0) -> Record:
     """Absolute accelerations of ``channels`` (DOF names) for base acceleration ``a_g``.
 
     a_g : callable t [s] -> [m/s^2] (sampled at the knots), or an array sampled at
         ``base_rate`` = knot rate / an integer, from t = 0 to at least duration + tail.
     duration : [s] of the kept record; the integration runs on for the decimator's tail.
+    base_delay_knots : the base channel read this many knots late (< 0: early) against the
+        responses, before the common decimation: a scanning acquisition's channel skew.
     """
     fs_k = sample_rate * knots_per_sample
     h = 1.0 / fs_k
@@ -406,6 +408,14 @@ def simulate(st: Structure, a_g, *, duration: float, sample_rate: float, channel
     v_abs = vel + st.influence[idx, None] * v_g[None, :]
     acc = _acc_from_velocity(v_abs, h)
     base = _acc_from_velocity(v_g[None, :], h)
+    if base_delay_knots:  # sample i of the late channel holds the base at knot i - m
+        m = int(base_delay_knots)
+        late = np.zeros_like(base)
+        if m > 0:
+            late[:, m:] = base[:, :-m]
+        else:
+            late[:, :m] = base[:, -m:]
+        base = late
     dec = scipy.signal.resample_poly(np.vstack([acc, base]), 1, knots_per_sample, axis=1,
                                      window=taps, padtype="constant")[:, :n_keep]
     events = (ev_t[:min(n_ev, log_events)], ev_j[:min(n_ev, log_events)]) if log_events else ()

@@ -20,7 +20,9 @@ exact_sim.py decimates its records through its own zero-phase Kaiser filter, fla
 Each copy is identified with the library's defaults. Columns: delta and kn errors [%] (unequal
 gaps: against the hinges' mean, the manifest's truth), whether each 95 % interval holds the
 truth, the verdict (``ok OUT``: ``ok`` outside the bounds, |delta| < 1 %, |kn| < 2 %) and its
-failed checks, the wall time; then a tally per statement.
+failed checks, the base channel's delay as shifted (stated, or estimated by ``identify``) and
+what the answer's replay still reads (docs/identify.md §3c, "The base channel's timing"), the
+wall time; then a tally per statement.
 """
 
 from __future__ import annotations
@@ -99,7 +101,18 @@ def one(job) -> dict:
             "kn_holds": res.kn_ci95[0] <= truth["kn"] <= res.kn_ci95[1],
             "status": str(res.verdict.status),
             "failed": [c.name for c in res.verdict.checks if not c.passed],
-            "wall_s": time.perf_counter() - t0}
+            "base": _base_said(res), "wall_s": time.perf_counter() - t0}
+
+
+def _base_said(res) -> str:
+    """The base channel's delay as shifted (stated or estimated) [sample] and what the answer's
+    replay still reads [degrees at the points]."""
+    fs = float(res.dataset["sample_rate"])
+    shifted = res.dataset.get("base_delay_s") or 0.0
+    source = res.dataset.get("base_delay_source", "stated") if shifted else ""
+    timing = None if res.replay is None else getattr(res.replay, "base_timing", None)
+    left = "" if timing is None else f"; remains {abs(timing.turn_deg):.2f}°"
+    return (f"{source} {shifted * fs:+.3f}" if shifted else "none") + left
 
 
 def main() -> None:
@@ -125,19 +138,19 @@ def main() -> None:
     with ProcessPoolExecutor(args.jobs) as pool:
         rows = list(pool.map(one, jobs))
     print("| case | draw | stated | δ [%] | kn [%] | intervals hold δ / kn | verdict "
-          "| failed checks | wall [s] |")
-    print("|---|---|---|---|---|---|---|---|---|")
+          "| failed checks | base shifted [sample] | wall [s] |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         if "refused" in r:
             print(f"| {r['case']} | {r['draw']} | {r['statement']} | refused: {r['refused']} "
-                  "| | | | | |")
+                  "| | | | | | |")
             continue
         within = abs(r["delta"]) < 100 * BOUNDS["delta"] and abs(r["kn"]) < 100 * BOUNDS["kn"]
         status = "**ok OUT**" if r["status"] == "ok" and not within else r["status"]
         print(f"| {r['case']} | {r['draw']} | {r['statement']} | {r['delta']:+.3f} | "
               f"{r['kn']:+.3f} | {'yes' if r['delta_holds'] else 'no'} / "
               f"{'yes' if r['kn_holds'] else 'no'} | {status} | "
-              f"{', '.join(r['failed']) or '-'} | {r['wall_s']:.0f} |")
+              f"{', '.join(r['failed']) or '-'} | {r['base']} | {r['wall_s']:.0f} |")
     print()
     print("| stated | answers | within δ 1 % / kn 2 % | `ok` within | **`ok` outside** | "
           "`suspect` within | `suspect` outside | both intervals hold | refused |")

@@ -148,8 +148,9 @@ LIMITS = {
     # [deg] the base channel's delay against the responses, as the turn it gives the phase at
     # the points' frequency (replay_checks' ``base_timing``): a quarter sample at 256 Hz is 14
     # degrees at 40 Hz and moved delta by -3.3 % on the default fin, so 3 degrees moves it by
-    # about 0.7 %, within its bound; with the base in step the estimate read at most 1.1 degrees
-    # on 15 answers of three fins and a beam (docs/results.md, session 57)
+    # about 0.7 %, within its bound; with the base in step the estimate read 0.00-1.31 degrees
+    # on the first draws of 27 conditions of three fins and a beam (2.52 on a failed
+    # down-sweep; docs/results.md, session 57)
     "timing_turn": 3.0,
     "antialias_delta": ACCURACY_DELTA / 2,  # [-] the records' filter's move (half the bounds)
     "antialias_kn": ACCURACY_KN / 2,
