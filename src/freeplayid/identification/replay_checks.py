@@ -413,9 +413,10 @@ def _timing_check(replay) -> Check | None:
     if not timing.agree:
         return Check("base_timing", False,
                      f"{said}: the responses' phase against the base differs from the replay's "
-                     "away from the resonances, but not by one delay (the runs disagree): a "
-                     "structure the replay is not (a damping of another form, a linear model "
-                     "off) or a base channel that does not follow the table", value)
+                     "away from the resonances, but not by one delay (the runs, or the two "
+                     "sides of the resonance, read different delays): a structure the replay "
+                     "is not (a damping of another form, a linear model off) or a base channel "
+                     "that does not follow the table", value)
     return Check("base_timing", False,
                  f"{said}: the points are read against the base channel at the same instants, "
                  "so the answer rests on a base read out of step with the responses (a "
