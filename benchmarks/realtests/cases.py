@@ -1497,51 +1497,40 @@ VARIANTS.update(dict(_distorted(*a) for a in (
 )))
 
 
-# A twenty-first set (2026-12-05, session 56): the base channel read at another instant than the
-# response channels (a multiplexed acquisition reads its channels one after another; a base
-# channel from the controller's front end has another filter delay). The clean records are the
-# sources'; the base record is delayed by a fraction of a sample. Chosen before any answer.
-def _skewed(name: str, src: str, samples: float):
+# A twenty-first and a twenty-second set (2026-12-05, sessions 56 and 57): the base channel read
+# at another instant than the response channels (a multiplexed acquisition reads its channels
+# one after another; a base channel from the controller's front end has another filter delay).
+# Set 21 keeps the sources' clean records and delays the decimated base record by its spectrum,
+# as the package's correction shifts it; set 22 has the integrator itself sample the base late
+# or early, at the knot rate before the common anti-alias decimation, as a scanning acquisition
+# does (simulated again; it shares nothing with a spectral shift). Each chosen before any answer.
+def _out_of_step(name: str, src: str, samples: float, *, scanned: bool = False):
     def build(**kw) -> CaseSpec:
-        spec = _derived(name, src, kw, records_of_src=True)
-        spec.base_delay_s = samples / spec.sample_rate
-        spec.condition += (f"; the base channel read {abs(samples):g} sample "
-                           f"{'late' if samples > 0 else 'early'} ({src} records)")
+        spec = _derived(name, src, kw, records_of_src=not scanned)
+        side = f"{abs(samples):g} sample {'late' if samples > 0 else 'early'}"
         spec.params.update(base_delay_samples=samples)
+        if scanned:
+            spec.base_scan_knots = int(round(samples * spec.knots_per_sample))
+            spec.condition += f"; the base channel sampled {side} by the integrator"
+            spec.params.update(base_scan_knots=spec.base_scan_knots)
+        else:
+            spec.base_delay_s = samples / spec.sample_rate
+            spec.condition += f"; the base channel read {side} ({src} records)"
         return spec
     return name, build
 
 
-VARIANTS.update(dict(_skewed(*a) for a in (
+VARIANTS.update(dict(_out_of_step(*a) for a in (
     ("var21_fin_base_late", "fin_nominal", 0.25),
     ("var21_finB_base_early", "var5_finB_nominal", -0.5),
     ("var21_finC_base_late_1024", "var19_finC_nominal_1024", 0.75),
     ("var21_fin_rayleigh_base_late", "fin_rayleigh_noC", 0.75),
 )))
-
-
-# A twenty-second set (2026-12-05, session 57): the base channel sampled late or early by the
-# integrator itself, at the knot rate before the common anti-alias decimation, as a scanning
-# acquisition samples its channels in turn (set 21 shifts the decimated base by its spectrum,
-# as the package's correction does; this one shares nothing with it). Simulated again. Chosen
-# before any answer.
-def _scanned(name: str, src: str, knots: int):
-    def build(**kw) -> CaseSpec:
-        spec = _derived(name, src, kw, records_of_src=False)
-        spec.base_scan_knots = knots
-        samples = knots / spec.knots_per_sample
-        spec.condition += (f"; the base channel sampled {abs(samples):g} sample "
-                           f"{'late' if knots > 0 else 'early'} by the integrator")
-        spec.params.update(base_delay_samples=samples, base_scan_knots=knots)
-        return spec
-    return name, build
-
-
-VARIANTS.update(dict(_scanned(*a) for a in (
-    ("var22_fin_scan_late", "fin_nominal", 24),
-    ("var22_finB_scan_late", "var5_finB_nominal", 8),
-    ("var22_fin_damper_scan_early", "fin_hinge_damper", -20),
-    ("var22_fin_rayleigh_scan_late", "fin_rayleigh_noC", 12),
+VARIANTS.update(dict(_out_of_step(*a, scanned=True) for a in (  # 64 knots per sample
+    ("var22_fin_scan_late", "fin_nominal", 24 / 64),
+    ("var22_finB_scan_late", "var5_finB_nominal", 8 / 64),
+    ("var22_fin_damper_scan_early", "fin_hinge_damper", -20 / 64),
+    ("var22_fin_rayleigh_scan_late", "fin_rayleigh_noC", 12 / 64),
 )))
 
 ALL_CASES = {**CONDITIONS, **VARIANTS}

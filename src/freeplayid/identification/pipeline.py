@@ -38,7 +38,13 @@ from .model_error import (
     widen,
 )
 from .records import checked_dataset, record_checks, record_options
-from .replay_checks import reading_noise, reading_rests, replay_checks, settled_sd
+from .replay_checks import (
+    reading_noise,
+    reading_rests,
+    replay_checks,
+    run_branches,
+    settled_sd,
+)
 from .result import Identification
 from .verdict import (
     LIMITS,
@@ -225,8 +231,7 @@ def _out_of_step(result: Identification, limit: float | None = None):
 
 def _branch(result: Identification) -> float:
     """The median run's upper branch, replayed against measured (NaN where none was read)."""
-    values = [m.branch for m in (getattr(result.replay, "resonance", None) or {}).values()
-              if math.isfinite(m.branch)]
+    values = list(run_branches(result.replay).values())
     return float(np.median(values)) if values else math.nan
 
 

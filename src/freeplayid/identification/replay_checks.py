@@ -105,7 +105,7 @@ from ..replay.corrected import FORM_PARAMETERS
 from ..replay.damping_estimate import ZETA_RTOL
 from .verdict import LIMITS, Check, within_binding_noise
 
-__all__ = ["replay_checks", "precision_check", "noise_outside_chance", "settled_sd",
+__all__ = ["replay_checks", "run_branches", "precision_check", "noise_outside_chance", "settled_sd",
            "SETTLED_CHANCE"]
 
 
@@ -366,13 +366,19 @@ def _reading_check(replay) -> Check | None:
                  "intervals", value)
 
 
+def run_branches(replay) -> dict:
+    """Each run's upper branch, the replay at the answer against the test
+    (:attr:`freeplayid.replay.RunMisfit.branch`), where it was read."""
+    misfits = getattr(replay, "resonance", None) or {}
+    return {run: m.branch for run, m in misfits.items() if math.isfinite(m.branch)}
+
+
 def _branch_check(replay) -> Check | None:
     """``replay_branch``: the replay's upper branches against the test's where the points are
     read at the phase resonance (module docstring); None where they are not or no run has one."""
     if getattr(replay, "jump_point", None) != "quadrature":
         return None
-    misfits = getattr(replay, "resonance", None) or {}
-    branch = {run: m.branch for run, m in misfits.items() if math.isfinite(m.branch)}
+    branch = run_branches(replay)
     if not branch:
         return None
     limit = LIMITS["branch"]
