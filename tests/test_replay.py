@@ -1682,3 +1682,23 @@ def test_a_stated_filter_response_is_divided_out_of_the_records(system):
     res = identify(ds, system=system, progress=False, fit=fit, replay=QUICK)
     assert abs(res.truth_error["delta"]) > 0.02
     assert not {c.name: c for c in res.verdict.checks}["antialias"].passed
+
+
+def test_a_quick_fit_gives_the_same_answer_without_its_diagnostics(measured, system):
+    # the split's quick fits want only the answer and its replay's points: those are the same
+    # bits, and the diagnostics that replay the test again are left out
+    from freeplayid.estimate import plain_estimate
+    from freeplayid.fit import FitOptions
+    from freeplayid.replay import corrected_fit
+    from freeplayid.signal import Extraction
+
+    ext, fit = Extraction(), FitOptions(multistart=MULTISTART)
+    est = plain_estimate(measured, system, extraction=ext, fit=fit)
+    opts = Replay(**QUICK)
+    full = corrected_fit(measured, system, est, extraction=ext, fit=fit, replay=opts)
+    quick = corrected_fit(measured, system, est, extraction=ext, fit=fit, replay=opts,
+                          answer_only=True)
+    assert (quick.kn, quick.delta) == (full.kn, full.delta)
+    assert quick.replayed_points == full.replayed_points
+    assert full.base_timing is not None and full.resonance and full.offsets
+    assert quick.base_timing is None and not quick.resonance and not quick.offsets

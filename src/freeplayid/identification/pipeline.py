@@ -478,7 +478,7 @@ def _settled_shares(half_gaps, at, dataset, system, est, extraction, fit, replay
         shares = tuple(float(v) for v in np.exp(x))
         rep = corrected_fit(dataset, system, est, extraction=extraction, fit=fit,
                             replay=dataclasses.replace(quick, gap_shares=shares), start=at,
-                            progress=progress)
+                            answer_only=True, progress=progress)
         if rep.failure:
             x = prev[0]
             break

@@ -926,7 +926,7 @@ def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extracti
                   fit: FitOptions, replay: Replay | None = None,
                   start: tuple[float, float] | None = None,
                   precision_settled: tuple[float, float] | None = None,
-                  progress: bool = False) -> ReplayResult:
+                  answer_only: bool = False, progress: bool = False) -> ReplayResult:
     """Bias-corrected (kn, delta) by replaying the test (package docstring).
 
     Parameters
@@ -946,6 +946,11 @@ def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extracti
     precision_settled : (float, float) or None
         Standard deviations of log kn and log delta below which the precision's noisy copies
         may stop early (:func:`precision_by_replay`'s ``settled_sd``); None: all of them.
+    answer_only : bool
+        Only the answer and its replay's points wanted (a quick fit whose verdict nobody reads):
+        the answer's diagnostics that replay the test again (the resonances' noise, the base's
+        wide reading, the acquisition filter's move, the base's timing) are not measured. The
+        answer is the same.
 
     A test that cannot be replayed (no level or sweep law for a run) or a replay that cannot be
     fitted (the replayed fin stays in the gap: a model far from the test) ends with ``failure``
@@ -1029,7 +1034,8 @@ def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extracti
         used = dataclasses.replace(used, exponent=binding.exponent, hinge=binding.hinge,
                                    **form_fields)
     return _result(binding, theta, rule, sol, closest, used,
-                   plain, system, opts, progress, start=began, settled=precision_settled)
+                   plain, system, opts, progress, start=began, settled=precision_settled,
+                   answer_only=answer_only)
 
 
 EXPONENT_BOUNDS = (0.0, 2.0)  # [-] an estimated damping exponent p: Rayleigh damping is near 1
@@ -1371,9 +1377,11 @@ def _acquisition_filter(b: _Binding, slope) -> AcquisitionFilter | None:
 
 
 def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts,
-            progress, start: str = "statistic", settled=None) -> ReplayResult:
+            progress, start: str = "statistic", settled=None,
+            answer_only: bool = False) -> ReplayResult:
     """The :class:`ReplayResult` of a finished loop (started at ``start``): offsets, curve
-    misfits and the bootstrap at the answer's replay (:meth:`_Binding.settle`)."""
+    misfits and the bootstrap at the answer's replay (:meth:`_Binding.settle`); with
+    ``answer_only`` none of the diagnostics that replay the test again (:func:`corrected_fit`)."""
     rep, stat = b.rep, b.stat
     offsets, misfit, boot, resonance, cross, level, damped = (), {}, None, {}, None, None, None
     excited = reading = acquisition = timing = None
@@ -1389,7 +1397,7 @@ def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts
         it = b.history[sol.closest]
         miss = np.log([it.kn_rep, it.delta_rep]) - np.log(b.hat)
         offset = tuple(float(v) for v in (np.eye(2) if slope is None else slope) @ miss)
-    if rep is not None:
+    if rep is not None and not answer_only:
         replayed = {(p.run, p.channel): p for p in rep.points.used()}
         offsets = tuple(PointOffset(p.run, p.channel, q.f_hz / p.f_hz - 1,
                                     q.amplitude_m / p.amplitude_m - 1)
