@@ -119,3 +119,33 @@ def test_identify_shifts_a_base_read_out_of_step_by_its_estimate():
     assert timing.passed and "shifted back into step" in timing.message
     assert abs(res.truth_error["delta"]) < 0.01 and abs(res.truth_error["kn"]) < 0.02
     assert "base channel's timing: the base channel read" in res.report()
+    # the delay's uncertainty: what the answer's replay still reads at least, and in the
+    # intervals (wider than the answer's own by the move it makes)
+    u = res.dataset["base_delay_uncertainty_s"]
+    assert u >= abs(res.replay.base_timing.delay_s) and u < 0.5 * late
+    assert "widened by the estimated base delay's uncertainty" in res.interval_source
+    assert "the delay is known to" in timing.message
+
+
+def test_the_estimated_delays_uncertainty_and_the_move_it_makes():
+    from types import SimpleNamespace
+
+    from freeplayid.identification.pipeline import _delay_moves, _delay_uncertainty
+
+    timing = _timing([0.1, 0.2, 0.3])  # ms
+    remains = dataclasses.replace(timing, delay_s=-0.5e-4)
+    answer = SimpleNamespace(replay=_Replay(remains))
+    # what remains, plus 1.96 standard errors of the median of three runs (sd 1e-4)
+    assert _delay_uncertainty(answer) == pytest.approx(0.5e-4 + 1.96 * 1.25e-4 / math.sqrt(3))
+    # plus half what the two sides of the resonance read apart
+    sided = dataclasses.replace(remains, below_s=-2e-4, above_s=1e-4)
+    assert _delay_uncertainty(SimpleNamespace(replay=_Replay(sided))) == pytest.approx(
+        0.5e-4 + 1.96 * 1.25e-4 / math.sqrt(3) + 1.5e-4)
+    assert math.isnan(_delay_uncertainty(SimpleNamespace(replay=_Replay(None))))
+    # the slope the shift showed: 1 ms moved delta by 2 % and kn by -1 %
+    first = SimpleNamespace(kn=1.0, delta=1.0)
+    shifted = SimpleNamespace(kn=0.99, delta=1.02)
+    kn, delta = _delay_moves(first, shifted, 1e-3, 2e-4)
+    assert delta == pytest.approx(0.2 * math.log(1.02))
+    assert kn == pytest.approx(0.2 * abs(math.log(0.99)))
+    assert _delay_moves(first, shifted, 1e-3, math.nan) == (0.0, 0.0)

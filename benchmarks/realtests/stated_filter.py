@@ -20,9 +20,9 @@ exact_sim.py decimates its records through its own zero-phase Kaiser filter, fla
 Each copy is identified with the library's defaults. Columns: delta and kn errors [%] (unequal
 gaps: against the hinges' mean, the manifest's truth), whether each 95 % interval holds the
 truth, the verdict (``ok OUT``: ``ok`` outside the bounds, |delta| < 1 %, |kn| < 2 %) and its
-failed checks, the base channel's delay as shifted (stated, or estimated by ``identify``) and
-what the answer's replay still reads (docs/identify.md §3c, "The base channel's timing"), the
-wall time; then a tally per statement.
+failed checks, the base channel's delay as shifted (stated, or estimated by ``identify``, with
+its 95 % uncertainty) and what the answer's replay still reads (docs/identify.md §3c, "The
+base channel's timing"), the wall time; then a tally per statement.
 """
 
 from __future__ import annotations
@@ -99,6 +99,8 @@ def one(job) -> dict:
             "delta": 100 * res.truth_error["delta"], "kn": 100 * res.truth_error["kn"],
             "delta_holds": res.delta_ci95[0] <= truth["delta"] <= res.delta_ci95[1],
             "kn_holds": res.kn_ci95[0] <= truth["kn"] <= res.kn_ci95[1],
+            "delta_ci": [100 * (v / truth["delta"] - 1) for v in res.delta_ci95],
+            "kn_ci": [100 * (v / truth["kn"] - 1) for v in res.kn_ci95],
             "status": str(res.verdict.status),
             "failed": [c.name for c in res.verdict.checks if not c.passed],
             "base": _base_said(res), "wall_s": time.perf_counter() - t0}
@@ -112,7 +114,9 @@ def _base_said(res) -> str:
     source = res.dataset.get("base_delay_source", "stated") if shifted else ""
     timing = None if res.replay is None else getattr(res.replay, "base_timing", None)
     left = "" if timing is None else f"; remains {abs(timing.turn_deg):.2f}°"
-    return (f"{source} {shifted * fs:+.3f}" if shifted else "none") + left
+    known = res.dataset.get("base_delay_uncertainty_s")
+    known = f" ± {known * fs:.3f}" if known is not None and np.isfinite(known) else ""
+    return (f"{source} {shifted * fs:+.3f}{known}" if shifted else "none") + left
 
 
 def main() -> None:

@@ -153,7 +153,8 @@ def identify(dataset, *, system: FreeplaySystem | None = None,
     dataset, system, est, error, result = answer
     result = _followed_up(result, dataset, system, est, extraction, fit, replay, error, checked,
                           t0, progress)
-    return result if delay is None else _shifted_result(result, first.result, delay)
+    return (result if delay is None
+            else _shifted_result(result, first.result, answer.result, delay))
 
 
 def _followed_up(result: Identification, dataset, system, est, extraction, fit, replay, error,
@@ -278,12 +279,45 @@ def _with_the_base_in_step(first: _Answer, system, checked, extraction, fit, rep
     return (first, None) if best is first else (best, total)
 
 
-def _shifted_result(result: Identification, first: Identification,
+def _delay_uncertainty(result: Identification) -> float:
+    """[s] How far the shifted delay may lie from the base channel's true one (95 %): what the
+    reported answer's replay still reads (left unshifted below ``TIMING_REFINE_DEG``), plus 1.96
+    standard errors of the median of its runs' readings (their standard deviation over the
+    square root of their number, times 1.25 for a median), plus half the difference of the
+    readings below and above the resonances (what a damping of another form than the replay's,
+    which turns the two sides apart, may leave in their mean). NaN where its replay reads
+    none (measured in docs/identify.md section 3c)."""
+    timing = getattr(result.replay, "base_timing", None)
+    if timing is None or not math.isfinite(timing.delay_s):
+        return math.nan
+    runs = [v for v in timing.runs.values() if math.isfinite(v)]
+    se = 1.25 * float(np.std(runs, ddof=1)) / math.sqrt(len(runs)) if len(runs) > 1 else 0.0
+    sides = [v for v in (timing.below_s, timing.above_s) if math.isfinite(v)]
+    apart = abs(sides[0] - sides[1]) / 2 if len(sides) == 2 else 0.0
+    return abs(timing.delay_s) + 1.96 * se + apart
+
+
+def _delay_moves(first: Identification, shifted: Identification, delay: float,
+                 uncertainty: float) -> tuple[float, float]:
+    """(kn, delta): the log moves of the answer that ``uncertainty`` [s] of the shifted delay
+    makes, at the slope the shift itself showed (``first``: the answer with the base as read,
+    ``shifted``: with it shifted by ``delay`` [s])."""
+    if not math.isfinite(uncertainty) or delay == 0.0:
+        return 0.0, 0.0
+    return tuple(abs(math.log(getattr(shifted, name) / getattr(first, name)) / delay)
+                 * uncertainty for name in ("kn", "delta"))
+
+
+def _shifted_result(result: Identification, first: Identification, shifted: Identification,
                     delay: float) -> Identification:
-    """``result`` (the answer with the base shifted by ``delay`` [s], estimated) with its data
-    set's record and its ``base_timing`` check saying so."""
+    """``result`` (the answer with the base shifted by ``delay`` [s], estimated; ``shifted``:
+    that answer before its follow-ups) with its data set's record and its ``base_timing``
+    check saying so, and its intervals widened by the move that the delay's uncertainty
+    (:func:`_delay_uncertainty`) makes at the slope from ``first`` to ``shifted``."""
     fs = float(result.dataset["sample_rate"])
     timing = first.replay.base_timing
+    uncertainty = _delay_uncertainty(result)
+    moves = _delay_moves(first, shifted, delay, uncertainty)
     said = (f"the base channel read {1e3 * abs(delay):.3g} ms ({abs(delay) * fs:.2g} sample) "
             f"{'late' if delay > 0 else 'early'} against the responses, estimated from the "
             "test's phase against its replay's away from the resonances (the first answer's "
@@ -294,14 +328,25 @@ def _shifted_result(result: Identification, first: Identification,
             f"%, kn {100 * (first.kn / result.kn - 1):+.2g} % from this one, the median run's "
             f"upper branch {100 * _branch(first):.2g} % of the peak off against "
             f"{100 * _branch(result):.2g} % now")
+    widened = {}
+    if math.isfinite(uncertainty):
+        said += (f"; the delay is known to +-{1e3 * uncertainty:.2g} ms (95 %), which moves "
+                 f"delta by +-{100 * math.expm1(moves[1]):.2g} % and kn by "
+                 f"+-{100 * math.expm1(moves[0]):.2g} %, in the intervals")
+        widened = dict(
+            kn_ci95=_reaching(_reaching(result.kn_ci95, moves[0]), -moves[0]),
+            delta_ci95=_reaching(_reaching(result.delta_ci95, moves[1]), -moves[1]),
+            interval_source=f"{result.interval_source}, widened by the estimated base delay's "
+            "uncertainty")
     dataset = {**result.dataset, "base_delay_s": delay, "base_delay_source": "estimated",
-               "base_delay_said": said}
+               "base_delay_uncertainty_s": uncertainty, "base_delay_said": said}
     own = next((c for c in result.verdict.checks if c.name == "base_timing"), None)
     note = Check("base_timing", True if own is None else own.passed,
                  said + ("" if own is None else f"; what remains: {own.message}"),
                  None if own is None else own.value)
     checks = [c for c in result.verdict.checks if c.name != "base_timing"] + [note]
-    return dataclasses.replace(result, dataset=dataset, verdict=make_verdict(checks))
+    return dataclasses.replace(result, dataset=dataset, verdict=make_verdict(checks),
+                               **widened)
 
 
 def _stated_filter(dataset, replay: Replay | None):
