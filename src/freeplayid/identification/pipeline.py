@@ -506,9 +506,8 @@ def _settled_shares(half_gaps, at, dataset, system, est, extraction, fit, replay
 
     x, y = np.zeros(len(half_gaps)), norm(half_gaps)  # log shares replayed, and read
     prev = None
-    quick = dataclasses.replace(replay, start="network", precision_copies=0,
-                                excitation_copies=0, n_bootstrap=0, cross_check=False,
-                                level_uncertainty=0.0, damping_uncertainty=0.0)
+    # quick: corrected_fit's answer_only leaves out every copy, interval and diagnostic
+    quick = dataclasses.replace(replay, start="network")
     for _ in range(SPLIT_ROUNDS):
         step = y - x
         if prev is not None:  # the secant of g(x) = y - x through the last two readings
