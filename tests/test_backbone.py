@@ -250,3 +250,41 @@ def test_a_mode_whose_hinge_is_at_rest_gives_no_curve_and_no_warning():
         bc = dfa_backbone(system, kn=1.0e3, delta=1.0e-3, s=np.array([2.0, 3.0]))
     assert bc.frequency_hz[0] == pytest.approx(np.sqrt(1.0e2) / (2 * np.pi))  # the lone mass
     assert not np.any(np.isfinite(bc.hinge_amplitude))  # no hinge amplitude sets its scale
+
+
+def _hinge_chain():
+    """A mass on a root spring, then two flaps in series, each on its own freeplay hinge: with
+    both hinges open there are two mechanisms, so the lowest mode flips from one hinge to the
+    other near contact and the DFA's Newton points there cycle instead of converging."""
+    return FreeplaySystem(
+        M=np.diag([2.0, 0.5, 0.3]),
+        K=np.diag([5.0e4, 0.0, 0.0]),
+        dof_names=("a", "b", "c"),
+        hinge_pairs=(("b", "a"), ("c", "b")),
+        base_influence=[1.0, 1.0, 1.0],
+    )
+
+
+@pytest.mark.parametrize("max_iter", [100, 99])
+def test_newton_points_that_cycle_are_settled_as_the_full_loop_would_leave_them(
+        monkeypatch, max_iter):
+    """Points whose Newton iterates repeat (period 2: the hinges' kappas swapped) are set at
+    once to the iterate of ``max_iter`` (either parity), not run there: the same curve as the
+    loop that runs them, in a fraction of its eigen-batches."""
+    import freeplayid.backbone.dfa as dfa
+
+    calls = []
+    eigh = np.linalg.eigh
+    monkeypatch.setattr(dfa.np.linalg, "eigh", lambda a: calls.append(1) or eigh(a))
+    fast = dfa_backbone(_hinge_chain(), kn=[4.0e3, 2.0e4], delta=1e-3, max_iter=max_iter)
+    n_fast = len(calls)
+    monkeypatch.setattr(dfa._Cycles, "settle", lambda self, active, *a: active)
+    calls.clear()
+    full = dfa_backbone(_hinge_chain(), kn=[4.0e3, 2.0e4], delta=1e-3, max_iter=max_iter)
+    assert 0.2 < full.converged.mean() < 0.6  # the flipping part of the curve is there
+    assert len(calls) == 1 + 3 * max_iter  # the loop ran every point to max_iter
+    assert n_fast < 40
+    np.testing.assert_array_equal(fast.converged, full.converged)
+    for field in ("frequency_hz", "amplitude", "hinge_amplitude", "kappa"):
+        np.testing.assert_allclose(getattr(fast, field), getattr(full, field), rtol=1e-9,
+                                   atol=1e-12, err_msg=field)
