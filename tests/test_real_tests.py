@@ -1324,3 +1324,38 @@ def test_redraw_puts_the_noise_only_where_it_is_asked(tmp_path):
             redraw.redraw("fin_nominal", tmp_path / "data", out, "some", [0])
     finally:
         sys.path.remove(str(bench))
+
+
+def test_the_splits_quick_fits_start_from_the_last_zeta_and_hold_the_damping_form(monkeypatch):
+    """The split's quick fits estimate zeta again, from the one-gap answer's, but hold the
+    damping's form (the hinge damper's share q, the exponent p) at that answer's; a form that
+    was given, or the model file's C, is left as it was."""
+    from freeplayid.identification import pipeline
+    from freeplayid.replay import Replay
+    from freeplayid.replay.damping_estimate import ReplayDamping
+
+    est = ReplayDamping(source="estimated", zeta=0.02, hinge=0.31, hinge_estimated=True)
+    assert pipeline._held_form(Replay(), est) == {"damping_exponent": 0.0,
+                                                   "damping_hinge": 0.31}
+    p = dataclasses.replace(est, hinge=0.0, hinge_estimated=False, exponent=0.9,
+                            exponent_estimated=True)
+    assert pipeline._held_form(Replay(damping_exponent="estimate"), p) == {
+        "damping_exponent": 0.9, "damping_hinge": 0.0}
+    assert pipeline._held_form(Replay(), dataclasses.replace(est, source="model")) == {}
+    assert pipeline._held_form(Replay(damping_hinge=0.2), est) == {}
+    assert pipeline._held_form(Replay(), None) == {}
+
+    seen = []
+
+    def quick(*args, replay, start_zeta, **kw):  # a quick fit that fails: the loop stops
+        seen.append((replay, start_zeta))
+        return type("Failed", (), {"failure": "no"})()
+
+    monkeypatch.setattr(pipeline, "corrected_fit", quick)
+    shares, at = pipeline._settled_shares((1.8e-3, 2.2e-3), (500.0, 2e-3), None, None, None,
+                                          None, None, Replay(), False, damping=est)
+    assert shares == (1.0, 1.0) and at == (500.0, 2e-3)
+    assert len(seen) == 1 and seen[0][0].damping_hinge == 0.31
+    assert seen[0][0].damping_exponent == 0.0
+    assert seen[0][0].start == "network" and seen[0][0].damping is None  # zeta estimated again
+    assert seen[0][1] == 0.02  # from the one-gap answer's

@@ -168,6 +168,47 @@ class _Cycles:
         return go
 
 
+def _newton(solve, kappa: np.ndarray, state: tuple, converged: np.ndarray, *, tol: float,
+            max_iter: int) -> None:
+    """Newton on G(kappa) = kappa - F(kappa) = 0 for the points not ``converged``, with a
+    forward-difference Jacobian (h extra eigen-batches per iteration) and a fall-back to the
+    relaxed fixed point; ``kappa`` (P, h), ``state`` (``solve``'s outputs: lam, vec, theta,
+    implied) and ``converged`` (P,) are updated in place."""
+    lam, vec, theta, implied = state
+    h = kappa.shape[1]
+    eps = 1e-7
+    active = np.flatnonzero(~converged)
+    cycles = _Cycles(max_iter, kappa, state)
+    for it in range(1, max_iter + 1):
+        G = kappa[active] - implied[active]
+        done = np.max(np.abs(G), axis=-1) <= tol
+        converged[active[done]] = True
+        active, G = active[~done], G[~done]
+        if active.size == 0:
+            return
+        ka = kappa[active]
+        J = np.empty((active.size, h, h))
+        for j in range(h):
+            kp = ka.copy()
+            kp[:, j] += eps
+            J[:, :, j] = ((kp - solve(kp, active)[3]) - G) / eps
+        try:
+            step = -np.linalg.solve(J, G[..., None])[..., 0]
+        except np.linalg.LinAlgError:
+            step = -0.5 * G
+            cycles.relaxed()
+        bad = ~np.all(np.isfinite(step), axis=-1, keepdims=True)
+        step = np.where(bad, -0.5 * G, step)
+        kappa[active] = np.clip(ka + step, 0.0, 1.0)
+        la, ve, th, im = solve(kappa[active], active)
+        lam[active], vec[active], theta[active], implied[active] = la, ve, th, im
+        active = cycles.settle(active, it, kappa, state)
+        if active.size == 0:
+            return
+    G = kappa[active] - implied[active]
+    converged[active] = np.max(np.abs(G), axis=-1) <= tol
+
+
 def dfa_backbone(
     system: FreeplaySystem,
     *,
@@ -248,46 +289,13 @@ def dfa_backbone(
             implied = kappa_of_ratio(gap / (s_p[idx, None] * ratio))
         return lam[:, mode], vec, theta, implied
 
-    # Newton on G(kappa) = kappa - F(kappa) = 0 with a forward-difference Jacobian (h extra
-    # eigen-batches per iteration) and a fall-back to the relaxed fixed point
     P = kn_p.size
-    everything = np.arange(P)
     kappa = kappa_of_ratio(gap[None, :] / s_p[:, None])
-    lam, vec, theta, implied = solve(kappa, everything)
+    state = solve(kappa, np.arange(P))  # (lam, vec, theta, implied)
     converged = np.full(P, equal_hinges or (h == 1 and gaps is None))
     if not converged.all():
-        eps = 1e-7
-        active = everything
-        cycles = _Cycles(max_iter, kappa, (lam, vec, theta, implied))
-        for it in range(1, max_iter + 1):
-            G = kappa[active] - implied[active]
-            done = np.max(np.abs(G), axis=-1) <= tol
-            converged[active[done]] = True
-            active, G = active[~done], G[~done]
-            if active.size == 0:
-                break
-            ka = kappa[active]
-            J = np.empty((active.size, h, h))
-            for j in range(h):
-                kp = ka.copy()
-                kp[:, j] += eps
-                J[:, :, j] = ((kp - solve(kp, active)[3]) - G) / eps
-            try:
-                step = -np.linalg.solve(J, G[..., None])[..., 0]
-            except np.linalg.LinAlgError:
-                step = -0.5 * G
-                cycles.relaxed()
-            bad = ~np.all(np.isfinite(step), axis=-1, keepdims=True)
-            step = np.where(bad, -0.5 * G, step)
-            kappa[active] = np.clip(ka + step, 0.0, 1.0)
-            la, ve, th, im = solve(kappa[active], active)
-            lam[active], vec[active], theta[active], implied[active] = la, ve, th, im
-            active = cycles.settle(active, it, kappa, (lam, vec, theta, implied))
-            if active.size == 0:
-                break
-        else:
-            G = kappa[active] - implied[active]
-            converged[active] = np.max(np.abs(G), axis=-1) <= tol
+        _newton(solve, kappa, state, converged, tol=tol, max_iter=max_iter)
+    lam, vec, theta, _ = state
     kappa = kappa.reshape(k_, m_, h)
     lam = lam.reshape(k_, m_)
     vec = vec.reshape(k_, m_, -1)

@@ -420,7 +420,7 @@ def _with_unequal_gaps(first: Identification, dataset, system, est, extraction, 
     rule = first.replay.jump_point
     shares, at = _settled_shares(sp.half_gaps, (first.kn, first.delta), dataset, system, est,
                                  extraction, fit, dataclasses.replace(replay, jump_point=rule),
-                                 progress)
+                                 progress, damping=first.replay.damping)
     if np.allclose(shares, 1.0, rtol=0, atol=1e-12):  # not even one such replay could be fitted
         return first
     # the answer from the last one's, with every check (the start is not the network's: said)
@@ -490,8 +490,28 @@ SPLIT_ROUNDS = 4  # most quick replays of the test with the gaps' split read aga
 SPLIT_RTOL = 0.002  # [-] the shares have settled when none moves by more than this (log)
 
 
+def _held_form(replay: Replay, damping) -> dict:
+    """The options that hold the damping's form (the hinge damper's share q, the exponent p)
+    at what the one-gap answer's ``damping`` (:class:`~freeplayid.replay.ReplayDamping`)
+    estimated, for the split's quick fits: they estimate zeta again, but not the form, whose
+    own loop is most of a quick fit's replays and which the shares hardly move. The answer
+    after them estimates it again. None to change where the form was not estimated (given,
+    or the model file's C)."""
+    if damping is None or damping.source == "model" or \
+            "estimate" not in (replay.damping_exponent, replay.damping_hinge):
+        return {}
+    return {"damping_exponent": float(damping.exponent), "damping_hinge": float(damping.hinge)}
+
+
+def _estimated_zeta(damping) -> float | None:
+    """The damping ratio of an answer's replays where it was estimated, else None."""
+    if damping is None or damping.source != "estimated" or damping.zeta is None:
+        return None
+    return float(damping.zeta)
+
+
 def _settled_shares(half_gaps, at, dataset, system, est, extraction, fit, replay: Replay,
-                    progress: bool) -> tuple[tuple, tuple]:
+                    progress: bool, damping=None) -> tuple[tuple, tuple]:
     """(shares, (kn, delta)): the hinges' gap shares at which the split read against the
     replay with those shares is the replay's own, by quick corrected fits (no noisy copies,
     intervals or cross-check: only their answer and its replay's points count), each started
@@ -499,15 +519,19 @@ def _settled_shares(half_gaps, at, dataset, system, est, extraction, fit, replay
     is off by a smaller one (fin C, 1.3 / 1.9 mrad: 1.34 / 1.87 against one gap, 1.32 / 1.89
     against those), so the reading is repeated, and from the third on the step is the
     secant's of the last two (capped at three plain steps), until no share moves by more than
-    ``SPLIT_RTOL`` or after ``SPLIT_ROUNDS``."""
+    ``SPLIT_RTOL`` or after ``SPLIT_ROUNDS``. The damping's form is held at the one-gap
+    answer's ``damping`` (:func:`_held_form`), and each quick fit's estimated zeta starts
+    from the last answer's: a zeta of that form. The answer after them, which estimates the
+    form again from its first loop with none, starts its zeta afresh."""
     def norm(g):
         g = np.log(np.asarray(g, float))
         return g - np.log(np.mean(np.exp(g)))
 
     x, y = np.zeros(len(half_gaps)), norm(half_gaps)  # log shares replayed, and read
     prev = None
+    zeta = _estimated_zeta(damping)
     # quick: corrected_fit's answer_only leaves out every copy, interval and diagnostic
-    quick = dataclasses.replace(replay, start="network")
+    quick = dataclasses.replace(replay, start="network", **_held_form(replay, damping))
     for _ in range(SPLIT_ROUNDS):
         step = y - x
         if prev is not None:  # the secant of g(x) = y - x through the last two readings
@@ -522,11 +546,11 @@ def _settled_shares(half_gaps, at, dataset, system, est, extraction, fit, replay
         shares = tuple(float(v) for v in np.exp(x))
         rep = corrected_fit(dataset, system, est, extraction=extraction, fit=fit,
                             replay=dataclasses.replace(quick, gap_shares=shares), start=at,
-                            answer_only=True, progress=progress)
+                            answer_only=True, start_zeta=zeta, progress=progress)
         if rep.failure:
             x = prev[0]
             break
-        at = (rep.kn, rep.delta)
+        at, zeta = (rep.kn, rep.delta), _estimated_zeta(rep.damping)
         sp = replayed_split(system, rep.statistic_points, rep.replayed_points, (), kn=rep.kn,
                             delta=rep.delta, mode=fit.mode, shares=shares)
         if sp is None:

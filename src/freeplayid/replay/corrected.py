@@ -926,7 +926,8 @@ def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extracti
                   fit: FitOptions, replay: Replay | None = None,
                   start: tuple[float, float] | None = None,
                   precision_settled: tuple[float, float] | None = None,
-                  answer_only: bool = False, progress: bool = False) -> ReplayResult:
+                  answer_only: bool = False, start_zeta: float | None = None,
+                  progress: bool = False) -> ReplayResult:
     """Bias-corrected (kn, delta) by replaying the test (package docstring).
 
     Parameters
@@ -951,6 +952,10 @@ def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extracti
         the answer's diagnostics that replay the test again (the resonances' noise, the base's
         wide reading, the acquisition filter's move, the base's timing) are not measured. The
         answer is the same.
+    start_zeta : float or None
+        The first guess of an estimated damping ratio: a quick fit started from an answer
+        starts from its zeta too. None: read from the points at the plain fit's kn
+        (:func:`.damping_estimate.initial_zeta`).
 
     A test that cannot be replayed (no level or sweep law for a run) or a replay that cannot be
     fitted (the replayed fin stays in the gap: a model far from the test) ends with ``failure``
@@ -971,7 +976,7 @@ def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extracti
 
     estimate = source == "estimated"
     if estimate:
-        zeta = zeta_at(plain.kn)
+        zeta = zeta_at(plain.kn) if start_zeta is None else float(start_zeta)
     def unknowns(theta):  # log (kn, delta[, zeta]) of the loop's first replay
         return np.log(np.append(theta, zeta) if estimate else theta)
 
