@@ -495,7 +495,7 @@ def _held_form(replay: Replay, damping) -> dict:
     at what the one-gap answer's ``damping`` (:class:`~freeplayid.replay.ReplayDamping`)
     estimated, for the split's quick fits: they estimate zeta again, but not the form, whose
     own loop is most of a quick fit's replays and which the shares hardly move. The answer
-    after them estimates it again. None to change where the form was not estimated (given,
+    after them estimates it again. Nothing changes where the form was not estimated (given,
     or the model file's C)."""
     if damping is None or damping.source == "model" or \
             "estimate" not in (replay.damping_exponent, replay.damping_hinge):
