@@ -1123,6 +1123,36 @@ def test_the_lean_is_judged_by_its_chance_of_lying_beyond_the_bound():
     assert not _gaps_split(result(0.05, True), replay) and _gaps_split(result(0.001, True), replay)
 
 
+def test_a_split_only_suggested_is_not_called_shown():
+    """Where the one-gap replay's split was only suggested (its p between cross_p and split_p,
+    as on an equal-gap fin C draw at p 0.086), the check's message says that one common gap
+    explains the test too and does not open with a split shown; a split read at p 1e-4 does.
+    ``common_p`` reaches the JSON."""
+    from freeplayid.identification.model_error import ReplayedSplit
+    from freeplayid.identification.verdict import _SPLIT_SHOWN, LIMITS, _unequal_check
+
+    def split(common_p):
+        return ReplayedSplit(hinges=("a", "b"), half_gaps=(1.3e-3, 1.9e-3), log_split=(0.0, 0.0),
+                             log_se=(0.1, 0.1), n_copies=8, delta=1.6e-3, shares=(0.9, 1.1),
+                             common=(909.0, 1.6e-3 * 1.003), mean_reported=False,
+                             common_t=2.0, common_p=common_p)
+
+    hinted = _unequal_check(split(0.086), per_hinge=False)
+    assert hinted.passed
+    assert hinted.message.startswith("the test's points lean to a split between the hinges")
+    assert "p = 0.086 against one common gap's replay" in hinted.message
+    assert "one common gap explains the test too" in hinted.message
+    assert "unequal gaps explain the test as well" in hinted.message
+    assert _SPLIT_SHOWN not in hinted.message
+    shown = _unequal_check(split(1e-4), per_hinge=False)
+    assert shown.passed and shown.message.startswith(_SPLIT_SHOWN)
+    assert "as well" not in shown.message
+    at_cut = _unequal_check(split(LIMITS["cross_p"]), per_hinge=False)
+    assert at_cut.message.startswith("the test's points lean")
+    assert _unequal_check(split(None), per_hinge=False).message.startswith(_SPLIT_SHOWN)
+    assert split(0.086).to_dict()["common_p"] == 0.086
+
+
 def _fin_c():
     """realtests' fin C (benchmarks/realtests/cases.py): hinges turning 0.86 : 1 in mode 1."""
     import freeplayid.model as fm

@@ -257,6 +257,9 @@ class ReplayedSplit:
         With ``common``: the ``t`` of the split that one common gap left (the reading that set
         the shares; nan where not known). The lean is in proportion to that split, so its
         relative standard error is one over it (:meth:`lean_outside`).
+    common_p : float or None
+        With ``common``: that split's p (None where not known). At or above the verdict's
+        ``cross_p`` one common gap explains the test too: the split was only suggested.
     """
 
     hinges: tuple
@@ -269,6 +272,7 @@ class ReplayedSplit:
     common: tuple | None = None
     mean_reported: bool = True
     common_t: float = math.nan
+    common_p: float | None = None
 
     @property
     def lean(self) -> float | None:
@@ -364,7 +368,8 @@ class ReplayedSplit:
                 "mean_offset": self.mean_offset, "shares": list(self.shares),
                 "common": None if self.common is None else list(self.common),
                 "lean": self.lean, "lean_se": self.lean_se,
-                "common_t": num(self.common_t), "mean_reported": self.mean_reported}
+                "common_t": num(self.common_t), "common_p": self.common_p,
+                "mean_reported": self.mean_reported}
 
 
 def _gap_interval(gap: float, delta: float, delta_ci95, share: float) -> tuple[float, float]:
@@ -390,7 +395,8 @@ def _subset(keyed: dict, keys: list):
 
 def replayed_split(system, measured, replayed, copies, *, kn: float, delta: float,
                    mode: int = 0, shares=None, common=None,
-                   common_t: float = math.nan) -> ReplayedSplit | None:
+                   common_t: float = math.nan,
+                   common_p: float | None = None) -> ReplayedSplit | None:
     """The hinges' split of the gaps read against the answer's replay (module docstring).
 
     Parameters
@@ -407,8 +413,8 @@ def replayed_split(system, measured, replayed, copies, *, kn: float, delta: floa
         The replay's gap shares (hinge j at ``delta * shares[j]``); None: one common gap.
     common : (float, float) or None
         With ``shares``: the one-gap answer whose split set them (:attr:`ReplayedSplit.lean`).
-    common_t : float
-        With ``common``: the ``t`` of that split (:attr:`ReplayedSplit.lean_se`).
+    common_t, common_p : float
+        With ``common``: the ``t`` of that split (:attr:`ReplayedSplit.lean_se`) and its p.
 
     Returns None with one hinge, fewer than three points the test and its replay share, or
     where a per-hinge fit cannot be made.
@@ -454,7 +460,8 @@ def replayed_split(system, measured, replayed, copies, *, kn: float, delta: floa
         log_se=tuple(float(v) for v in se), n_copies=len(noise), delta=float(delta),
         shares=() if shares is None else tuple(float(v) for v in r),
         common=None if shares is None or common is None else tuple(float(v) for v in common),
-        common_t=math.nan if shares is None or common is None else float(common_t))
+        common_t=math.nan if shares is None or common is None else float(common_t),
+        common_p=None if shares is None or common is None else common_p)
 
 
 @dataclass(frozen=True)

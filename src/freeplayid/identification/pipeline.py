@@ -431,7 +431,7 @@ def _with_unequal_gaps(first: Identification, dataset, system, est, extraction, 
         return first
     second = _corrected_result(dataset, system, est, rep, fit.mode, t0, error, checked,
                                common=(first.kn, first.delta), mean_reported=error.per_hinge,
-                               common_t=sp.t)
+                               common_t=sp.t, common_p=sp.p)
     if error.per_hinge:  # the model's proportions taken as right: the hinges' mean
         # what led to these replays: another statistic, the base read wide in some runs
         names = {"replay_statistic"} | ({"base_reading"} if replay.wide_base else set())
@@ -1102,13 +1102,15 @@ def _corrected_intervals(rep) -> tuple[tuple, tuple, str]:
 
 def _corrected_result(dataset, system, plain: PlainEstimate, rep, mode: int, t0: float,
                       error: ModelError, records=None, common=None,
-                      mean_reported: bool = True, common_t: float = math.nan) -> Identification:
+                      mean_reported: bool = True, common_t: float = math.nan,
+                      common_p: float | None = None) -> Identification:
     """The corrected estimate as an :class:`Identification`, judged as reported: the data's
     checks, the answer's own (bound, contact margin, backbone range and intervals at the
     corrected estimate), the replay's at the answer and the zero-clearance check at the
     reported kn. A replay that failed keeps the plain estimate, judged on its fit, and makes
     the verdict ``suspect``. ``common``: the one-gap answer (kn, delta) where the replays had
-    unequal gaps (``rep.gap_shares``), ``common_t`` the t of the split it left."""
+    unequal gaps (``rep.gap_shares``), ``common_t`` and ``common_p`` the t and p of the split
+    it left."""
     result = _plain_result(dataset, system, plain, mode, t0, error, records)
     if rep.failure:
         verdict = make_verdict(result.verdict.checks + tuple(replay_checks(rep)))
@@ -1122,7 +1124,7 @@ def _corrected_result(dataset, system, plain: PlainEstimate, rep, mode: int, t0:
             system, rep.statistic_points, rep.replayed_points,
             () if precision is None else precision.copy_points, kn=rep.kn, delta=rep.delta,
             mode=mode, shares=getattr(rep, "gap_shares", None), common=common,
-            common_t=common_t))
+            common_t=common_t, common_p=common_p))
         if error.split is not None and common is not None:
             error = dataclasses.replace(error, split=dataclasses.replace(
                 error.split, mean_reported=mean_reported))
