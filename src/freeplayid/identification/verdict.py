@@ -637,17 +637,14 @@ def _unequal_check(sp, per_hinge: bool) -> Check:
     elif sp.mean_reported:
         head = (f"{_SPLIT_SHOWN}; taken as the gaps' (`linear_model.hinge_gaps`), delta is "
                 f"their mean, replayed with the gaps split so: {sp.describe()}")
-    elif hinted:
-        head = (f"{_SPLIT_HINTED} (p = {sp.common_p:.2g} against one common gap's replay: "
-                f"below {LIMITS['split_p']:g}, which replays the split, but a split is shown "
-                f"only below {LIMITS['cross_p']:g}, so one common gap explains the test too; "
-                "were it real: unequal gaps, or a linear model whose hinges turn otherwise "
-                "than the tested fin's); delta is the one-gap answer, and the test replayed "
-                f"with the gaps split so measured how far their mean would lie: {sp.describe()}")
     else:
-        head = (f"{_SPLIT_SHOWN} (unequal gaps, or a linear model whose hinges turn otherwise "
-                "than the tested fin's); delta is the one-gap answer, and the test replayed "
-                f"with the gaps split so measured how far their mean would lie: {sp.describe()}")
+        opens = (f"{_SPLIT_HINTED} (p = {sp.common_p:.2g} against one common gap's replay: "
+                 f"below {LIMITS['split_p']:g}, which replays the split, but a split is shown "
+                 f"only below {LIMITS['cross_p']:g}, so one common gap explains the test too; "
+                 "were it real: " if hinted else f"{_SPLIT_SHOWN} (")
+        head = (opens + "unequal gaps, or a linear model whose hinges turn otherwise than the "
+                "tested fin's); delta is the one-gap answer, and the test replayed with the "
+                f"gaps split so measured how far their mean would lie: {sp.describe()}")
     if shown:
         why = (head + ". Against that replay the test still shows a split beyond its noise: "
                "unequal gaps do not explain it either; the linear model's hinges may turn in "
