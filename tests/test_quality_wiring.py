@@ -292,3 +292,17 @@ def test_ctrl_c_ends_identify_with_one_line(tmp_path):
     run = tmp_path / "run"
     assert not (run / "identification.json").exists() and not (run / "report.md").exists()
     assert {p.name for p in run.iterdir()} <= {".hydra", "identify.log"}  # no staging left
+
+
+def test_the_verdicts_line_names_the_checks_that_warned():
+    from freeplayid.identification.records import findings_text, record_checks
+    from freeplayid.quality import Finding, RecordReport
+
+    def warn(check, run):
+        return Finding(check, run, "acc_tl", 3.0, "% of 1st", "warning", f"{run}: {check}")
+
+    report = RecordReport((warn("hum", "a.csv"), warn("even_harmonics", "a.csv"),
+                           warn("hum", "b.csv")))
+    assert findings_text(report) == "3 warnings (hum, even_harmonics)"
+    (check,) = record_checks(report)
+    assert check.passed and check.message == "record checks: 3 warnings (hum, even_harmonics)"

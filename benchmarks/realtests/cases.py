@@ -119,6 +119,7 @@ class CaseSpec:
     knots_per_sample: int = 64
     base_delay_s: float = 0.0  # the base channel read this late against the others [s]
     base_scan_knots: int = 0  # the base sampled this many knots late by the integrator
+    gravity_g: float = 0.0  # [g] static acceleration of the frame along the base axis (gravity)
 
 
 # --------------------------------------------------------------------------- structures
@@ -528,6 +529,8 @@ def simulate_clean(spec: CaseSpec, log=print) -> dict:
     fs_k = spec.sample_rate * spec.knots_per_sample
     t0 = time.perf_counter()
     props = es.propagators(st, 1.0 / fs_k)
+    static = spec.gravity_g * es.G0
+    z0 = es.static_equilibrium(st, static) if static else None
     log(f"  propagators of {3 ** st.h} regimes: {time.perf_counter() - t0:.1f} s")
     out = {"time": [], "accel": [], "base": [], "n_events": []}
     for run in spec.runs:
@@ -535,7 +538,7 @@ def simulate_clean(spec: CaseSpec, log=print) -> dict:
         rec = es.simulate(st, run.base_accel(), duration=run.duration(),
                           sample_rate=spec.sample_rate, channels=chans,
                           knots_per_sample=spec.knots_per_sample, props=props,
-                          base_delay_knots=spec.base_scan_knots)
+                          base_delay_knots=spec.base_scan_knots, static_accel=static, z0=z0)
         out["time"].append(rec.time)
         out["accel"].append(rec.accel)
         out["base"].append(rec.base)
@@ -1531,6 +1534,31 @@ VARIANTS.update(dict(_out_of_step(*a, scanned=True) for a in (  # 64 knots per s
     ("var22_finB_scan_late", "var5_finB_nominal", 8 / 64),
     ("var22_fin_damper_scan_early", "fin_hinge_damper", -20 / 64),
     ("var22_fin_rayleigh_scan_late", "fin_rayleigh_noC", 12 / 64),
+)))
+
+
+
+# A twenty-third set (2026-12-06, session 62): gravity. On a shaker whose axis is vertical the
+# fin's own weight, a constant 1 g along the excitation, rests the outboard panel on one stop of
+# its hinges, so the gap is crossed asymmetrically (every case above shakes along a horizontal
+# axis: no static load). The accelerometers are AC-coupled: the records hold no 1 g. Chosen
+# before any of their answers was seen.
+def _vertical(name: str, src: str, gravity_g: float = 1.0):
+    def build(**kw) -> CaseSpec:
+        spec = _derived(name, src, kw, records_of_src=False)
+        spec.gravity_g = gravity_g
+        spec.condition += (f"; shaken vertically: {gravity_g:g} g of gravity along the axis "
+                           "(the panel rests on a stop)")
+        spec.params.update(gravity_g=gravity_g)
+        return spec
+    return name, build
+
+
+VARIANTS.update(dict(_vertical(*a) for a in (
+    ("var23_fin_vertical", "fin_nominal", 1.0),
+    ("var23_finB_vertical", "var5_finB_nominal", -1.0),
+    ("var23_finC_vertical_1024", "var19_finC_nominal_1024", 1.0),
+    ("var23_fin_rayleigh_vertical", "fin_rayleigh_noC", 1.0),
 )))
 
 ALL_CASES = {**CONDITIONS, **VARIANTS}

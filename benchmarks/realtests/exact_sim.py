@@ -370,10 +370,24 @@ class Record:
     wall_s: float = 0.0
 
 
+def static_equilibrium(st: Structure, accel: float) -> np.ndarray:
+    """The state z = (y, 0) at rest under a constant base acceleration ``accel`` [m/s^2]
+    (K y + sum_j f_j(b_j^T y) b_j = -p accel), every hinge in contact on the side the load
+    pushes it: the open structure is a mechanism at its hinges, so a load rests on the stops."""
+    Kc = st.K + st.kn * st.B @ st.B.T
+    y = np.linalg.solve(Kc, -st.load * accel)
+    s = np.sign(st.B.T @ y)
+    y = np.linalg.solve(Kc, -st.load * accel + st.kn * st.B @ (s * np.asarray(st.deltas, float)))
+    th = st.B.T @ y
+    if np.any(s * th < np.asarray(st.deltas, float)):
+        raise ValueError(f"a hinge rests inside its gap under {accel} m/s^2: rotations {th}")
+    return np.r_[y, np.zeros(st.n)]
+
+
 def simulate(st: Structure, a_g, *, duration: float, sample_rate: float, channels,
              knots_per_sample: int = 64, levels: int = LEVELS, z0=None, base_rate=None,
              log_events: int = 0, keep_theta: bool = False, tail_s: float | None = None,
-             props=None, base_delay_knots: int = 0) -> Record:
+             props=None, base_delay_knots: int = 0, static_accel: float = 0.0) -> Record:
     """Absolute accelerations of ``channels`` (DOF names) for base acceleration ``a_g``.
 
     a_g : callable t [s] -> [m/s^2] (sampled at the knots), or an array sampled at
@@ -381,6 +395,10 @@ def simulate(st: Structure, a_g, *, duration: float, sample_rate: float, channel
     duration : [s] of the kept record; the integration runs on for the decimator's tail.
     base_delay_knots : the base channel read this many knots late (< 0: early) against the
         responses, before the common decimation: a scanning acquisition's channel skew.
+    static_accel : [m/s^2] a constant acceleration of the frame along the base axis added to
+        a_g (gravity, on a shaker whose axis is vertical: +G0 when the outputs' +direction is
+        up); the records leave it out, as AC-coupled accelerometers do. Give ``z0`` = the
+        static equilibrium (:func:`static_equilibrium`) to start without its transient.
     """
     fs_k = sample_rate * knots_per_sample
     h = 1.0 / fs_k
@@ -389,13 +407,14 @@ def simulate(st: Structure, a_g, *, duration: float, sample_rate: float, channel
     n_keep = int(math.floor(duration * sample_rate + 1e-9)) + 1
     n_knots = int(math.ceil((duration + tail) * fs_k))
     if callable(a_g):
-        samples = np.asarray(a_g(np.arange(n_knots + 1) * h), float)
+        samples = np.asarray(a_g(np.arange(n_knots + 1) * h), float) + static_accel
         coefs, v_g = spline_pieces(samples, fs_k, 1, n_knots)
     else:
         per = int(round(fs_k / base_rate))
         if abs(per * base_rate - fs_k) > 1e-9 * fs_k:
             raise ValueError(f"knot rate {fs_k} Hz is not an integer multiple of {base_rate}")
-        coefs, v_g = spline_pieces(np.asarray(a_g, float), base_rate, per, n_knots)
+        coefs, v_g = spline_pieces(np.asarray(a_g, float) + static_accel, base_rate, per,
+                                   n_knots)
     Phi, Pc, P = propagators(st, h, levels) if props is None else props
     n = st.n
     idx = np.array([st.index(c) for c in channels])
@@ -405,6 +424,8 @@ def simulate(st: Structure, a_g, *, duration: float, sample_rate: float, channel
     vel, thr, n_ev = _walk(Phi, Pc, P, coefs, h, z_init, np.ascontiguousarray(st.B.T),
                            np.asarray(st.deltas, float), n + idx, keep_theta, ev_t, ev_j)
     wall = time.perf_counter() - t0
+    if static_accel:  # the frame's constant acceleration is no record's (AC-coupled sensors)
+        v_g = v_g - static_accel * np.arange(v_g.size) * h
     v_abs = vel + st.influence[idx, None] * v_g[None, :]
     acc = _acc_from_velocity(v_abs, h)
     base = _acc_from_velocity(v_g[None, :], h)

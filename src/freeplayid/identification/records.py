@@ -87,7 +87,7 @@ def record_checks(report: RecordReport | None) -> list[Check]:
 
 def findings_text(report: RecordReport) -> str:
     """What the checks found and did, in a few words ("nothing found", "1 run rejected
-    (a.csv), 2 repairs, 1 warning"), with the checks that could not run."""
+    (a.csv), 2 repairs, 1 warning (hum)"), with the checks that could not run."""
     rejected = report.rejected_runs
     parts = []
     if rejected:
@@ -99,6 +99,9 @@ def findings_text(report: RecordReport) -> str:
         n = sum(f.action == action for f in report.findings)
         if n:
             parts.append(f"{n} {one if n == 1 else many}")
+            if action == "warning":  # which checks warned: the verdict's line names them
+                parts[-1] += " (" + ", ".join(dict.fromkeys(
+                    f.check for f in report.findings if f.action == action)) + ")"
     text = ", ".join(parts) or "nothing found"
     if report.skipped:
         text += f" (not checked: {', '.join(report.skipped)})"

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from ..dataset import Dataset
 from ..model import FreeplaySystem
+from .asymmetry import check_even_harmonics
 from .cabling import check_cabling
 from .context import Records
 from .dropout import check_dropout
@@ -31,6 +32,7 @@ CHECKS = {
     "foreign_record": check_foreign_record,
     "cabling": check_cabling,
     "units": check_units,
+    "even_harmonics": check_even_harmonics,
 }
 assert tuple(CHECKS) == CHECK_NAMES
 

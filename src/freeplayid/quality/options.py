@@ -9,9 +9,10 @@ __all__ = ["RecordCheckOptions", "CHECK_NAMES"]
 
 # the checks in the order they run: the ones that read exact sample values (flat tops, held
 # values) before any repair changes them; spikes before the slow trend and the hum, which they
-# would bias; the frequency track, the mode shapes and the levels last, on the repaired records
+# would bias; the frequency track, the mode shapes and the levels last, on the repaired records,
+# then the even harmonics (on the resonance the checks before it have found)
 CHECK_NAMES = ("saturation", "dropout", "spike", "offset", "hum", "sample_rate", "sweep_hint",
-               "foreign_record", "cabling", "units")
+               "foreign_record", "cabling", "units", "even_harmonics")
 
 
 @dataclass(frozen=True)
@@ -88,6 +89,11 @@ class RecordCheckOptions:
         are factors of 9.81 or 1000).
     mode : int
         The model's mode of the resonance (0: the lowest, first bending), as in the fit.
+    even_noise : float [-]
+        A response's second harmonic around the resonance is reported (``even_harmonics``,
+        above ``amplitude_tolerance`` of the first) where its share of the first exceeds this
+        many times the noise's share read the same way at 2.5 times the sweep's phase (4: two
+        noise readings over the same samples differ by 0.5-1.7 times).
     """
 
     checks: tuple = CHECK_NAMES
@@ -109,6 +115,7 @@ class RecordCheckOptions:
     shape_tolerance: float = 0.5
     units_factor: float = 2.0
     mode: int = 0
+    even_noise: float = 4.0
 
     def __post_init__(self) -> None:
         checks = tuple(self.checks) if not isinstance(self.checks, str) else (self.checks,)
@@ -132,7 +139,7 @@ class RecordCheckOptions:
                     raise ValueError(f"`{f.name}` must be an integer >= 1, got {v!r}")
             elif not _is_positive(v):
                 raise ValueError(f"`{f.name}` must be a finite number > 0, got {v!r}")
-        for name in ("clip_pileup", "units_factor", "spike_envelope"):
+        for name in ("clip_pileup", "units_factor", "spike_envelope", "even_noise"):
             if getattr(self, name) <= 1:
                 raise ValueError(f"`{name}` must be > 1, got {getattr(self, name)!r}")
 
