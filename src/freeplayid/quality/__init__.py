@@ -11,7 +11,8 @@ The checks (:data:`CHECKS`, in the order they run; docs/record_checks.md): ``sat
 tops), ``dropout`` (held values), ``spike``, ``offset`` (DC offset and drift), ``hum`` (mains
 lines), ``sample_rate`` / ``sweep_hint`` / ``foreign_record`` (each run's frequency track against
 its hint and the other runs), ``cabling`` (channel amplitude ratios against the model's mode
-shape) and ``units`` (levels against ``level_g``). Each finding carries an action:
+shape), ``units`` (levels against ``level_g``) and ``even_harmonics`` (a second harmonic that
+a centred gap cannot make). Each finding carries an action:
 ``reject_run``, ``suspect``, ``warning`` or ``repaired``.
 """
 
