@@ -1537,7 +1537,6 @@ VARIANTS.update(dict(_out_of_step(*a, scanned=True) for a in (  # 64 knots per s
 )))
 
 
-
 # A twenty-third set (2026-12-06, session 62): gravity. On a shaker whose axis is vertical the
 # fin's own weight, a constant 1 g along the excitation, rests the outboard panel on one stop of
 # its hinges, so the gap is crossed asymmetrically (every case above shakes along a horizontal

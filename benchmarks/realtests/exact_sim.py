@@ -374,12 +374,12 @@ def static_equilibrium(st: Structure, accel: float) -> np.ndarray:
     """The state z = (y, 0) at rest under a constant base acceleration ``accel`` [m/s^2]
     (K y + sum_j f_j(b_j^T y) b_j = -p accel), every hinge in contact on the side the load
     pushes it: the open structure is a mechanism at its hinges, so a load rests on the stops."""
-    Kc = st.K + st.kn * st.B @ st.B.T
+    Kc, deltas = st.K + st.kn * st.B @ st.B.T, np.asarray(st.deltas, float)
     y = np.linalg.solve(Kc, -st.load * accel)
     s = np.sign(st.B.T @ y)
-    y = np.linalg.solve(Kc, -st.load * accel + st.kn * st.B @ (s * np.asarray(st.deltas, float)))
+    y = np.linalg.solve(Kc, -st.load * accel + st.kn * st.B @ (s * deltas))
     th = st.B.T @ y
-    if np.any(s * th < np.asarray(st.deltas, float)):
+    if np.any(s * th < deltas):
         raise ValueError(f"a hinge rests inside its gap under {accel} m/s^2: rotations {th}")
     return np.r_[y, np.zeros(st.n)]
 
