@@ -23,13 +23,15 @@ def exact_backbone_hz(amplitude):
     return F_N / (1.0 + 2.0 * DELTA / (math.pi * (np.asarray(amplitude) - DELTA)))
 
 
-def simulate_sdof_sweep(level_g, sweep, *, fs=FS, substeps=2, jit=False):
+def simulate_sdof_sweep(level_g, sweep, *, fs=FS, substeps=2, jit=False, static_g=0.0):
     """RK4 of ``y'' + 2 zeta w_n y' + f(y) = -a_g(t)`` (m = 1), y relative to the base.
 
     Plain-Python scalar loop (~1 us per stage), step 1/(fs substeps) (6.1e-4 s / 2 at 2048 Hz,
     finer than the paper's 6.25e-4 s). Starts on the in-gap steady state (y = 0, y' = a_g / w0)
     so a weak run does not drift into contact (a weakly excited freeplay oscillator can stay on
-    its in-gap branch).
+    its in-gap branch). With ``static_g``, a constant ``static_g * G`` is added to a_g (gravity
+    on a vertical shaker) and the run starts at rest on the stop it pushes to,
+    ``y = -(delta + static_g G / kn)`` (sign of ``static_g``); a_g, returned, leaves it out.
 
     Parameters
     ----------
@@ -37,6 +39,7 @@ def simulate_sdof_sweep(level_g, sweep, *, fs=FS, substeps=2, jit=False):
     sweep : freeplayid.simulate.Sweep
     jit : bool
         Compile the same loop with numba (for long records at high rates: the benchmarks).
+    static_g : float [g]
 
     Returns
     -------
@@ -52,23 +55,28 @@ def simulate_sdof_sweep(level_g, sweep, *, fs=FS, substeps=2, jit=False):
     twopi = 2 * math.pi
 
     loop = _jit_loop() if jit else _loop
-    ys, vs = loop(amp, f0, s, n, h, substeps, kn, c, DELTA)
+    a_s = static_g * G
+    if a_s:
+        y0, v0 = -math.copysign(DELTA, a_s) - a_s / kn, 0.0
+    else:
+        y0, v0 = 0.0, amp / (twopi * f0)
+    ys, vs = loop(amp, f0, s, n, h, substeps, kn, c, DELTA, a_s, y0, v0)
     tt = np.arange(n) / fs
     ag = amp * np.sin(twopi * (f0 * tt + 0.5 * s * tt * tt))
     fp = np.where(ys > DELTA, kn * (ys - DELTA), np.where(ys < -DELTA, kn * (ys + DELTA), 0.0))
-    return ys, vs, -ag - c * vs - fp, ag
+    return ys, vs, -ag - a_s - c * vs - fp, ag
 
 
-def _loop(amp, f0, s, n, h, substeps, kn, c, delta):
+def _loop(amp, f0, s, n, h, substeps, kn, c, delta, a_s, y0, v0):
     """The RK4 steps of :func:`simulate_sdof_sweep`: (y, v) at every ``substeps``-th step."""
     twopi = 2 * math.pi
 
     def acc(t, y, v):
-        ag = amp * math.sin(twopi * (f0 * t + 0.5 * s * t * t))
+        ag = amp * math.sin(twopi * (f0 * t + 0.5 * s * t * t)) + a_s
         fp = kn * (y - delta) if y > delta else (kn * (y + delta) if y < -delta else 0.0)
         return -ag - c * v - fp
 
-    y, v, t = 0.0, amp / (twopi * f0), 0.0
+    y, v, t = y0, v0, 0.0
     ys, vs = np.empty(n), np.empty(n)
     for k in range(n):
         ys[k], vs[k] = y, v

@@ -244,6 +244,27 @@ def test_shifted_reads_a_band_limited_record_at_another_instant(samples):
     assert shifted(_chirp(t), FS, 0.0) == pytest.approx(_chirp(t))
 
 
+def test_gravity_along_the_axis_is_stated_checked_and_written(tmp_path):
+    runs, kw = _small()
+    path = write_dataset(tmp_path / "vertical", runs=runs, gravity_g=-1, **kw)
+    assert yaml.safe_load(path.read_text())["gravity_g"] == -1.0
+    assert read_dataset(path, check_model=False).gravity_g == -1.0
+    m = yaml.safe_load(path.read_text())
+    for bad in ("up", 1.5, True, float("inf")):
+        m["gravity_g"] = bad
+        path.write_text(yaml.safe_dump(m))
+        with pytest.raises(DatasetError, match=r"manifest.yaml: `gravity_g` must be gravity's "
+                                               r"component along the shaking axis in g, a "
+                                               r"number within \+-1 \(\+1: vertical"):
+            read_dataset(path, check_model=False)
+    written = write_dataset(tmp_path / "horizontal", runs=runs, **kw)
+    assert "gravity_g" not in yaml.safe_load(written.read_text())
+    assert read_dataset(written, check_model=False).gravity_g == 0.0
+    with pytest.raises(DatasetError, match="`gravity_g` must be"):
+        Dataset.from_arrays(np.zeros((1, 2, 64)), channels={"a": "x", "b": "y"},
+                            quantity="acceleration", units="g", sample_rate=FS, gravity_g=9.81)
+
+
 def test_the_base_delay_is_stated_checked_and_written(tmp_path):
     runs, kw = _small()
     path = write_dataset(tmp_path / "late", runs=runs, base_delay_s=0.001, **kw)

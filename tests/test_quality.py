@@ -440,18 +440,29 @@ def _with_second_harmonic(run, share: float, *, base_share: float = 0.0):
 
 def test_an_even_harmonic_a_centred_gap_cannot_make_is_reported(clean):
     """A second harmonic of 3 % of the first on one run's responses (the panel resting on a
-    stop) is a warning on that run and channel with its size; the others raise nothing."""
+    stop) makes the answer suspect, on that run and channel with its size; the others raise
+    nothing."""
     runs = list(clean.runs)
     runs[1] = _with_second_harmonic(runs[1], 0.03)
     (f,) = check_records(make_dataset(runs), SYSTEM, options=EVEN).findings
     assert (f.check, f.run, f.channel, f.action) == ("even_harmonics", "run1.csv", "acc_out",
-                                                     "warning")
+                                                     "suspect")
     assert f.size == pytest.approx(3.0, abs=0.3) and f.unit == "% of 1st"
     assert "rests on one stop" in f.message and "could put at most" in f.message
     # without a base channel the message says what it cannot tell apart
     no_base = make_dataset([replace(r, base=None) for r in runs], base_channel=None)
     (f,) = check_records(no_base, SYSTEM, options=EVEN).findings
     assert f.run == "run1.csv" and "distortion cannot be told" in f.message
+
+
+def test_even_harmonics_of_a_stated_weight_are_not_reported(clean):
+    """A data set that states gravity along its axis (a vertical shaker) is replayed with the
+    weight, which makes the even harmonics: no warning; unstated, the warning says to state it."""
+    runs = list(clean.runs)
+    runs[1] = _with_second_harmonic(runs[1], 0.03)
+    (f,) = check_records(make_dataset(runs), SYSTEM, options=EVEN).findings
+    assert "state `gravity_g`" in f.message
+    assert not check_records(make_dataset(runs, gravity_g=1.0), SYSTEM, options=EVEN).findings
 
 
 def test_even_harmonics_below_the_noise_or_the_bound_or_from_the_base_are_not_reported(clean):

@@ -193,6 +193,84 @@ def test_sdof_freeplay_matches_rk4_at_a_small_step():
     assert np.abs(ha.argmax(-1) - hb.argmax(-1)).max() <= 2
 
 
+@needs_numba
+@pytest.mark.parametrize("static_g", [1.0, -0.5])
+def test_a_static_load_matches_the_independent_reference(static_g):
+    # gravity on a vertical shaker: the panel rests on one stop, the response holds even
+    # harmonics. tests/sdof_reference.py's plain RK4 with the constant added to a_g, started on
+    # the stop, against simulate_sweeps(static_g=) through the exponential engine
+    sw = Sweep(30.0, 50.0, 2.0)
+    level = 1.0
+    y_ref = ref.simulate_sdof_sweep(level, sw, substeps=8, static_g=static_g)[0]
+    wn = 2 * np.pi * ref.F_N
+    system = sdof_system(mass=1.0, stiffness=0.0, damping=2 * ref.ZETA * wn)
+    res = simulate_sweeps(system, kn=wn**2, delta=ref.DELTA, level_g=level, sweep=sw,
+                          channels=("x",), quantity="displacement", frame="relative",
+                          sample_rate=ref.FS, dtype=torch.float64, progress=False,
+                          static_g=static_g)
+    assert res.engine == "expo" and res.static_g == static_g
+    y = res.signals[0, 0]
+    rest = -np.sign(static_g) * ref.DELTA - static_g * G / wn**2
+    # on the stop from the start (the first sample: through the decimating filter)
+    assert abs(y[0] / rest - 1) < 1e-4 and abs(y_ref[0] / rest - 1) < 1e-12
+    t = np.arange(len(y)) / ref.FS
+    a = first_harmonic(y[None], t, sw)[0]
+    b = first_harmonic(y_ref[None], t, sw)[0]
+    assert b.max() > 3 * ref.DELTA
+    assert abs(a.max() / b.max() - 1) < 1e-3, a.max() / b.max() - 1
+    assert abs(int(a.argmax()) - int(b.argmax())) <= 2
+    # the record itself (its mean offset and even harmonics with it) up to the jump, past the
+    # filter's start (after the jump the impacts make two exact integrators part in phase)
+    k, j = int(0.1 * ref.FS), int(b.argmax())
+    err = np.abs(y[k:j] - y_ref[k:j]).max() / np.abs(y_ref[k:j]).max()
+    assert err < 1e-3, err
+    # the same run without the load is another record: the load is what the check sees
+    plain = simulate_sweeps(system, kn=wn**2, delta=ref.DELTA, level_g=level, sweep=sw,
+                            channels=("x",), quantity="displacement", frame="relative",
+                            sample_rate=ref.FS, dtype=torch.float64, progress=False)
+    off = np.abs(plain.signals[0, 0, k:j] - y_ref[k:j]).max() / np.abs(y_ref[k:j]).max()
+    assert off > 50 * err, (off, err)
+
+
+def test_static_equilibrium_is_the_physical_one_on_the_fin():
+    # the modal solve (contact state by state) against K y + sum_j b_j f(b_j^T y) = -M r a_s in
+    # physical coordinates, each hinge on the stop the load pushes it to
+    from freeplayid.model import default_fin
+    from freeplayid.simulate.formulation import static_equilibrium
+
+    system = default_fin()
+    kn, delta = 480.0, 3e-3
+    form = build_modal_form(system, channels=system.dof_names, quantity="displacement",
+                            frame="relative", kn_max=kn)
+    for s_g in (1.0, -1.0, 0.3):
+        eta = static_equilibrium(form, [kn, 2 * kn], [delta, delta], s_g)
+        Bh = system.hinge_matrix()
+        for i, k in enumerate((kn, 2 * kn)):
+            th = form.D.T @ eta[i]
+            side = np.sign(th)
+            assert np.all(np.abs(th) > delta)  # every hinge rests on a stop
+            Kc = system.K + k * Bh @ Bh.T
+            y = np.linalg.solve(Kc, -system.M @ system.influence * s_g * G
+                                + k * Bh @ (side * delta))
+            np.testing.assert_allclose(th, Bh.T @ y, rtol=1e-8)
+            np.testing.assert_allclose(form.S @ eta[i], y, rtol=1e-7,
+                                       atol=1e-9 * np.abs(y).max())
+
+
+def test_a_static_load_is_checked_before_the_run():
+    system = sdof_system(mass=1.0, stiffness=0.0, damping=1.0)
+    kw = dict(kn=1e5, delta=1e-4, level_g=0.5, sweep=Sweep(30.0, 50.0, 2.0), channels=("x",),
+              progress=False)
+    with pytest.raises(ValueError, match="static_g.*within"):
+        simulate_sweeps(system, static_g=2.0, **kw)
+    with pytest.raises(ValueError, match="method='relative'"):
+        simulate_sweeps(system, static_g=1.0, method="large_mass", **kw)
+    with pytest.raises(NotImplementedError, match="static load.*expo"):
+        simulate_sweeps(system, static_g=1.0, engine="torch", **kw)
+    with pytest.raises(ValueError, match="no static equilibrium"):
+        simulate_sweeps(system, static_g=1.0, **{**kw, "kn": 0.0})
+
+
 # ----------------------------------------------------------------------------- (3) two hinges
 @needs_numba
 def test_contact_solve_matches_the_exhaustive_search():

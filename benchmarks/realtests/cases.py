@@ -593,7 +593,8 @@ def write_draw(folder: Path, spec: CaseSpec, clean: dict, seed: int, jumps: list
                              quantity="acceleration", units="g", sample_rate=spec.sample_rate,
                              channels=spec.channels, runs=objs, system=spec.model,
                              base_channel="acc_base" if spec.base_channel else None,
-                             truth=spec.truth, float_format="%.6g", time_format="%.7g")
+                             truth=spec.truth, float_format="%.6g", time_format="%.7g",
+                             gravity_g=spec.gravity_g)
     if spec.reference_modes:
         import yaml
 

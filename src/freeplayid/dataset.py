@@ -15,6 +15,7 @@ nothing for a function's arguments) and naming the field or argument.
 from __future__ import annotations
 
 import numbers
+import math
 import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -28,7 +29,7 @@ from .quantity import UNIT_SCALE, check_units
 from .sweep import Sweep
 
 __all__ = ["Dataset", "FRAMES", "Run", "SWEEP_KEYS", "SWEEP_RATE_KEYS", "check_channel_dofs",
-           "check_channels", "check_frame", "check_keys", "check_number",
+           "check_channels", "check_frame", "check_gravity", "check_keys", "check_number",
            "check_one_column_per_dof", "check_quantity_units", "check_sweep_hint", "check_time",
            "run_reason"]
 
@@ -108,6 +109,10 @@ class Dataset:
     base_delay_s : float [s]
         How late the base channel was read against the responses (< 0: early; 0: in step, the
         default): ``identify`` advances the base records by it (:mod:`freeplayid.acquisition`).
+    gravity_g : float [g], within +-1
+        Gravity's component along the shaking axis during the test: 0 on a horizontal shaker
+        (the default), +1 on a vertical one whose channels' + direction points up, -1 down. Its
+        weight rests the fin's panel on a stop; the replays carry it (a constant load).
     """
 
     name: str
@@ -124,12 +129,14 @@ class Dataset:
     frame: str = "absolute"
     antialias: object = "unknown"
     base_delay_s: float = 0.0
+    gravity_g: float = 0.0
 
     def __post_init__(self):
         check_frame(self.frame, self.base_channel, "")
         object.__setattr__(self, "antialias", check_antialias(self.antialias))
         object.__setattr__(self, "base_delay_s",
                            check_base_delay(self.base_delay_s, self.base_channel))
+        object.__setattr__(self, "gravity_g", check_gravity(self.gravity_g))
 
     @property
     def si_scale(self) -> float:
@@ -146,7 +153,8 @@ class Dataset:
                     base_channel: str | None = None, levels_g=None, sweeps=None,
                     model: str | os.PathLike | None = None, name: str = "arrays",
                     run_names: Sequence[str] | None = None, frame: str = "absolute",
-                    antialias="unknown", base_delay_s: float = 0.0) -> Dataset:
+                    antialias="unknown", base_delay_s: float = 0.0,
+                    gravity_g: float = 0.0) -> Dataset:
         """A validated data set from arrays (a notebook's), checked as a manifest is.
 
         Parameters
@@ -187,6 +195,9 @@ class Dataset:
         base_delay_s : float [s]
             How late ``base`` was read against ``data`` (:attr:`Dataset.base_delay_s`; within
             +-0.05 s, and only with ``base``).
+        gravity_g : float [g]
+            Gravity's component along the shaking axis (:attr:`Dataset.gravity_g`; within +-1,
+            +1: a vertical shaker, the channels' + direction up; default 0: horizontal).
 
         Returns
         -------
@@ -203,7 +214,8 @@ class Dataset:
             or ``run_names`` that differ from the runs, a bad time axis or sample rate, a
             model file that is missing or lacks a channel's DOF, a ``frame`` not in
             :data:`FRAMES` or relative with a base, an ``antialias`` that is none of its forms, a
-            ``base_delay_s`` that is not a number within +-0.05 s or is given without ``base``.
+            ``base_delay_s`` that is not a number within +-0.05 s or is given without ``base``,
+            a ``gravity_g`` that is not a number within +-1.
         """
         check_quantity_units(quantity, units, "")
         channels, base_channel = check_channels(channels, base_channel, "",
@@ -234,7 +246,7 @@ class Dataset:
         return cls(name=str(name), model=model_path, quantity=quantity, units=units,
                    sample_rate=float(fs), channels=dict(channels), runs=tuple(out),
                    base_channel=base_channel, frame=frame, antialias=antialias,
-                   base_delay_s=base_delay_s)
+                   base_delay_s=base_delay_s, gravity_g=gravity_g)
 
 
 # --------------------------------------------------------------------------- the shared rules
@@ -243,6 +255,20 @@ def check_keys(entry: Mapping, allowed: Sequence[str], where: str) -> None:
     unknown = sorted(set(entry) - set(allowed))
     if unknown:
         raise DatasetError(f"{where}unknown field(s) {unknown}; allowed: {list(allowed)}")
+
+
+def check_gravity(value, where: str = "") -> float:
+    """A data set's ``gravity_g`` [g] (None: 0) as a float; a one-line :class:`DatasetError`
+    naming the field for anything but a finite number within +-1."""
+    if value is None:
+        return 0.0
+    ok = isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(
+        value, (bool, np.bool_))
+    if not ok or not math.isfinite(value) or abs(value) > 1:
+        raise DatasetError(f"{where}`gravity_g` must be gravity's component along the shaking "
+                           "axis in g, a number within +-1 (+1: vertical, the channels' + "
+                           f"direction up; -1: down; 0: horizontal, the default), got {value!r}")
+    return float(value)
 
 
 def check_frame(frame, base_channel, where: str) -> str:

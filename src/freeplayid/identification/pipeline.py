@@ -895,6 +895,8 @@ def _record(dataset) -> dict:
             "frame": getattr(dataset, "frame", "absolute"),
             **_filter_record(getattr(dataset, "antialias", "unknown")),
             **_delay_record(dataset),
+            **({"gravity_g": float(dataset.gravity_g)} if getattr(dataset, "gravity_g", 0.0)
+               else {}),
             "levels": {run.file: None if run.level_g is None else float(run.level_g)
                        for run in dataset.runs}}
 

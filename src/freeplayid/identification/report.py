@@ -66,6 +66,9 @@ def _header(r) -> list[str]:
         *([f"- base channel's timing: {ds['base_delay_said']}"
            + ("" if ds.get("base_delay_source") == "estimated" else
               " (the data set's `base_delay_s`)")] if ds.get("base_delay_s") else []),
+        *([f"- gravity along the shaking axis: {ds['gravity_g']:+g} g (the data set's "
+           "`gravity_g`): the fin's weight rests its panel on a stop, and the replays carry it"]
+          if ds.get("gravity_g") else []),
         f"- backbone: {r.backbone}, start: {r.init}, runtime {r.runtime_s:.2f} s", "",
         "## Result", "",
         "| parameter | identified | 95 % CI (Jacobian) |" + (" 95 % CI (bootstrap) |" if boot

@@ -28,6 +28,7 @@ from ..dataset import (
     Run,
     check_channels,
     check_frame,
+    check_gravity,
     check_number,
     check_quantity_units,
     check_time,
@@ -120,6 +121,7 @@ def read_dataset(path: str | os.PathLike, *, check_model: bool = True) -> Datase
         frame=manifest.frame,
         antialias=manifest.antialias,
         base_delay_s=manifest.base_delay_s,
+        gravity_g=manifest.gravity_g,
     )
 
 
@@ -200,6 +202,7 @@ def write_dataset(
     frame: str = "absolute",
     antialias="unknown",
     base_delay_s: float = 0.0,
+    gravity_g: float = 0.0,
 ) -> Path:
     """Write a data set folder and return the path of its ``manifest.yaml``.
 
@@ -235,11 +238,15 @@ def write_dataset(
         when stated (a response as its lists).
     base_delay_s : float [s]
         How late the base channel was read against the others; written when not 0.
+    gravity_g : float [g]
+        Gravity's component along the shaking axis (:attr:`freeplayid.dataset.Dataset.
+        gravity_g`); written when not 0.
     """
     cols = _check_columns(quantity, units, sample_rate, channels, base_channel)
     check_frame(frame, base_channel, "")
     antialias = check_antialias(antialias)
     base_delay_s = check_base_delay(base_delay_s, base_channel)
+    gravity_g = check_gravity(gravity_g)
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     fmt = (time_format or float_format, float_format)
@@ -264,6 +271,8 @@ def write_dataset(
         manifest["antialias"] = antialias
     if base_delay_s != 0:
         manifest["base_delay_s"] = base_delay_s
+    if gravity_g != 0:
+        manifest["gravity_g"] = gravity_g
     if truth is not None:
         manifest["truth"] = {k: float(v) for k, v in dict(truth).items()}
     manifest["runs"] = entries

@@ -12,6 +12,7 @@ channels: {acc_tl: uz_top_left, acc_lr: uz_lower_right}   # run-file column -> m
 base_channel: acc_base          # optional
 antialias: flat                 # optional: unknown | flat | replay | {response: filter.csv}
 base_delay_s: 0.0               # optional: how late the base channel is read against the others [s]
+gravity_g: 0                    # optional: gravity along the shaking axis [g] (+1: vertical, + up)
 runs:
   - {file: sweep_0.60g.csv, level_g: 0.60, sweep: {start_hz: 30, stop_hz: 50, rate_hz_per_s: 0.1}}
   - {file: sweep_0.80g.csv, level_g: 0.80, sweep: {start_hz: 20, stop_hz: 80, octaves_per_min: 2}}
@@ -45,6 +46,7 @@ from ..dataset import (
     check_channel_dofs,
     check_channels,
     check_frame,
+    check_gravity,
     check_keys,
     check_number,
     check_one_column_per_dof,
@@ -63,7 +65,7 @@ __all__ = ["Manifest", "RunEntry", "read_manifest", "check_quantity_units",
 LAYOUT_KEYS = tuple(f.name for f in fields(Layouts))  # the blocks that declare a file layout
 MANIFEST_KEYS = ("name", "model", "quantity", "units", "sample_rate", "channels",
                  "base_channel", "frame", "truth", "runs", "reference_modes", "antialias",
-                 "base_delay_s", *LAYOUT_KEYS)
+                 "base_delay_s", "gravity_g", *LAYOUT_KEYS)
 RUN_KEYS = ("file", "level_g", "sweep")
 
 
@@ -136,6 +138,7 @@ class Manifest:
     frame: str = "absolute"
     antialias: object = "unknown"
     base_delay_s: float = 0.0
+    gravity_g: float = 0.0
 
     @property
     def columns(self) -> list[str]:
@@ -161,7 +164,8 @@ def read_manifest(path: str | os.PathLike, *, check_model: bool = True) -> Manif
         not in the model, a `frame` not absolute or relative (or relative with a base
         channel), bad reference modes, an ``antialias`` that is none of its forms (a name, a
         response's lists or its CSV file), a ``base_delay_s`` that is not a number within
-        +-0.05 s or is stated without a base channel, a run file that is missing, outside the
+        +-0.05 s or is stated without a base channel, a ``gravity_g`` that is not a number
+        within +-1, a run file that is missing, outside the
         data-set folder (absolute or ``..``) or of an unknown suffix (the message lists the valid
         ones), no runs, a ``csv:`` or ``mat:`` block with an unknown field or a value outside its
         allowed set (:class:`~freeplayid.io.readers.csv.CsvLayout`,
@@ -199,6 +203,7 @@ def read_manifest(path: str | os.PathLike, *, check_model: bool = True) -> Manif
         frame=frame,
         antialias=check_antialias(m.get("antialias"), where, root),
         base_delay_s=check_base_delay(m.get("base_delay_s"), base_channel, where),
+        gravity_g=check_gravity(m.get("gravity_g"), where),
     )
 
 

@@ -105,7 +105,9 @@ def replay_dataset(dataset, system, kn: float, delta: float, *, levels: dict | N
     "auto"); None: the exponential engine when available, else "auto". ``gap_shares``: hinge
     j's half-gap is ``delta * gap_shares[j]`` (None: one common gap). ``passband``: the
     decimating filter's flat band over the sample rate (``simulate_sweeps``'s
-    ``antialias_passband``; None: the simulator's default, 0.3).
+    ``antialias_passband``; None: the simulator's default, 0.3). The data set's ``gravity_g``
+    (a vertical shaker) is replayed as the constant load it is (``simulate_sweeps``'s
+    ``static_g``).
     """
     # the simulator (torch) only when a replay runs: `import freeplayid.identification` stays
     # light for a notebook that reads results
@@ -137,6 +139,7 @@ def replay_dataset(dataset, system, kn: float, delta: float, *, levels: dict | N
                               sample_rate=dataset.sample_rate,
                               dtype=torch.float64 if dtype is None else dtype, progress=False,
                               engine=engine, gap_shares=gap_shares,
+                              static_g=getattr(dataset, "gravity_g", 0.0),
                               **({} if passband is None else {"antialias_passband": passband}))
         ds = sweep_dataset(res, columns=dataset.channels, units=dataset.units, run_names=files)
         return [dataclasses.replace(r, sweep=hints[r.file],
@@ -149,7 +152,8 @@ def replay_dataset(dataset, system, kn: float, delta: float, *, levels: dict | N
     return Dataset(name=f"replay of {dataset.name}", model=None, quantity=dataset.quantity,
                    units=dataset.units, sample_rate=dataset.sample_rate,
                    channels=dict(dataset.channels), runs=tuple(runs),
-                   base_channel=dataset.base_channel, frame=frame)
+                   base_channel=dataset.base_channel, frame=frame,
+                   gravity_g=getattr(dataset, "gravity_g", 0.0))
 
 
 def _each_group(simulate, groups: list, engine: str) -> list:

@@ -48,6 +48,7 @@ __all__ = [
     "ModalForm",
     "ModalTruncation",
     "build_modal_form",
+    "static_equilibrium",
     "rk4_step_limit",
     "RK4_STABILITY_LIMIT",
     "MODES",
@@ -343,3 +344,62 @@ def rk4_step_limit(omega_max: float, *, omega_dt: float) -> float:
     if omega_max <= 0:
         return math.inf
     return omega_dt / omega_max
+
+
+def static_equilibrium(form: ModalForm, kn, delta, static_g: float, gap_shares=None) -> np.ndarray:
+    """Each member's modal displacement at rest under a constant load ``g * static_g`` (a static
+    acceleration of the frame along the base axis [g], gravity on a vertical shaker):
+    ``lam * eta + D f(D^T eta) = g * static_g``.
+
+    f is piecewise linear, so each hinge's contact state (-1 / 0 / +1) gives a linear system;
+    the state whose solution is consistent with it is the equilibrium (f is monotone: at most
+    one). A hinge whose structure is a mechanism while it is open rests on the stop that the
+    load pushes it to.
+
+    Parameters
+    ----------
+    form : ModalForm
+    kn, delta : array_like, shape (batch,) [N m/rad], [rad]
+    static_g : float [g]
+    gap_shares : array_like, shape (H,), optional
+        Hinge j's half-gap is ``delta * gap_shares[j]`` (default: one common gap).
+
+    Returns
+    -------
+    ndarray, shape (batch, N)
+
+    Raises
+    ------
+    ValueError
+        A member with no equilibrium (kn = 0 on a mechanism: nothing holds the load).
+    """
+    kn = np.atleast_1d(np.asarray(kn, dtype=float))
+    delta = np.atleast_1d(np.asarray(delta, dtype=float))
+    N, H = form.D.shape
+    shares = np.ones(H) if gap_shares is None else np.asarray(gap_shares, float).reshape(H)
+    load = form.g * float(static_g)
+    out = np.zeros((len(kn), N))
+    if static_g == 0:
+        return out
+    states = [np.array(c, float) for c in itertools.product((-1, 0, 1), repeat=H)]
+    for i, (k, d) in enumerate(zip(kn, delta)):
+        dv = d * shares
+        for s in states:
+            P = np.abs(s)
+            A = np.diag(form.lam) + k * (form.D * P) @ form.D.T
+            try:
+                eta = np.linalg.solve(A, load + k * form.D @ (P * s * dv))
+            except np.linalg.LinAlgError:
+                continue
+            if not np.all(np.isfinite(eta)) or np.linalg.cond(A) > 1e12:
+                continue
+            th = form.D.T @ eta
+            tol = 1e-9 * (np.abs(th) + dv)
+            ok = np.where(s == 0, np.abs(th) <= dv + tol, s * th >= dv - tol)
+            if ok.all():
+                out[i] = eta
+                break
+        else:
+            raise ValueError(f"no static equilibrium under {static_g:g} g at kn={k:g}, "
+                             f"delta={d:g}: nothing holds the load")
+    return out

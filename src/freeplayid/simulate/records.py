@@ -60,7 +60,8 @@ def sweep_dataset(
     Dataset
         No model file (pass the system to :func:`freeplayid.identify`); the sweep hint, the level
         and, for absolute accelerations, the base channel ``acc_base`` (the sweep's
-        ``A_g sin phase``) in every run; ``truth`` when all kept members share kn and delta.
+        ``A_g sin phase``) in every run; ``truth`` when all kept members share kn and delta;
+        the simulation's ``static_g`` as its ``gravity_g``.
     """
     q = result.quantity
     units = check_quantity(q).si_unit if units is None else units
@@ -103,4 +104,4 @@ def sweep_dataset(
     return Dataset(name=name, model=None, quantity=q, units=units,
                    sample_rate=float(result.sample_rate), channels=columns, runs=tuple(runs),
                    base_channel=BASE_COLUMN if with_base else None, truth=truth,
-                   frame=result.frame)
+                   frame=result.frame, gravity_g=result.static_g)

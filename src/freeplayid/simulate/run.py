@@ -17,7 +17,7 @@ from ..quantity import G, si_unit
 from ..sweep import MeasuredSweep, Sweep
 from .chunks import integrate_chunks
 from .engines import AUTO, ENGINES, EngineSetup, resolve_engine
-from .formulation import METHODS, ModalTruncation
+from .formulation import METHODS, ModalTruncation, static_equilibrium
 from .plan import DEFAULT_OMEGA_DT, StepPlan, step_plan
 from .quasistatic import QuasiStatic
 from .resample import PASSBAND
@@ -62,6 +62,8 @@ class SweepResult:
         What quasi-static condensation of the fast modes did (``quasi_static_hz``).
     gap_shares : tuple of float or None
         Unequal gaps: hinge j's half-gap was ``delta * gap_shares[j]``; None: one common gap.
+    static_g : float [g]
+        The constant acceleration of the frame along the base axis (gravity) that was added.
     """
 
     time: np.ndarray
@@ -82,6 +84,7 @@ class SweepResult:
     truncation: ModalTruncation | None = None
     quasi_static: QuasiStatic | None = None
     gap_shares: tuple | None = None
+    static_g: float = 0.0
 
     @property
     def steps_per_sample(self) -> int:
@@ -127,11 +130,12 @@ def simulate_sweeps(
     cuda_graphs: bool | None = None,
     gap_shares=None,
     antialias_passband: float = PASSBAND,
+    static_g: float = 0.0,
 ) -> SweepResult:
     """Simulate sine sweeps of a freeplay system for a batch of (kn, delta, level).
 
     Integrates ``M y'' + C y' + K y + sum_j b_j f(b_j^T y) = -M r a_g(t)`` (or the large-mass
-    form) with fixed-step RK4 from rest, records the requested channels and decimates them to
+    form) with fixed-step RK4 from rest (from the static equilibrium under ``static_g``), records the requested channels and decimates them to
     ``sample_rate`` through a streaming anti-aliasing filter (docs/simulate.md).
 
     Parameters
@@ -194,14 +198,23 @@ def simulate_sweeps(
         Where the decimating filter stays flat, as a fraction of ``sample_rate``
         (:func:`.resample.design_decimator`): 0.3 (default; -0.8 % at 0.336, -6 dB at 0.4) or
         up to 0.45, as flat as a sigma-delta acquisition (4 x the filter's taps).
+    static_g : float [g], within +-1
+        A constant acceleration of the frame along the base axis: gravity's component on a
+        shaker whose axis is not horizontal (+1: vertical with the outputs' + direction up).
+        It is added to ``a_g`` in the equations and left out of the records (as AC-coupled
+        accelerometers and the base motion leave it out); the members start at rest in its
+        static equilibrium (:func:`.formulation.static_equilibrium`). Engine "expo" (the choice
+        of "auto" here) and the relative method; default 0.
 
     Returns
     -------
     SweepResult
     """
     _check_types(system, sweep, dtype)
-    if engine == "auto" and gap_shares is not None and ENGINES["expo"].available():
-        engine = "expo"  # unequal gaps: the engines of AUTO do not take them
+    static_g = _static_g(static_g, method)
+    if (engine == "auto" and (gap_shares is not None or static_g)
+            and ENGINES["expo"].available()):
+        engine = "expo"  # unequal gaps, a static load: the engines of AUTO do not take them
     device = torch.device(_default_device(engine, quasi_static_hz) if device is None else device)
     # the engine's name (unknown: the valid ones listed), and whether it does device and options
     engine, engine_cls = resolve_engine(engine, device=device,
@@ -209,6 +222,10 @@ def simulate_sweeps(
     channels = _check_request(system, method=method, sample_rate=sample_rate, channels=channels)
     kn_a, dl_a, lv_a = _members(kn, delta, level_g)
     shares = _gap_shares(system, gap_shares, engine, engine_cls)
+    if static_g and not engine_cls.static_load:
+        able = [n for n, c in ENGINES.items() if c.static_load]
+        raise NotImplementedError(f"`static_g` (a static load) is implemented in the engines "
+                                  f"{able} only, got engine={engine!r}")
     # the step rule is the engine's (Engine.max_step), not implied by its name
     plan = step_plan(system, kn_max=float(kn_a.max()), sweep=sweep, sample_rate=sample_rate,
                      channels=channels, quantity=quantity, frame=frame, method=method,
@@ -219,7 +236,7 @@ def simulate_sweeps(
     base_state = np.array(sweep.unit_start(), dtype=float)  # unit (u_b, v_b)(0)
     eng = engine_cls(_engine_setup(plan, kn_a, dl_a, lv_a, base_state, quantity=quantity,
                                    dtype=dtype, device=device, cuda_graphs=cuda_graphs,
-                                   gap_shares=shares))
+                                   gap_shares=shares, static_g=static_g))
     shape = (len(kn_a), len(channels), plan.n_out)
     y = integrate_chunks(eng, plan, sweep=sweep, quantity=quantity, level_g=lv_a, shape=shape,
                          base_state=base_state, dtype=dtype, device=device, progress=progress,
@@ -234,7 +251,21 @@ def simulate_sweeps(
         truncation=plan.form.truncation,
         quasi_static=None if plan.qs is None else plan.qs.info,
         gap_shares=None if shares is None else tuple(float(v) for v in shares),
+        static_g=static_g,
     )
+
+
+def _static_g(static_g, method: str) -> float:
+    """``static_g`` checked: a finite number within +-1 [g], and 0 unless ``method`` is
+    relative (the large-mass form's base is free: a constant load would carry it away)."""
+    ok = isinstance(static_g, (int, float, np.integer, np.floating)) and not isinstance(
+        static_g, (bool, np.bool_))
+    if not ok or not math.isfinite(static_g) or abs(static_g) > 1:
+        raise ValueError(f"`static_g` must be gravity's component along the base axis in g, "
+                         f"a number within +-1, got {static_g!r}")
+    if static_g and method != "relative":
+        raise ValueError(f"`static_g` takes method='relative', got method={method!r}")
+    return float(static_g)
 
 
 def _gap_shares(system, gap_shares, engine: str, engine_cls) -> np.ndarray | None:
@@ -319,15 +350,19 @@ def _members(kn, delta, level_g) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def _engine_setup(plan: StepPlan, kn, delta, level_g, base_state, *, quantity, dtype, device,
-                  cuda_graphs, gap_shares=None) -> EngineSetup:
+                  cuda_graphs, gap_shares=None, static_g: float = 0.0) -> EngineSetup:
     """The engine's setup: the plan's equations, step and filters, and the members at rest
-    relative to the base (the large-mass form starts on the base motion ``base_state``)."""
+    relative to the base (the large-mass form starts on the base motion ``base_state``), in
+    the static equilibrium under ``static_g``."""
     form = plan.form
     G_lv = level_g * G
     eta0 = np.outer(G_lv * base_state[0], form.x0_per_ub)
+    if static_g:
+        eta0 = eta0 + static_equilibrium(form, kn, delta, static_g, gap_shares)
     v0 = np.outer(G_lv * base_state[1], form.v0_per_vb)
     return EngineSetup(
         form=form, quasi_static=plan.qs, kn=kn, delta=delta, level_g=level_g, eta0=eta0, v0=v0,
         h=plan.h, quantity=quantity, dtype=dtype, device=device, taps=plan.taps,
         taps_d=plan.taps_d, factor=plan.m, cuda_graphs=cuda_graphs, gap_shares=gap_shares,
+        static_g=static_g,
     )

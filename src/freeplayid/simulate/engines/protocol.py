@@ -50,6 +50,10 @@ class EngineSetup:
     gap_shares : ndarray, shape (H,) or None [-]
         Unequal gaps: hinge j's half-gap is ``delta * gap_shares[j]`` for every member (only for
         engines with ``Engine.gap_shares``); None: one common gap.
+    static_g : float [g]
+        A constant acceleration of the frame along the base axis (gravity on a vertical shaker),
+        added to every member's excitation (only for engines with ``Engine.static_load``; the
+        members then start in its static equilibrium, ``eta0``); 0: none.
     """
 
     form: ModalForm
@@ -68,6 +72,7 @@ class EngineSetup:
     factor: int
     cuda_graphs: bool | None = None
     gap_shares: np.ndarray | None = None
+    static_g: float = 0.0
 
 
 class Engine(Protocol):
@@ -94,6 +99,8 @@ class Engine(Protocol):
         band, does not set its step (docs/simulate.md, "Exponential engine").
     gap_shares : bool
         Whether it takes unequal gaps (``EngineSetup.gap_shares``).
+    static_load : bool
+        Whether it takes a constant acceleration of the frame (``EngineSetup.static_g``).
     record_width : int
         Values held per member and step of a chunk (bounds the steps per chunk in memory).
     """
@@ -103,6 +110,7 @@ class Engine(Protocol):
     decimates: ClassVar[bool]
     differentiates: ClassVar[bool] = False
     gap_shares: ClassVar[bool] = False
+    static_load: ClassVar[bool] = False
     record_width: int
 
     def __init__(self, setup: EngineSetup) -> None: ...

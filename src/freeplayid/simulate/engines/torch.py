@@ -25,6 +25,7 @@ class TorchEngine:
     decimates = False
     differentiates = False
     gap_shares = True
+    static_load = False
     max_step = staticmethod(rk4_max_step)
 
     def __init__(self, setup: EngineSetup):

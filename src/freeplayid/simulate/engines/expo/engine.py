@@ -28,6 +28,7 @@ class ExpoEngine(NumbaEngine):
     decimates = True
     differentiates = True
     gap_shares = True
+    static_load = True
     name = "expo"
 
     def __init__(self, setup: EngineSetup):
@@ -40,7 +41,8 @@ class ExpoEngine(NumbaEngine):
         self.kernel = NumbaExpo(s.form, s.kn, s.delta, s.level_g, s.eta0, s.v0, h=s.h,
                                 quantity="displacement" if derived else s.quantity,
                                 dtype=s.dtype, taps=s.taps_d if derived else s.taps,
-                                factor=s.factor, gap_shares=s.gap_shares)
+                                factor=s.factor, gap_shares=s.gap_shares,
+                                static_g=s.static_g)
         self.record_width = self.kernel.width
 
     @staticmethod

@@ -117,7 +117,8 @@ def _contact(G, a, st, kn, d, A, tv, tol):
 
 @numba.njit(fastmath=FASTMATH, error_model="numpy", inline="always", cache=_CACHE)
 def _record(O, Of, Og, zc, f0, u, val, acc_r, gi, half, ntap, m, taps, w0, out, col, i):
-    # the recorded value at t_k, O z + Of f + Og u (u = level sin phase), into the open outputs
+    # the recorded value at t_k, O z + Of f + Og u (u = level sin phase + the constant load),
+    # into the open outputs
     # of member i; returns 1 if an output was completed (fir_emit1)
     C = O.shape[0]
     n2 = zc.shape[0]
@@ -134,7 +135,7 @@ def _record(O, Of, Og, zc, f0, u, val, acc_r, gi, half, ntap, m, taps, w0, out, 
 
 
 @numba.njit(parallel=True, nogil=True, fastmath=FASTMATH, error_model="numpy", cache=_CACHE)
-def expo_chunk(i0, i1, z, fz, kn, dl, sh, lev, PhiT, p11, p12, p21, p22, diag, W, P0T, P1T, D, G,
+def expo_chunk(i0, i1, z, fz, kn, dl, sh, lev, ust, PhiT, p11, p12, p21, p22, diag, W, P0T, P1T, D, G,
                O, Of, Og, s_half, tol, out, col0, taps, m, half, w0, ring, gi0, bad):
     # steps gi0 .. gi0 + L - 1 of members i0 .. i1 - 1 (none: compile only). z (batch, 2N) state
     # at the chunk start, fz (batch, H) f(theta) there, ring (batch, R, C) the open outputs of
@@ -142,7 +143,8 @@ def expo_chunk(i0, i1, z, fz, kn, dl, sh, lev, PhiT, p11, p12, p21, p22, diag, W
     # gi, j = gi + half, and is written to out[i, :, col0 + n] once complete). The recorded value
     # at t_k is O z_k + Of f_k + Og level s_k (eta, eta' or eta'' through S). A member without a
     # consistent contact state is flagged in `bad` and frozen at rest with no load. Hinge j's
-    # half-gap is dl[i] sh[j] (sh: the gap shares, all 1 for one common gap).
+    # half-gap is dl[i] sh[j] (sh: the gap shares, all 1 for one common gap). ust[i] is member
+    # i's constant load (a static acceleration of the frame, in level units), added to u.
     n2 = z.shape[1]
     N = n2 // 2
     H = D.shape[1]
@@ -173,15 +175,15 @@ def expo_chunk(i0, i1, z, fz, kn, dl, sh, lev, PhiT, p11, p12, p21, p22, diag, W
         for j in range(H):
             dv[j] = dl[i] * sh[j]
         lv = lev[i]
+        us = ust[i]
         n_emit = 0
         for step in range(L):
-            s0 = s_half[2 * step]
-            n_emit += _record(O, Of, Og, zc, f0, lv * s0, val, acc_r, gi0 + step, half, ntap,
+            u0 = fma(lv, s_half[2 * step], us)
+            n_emit += _record(O, Of, Og, zc, f0, u0, val, acc_r, gi0 + step, half, ntap,
                               m, taps, w0, out, col0 + n_emit, i)  # record at t_k
             # free response and the base load
-            u0 = lv * s0
-            um = lv * s_half[2 * step + 1]
-            u1 = lv * s_half[2 * step + 2]
+            um = fma(lv, s_half[2 * step + 1], us)
+            u1 = fma(lv, s_half[2 * step + 2], us)
             if diag:
                 for k in range(N):
                     e_ = zc[k]
@@ -210,6 +212,7 @@ def expo_chunk(i0, i1, z, fz, kn, dl, sh, lev, PhiT, p11, p12, p21, p22, diag, W
             if not _contact(G, a, st, k_n, dv, A, tv, tol):
                 bad[i] = True
                 lv = zero
+                us = zero
                 for k in range(n2):
                     zn[k] = 0.0
                 for j in range(H):
@@ -273,7 +276,7 @@ def _hinge_state(D, z, d, th, st):
 
 
 @numba.njit(parallel=True, nogil=True, fastmath=FASTMATH, error_model="numpy", cache=_CACHE)
-def expo_states_chunk(i0, i1, z, kset, dl, sh, lev, kns, levels, PhiT, Ws, cs, P1T, Gm, Ms, es, D,
+def expo_states_chunk(i0, i1, z, kset, dl, sh, lev, ust, kns, levels, PhiT, Ws, cs, P1T, Gm, Ms, es, D,
                       O, Of, Og, s_half, tol, out, col0, taps, m, half, w0, ring, gi0, bad):
     # as expo_chunk, with exact steps per contact state (steps.discretize_states): member
     # i uses the matrices kset[i] (its kn, kns[kset[i]]). A step is taken in the state of its
@@ -314,17 +317,17 @@ def expo_states_chunk(i0, i1, z, kset, dl, sh, lev, kns, levels, PhiT, Ws, cs, P
         for j in range(H):
             dv[j] = d * sh[j]
         lv = lev[i]
+        us = ust[i]
         n_emit = 0
         for step in range(L):
-            s0 = s_half[2 * step]
+            u0 = fma(lv, s_half[2 * step], us)
             code = _hinge_state(D, zc, dv, th, st0)
             for j in range(H):
                 f0[j] = k_n * abs(st0[j]) * (th[j] - st0[j] * dv[j])
-            n_emit += _record(O, Of, Og, zc, f0, lv * s0, val, acc_r, gi0 + step, half, ntap,
+            n_emit += _record(O, Of, Og, zc, f0, u0, val, acc_r, gi0 + step, half, ntap,
                               m, taps, w0, out, col0 + n_emit, i)  # record at t_k
-            u0 = lv * s0
-            um = lv * s_half[2 * step + 1]
-            u1 = lv * s_half[2 * step + 2]
+            um = fma(lv, s_half[2 * step + 1], us)
+            u1 = fma(lv, s_half[2 * step + 2], us)
             # the step in sub-steps of h / 2^lvl at pos (units h / 2^levels)
             pos = 0
             lvl = 0
@@ -362,6 +365,7 @@ def expo_states_chunk(i0, i1, z, kset, dl, sh, lev, kns, levels, PhiT, Ws, cs, P
                     if not _contact(Gs, th, st, k_n, dv, A, tv, tol):
                         bad[i] = True
                         lv = cast(0.0)
+                        us = cast(0.0)
                         u0 = um = u1 = cast(0.0)
                         for k in range(n2):
                             zn[k] = 0.0
@@ -424,10 +428,12 @@ class NumbaExpo:
         Steps per output sample.
     gap_shares : ndarray, shape (H,), optional
         Hinge j's half-gap is ``delta * gap_shares[j]`` (default all 1: one common gap).
+    static_g : float [g]
+        A constant acceleration of the frame added to every member's excitation (default 0).
     """
 
     def __init__(self, form: ModalForm, kn, delta, level_g, eta0, v0, *, h, quantity, dtype,
-                 taps, factor, gap_shares=None):
+                 taps, factor, gap_shares=None, static_g: float = 0.0):
         nd = float_dtype(dtype)
         a = lambda x: np.ascontiguousarray(np.asarray(x, dtype=nd))  # noqa: E731
         self.nd = nd
@@ -454,6 +460,7 @@ class NumbaExpo:
         C = self.O.shape[0]
         self.batch = B = len(np.atleast_1d(kn))
         self.kn, self.dl, self.lev = a(kn), a(delta), a(level_g)
+        self.ust = a(np.full(B, float(static_g)))
         self.z = a(np.hstack([np.asarray(eta0, float).reshape(B, N),
                               np.asarray(v0, float).reshape(B, N)]))
         theta0 = np.asarray(eta0, float).reshape(B, N) @ form.D
@@ -504,17 +511,18 @@ class NumbaExpo:
                 f"({self.batch}, {self.width}, n_samples), got {out.dtype} {out.shape}")
         L = (len(s_half) - 1) // 2
         n_new = self.emitted(L)
-        args = (self.z, self.fz, self.kn, self.dl, self.sh, self.lev, self.PhiT, self.p11,
-                self.p12, self.p21, self.p22, self.diag, self.W, self.P0T, self.P1T, self.D, self.G,
-                self.O, self.Of, self.Og, np.ascontiguousarray(s_half, dtype=self.nd), self.tol,
-                out, self.outputs, self.taps, self.m, self.half, self.w0, self.ring, self.gi,
-                self.bad)
+        s_half = np.ascontiguousarray(s_half, dtype=self.nd)
+        args = (self.z, self.fz, self.kn, self.dl, self.sh, self.lev, self.ust, self.PhiT,
+                self.p11, self.p12, self.p21, self.p22, self.diag, self.W, self.P0T, self.P1T,
+                self.D, self.G, self.O, self.Of, self.Og, s_half, self.tol, out, self.outputs,
+                self.taps, self.m, self.half, self.w0, self.ring, self.gi, self.bad)
         kernel = expo_chunk
         if self.per_state:
             kernel = expo_states_chunk
-            args = (self.z, self.kset, self.dl, self.sh, self.lev, self.kns, self.levels,
+            args = (self.z, self.kset, self.dl, self.sh, self.lev, self.ust, self.kns,
+                    self.levels,
                     self.sPhiT, self.sW, self.sc, self.sP1T, self.sGm, self.sM, self.se, self.D,
-                    self.O, self.Of, self.Og, args[20], self.tol, out, self.outputs, self.taps,
+                    self.O, self.Of, self.Og, s_half, self.tol, out, self.outputs, self.taps,
                     self.m, self.half, self.w0, self.ring, self.gi, self.bad)
         if not self._compiled:
             compile_kernel(kernel, args, f"exponential kernel ({np.dtype(self.nd).name})")
@@ -527,6 +535,7 @@ class NumbaExpo:
         if bad.any():
             self.alive &= ~bad
             self.lev[bad] = 0.0
+            self.ust[bad] = 0.0
             self.z[bad] = 0.0
             self.fz[bad] = 0.0
         return out

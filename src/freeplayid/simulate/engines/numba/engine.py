@@ -32,6 +32,7 @@ class NumbaEngine:
     decimates = True
     differentiates = False
     gap_shares = False  # one common gap (the RK4 kernels take delta per member only)
+    static_load = False
     max_step = staticmethod(rk4_max_step)
     name = "numba"
 
