@@ -63,10 +63,11 @@ def test_default_model_is_the_package_fin(primary):
         assert (cfg.kn, cfg.delta) == (480.0, 0.003) and moved.delta == 0.002
 
 
-def test_simulate_script_end_to_end(tmp_path):
+@pytest.mark.parametrize("vertical", [[], ["gravity_g=1"]])
+def test_simulate_script_end_to_end(tmp_path, vertical):
     run = tmp_path / "run"
     cmd = [sys.executable, str(ROOT / "scripts" / "simulate.py"), "model=sdof", "debug=fast",
-           "noise_std_g=0.1", f"hydra.run.dir={run}"]
+           "noise_std_g=0.1", f"hydra.run.dir={run}", *vertical]
     env = {"PYTHONPATH": str(ROOT / "src")}
     import os
 
@@ -82,6 +83,9 @@ def test_simulate_script_end_to_end(tmp_path):
     ds = read_dataset(run / "dataset")
     assert ds.quantity == "acceleration" and ds.units == "g" and len(ds.runs) == 2
     assert ds.runs[0].data.shape == (1, 513) and ds.channels == {"acc_x": "x"}
+    # a vertical shaker: the weight in the simulation (the exponential engine) and the manifest
+    assert ds.gravity_g == (1.0 if vertical else 0.0)
+    assert metrics["engine"] == ("expo" if vertical else "numba")
 
 
 def test_simulate_script_quasi_static_option(tmp_path):

@@ -213,6 +213,7 @@ def _simulate() -> dict[str, Rule]:
         "device": optional(text()), "cutoff_hz": optional(positive()),
         "quasi_static_hz": optional(positive()), "output_dir": relative_path(),
         "plot": boolean(), "max_steps": positive(), "force": boolean(),
+        "gravity_g": number(-1.0, 1.0),
     }
 
 
@@ -345,3 +346,7 @@ def _check_simulate(cfg: DictConfig) -> None:
         raise ConfigError("`quasi_static_hz` and `cutoff_hz` cannot be combined; set one to null")
     if cfg.quasi_static_hz is not None and cfg.method != "relative":
         raise ConfigError(f"`quasi_static_hz` needs method=relative, got {cfg.method!r}")
+    if cfg.gravity_g and (cfg.method != "relative" or cfg.quasi_static_hz is not None):
+        raise ConfigError("`gravity_g` (a vertical shaker) needs method=relative and "
+                          "quasi_static_hz=null (the exponential engine carries it); got "
+                          f"method={cfg.method!r}, quasi_static_hz={cfg.quasi_static_hz!r}")

@@ -96,6 +96,7 @@ def _simulate(cfg: DictConfig, stage, t0: float) -> dict:
         channels=tuple(channels.values()), quantity=cfg.quantity, frame=cfg.frame,
         sample_rate=float(cfg.sample_rate), method=cfg.method, device=cfg.device, dtype=dtype,
         cutoff_hz=cfg.cutoff_hz, quasi_static_hz=cfg.get("quasi_static_hz"),
+        static_g=float(cfg.get("gravity_g", 0.0)),
     )
     noise = None
     if cfg.noise_std_g:
@@ -146,7 +147,7 @@ def _write(cfg, stage, ds, system, res, sweep, channels, levels, data) -> None:
     write_dataset(
         stage / cfg.output_dir, name=ds.name, quantity=ds.quantity, units=ds.units,
         sample_rate=ds.sample_rate, channels=ds.channels, runs=ds.runs, system=system,
-        base_channel=ds.base_channel, truth=ds.truth, frame=ds.frame,
+        base_channel=ds.base_channel, truth=ds.truth, frame=ds.frame, gravity_g=ds.gravity_g,
     )
     if cfg.plot:
         import matplotlib
