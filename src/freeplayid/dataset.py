@@ -14,8 +14,8 @@ nothing for a function's arguments) and naming the field or argument.
 
 from __future__ import annotations
 
-import numbers
 import math
+import numbers
 import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass

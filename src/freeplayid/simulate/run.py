@@ -135,8 +135,9 @@ def simulate_sweeps(
     """Simulate sine sweeps of a freeplay system for a batch of (kn, delta, level).
 
     Integrates ``M y'' + C y' + K y + sum_j b_j f(b_j^T y) = -M r a_g(t)`` (or the large-mass
-    form) with fixed-step RK4 from rest (from the static equilibrium under ``static_g``), records the requested channels and decimates them to
-    ``sample_rate`` through a streaming anti-aliasing filter (docs/simulate.md).
+    form) with fixed-step RK4 from rest (from the static equilibrium under ``static_g``),
+    records the requested channels and decimates them to ``sample_rate`` through a streaming
+    anti-aliasing filter (docs/simulate.md).
 
     Parameters
     ----------

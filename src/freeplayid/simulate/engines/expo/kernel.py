@@ -135,8 +135,8 @@ def _record(O, Of, Og, zc, f0, u, val, acc_r, gi, half, ntap, m, taps, w0, out, 
 
 
 @numba.njit(parallel=True, nogil=True, fastmath=FASTMATH, error_model="numpy", cache=_CACHE)
-def expo_chunk(i0, i1, z, fz, kn, dl, sh, lev, ust, PhiT, p11, p12, p21, p22, diag, W, P0T, P1T, D, G,
-               O, Of, Og, s_half, tol, out, col0, taps, m, half, w0, ring, gi0, bad):
+def expo_chunk(i0, i1, z, fz, kn, dl, sh, lev, ust, PhiT, p11, p12, p21, p22, diag, W, P0T, P1T, D,
+               G, O, Of, Og, s_half, tol, out, col0, taps, m, half, w0, ring, gi0, bad):
     # steps gi0 .. gi0 + L - 1 of members i0 .. i1 - 1 (none: compile only). z (batch, 2N) state
     # at the chunk start, fz (batch, H) f(theta) there, ring (batch, R, C) the open outputs of
     # the fused FIR (..numba.fir: output k gets weight taps[j - k m] of the value of step
@@ -276,8 +276,8 @@ def _hinge_state(D, z, d, th, st):
 
 
 @numba.njit(parallel=True, nogil=True, fastmath=FASTMATH, error_model="numpy", cache=_CACHE)
-def expo_states_chunk(i0, i1, z, kset, dl, sh, lev, ust, kns, levels, PhiT, Ws, cs, P1T, Gm, Ms, es, D,
-                      O, Of, Og, s_half, tol, out, col0, taps, m, half, w0, ring, gi0, bad):
+def expo_states_chunk(i0, i1, z, kset, dl, sh, lev, ust, kns, levels, PhiT, Ws, cs, P1T, Gm, Ms,
+                      es, D, O, Of, Og, s_half, tol, out, col0, taps, m, half, w0, ring, gi0, bad):
     # as expo_chunk, with exact steps per contact state (steps.discretize_states): member
     # i uses the matrices kset[i] (its kn, kns[kset[i]]). A step is taken in the state of its
     # start; if a hinge's state at its end differs, it is halved (down to h / 2^levels) and the
