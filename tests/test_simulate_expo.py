@@ -6,7 +6,13 @@ import scipy.integrate
 import torch
 
 import sdof_reference as ref
-from freeplayid.model import FreeplaySystem, freeplay_force, rayleigh_damping, sdof_system
+from freeplayid.model import (
+    FreeplaySystem,
+    default_fin,
+    freeplay_force,
+    rayleigh_damping,
+    sdof_system,
+)
 from freeplayid.quantity import G
 from freeplayid.simulate import Sweep, build_modal_form, simulate_sweeps
 from freeplayid.simulate.engines import ENGINES, numba_available, resolve_engine
@@ -20,6 +26,7 @@ from freeplayid.simulate.engines.expo.steps import (
     ringing_hz,
     state_code,
 )
+from freeplayid.simulate.formulation import static_equilibrium
 from freeplayid.simulate.resample import design_decimator
 from test_simulate import first_harmonic, linear_reference
 
@@ -235,9 +242,6 @@ def test_a_static_load_matches_the_independent_reference(static_g):
 def test_static_equilibrium_is_the_physical_one_on_the_fin():
     # the modal solve (contact state by state) against K y + sum_j b_j f(b_j^T y) = -M r a_s in
     # physical coordinates, each hinge on the stop the load pushes it to
-    from freeplayid.model import default_fin
-    from freeplayid.simulate.formulation import static_equilibrium
-
     system = default_fin()
     kn, delta = 480.0, 3e-3
     form = build_modal_form(system, channels=system.dof_names, quantity="displacement",

@@ -1559,13 +1559,10 @@ VARIANTS.update(dict(_vertical(*a) for a in (
     ("var23_finB_vertical", "var5_finB_nominal", -1.0),
     ("var23_finC_vertical_1024", "var19_finC_nominal_1024", 1.0),
     ("var23_fin_rayleigh_vertical", "fin_rayleigh_noC", 1.0),
-)))
-
-# A twenty-fourth set (2026-12-06, session 63): gravity on other structures and another sweep
-# direction, now that a data set can state it (`gravity_g`, written to the manifest): the
-# Rayleigh-damped single-hinge beam, the two-hinge beam with unequal gaps, the fin swept down.
-# Chosen before any of their answers was seen.
-VARIANTS.update(dict(_vertical(*a) for a in (
+    # A twenty-fourth set (2026-12-06, session 63): gravity on other structures and another
+    # sweep direction, now that a data set can state it (`gravity_g`, written to the manifest):
+    # the Rayleigh-damped single-hinge beam, the two-hinge beam with unequal gaps, the fin swept
+    # down. Chosen before any of their answers was seen.
     ("var24_beam_rayleigh_vertical", "beam_rayleigh", 1.0),
     ("var24_beam_two_hinges_vertical", "beam_two_hinges", -1.0),
     ("var24_fin_down_sweep_vertical", "fin_down_sweep", 1.0),

@@ -82,7 +82,7 @@ def check_even_harmonics(records) -> list[Finding]:
     set's ``gravity_g`` does not explain (module docstring)."""
     opts = records.options
     found = []
-    if getattr(records.dataset, "gravity_g", 0.0):
+    if records.dataset.gravity_g:
         return found  # the weight is stated: the replays make its even harmonics
     for rec in records.runs:
         s = even_share(records, rec)

@@ -123,7 +123,7 @@ def replay_dataset(dataset, system, kn: float, delta: float, *, levels: dict | N
         engine = "expo" if ENGINES["expo"].available() else "auto"
     sweeps = replay_sweeps(dataset) if sweeps is None else sweeps
     levels = replay_levels(dataset, sweeps) if levels is None else levels
-    frame = dataset.frame
+    frame, gravity = dataset.frame, dataset.gravity_g
     hints = {run.file: run.sweep for run in dataset.runs}
     excitations = excitations or {}
     groups: dict = {}
@@ -139,7 +139,7 @@ def replay_dataset(dataset, system, kn: float, delta: float, *, levels: dict | N
                               sample_rate=dataset.sample_rate,
                               dtype=torch.float64 if dtype is None else dtype, progress=False,
                               engine=engine, gap_shares=gap_shares,
-                              static_g=getattr(dataset, "gravity_g", 0.0),
+                              static_g=gravity,
                               **({} if passband is None else {"antialias_passband": passband}))
         ds = sweep_dataset(res, columns=dataset.channels, units=dataset.units, run_names=files)
         return [dataclasses.replace(r, sweep=hints[r.file],
@@ -152,8 +152,7 @@ def replay_dataset(dataset, system, kn: float, delta: float, *, levels: dict | N
     return Dataset(name=f"replay of {dataset.name}", model=None, quantity=dataset.quantity,
                    units=dataset.units, sample_rate=dataset.sample_rate,
                    channels=dict(dataset.channels), runs=tuple(runs),
-                   base_channel=dataset.base_channel, frame=frame,
-                   gravity_g=getattr(dataset, "gravity_g", 0.0))
+                   base_channel=dataset.base_channel, frame=frame, gravity_g=gravity)
 
 
 def _each_group(simulate, groups: list, engine: str) -> list:
