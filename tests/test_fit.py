@@ -1,7 +1,9 @@
+import math
 import re
 
 import numpy as np
 import pytest
+import scipy.optimize
 
 from freeplayid.backbone import dfa_backbone, hb_backbone
 from freeplayid.fit import (
@@ -322,3 +324,37 @@ def test_curves_between_kn_nodes_are_interpolated_to_the_computed_ones():
     again = objective.BackboneModel(fin, ["uz_top_left"])
     again.curve(480.0)
     assert again.n_curves == 0  # the nodes of the first model, shared
+
+
+def _two_dof_hinge_share(kn, m_in=1.0, m_out=0.5, k_in=4.0e4):
+    """The hinge's share of the two-DOF system's closed mode 1 stiffness, by hand: the 2 x 2
+    eigenproblem's lower root and its shape (x_in, x_out)."""
+    a, b, c = m_in * m_out, -(m_in * kn + m_out * (k_in + kn)), k_in * kn
+    w2 = (-b - math.sqrt(b * b - 4 * a * c)) / (2 * a)
+    x_out = kn / (kn - m_out * w2)  # x_in = 1: the outboard row kn (x_out - 1) = m_out w2 x_out
+    hinge, root = kn * (x_out - 1.0) ** 2, k_in
+    return hinge / (hinge + root)
+
+
+@pytest.mark.parametrize("share", [2e-3, 0.5])
+def test_a_fit_whose_hinge_still_carries_the_mode_is_determined(share):
+    from freeplayid.estimate import check_determined
+
+    kn = scipy.optimize.brentq(lambda k: math.log(_two_dof_hinge_share(k) / share), 1.0, 1e15)
+    check_determined(kn, 1e-3, two_dof_system(), 0, "here")  # does not raise
+
+
+@pytest.mark.parametrize("kn, delta", [(None, 1e-3), (1e17, 1e-3), (math.nan, 1e-3),
+                                       (math.inf, 1e-3), (2e4, 0.0), (-2e4, 1e-3)])
+def test_a_fit_that_ran_off_to_a_rigid_hinge_is_refused_with_its_cause(kn, delta):
+    """A fit that ran off (kn towards infinity: the two-DOF's hinge share 5e-4 of its mode 1,
+    by hand; or kn, delta not finite and positive) is an IdentificationError that says so."""
+    from freeplayid.errors import IdentificationError
+    from freeplayid.estimate import check_determined
+
+    if kn is None:  # the share 5e-4, below the 1e-3 that still counts
+        kn = scipy.optimize.brentq(lambda k: math.log(_two_dof_hinge_share(k) / 5e-4), 1.0,
+                                   1e15)
+    with pytest.raises(IdentificationError, match=r"here: the fit ran off to kn = .*the points "
+                       r"do not determine kn"):
+        check_determined(kn, delta, two_dof_system(), 0, "here")

@@ -1050,6 +1050,22 @@ def test_the_answers_precision_is_the_spread_of_independent_noise_draws(measured
     assert "Precision: the data's noise alone moves delta" in res.report()
 
 
+def test_a_plain_fit_that_runs_off_is_refused_not_carried_on(measured, system, monkeypatch):
+    """A plain fit whose kn ran off (here made infinite) is an IdentificationError naming it,
+    so the loop and the base-timing retry, which catch that error, never carry such a model on
+    (a fin's shifted retry once crashed in the model's frequency scale at kn 2e17)."""
+    import freeplayid.estimate as estimate
+    from freeplayid.fit import FitOptions
+    from freeplayid.signal import Extraction
+
+    real = estimate.fit_backbone
+    monkeypatch.setattr(estimate, "fit_backbone",
+                        lambda *a, **k: dataclasses.replace(real(*a, **k), kn=math.inf))
+    with pytest.raises(IdentificationError, match="the fit ran off to kn = inf"):
+        estimate.plain_estimate(measured, system, extraction=Extraction(), fit=FitOptions(),
+                                init=(WN * WN, ref.DELTA))
+
+
 def test_the_answers_precision_carries_each_copy_through_the_bindings_slope(measured, system):
     """The answer moves with the statistic by the binding's slope S: each noisy copy's
     log (kn, delta) is carried through it, so (same copies, same seed) S = diag(1, 2) doubles

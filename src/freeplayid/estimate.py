@@ -13,6 +13,7 @@ this estimate one layer up.
 from __future__ import annotations
 
 import dataclasses
+import math
 import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -29,6 +30,7 @@ from .fit import (
     fit_backbone,
     resolve_start,
 )
+from .model import modal_analysis
 from .progress import progress_bar
 from .signal import (
     REASON_EDGE,
@@ -183,6 +185,43 @@ def check_enough(points: BackbonePoints, rejected: dict, where) -> None:
         )
 
 
+# below this share of the identified closed mode's stiffness the hinges are rigid in it:
+# doubling kn moves the mode by under 0.035 % (d ln f / d ln kn is half the share), so kn is no
+# longer read from the points and a fit that reaches it has run off. The stiffest hinge of the
+# project's data sets holds a tenth (the kn 8000 N m/rad beam).
+HINGE_SHARE_MIN = 1e-3
+# and beyond this kn over the structure's stiffness the eigensolution cannot resolve the share
+KN_OVER_K_MAX = 1e12
+
+
+def check_determined(kn: float, delta: float, system, mode: int, where, points=None) -> None:
+    """IdentificationError unless (``kn``, ``delta``) is a fit that the points determine: both
+    finite and positive, and the hinges still carrying a share of the closed mode ``mode``'s
+    stiffness at ``kn`` (:data:`HINGE_SHARE_MIN`). A fit that ran off to a rigid hinge (kn
+    towards infinity, where the backbone no longer depends on it) would give a model nothing
+    downstream can use (a fin's closed mode 1 reads 0 Hz at kn 2e17)."""
+    share = math.nan
+    if math.isfinite(kn) and kn > 0 and math.isfinite(delta) and delta > 0:
+        k_scale = float(np.linalg.norm(system.K))
+        b2 = float(np.max(np.sum(system.hinge_matrix() ** 2, axis=0)))
+        if k_scale > 0 and kn * b2 > KN_OVER_K_MAX * k_scale:
+            share = 0.0
+        else:
+            try:
+                modes = modal_analysis(system.M, system.closed_stiffness(kn))
+                w2 = float(modes.omega[mode]) ** 2
+                phi = modes.shapes[:, mode]
+                share = 1.0 - float(phi @ (system.K @ phi)) / w2 if w2 > 0 else math.nan
+            except (np.linalg.LinAlgError, ValueError, IndexError):
+                share = math.nan
+    if not share >= HINGE_SHARE_MIN:
+        raise IdentificationError(
+            f"{where}: the fit ran off to kn = {kn:.3g} N·m/rad, delta = {delta:.3g} rad, where "
+            f"the hinges are rigid in mode {mode + 1} (their share of its stiffness "
+            f"{share:.2g}, below {HINGE_SHARE_MIN:g}): the points do not determine kn; add "
+            "runs at other levels that resonate in the band", points=points)
+
+
 def _advice(rejected: dict) -> str:
     """What to do when too few runs give points, from why they were rejected."""
     reasons = list(rejected.values())
@@ -245,6 +284,7 @@ def plain_estimate(dataset, system, *, extraction: Extraction, fit: FitOptions, 
                           backbone=fit.backbone, mode=fit.mode, n_bootstrap=fit.n_bootstrap,
                           seed=fit.seed, weights=weights_of(points, point_weights),
                           progress=progress)
+    check_determined(result.kn, result.delta, system, fit.mode, where, pts)
     return PlainEstimate(points=pts, rejected_runs=tuple(rejected.items()), fit=result,
                          dofs=dict(dataset.channels), inverse_estimate=start.inverse)
 
