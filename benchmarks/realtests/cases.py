@@ -589,6 +589,10 @@ def write_draw(folder: Path, spec: CaseSpec, clean: dict, seed: int, jumps: list
                 sweep=dict(run.sweep) if spec.hints else None,
                 base=r["base"] if spec.base_channel else None)
             for run, r in zip(spec.runs, runs)]
+    keep = {o.file for o in objs}  # a draw written again: no run file of the last one stays
+    for old in folder.glob("*.csv.gz") if folder.is_dir() else ():
+        if old.name not in keep:
+            old.unlink()
     manifest = write_dataset(folder, name=f"realtests {spec.name}: {spec.condition}",
                              quantity="acceleration", units="g", sample_rate=spec.sample_rate,
                              channels=spec.channels, runs=objs, system=spec.model,
