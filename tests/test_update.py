@@ -95,3 +95,34 @@ def test_update_recovers_fin_young_modulus_from_full_fe():
     assert res.success
     assert res.parameters["E_out"] == pytest.approx(1.05, rel=5e-3)
     assert res.parameters["E_in"] == pytest.approx(1.0, rel=5e-3)
+
+
+def test_a_refit_to_the_updated_model_that_runs_off_is_refused_with_its_cause(monkeypatch):
+    """The plain estimate refitted against the model updated to the sealed modes is held to the
+    plain fit's rule (:func:`freeplayid.estimate.check_determined`): a refit that ran off to a
+    rigid hinge is an IdentificationError naming the update, not a model the frequency scale
+    then divides by zero on."""
+    import math
+    from types import SimpleNamespace
+
+    import freeplayid.identification.model_error as me
+    from freeplayid.errors import IdentificationError
+    from freeplayid.fit import FitOptions
+    from freeplayid.model import ModelOptions, two_dof_system
+
+    system = two_dof_system()
+    est = SimpleNamespace(kn=2.0e4, delta=1e-3, points=None)
+    monkeypatch.setattr(me, "update_to_sealed_modes",
+                        lambda *a, **k: SimpleNamespace(system=system))
+    monkeypatch.setattr(me, "refit", lambda e, *a, **k: SimpleNamespace(
+        kn=math.inf, delta=e.delta, points=None))
+    ds = SimpleNamespace(path="here", name="x", reference_modes={
+        "frequencies_hz": [1.0], "shapes": [[1.0]], "dofs": ["uz_out"]})
+    with pytest.raises(IdentificationError, match=r"here \(the model updated to its sealed "
+                       r"modes\): the fit ran off to kn = inf"):
+        me.update_model(ds, system, est, FitOptions(), ModelOptions())
+    # a refit that lands is passed on as it is
+    monkeypatch.setattr(me, "refit", lambda e, *a, **k: SimpleNamespace(
+        kn=2.1e4, delta=e.delta, points=None))
+    got = me.update_model(ds, system, est, FitOptions(), ModelOptions())
+    assert got[1].kn == 2.1e4

@@ -70,7 +70,7 @@ import scipy.optimize
 import scipy.stats
 
 from ..backbone import amplitude_grid, dfa_backbone
-from ..estimate import PlainEstimate, refit
+from ..estimate import PlainEstimate, check_determined, refit
 from ..fit import FitOptions, gap_ratios, jacobian_halfwidths
 from ..model import ModelOptions, SealedUpdate, modal_analysis, update_to_sealed_modes
 from .replay_checks import noise_outside_chance
@@ -565,7 +565,11 @@ def update_model(dataset, system, est: PlainEstimate, fit: FitOptions,
                                  ref["dofs"], mode=fit.mode)
     if upd is None:
         return system, est, None
-    return upd.system, refit(est, upd.system, fit), upd
+    est = refit(est, upd.system, fit)
+    check_determined(est.kn, est.delta, upd.system, fit.mode,
+                     f"{dataset.path or dataset.name or 'data set'} (the model updated to its "
+                     "sealed modes)", est.points)
+    return upd.system, est, upd
 
 
 def frequency_uncertainty(options: ModelOptions, update: SealedUpdate | None) -> float:
