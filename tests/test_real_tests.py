@@ -443,6 +443,17 @@ def test_a_common_delta_the_points_reject_fails_the_verdict():
     noisy = dataclasses.replace(split, log_se=(0.1, 0.1))
     quiet = {c.name: c for c in model_checks(dataclasses.replace(error(4e-6), split=noisy))}
     assert quiet["hinge_gaps"].passed and "explains the test" in quiet["hinge_gaps"].message
+    assert "would not show" not in quiet["hinge_gaps"].message  # no GapSplit given
+    # passed against the replay too, where a split the points cannot see would put the hinges'
+    # mean beyond delta's bound: said there as well (fin D: ±34 %, 7.2 %), and not on a failure
+    unseen_read = dataclasses.replace(error(4e-6), split=noisy,
+                                      gaps=GapSplit(0.34, False, 2.4e-3, 0.072))
+    both = {c.name: c for c in model_checks(unseen_read)}["hinge_gaps"]
+    assert both.passed and "explains the test" in both.message
+    assert "±34 % would not show" in both.message and "7.2 % from delta" in both.message
+    failed = {c.name: c for c in model_checks(dataclasses.replace(
+        unseen_read, split=split))}["hinge_gaps"]
+    assert not failed.passed and "would not show" not in failed.message
 
 
 def test_identify_reports_each_hinges_half_gap_on_request(tmp_path):
