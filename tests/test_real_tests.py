@@ -402,6 +402,25 @@ def test_one_half_gap_per_hinge_where_the_hinges_turn_together():
     assert fit_hinge_gaps(sdof_system(), pts, 480.0, 3e-3) is None
 
 
+def test_a_model_uncertainty_that_moves_kn_beyond_its_bound_is_said_and_passes():
+    """``linear_model`` says where the model's frequency uncertainty moves kn beyond kn's 2 %
+    bound, and how good the model must be for kn to hold it (0.5 % moving kn 4 %: within
+    0.25 %); it passes all the same (kn is conditional on the model), and says nothing more
+    where the move is within the bound (the default fin: 1.5 %) or no uncertainty is stated."""
+    from freeplayid.identification.model_error import ModelError
+    from freeplayid.identification.verdict import model_checks
+
+    def check(u, shift):
+        return {c.name: c for c in model_checks(ModelError(None, u, shift))}["linear_model"]
+
+    far = check(0.005, 0.04)
+    assert far.passed and "conditional on the linear model" in far.message
+    assert "included in kn's interval (beyond kn's 2 % bound" in far.message
+    assert "within 0.25 %" in far.message
+    assert "bound" not in check(0.005, 0.015).message
+    assert "bound" not in check(0.0, 0.0).message
+
+
 def test_a_common_delta_the_points_reject_fails_the_verdict():
     """The verdict's ``hinge_gaps`` check: made only where the per-hinge fit ran, failed when its
     test rejects one common delta, with the residuals and the cause in its message."""
