@@ -1648,6 +1648,15 @@ VARIANTS.update({
             sweep={"start_hz": FIN_D_SWEEP["start_hz"], "stop_hz": FIN_D_SWEEP["stop_hz"],
                    "octaves_per_min": 0.35}, **kw)), "var25_finD_log"),
 })
+# and, chosen after the set's answers but before any of their own, three of its records without
+# the base channel (`level_g` only): the control, the dip and the Rayleigh damping
+def _without_base(src: str):
+    name = f"{src}_no_base"
+    return name, lambda **kw: fin_no_base(name=name, src=src)
+
+
+VARIANTS.update(dict(_without_base(src) for src in (
+    "var25_finD_nominal", "var25_finD_dip", "var25_finD_rayleigh")))
 
 ALL_CASES = {**CONDITIONS, **VARIANTS}
 
