@@ -166,3 +166,21 @@ def test_replace_and_unknown_dof():
         s.replace(mass=1)
     with pytest.raises(KeyError, match="unknown DOF 'zz'"):
         s.dof_index("zz")
+
+
+def test_pairing_breaks_a_tie_of_shapes_by_frequency_and_only_a_tie():
+    """Two measured DOFs: a shape is one ratio, so a model mode far off in frequency can match
+    a reference mode's shape better than the right one (fin D's sealed mode 2 at 218.5 Hz,
+    shape (1, -0.2225): its model mode 2 at 222.6 Hz reads (3.81, -0.855), MAC 0.99999, and a
+    mode at 4 kHz the ratio exactly). Given the frequencies, the tie (within 0.01 of the best
+    MAC) goes to the nearest; a clear MAC difference is not overridden by frequency."""
+    ref = np.array([[1.0, 1.0], [0.161, -0.2225]])  # two reference modes at 53.5, 218.5 Hz
+    model = np.array([[2.41, 3.81, -2.0], [0.388, -0.855, 0.445]])  # 53.8, 222.6, 4000 Hz
+    f_ref, f = np.array([53.5, 218.5]), np.array([53.8, 222.6, 4000.0])
+    assert pair_modes(ref, model)[0].tolist() == [0, 2]  # by MAC alone: the 4 kHz mode
+    idx, val = pair_modes(ref, model, frequencies=(f_ref, f))
+    assert idx.tolist() == [0, 1] and val[1] > 0.9999
+    # a clear MAC difference stands whatever the frequencies: (1, 0) against (1, 0.2) and (0, 1)
+    clear = pair_modes(np.array([[1.0], [0.0]]), np.array([[1.0, 0.0], [0.2, 1.0]]),
+                       frequencies=([100.0], [300.0, 100.0]))[0]
+    assert clear.tolist() == [0]

@@ -146,7 +146,8 @@ def update_to_sealed_modes(system: FreeplaySystem, kn_start: float, reference_hz
     ref = np.asarray(reference_hz, dtype=float).reshape(-1)
     idx = system.dof_index(list(shape_dofs))
     modes = modal_analysis(system.M, system.closed_stiffness(kn_start))
-    pairing, _ = pair_modes(np.asarray(reference_shapes, float), modes.shapes[idx, :])
+    pairing, _ = pair_modes(np.asarray(reference_shapes, float), modes.shapes[idx, :],
+                            frequencies=(ref, modes.frequencies_hz))
     ok = pairing >= 0
     if np.count_nonzero(ok) < 2 or mode not in pairing[ok]:
         return None

@@ -90,7 +90,8 @@ def validate_modes(
         )
     idx = system.dof_index(list(shape_dofs))
     modes = modal_analysis(system.M, system.closed_stiffness(kn))
-    pairing, macs = pair_modes(ref_phi, modes.shapes[idx, :])
+    pairing, macs = pair_modes(ref_phi, modes.shapes[idx, :],
+                               frequencies=(ref_hz, modes.frequencies_hz))
     model_hz = np.where(pairing >= 0, modes.frequencies_hz[np.clip(pairing, 0, None)], np.nan)
     err = model_hz - ref_hz
     passed = bool(np.all(np.abs(err) < max_error_hz) and np.all(macs > min_mac))
