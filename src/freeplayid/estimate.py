@@ -194,6 +194,19 @@ HINGE_SHARE_MIN = 1e-3
 KN_OVER_K_MAX = 1e12
 
 
+def structure_share(system, kn: float, mode: int = 0) -> float:
+    """The structure's share of the closed mode ``mode``'s stiffness at ``kn``: phi^T K phi /
+    w^2 (mass-normalised phi; the hinges carry the rest). NaN where the eigensolution gives no
+    positive frequency (kn so large that it cannot resolve the mode)."""
+    try:
+        modes = modal_analysis(system.M, system.closed_stiffness(kn))
+        w2 = float(modes.omega[mode]) ** 2
+        phi = modes.shapes[:, mode]
+    except (np.linalg.LinAlgError, ValueError, IndexError):
+        return math.nan
+    return float(phi @ (system.K @ phi)) / w2 if w2 > 0 else math.nan
+
+
 def check_determined(kn: float, delta: float, system, mode: int, where, points=None) -> None:
     """IdentificationError unless (``kn``, ``delta``) is a fit that the points determine: both
     finite and positive, and the hinges still carrying a share of the closed mode ``mode``'s
@@ -204,16 +217,8 @@ def check_determined(kn: float, delta: float, system, mode: int, where, points=N
     if math.isfinite(kn) and kn > 0 and math.isfinite(delta) and delta > 0:
         k_scale = float(np.linalg.norm(system.K))
         b2 = float(np.max(np.sum(system.hinge_matrix() ** 2, axis=0)))
-        if k_scale > 0 and kn * b2 > KN_OVER_K_MAX * k_scale:
-            share = 0.0
-        else:
-            try:
-                modes = modal_analysis(system.M, system.closed_stiffness(kn))
-                w2 = float(modes.omega[mode]) ** 2
-                phi = modes.shapes[:, mode]
-                share = 1.0 - float(phi @ (system.K @ phi)) / w2 if w2 > 0 else math.nan
-            except (np.linalg.LinAlgError, ValueError, IndexError):
-                share = math.nan
+        unresolved = k_scale > 0 and kn * b2 > KN_OVER_K_MAX * k_scale
+        share = 0.0 if unresolved else 1.0 - structure_share(system, kn, mode)
     if not share >= HINGE_SHARE_MIN:
         raise IdentificationError(
             f"{where}: the fit ran off to kn = {kn:.3g} N·m/rad, delta = {delta:.3g} rad, where "

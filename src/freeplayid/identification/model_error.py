@@ -70,7 +70,7 @@ import scipy.optimize
 import scipy.stats
 
 from ..backbone import amplitude_grid, dfa_backbone
-from ..estimate import PlainEstimate, check_determined, refit
+from ..estimate import PlainEstimate, check_determined, refit, structure_share
 from ..fit import FitOptions, gap_ratios, jacobian_halfwidths
 from ..model import ModelOptions, SealedUpdate, modal_analysis, update_to_sealed_modes
 from .replay_checks import noise_outside_chance
@@ -504,7 +504,9 @@ class ModelError:
     per_hinge: bool = False
     split: ReplayedSplit | None = None
 
-    def describe(self) -> str:
+    def describe(self, kn_note: str = "") -> str:
+        """What kn owes to the model, and what the data tell of each hinge; ``kn_note`` follows
+        the kn clause (the verdict's word on kn's bound)."""
         if self.update is not None:
             head = "the model was updated: " + self.update.describe()
             if not self.update.residual_measured:
@@ -515,7 +517,7 @@ class ModelError:
             head = "kn is conditional on the linear model (no sealed-fin modes to update it to)"
         return (head + f"; a {100 * self.frequency_uncertainty:.2g} % error of the identified "
                 f"mode's frequency moves kn by {100 * self.kn_shift:.2g} %, included in kn's "
-                "interval" + self.hinges())
+                "interval" + kn_note + self.hinges())
 
     def hinges(self) -> str:
         """What the data can tell of each hinge's gap ('' with one hinge)."""
@@ -751,10 +753,7 @@ def frequency_scale(system, kn: float, u: float, mode: int = 0) -> float:
     """The factor on the structure's stiffness K (the hinges' kn kept) that moves the closed
     mode ``mode`` at ``kn`` by the relative frequency ``u`` to first order: 1 + ((1 + u)^2 - 1)
     / share, share = phi^T K phi / w^2 of that mode (mass-normalised phi)."""
-    modes = modal_analysis(system.M, system.closed_stiffness(kn))
-    phi = modes.shapes[:, mode]
-    share = float(phi @ (system.K @ phi)) / float(modes.omega[mode]) ** 2
-    return 1.0 + ((1.0 + u) ** 2 - 1.0) / max(share, 1e-3)
+    return 1.0 + ((1.0 + u) ** 2 - 1.0) / max(structure_share(system, kn, mode), 1e-3)
 
 
 def hinge_ratio(system, kn: float, mode: int) -> float | None:

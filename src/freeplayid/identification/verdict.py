@@ -570,8 +570,7 @@ def model_checks(error) -> list[Check]:
                                        ("lowest elastic mode's stiffness", upd.first_scale))
     far = [(what, v) for what, v in scales
            if abs(math.log(v)) > math.log(1 + LIMITS["model_scale"])]
-    said = "included in kn's interval"  # error.describe()'s kn clause, where the bound follows
-    msg = error.describe().replace(said, said + _kn_beyond_bound(error), 1)
+    msg = error.describe(kn_note=_kn_beyond_bound(error))
     if far:
         what, v = max(far, key=lambda x: abs(math.log(x[1])))
         msg = (f"the linear model needed its {what} scaled by {v:.3g} to match the "
