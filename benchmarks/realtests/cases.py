@@ -1741,6 +1741,30 @@ VARIANTS.update({
 })
 VARIANTS.update(dict(_without_base(src) for src in ("var26_finE_nominal", "var26_finE_damper")))
 
+# A twenty-seventh set (2026-12-06, session 65), chosen after set 26's answers and before any
+# of its own: fin E under the conditions of sets 19-24 and two combinations, at magnitudes not
+# used before. run.py --cases 'var27_*'
+VARIANTS.update({
+    "var27_finE_rayleigh_dip": _variant(lambda **kw: _also(_no_c(fin_level_dip(
+        depth=0.3, flat_hz=0.5, taper_hz=0.6, src="var26_finE_rayleigh",
+        C=_rayleigh_c(0.04, (0.7 * FIN_E_F1, 1.3 * FIN_E_F1), kn=FIN_E_KN), **_fin_e_kw(**kw))),
+        "fin E, Rayleigh 4 % at 0.7 / 1.3 x mode 1, no C"), "var27_finE_rayleigh_dip"),
+    "var27_finE_unequal_damper": _variant(lambda **kw: _also(fin_hinge_damper(
+        added_zeta=0.015, **_fin_e_kw(deltas=(0.0018, 0.0022), levels=tuple(
+            round(lv * (1 + 0.015 / 0.04), 3) for lv in FIN_E_LEVELS), **kw)),
+        "fin E, half-gaps 1.8 / 2.2 mrad"), "var27_finE_unequal_damper"),
+    "var27_finE_stiff_out_m1_ref": _variant(lambda **kw: _also(fin_stiffness(
+        shift=-0.01, part="outboard", ref=True, **_fin_e_kw(**kw)), "fin E"),
+        "var27_finE_stiff_out_m1_ref"),
+})
+VARIANTS.update(dict((
+    _noisy_with_base("var27_finE_noisy", "var26_finE_nominal", 0.12),
+    _at_rate("var27_finE_rayleigh_1024", "var26_finE_rayleigh", 1024.0),
+    _distorted("var27_finE_distorted", "var26_finE_nominal", ((2, 0.06, 0.8), (3, 0.04, -0.4))),
+    _out_of_step("var27_finE_damper_scan_late", "var26_finE_damper", 16 / 64, scanned=True),
+    _vertical("var27_finE_vertical", "var26_finE_nominal", 1.0),
+)))
+
 ALL_CASES = {**CONDITIONS, **VARIANTS}
 
 def set_profiles(spec: CaseSpec, out: Path) -> None:
