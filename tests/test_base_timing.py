@@ -149,3 +149,67 @@ def test_the_estimated_delays_uncertainty_and_the_move_it_makes():
     assert delta == pytest.approx(0.2 * math.log(1.02))
     assert kn == pytest.approx(0.2 * abs(math.log(0.99)))
     assert _delay_moves(first, shifted, 1e-3, math.nan) == (0.0, 0.0)
+
+
+def test_a_turn_that_the_shift_does_not_remove_is_not_called_a_delay():
+    from freeplayid.identification.replay_checks import timing_not_a_delay
+
+    one_delay = _Replay(_timing([0.9, 0.89, 0.88]))  # 13 degrees at 40 Hz, the runs agree
+    note = timing_not_a_delay(one_delay, "did not remove it")
+    assert not note.passed and note.name == "base_timing"
+    assert "did not remove it, so the turn is not a delay" in note.message
+    assert "`base_delay_s`" not in note.message and "damping of another form" in note.message
+    assert note.value == pytest.approx(_timing_check(one_delay).value)
+    assert timing_not_a_delay(_Replay(_timing([0.1, 0.12, 0.09])), "x") is None  # 1.5 degrees
+    assert timing_not_a_delay(_Replay(None), "x") is None
+
+
+@dataclasses.dataclass(frozen=True)
+class _Result:  # the fields of an Identification that the shift reads
+    replay: object
+    verdict: object
+    failure: str = ""
+
+
+def _answer_of(timing):
+    from freeplayid.identification.pipeline import _Answer
+    from freeplayid.identification.verdict import make_verdict
+
+    replay = _Replay(timing)
+    replay.failure = ""
+    checks = [_timing_check(replay)]
+    return _Answer(dataset=_dataset(0.03), system=None, est=None, error=None,
+                   result=_Result(replay, make_verdict(checks)))
+
+
+def test_a_shift_that_leaves_the_delay_keeps_the_first_answer_and_says_why(monkeypatch):
+    from freeplayid.identification import pipeline
+
+    first = _answer_of(_timing([0.9, 0.89, 0.88]))
+    # the test identified again with its base shifted reads the same delay: not a delay
+    monkeypatch.setattr(pipeline, "_answer", lambda *a, **k: _answer_of(_timing([0.9, 0.88])))
+    kept, delay, rejected = pipeline._with_the_base_in_step(first, None, None, None, None, None,
+                                                            None, 0.0, False)
+    assert kept is first and delay is None
+    assert rejected == "did not remove it (its replay read +0.89 ms against +0.89 ms before)"
+    said = pipeline._not_a_delay(first.result, rejected)
+    check = next(c for c in said.verdict.checks if c.name == "base_timing")
+    assert not check.passed and said.verdict.status == "suspect"
+    assert "so the turn is not a delay" in check.message and rejected in check.message
+    # a shift that cannot be identified is said so; a shift that halves the delay is kept
+    from freeplayid.errors import IdentificationError
+
+    def fails(*a, **k):
+        raise IdentificationError("0 usable fitting point(s)")
+
+    monkeypatch.setattr(pipeline, "_answer", fails)
+    assert pipeline._with_the_base_in_step(first, *[None] * 6, 0.0, False)[2] == (
+        "could not be identified (0 usable fitting point(s))")
+    # and the delay stated is the one the kept answer's base was shifted by: a refining round
+    # whose shift is not kept (0.1 ms read again, not halved) adds nothing to it
+    monkeypatch.setattr(pipeline, "_answer", lambda *a, **k: _answer_of(_timing([0.1, 0.1])))
+    kept, delay, rejected = pipeline._with_the_base_in_step(first, *[None] * 6, 0.0, False)
+    assert kept is not first and delay == pytest.approx(0.89e-3) and rejected == ""
+    # a base_timing check that passes (or none) is left as it is
+    passing = _answer_of(_timing([0.1, 0.12, 0.09])).result
+    assert pipeline._not_a_delay(passing, "x") is passing

@@ -44,6 +44,7 @@ from .replay_checks import (
     replay_checks,
     run_branches,
     settled_sd,
+    timing_not_a_delay,
 )
 from .result import Identification
 from .verdict import (
@@ -148,11 +149,13 @@ def identify(dataset, *, system: FreeplaySystem | None = None,
     first = _answer(dataset, system, checked, extraction, fit, replay, model, t0, progress)
     if replay is None:
         return first.result
-    answer, delay = _with_the_base_in_step(first, system, checked, extraction, fit, replay,
-                                           model, t0, progress)
+    answer, delay, rejected = _with_the_base_in_step(first, system, checked, extraction, fit,
+                                                     replay, model, t0, progress)
     dataset, system, est, error, result = answer
     result = _followed_up(result, dataset, system, est, extraction, fit, replay, error, checked,
                           t0, progress)
+    if rejected:
+        result = _not_a_delay(result, rejected)
     return (result if delay is None
             else _shifted_result(result, first.result, answer.result, delay))
 
@@ -237,21 +240,22 @@ def _branch(result: Identification) -> float:
 
 
 def _with_the_base_in_step(first: _Answer, system, checked, extraction, fit, replay, model, t0,
-                           progress) -> tuple[_Answer, float | None]:
-    """(``first``, None), or where its base channel reads out of step with the responses
+                           progress) -> tuple[_Answer, float | None, str]:
+    """(``first``, None, ''), or where its base channel reads out of step with the responses
     (:func:`_out_of_step`) and the data set states no delay, the answer of the test with its
     base shifted back by the estimated delay (up to ``TIMING_ROUNDS`` times, each shift adding
     what the last answer's replay still reads, while that exceeds ``TIMING_REFINE_DEG``). A
     shifted answer is kept only where its replay reads less than half the delay before and
     follows the test's upper branches more closely (where both answers read them): a turn that
-    a shift does not remove is not a delay. Then (that answer, the delay [s] shifted), which
-    :func:`_shifted_result` states on the answer finally reported."""
+    a shift does not remove is not a delay. Then (that answer, the delay [s] shifted, ''),
+    which :func:`_shifted_result` states on the answer finally reported; where the first shift
+    is not kept, (``first``, None, how it failed), which :func:`_not_a_delay` states."""
     timing = _out_of_step(first.result)
     if timing is None or getattr(first.dataset, "base_delay_s", 0.0):
-        return first, None
-    best, total = first, 0.0
+        return first, None, ""
+    best, kept, total, rejected = first, 0.0, 0.0, ""
     for _ in range(TIMING_ROUNDS):
-        total += timing.delay_s
+        total = kept + timing.delay_s
         log.info("the base channel reads %.3g ms (%.2g sample) %s against the responses "
                  "(the test's phase against its replay's): identifying the test again with the "
                  "base shifted back by %.3g ms", 1e3 * abs(timing.delay_s), abs(timing.samples),
@@ -262,21 +266,47 @@ def _with_the_base_in_step(first: _Answer, system, checked, extraction, fit, rep
                           progress)
         except IdentificationError as err:
             log.info("the test with its base shifted could not be identified (%s)", err)
+            rejected = f"could not be identified ({err})"
             break
         after = getattr(nxt.result.replay, "base_timing", None)
         branches = (_branch(nxt.result), _branch(best.result))
-        closer = (after is not None and math.isfinite(after.delay_s)
-                  and abs(after.delay_s) < abs(timing.delay_s) / 2
-                  and (not all(map(math.isfinite, branches)) or branches[0] < branches[1]))
-        if not closer:
+        read = after is not None and math.isfinite(after.delay_s)
+        halved = read and abs(after.delay_s) < abs(timing.delay_s) / 2
+        nearer = not all(map(math.isfinite, branches)) or branches[0] < branches[1]
+        if not (halved and nearer):
             log.info("the shift did not bring the replay closer to the test: kept the answer "
                      "before it")
+            rejected = _not_closer(timing, after if read else None, branches, halved)
             break
-        best = nxt
+        best, kept = nxt, total  # the delay the kept answer's base was shifted by
         timing = _out_of_step(best.result, TIMING_REFINE_DEG)
         if timing is None:
             break
-    return (first, None) if best is first else (best, total)
+    return (first, None, rejected) if best is first else (best, kept, "")
+
+
+def _not_closer(before, after, branches: tuple, halved: bool) -> str:
+    """How the answer with the base shifted did not come closer to the test (for
+    :func:`_not_a_delay`): what its replay still read of the delay, or its upper branches."""
+    if not halved:
+        return ("did not remove it (its replay read " + (
+            "no delay" if after is None else f"{1e3 * after.delay_s:+.3g} ms") +
+            f" against {1e3 * before.delay_s:+.3g} ms before)")
+    return (f"followed the test's upper branches less closely (the median run's "
+            f"{100 * branches[0]:.2g} % of the peak off, against {100 * branches[1]:.2g} % "
+            "before)")
+
+
+def _not_a_delay(result: Identification, tried: str) -> Identification:
+    """``result`` with its failed ``base_timing`` check saying that the base shifted back by the
+    delay it read did not bring the test closer to its replay (``tried``), so that the turn is
+    not a delay (:func:`.replay_checks.timing_not_a_delay`); as it is otherwise."""
+    own = next((c for c in result.verdict.checks if c.name == "base_timing"), None)
+    note = None if own is None or own.passed else timing_not_a_delay(result.replay, tried)
+    if note is None:
+        return result
+    checks = [note if c.name == "base_timing" else c for c in result.verdict.checks]
+    return dataclasses.replace(result, verdict=make_verdict(checks))
 
 
 def _delay_uncertainty(result: Identification) -> float:

@@ -86,7 +86,9 @@
   frequency: within ``timing_turn`` (3 degrees). Where the runs read one delay beyond it, the
   answer rests on a base read out of step (``identify`` then shifts the base by the estimate
   and identifies the test again, :func:`freeplayid.identification.pipeline.identify`); where
-  they disagree, the phase is not turned by a delay but by a structure the replay is not.
+  they disagree, or where that shift did not bring the replay closer to the test
+  (:func:`timing_not_a_delay`), the phase is not turned by a delay but by a structure the
+  replay is not.
 - ``sweep_law``, ``replay_binding``, ``replay_converged``, ``damping_estimate``: where the laws
   came from, a replayed fit that jumps, convergence and an estimated damping the amplitudes pin
   down (:mod:`freeplayid.identification.verdict`).
@@ -106,7 +108,7 @@ from ..replay.damping_estimate import ZETA_RTOL
 from .verdict import LIMITS, Check, within_binding_noise
 
 __all__ = ["replay_checks", "run_branches", "precision_check", "noise_outside_chance", "settled_sd",
-           "SETTLED_CHANCE"]
+           "SETTLED_CHANCE", "timing_not_a_delay"]
 
 
 def _causes(replay, down: bool = False) -> str:
@@ -404,6 +406,28 @@ def _branch_check(replay) -> Check | None:
                  "structure the replay is not (its damping or linear model)?", typical / limit)
 
 
+# what turns the phase where a delay does not
+_NOT_A_DELAY = ("a structure the replay is not (a damping of another form, a linear model off) "
+                "or a base channel that does not follow the table")
+
+
+def timing_not_a_delay(replay, tried: str) -> Check | None:
+    """``base_timing`` where the test, identified again with its base shifted back by the delay
+    it read, did not come closer to its replay (``tried``: how it did not): the turn is then not
+    a delay, whatever the runs agree on; None where the turn is within ``timing_turn``."""
+    timing = getattr(replay, "base_timing", None)
+    if timing is None or not math.isfinite(timing.delay_s):
+        return None
+    limit = LIMITS["timing_turn"]
+    value = abs(timing.turn_deg) / limit
+    if value <= 1:
+        return None
+    return Check("base_timing", False,
+                 f"{timing.describe()}; limit {limit:g} degrees: the runs read one delay, but "
+                 f"the test identified again with its base shifted back by it {tried}, so the "
+                 f"turn is not a delay: {_NOT_A_DELAY}", value)
+
+
 def _timing_check(replay) -> Check | None:
     """``base_timing``: the base channel's delay against the responses, read from the test's
     phase against the replay's at the answer (:mod:`freeplayid.replay.base_timing`); None
@@ -420,9 +444,7 @@ def _timing_check(replay) -> Check | None:
         return Check("base_timing", False,
                      f"{said}: the responses' phase against the base differs from the replay's "
                      "away from the resonances, but not by one delay (the runs, or the two "
-                     "sides of the resonance, read different delays): a structure the replay "
-                     "is not (a damping of another form, a linear model off) or a base channel "
-                     "that does not follow the table", value)
+                     f"sides of the resonance, read different delays): {_NOT_A_DELAY}", value)
     return Check("base_timing", False,
                  f"{said}: the points are read against the base channel at the same instants, "
                  "so the answer rests on a base read out of step with the responses (a "
