@@ -458,6 +458,18 @@ def test_a_failed_replay_names_its_cause_by_the_tests_runs():
     assert "kn = 404.9 N·m/rad, delta = 0.0031 rad" in few and "one resonance" in few
     assert replay_failure((404.9, 3.1e-3), err, 4).endswith("the model does not behave like "
                                                             "the test")
+    # the replay's runs rejected for the jumps they lost: which way, counted
+    from freeplayid.signal.jump import REASON_EDGE, REASON_NO_JUMP
+
+    lost = IdentificationError(
+        f"0 usable fitting point(s) (rejected runs: a: {REASON_EDGE}; {REASON_NO_JUMP}; b: "
+        f"{REASON_EDGE}; c: {REASON_EDGE})")
+    said = replay_failure((820.0, 2.3e-3), lost, 4)
+    assert "the replayed 3 resonate at the band's edge or past it (a replay less damped" in said
+    assert "and 1 stays in the gap (a replay more damped, or less excited" in said
+    assert said.endswith("its linear model or its levels are not the test's")
+    only = replay_failure((820.0, 2.3e-3), IdentificationError(f"x: {REASON_NO_JUMP}"), 3)
+    assert "the replayed 1 stays in the gap" in only and "band's edge" not in only
 
 
 def test_damping_sensitivity_follows_the_bindings_slope():

@@ -16,6 +16,7 @@ from ..estimate import PlainEstimate, extract_points, plain_estimate, refit, wei
 from ..fit import BackboneModel, FitOptions, FittingPoints, fit_backbone
 from ..progress import progress_bar
 from ..signal import Extraction
+from ..signal.jump import REASON_EDGE, REASON_NO_JUMP
 from ..signal.level import GAP_AROUND, GAP_Z_AROUND, reading_gap
 from .base_timing import BaseTiming, base_timing
 from .bootstrap import (
@@ -898,12 +899,33 @@ class _Binding:
 def replay_failure(theta, err: Exception, test_runs: int) -> str:
     """Why a replay at ``theta`` = (kn, delta) could not be identified (``err``), for
     ``replay_failed``: with two runs or fewer giving the test's points, a replay near the answer
-    can lose a run that barely jumps; with more, the model does not behave like the test."""
+    can lose a run that barely jumps; with more, the model does not behave like the test, and
+    where the replay's runs were rejected for the jumps they lost (:data:`..signal.jump.
+    REASON_EDGE`, :data:`..signal.jump.REASON_NO_JUMP` in ``err``), which way they lost them."""
     head = (f"the replay at kn = {theta[0]:.5g} N·m/rad, delta = {theta[1]:.5g} rad could not "
             f"be identified ({err}): ")
     if test_runs <= 2:
         return head + _few_runs(test_runs, ", and a replay near them can lose one")
-    return head + "the model does not behave like the test"
+    return head + "the model does not behave like the test" + _lost_jumps(str(err))
+
+
+def _lost_jumps(said: str) -> str:
+    """Which way a replay's runs lost the test's jumps, from the extraction's rejections in
+    ``said`` (a run may be counted under both); '' where none was rejected so."""
+    past, stayed = said.count(REASON_EDGE), said.count(REASON_NO_JUMP)
+    parts = []
+    if past:
+        parts.append(f"{past} resonate{'s' if past == 1 else ''} at the band's edge or past it "
+                     "(a replay less damped, or stiffer, than the test)")
+    if stayed:
+        parts.append(f"{stayed} stay{'s' if stayed == 1 else ''} in the gap (a replay more "
+                     "damped, or less excited, than the test)")
+    if not parts:
+        return ""
+    return ("; where the test's runs jump in the band, the replayed " + " and ".join(parts)
+            + ": its damping (of another size or form than the replay's; without a base "
+            "channel it is read at `level_g`), its linear model or its levels are not the "
+            "test's")
 
 
 def _few_runs(test_runs: int, why: str = "") -> str:
