@@ -191,7 +191,7 @@ def test_a_shift_that_leaves_the_delay_keeps_the_first_answer_and_says_why(monke
     kept, delay, rejected = pipeline._with_the_base_in_step(first, None, None, None, None, None,
                                                             None, 0.0, False)
     assert kept is first and delay is None
-    assert rejected == "did not remove it (its replay read +0.89 ms against +0.89 ms before)"
+    assert rejected == "did not remove it (its replay read +0.89 ms, against +0.89 ms before)"
     said = pipeline._not_a_delay(first.result, rejected)
     check = next(c for c in said.verdict.checks if c.name == "base_timing")
     assert not check.passed and said.verdict.status == "suspect"

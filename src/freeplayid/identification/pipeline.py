@@ -289,9 +289,10 @@ def _not_closer(before, after, branches: tuple, halved: bool) -> str:
     """How the answer with the base shifted did not come closer to the test (for
     :func:`_not_a_delay`): what its replay still read of the delay, or its upper branches."""
     if not halved:
-        return ("did not remove it (its replay read " + (
-            "no delay" if after is None else f"{1e3 * after.delay_s:+.3g} ms") +
-            f" against {1e3 * before.delay_s:+.3g} ms before)")
+        return ("did not remove it (" + (
+            "its replay's delay could not be read" if after is None else
+            f"its replay read {1e3 * after.delay_s:+.3g} ms") +
+            f", against {1e3 * before.delay_s:+.3g} ms before)")
     return (f"followed the test's upper branches less closely (the median run's "
             f"{100 * branches[0]:.2g} % of the peak off, against {100 * branches[1]:.2g} % "
             "before)")
