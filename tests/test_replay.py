@@ -1424,6 +1424,54 @@ def test_a_bounded_unknown_is_held_on_its_bound_while_the_others_solve_their_equ
     np.testing.assert_allclose(sol.u, free, atol=1e-9)
 
 
+def test_a_loop_that_stepped_one_way_probes_across_before_it_stops():
+    """F(u) = A (u - u*) with A flat (slope 0.04) across the first step's direction, J0 = I: the
+    loop without a probe stops after one step 15 tolerances from u*, where the identity says
+    it has converged; with it, it replays a probe across, learns the flat slope and goes on to
+    u*. Where the first step lands on u* the probe confirms it, and the replay before the probe
+    is made the last again (``unprobe``) instead of replaying the step."""
+    from freeplayid.replay.broyden import PROBE, solve_binding, unexplored
+
+    turn = np.radians(57.0)
+    R = np.array([[np.cos(turn), -np.sin(turn)], [np.sin(turn), np.cos(turn)]])
+    A = R @ np.diag([1.0, 0.04]) @ R.T
+    target, tol = np.array([0.01, -0.003]), 5e-4
+
+    class Residual:
+        def __init__(self):
+            self.calls, self.unprobed = [], 0
+
+        def __call__(self, u):
+            self.calls.append(u.copy())
+            return A @ (u - target)
+
+        def unprobe(self):
+            self.unprobed += 1
+
+    plain = solve_binding(Residual(), np.zeros(2), np.eye(2), max_iter=8, tolerances=[tol] * 2)
+    assert plain.converged and plain.n == 2
+    assert np.abs(plain.u - target).max() > 10 * tol
+    f = Residual()
+    probed = solve_binding(f, np.zeros(2), np.eye(2), max_iter=8, tolerances=[tol] * 2, probe=2)
+    assert probed.converged and np.abs(probed.u - target).max() < 1e-9
+    # the probe: PROBE tolerances across the first step (u0 -> u1), from u1
+    step = f.calls[1] - f.calls[0]
+    across = f.calls[2] - f.calls[1]
+    assert abs(across @ step) < 1e-9 * np.linalg.norm(step)
+    assert np.linalg.norm(across) == pytest.approx(PROBE * tol)
+    assert f.unprobed == 0  # it went on: the step after the probe was replayed
+    lucky = Residual()
+    start = target - 0.011 * R[:, 0]  # the first step lands on u*
+    sol = solve_binding(lucky, start, np.eye(2), max_iter=8, tolerances=[tol] * 2, probe=2)
+    assert sol.converged and np.abs(sol.u - target).max() < 1e-9
+    assert lucky.unprobed == 1 and sol.n == len(lucky.calls) == 3
+    # the directions stepped along: covered ones leave nothing to probe
+    assert unexplored([np.array([1.0, 0.0]), np.array([0.0, 1.0])], 2) is None
+    e = unexplored([np.array([3.0, 0.0, 5.0])], 2)
+    assert e == pytest.approx([0.0, 1.0, 0.0], abs=1e-12) or \
+        e == pytest.approx([0.0, -1.0, 0.0], abs=1e-12)
+
+
 def _point(run, channel, amplitude):
     from types import SimpleNamespace
     return SimpleNamespace(run=run, channel=channel, amplitude_m=amplitude)

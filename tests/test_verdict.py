@@ -264,6 +264,27 @@ def test_an_estimated_damping_form_reports_how_far_it_moved_the_answer():
     assert "damping_form" not in {c.name for c in replay_checks(rep)}
 
 
+@pytest.mark.parametrize("delta, kn, passed", [(3.019e-3, 480.0, True), (3.025e-3, 480.0, False),
+                                               (3e-3, 480.0 * 1.045, False)])
+def test_a_damping_form_that_moved_the_answer_beyond_twice_the_bounds_fails(delta, kn, passed):
+    """The answer rests on the estimated form where it moved it by more than twice the accuracy
+    bounds (delta 2 %, kn 4 %): delta +0.63 % passes, +0.83 % and kn +4.4 % fail, naming it."""
+    from types import SimpleNamespace
+
+    from freeplayid.identification.replay_checks import replay_checks
+    from freeplayid.replay import ReplayDamping
+
+    damping = ReplayDamping("estimated", 0.02, (0.019, 0.021), hinge=0.09, hinge_estimated=True,
+                            trend_single=-0.35, single_ratio_answer=(480.0, 2.96e-3))
+    rep = SimpleNamespace(failure="", misfit={}, sweeps={}, damping=damping, converged=True,
+                          iterations=[], excitation="measured", kn=kn, delta=delta,
+                          jump_point="quadrature")
+    check = {c.name: c for c in replay_checks(rep)}["damping_form"]
+    assert check.passed is passed
+    assert "the hinge damper's share 0.09" in check.message
+    assert ("rests on the form the replay gave the damping" in check.message) is not passed
+
+
 @pytest.mark.parametrize("converged, closest, passed, words", [
     (True, None, True, "converged in 2 replays"),
     (False, 0.1, True, "within 0.1 of their standard error"),

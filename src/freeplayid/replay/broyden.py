@@ -12,6 +12,16 @@ __all__ = ["BindingSolve", "solve_binding", "MAX_STEP_FACTOR", "MAX_HALVINGS"]
 MAX_STEP_FACTOR = 1.5  # [-] the unknowns move by at most this factor per replay
 MAX_CONDITION = 1e4  # [-] a Broyden update that makes J worse conditioned than this is dropped
 MAX_HALVINGS = 2  # a step whose evaluation failed is halved at most this many times
+# a loop that converges having stepped along one direction of (log kn, log delta) only knows the
+# binding's slope along it (Broyden learns the directions stepped along, from the identity): a
+# binding flat across it (a run near the threshold of its jump makes it so: the statistic moves
+# by 4 % of a step that raises kn and delta together on a two-hinge beam) stops the loop where
+# the identity says it has converged, up to its tolerance over that slope away (1.1 % in delta
+# on that beam, noise-free, with the model's own damping). Before it stops, the loop replays one
+# probe across the directions it has stepped along, PROBE times its tolerances away, and goes on
+# where the slope it measures says the answer is not reached
+PROBE = 10.0  # [-] the probe's step in units of the unknowns' tolerances
+EXPLORED = 0.3  # [-] a direction the unit steps cover by less than this singular value: probed
 
 
 @dataclass(frozen=True)
@@ -52,7 +62,7 @@ def broyden_update(J: np.ndarray, du: np.ndarray, dF: np.ndarray) -> np.ndarray:
 
 def solve_binding(residual: Callable[[np.ndarray], np.ndarray | None], u0, J0, *, max_iter: int,
                   tolerances, first: np.ndarray | None = None,
-                  bounds: tuple | None = None) -> BindingSolve:
+                  bounds: tuple | None = None, probe: int = 0) -> BindingSolve:
     """Solve ``residual(u) = 0`` by Broyden's method from ``u0`` with the Jacobian ``J0``.
 
     Each step is ``-J^-1 F`` clipped to a factor :data:`MAX_STEP_FACTOR` per unknown (the
@@ -70,12 +80,26 @@ def solve_binding(residual: Callable[[np.ndarray], np.ndarray | None], u0, J0, *
     and does not count in ``n``). ``bounds``: (lower, upper) arrays for the unknowns (+-inf:
     none); an unknown on its bound that the step would push beyond it is held there, and the
     step solves the other unknowns' equations alone (its own residual then need not vanish).
+    ``probe``: in the space of the first ``probe`` unknowns, a loop about to stop that has not
+    stepped along every direction there (:func:`unexplored`) first replays a probe along the
+    least explored one (:data:`PROBE`), learns the slope there, and stops only if the step that
+    slope gives is still below the tolerances (else it goes on from that step; a failed probe
+    ends the probing and the step is evaluated, which clears its failure). Where the probe
+    confirms the stop, ``residual.unprobe()`` (where it has one) makes the evaluation before the
+    probe its last again and the loop stops; else the step is evaluated first. At most
+    ``probe`` probes, each (and the step replayed after it) beyond ``max_iter``. 0: no probe.
     """
     u, J = np.asarray(u0, dtype=float).copy(), np.asarray(J0, dtype=float).copy()
     lo, hi = (np.full(u.size, -np.inf), np.full(u.size, np.inf)) if bounds is None else \
         (np.asarray(bounds[0], dtype=float), np.asarray(bounds[1], dtype=float))
+    tol = np.asarray(tolerances, dtype=float)
     prev, best, n, good, halvings = None, None, 0, 0, 0
-    for k in range(max_iter + (first is not None)):
+    steps = []  # the steps between evaluated unknowns, in units of the tolerances
+    probes, allowed = 0, probe  # probes made and allowed; each (and the step replayed after
+    # it) beyond max_iter
+    for k in range(max_iter + (first is not None) + 2 * probe):
+        if n >= max_iter + 2 * probes:
+            break
         if k == 0 and first is not None:
             F = np.asarray(first, dtype=float)
         else:
@@ -94,15 +118,55 @@ def solve_binding(residual: Callable[[np.ndarray], np.ndarray | None], u0, J0, *
             best = (u.copy(), miss, good - 1)
         if prev is not None:
             J = broyden_update(J, u - prev[0], F - prev[1])
+            steps.append((u - prev[0]) / tol)
         step = _bounded_step(J, F, u, lo, hi)
         prev = (u.copy(), F.copy())
         u = np.clip(u + step, lo, hi)
         step = u - prev[0]
-        if bool(np.all(np.abs(step) < np.asarray(tolerances))):
+        if not bool(np.all(np.abs(step) < tol)):
+            continue
+        e = None
+        if probes < allowed:  # stopped at the start: the start's slope was never measured
+            e = unexplored(steps, probe) if steps else np.eye(u.size)[0]
+        if e is None:
             return BindingSolve(u, True, J, None, n)
+        # the probe: learn the slope across the steps taken, then stop or go on
+        du = np.clip(prev[0] + PROBE * tol * e, lo, hi) - prev[0]
+        Fp = residual(prev[0] + du)
+        n, probes = n + 1, probes + 1
+        if Fp is None:  # not measured: no more probes; the step is replayed, which clears it
+            allowed = probes
+        else:
+            steps.append(du / tol)
+            J = broyden_update(J, du, np.asarray(Fp, dtype=float) - prev[1])
+            step = _bounded_step(J, prev[1], prev[0], lo, hi)
+            u = np.clip(prev[0] + step, lo, hi)
+            unprobe = getattr(residual, "unprobe", None)
+            if unprobe is not None and bool(np.all(np.abs(u - prev[0]) < tol)):
+                unprobe()  # the answer stands: the replay before the probe is its replay
+                return BindingSolve(u, True, J, None, n)
+        # else the step is replayed: the loop's last replay is then the answer's
     if best is None:
         return BindingSolve(u, False, J, None, n)
     return BindingSolve(best[0], False, J, best[2], n)
+
+
+def unexplored(steps, dims: int) -> np.ndarray | None:
+    """The unit direction of the first ``dims`` unknowns (zero in the others) that ``steps``
+    (the loop's steps, in units of the tolerances) cover least, where their unit directions'
+    smallest singular value there is below :data:`EXPLORED` (or they are fewer than ``dims``);
+    None where every direction was stepped along."""
+    S = np.array([s[:dims] for s in steps], dtype=float)
+    norms = np.linalg.norm(S, axis=1)
+    S = S[norms > 0] / norms[norms > 0, None]
+    if S.shape[0] == 0:
+        return None
+    _, sv, vt = np.linalg.svd(S, full_matrices=True)
+    if S.shape[0] >= dims and sv[-1] >= EXPLORED:
+        return None
+    e = np.zeros(len(steps[0]))
+    e[:dims] = vt[-1]
+    return e
 
 
 def _bounded_step(J: np.ndarray, F: np.ndarray, u: np.ndarray, lo: np.ndarray,

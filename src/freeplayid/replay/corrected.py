@@ -875,6 +875,16 @@ class _Binding:
             return rep, None
         return rep, self._hats[common]
 
+    def unprobe(self) -> None:
+        """The loop's probe (:func:`.broyden.solve_binding`), its last replay, confirmed the
+        answer of the replay before it: that one is made the last again (in the history, the
+        replays and the replay the answer reports)."""
+        self.history[-2:] = self.history[-1:-3:-1]
+        self.replays[-2:] = self.replays[-1:-3:-1]
+        self.rep, self.rep_ds = self.replays[-1]
+        if self.source == "estimated":
+            self.ratios = amplitude_ratios(self.stat.points.used(), self.rep.points.used())
+
     def settle(self, sol) -> None:
         """After the loop ``sol``: the replay of the answer is the one it reports (without
         convergence the closest, not the last), and a step that could not be identified after
@@ -1272,7 +1282,7 @@ def _solve(binding: _Binding, u0: np.ndarray, progress: bool, label: str):
     tol = [np.log1p(binding.opts.rtol)] * 2 + ([np.log1p(ZETA_RTOL)] if u0.size == 3 else [])
     with _replay_bar(binding.opts.max_iter, label, progress) as binding.bar:
         return solve_binding(binding, u0, np.diag([1.0, 1.0, -1.0][: u0.size]),
-                             max_iter=binding.opts.max_iter, tolerances=tol)
+                             max_iter=binding.opts.max_iter, tolerances=tol, probe=2)
 
 
 def _model_damping_mismatch(binding: _Binding) -> float:
