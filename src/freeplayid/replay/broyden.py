@@ -87,7 +87,9 @@ def solve_binding(residual: Callable[[np.ndarray], np.ndarray | None], u0, J0, *
     ends the probing and the step is evaluated, which clears its failure). Where the probe
     confirms the stop, ``residual.unprobe()`` (where it has one) makes the evaluation before the
     probe its last again and the loop stops; else the step is evaluated first. At most
-    ``probe`` probes, each (and the step replayed after it) beyond ``max_iter``. 0: no probe.
+    ``probe`` probes, within ``max_iter`` evaluations: with none left the loop stops unprobed,
+    and a probe that takes the last one leaves it unconverged unless it confirms the stop.
+    0: no probe.
     """
     u, J = np.asarray(u0, dtype=float).copy(), np.asarray(J0, dtype=float).copy()
     lo, hi = (np.full(u.size, -np.inf), np.full(u.size, np.inf)) if bounds is None else \
@@ -95,10 +97,9 @@ def solve_binding(residual: Callable[[np.ndarray], np.ndarray | None], u0, J0, *
     tol = np.asarray(tolerances, dtype=float)
     prev, best, n, good, halvings = None, None, 0, 0, 0
     steps = []  # the steps between evaluated unknowns, in units of the tolerances
-    probes, allowed = 0, probe  # probes made and allowed; each (and the step replayed after
-    # it) beyond max_iter
-    for k in range(max_iter + (first is not None) + 2 * probe):
-        if n >= max_iter + 2 * probes:
+    probes, allowed = 0, probe  # probes made and allowed (within max_iter)
+    for k in range(max_iter + (first is not None)):
+        if n >= max_iter:
             break
         if k == 0 and first is not None:
             F = np.asarray(first, dtype=float)
@@ -126,7 +127,7 @@ def solve_binding(residual: Callable[[np.ndarray], np.ndarray | None], u0, J0, *
         if not bool(np.all(np.abs(step) < tol)):
             continue
         e = None
-        if probes < allowed:  # stopped at the start: the start's slope was never measured
+        if probes < allowed and n < max_iter:  # stopped at the start: its slope unmeasured
             e = unexplored(steps, probe) if steps else np.eye(u.size)[0]
         if e is None:
             return BindingSolve(u, True, J, None, n)
@@ -139,12 +140,12 @@ def solve_binding(residual: Callable[[np.ndarray], np.ndarray | None], u0, J0, *
         else:
             steps.append(du / tol)
             J = broyden_update(J, du, np.asarray(Fp, dtype=float) - prev[1])
-            step = _bounded_step(J, prev[1], prev[0], lo, hi)
-            u = np.clip(prev[0] + step, lo, hi)
+            stop = u  # the answer the loop was about to give
+            u = np.clip(prev[0] + _bounded_step(J, prev[1], prev[0], lo, hi), lo, hi)
             unprobe = getattr(residual, "unprobe", None)
             if unprobe is not None and bool(np.all(np.abs(u - prev[0]) < tol)):
-                unprobe()  # the answer stands: the replay before the probe is its replay
-                return BindingSolve(u, True, J, None, n)
+                unprobe()  # that answer stands, and the replay before the probe is its replay
+                return BindingSolve(stop, True, J, None, n)
         # else the step is replayed: the loop's last replay is then the answer's
     if best is None:
         return BindingSolve(u, False, J, None, n)

@@ -722,8 +722,11 @@ class _Binding:
     the point weights it fixed after the first, and why a replay failed."""
 
     def __init__(self, test: _Test, system, damping: tuple, opts: Replay, bar=None,
-                 label: str = "replay"):
+                 label: str = "replay", probe: int = 2):
         self.test, self.system, self.opts, self.bar, self.label = test, system, opts, bar, label
+        # the loop's probe across its steps before it stops (solve_binding's ``probe``): in
+        # (log kn, log delta); none in a quick fit (answer_only), which a full one follows
+        self.probe = probe
         self.source, self.zeta = damping
         p, q = opts.damping_exponent, opts.damping_hinge
         self.exponent = 0.0 if p == "estimate" else float(p)
@@ -748,7 +751,7 @@ class _Binding:
     def sibling(self, test: _Test, damping: tuple, label: str) -> _Binding:
         """A binding of ``test`` with ``damping`` that matches this one's statistic: its
         points, their weights (fixed after this loop's first replay) and its intervals."""
-        other = _Binding(test, self.system, damping, self.opts, label=label)
+        other = _Binding(test, self.system, damping, self.opts, label=label, probe=self.probe)
         other.weights, other.weight_table = self.weights, self.weight_table
         other.stat, other.stat_ci95 = self.stat, self.stat_ci95
         other.exponent, other.hinge = self.exponent, self.hinge
@@ -1012,7 +1015,7 @@ def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extracti
     def unknowns(theta):  # log (kn, delta[, zeta]) of the loop's first replay
         return np.log(np.append(theta, zeta) if estimate else theta)
 
-    binding = _Binding(test, system, (source, zeta), opts)
+    binding = _Binding(test, system, (source, zeta), opts, probe=0 if answer_only else 2)
     hat = binding.hat
     binding, sol, began = _first_solution(binding, hat, _first_replay(hat, start, opts.start),
                                           unknowns, progress)
@@ -1023,7 +1026,7 @@ def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extracti
         # loop that replayed before a step failed is settled as before, from its closest replay)
         failed = binding.failure
         zeta_e = zeta_at(plain.kn)
-        other = _Binding(test, system, ("estimated", zeta_e), opts)
+        other = _Binding(test, system, ("estimated", zeta_e), opts, probe=binding.probe)
         other, sol_e, began_e = _first_solution(
             other, hat, hat, lambda theta: np.log(np.append(theta, zeta_e)), progress)
         if other.history:
@@ -1244,7 +1247,7 @@ def _first_solution(binding: _Binding, hat: np.ndarray, origin: np.ndarray, unkn
             # % above the gap): start again from the statistic's fit, then with a smaller gap
             log.info("replay: the start %s could not be replayed (%s); starting again from %s",
                      np.round(origin, 6).tolist(), binding.failure, began)
-            binding, origin = _Binding(test, system, damping, opts), theta0
+            binding, origin = _Binding(test, system, damping, opts, probe=binding.probe), theta0
         sol = _solve(binding, unknowns(theta0), progress, "replay")
         if binding.history or not binding.failure:
             break
@@ -1282,7 +1285,8 @@ def _solve(binding: _Binding, u0: np.ndarray, progress: bool, label: str):
     tol = [np.log1p(binding.opts.rtol)] * 2 + ([np.log1p(ZETA_RTOL)] if u0.size == 3 else [])
     with _replay_bar(binding.opts.max_iter, label, progress) as binding.bar:
         return solve_binding(binding, u0, np.diag([1.0, 1.0, -1.0][: u0.size]),
-                             max_iter=binding.opts.max_iter, tolerances=tol, probe=2)
+                             max_iter=binding.opts.max_iter, tolerances=tol,
+                             probe=binding.probe)
 
 
 def _model_damping_mismatch(binding: _Binding) -> float:
