@@ -1465,6 +1465,17 @@ def test_a_loop_that_stepped_one_way_probes_across_before_it_stops():
     sol = solve_binding(lucky, start, np.eye(2), max_iter=8, tolerances=[tol] * 2, probe=2)
     assert sol.converged and np.abs(sol.u - target).max() < 1e-9
     assert lucky.unprobed == 1 and sol.n == len(lucky.calls) == 3
+    # a probe that cannot be replayed: no more probes, the step is replayed (clearing it)
+    class ProbeFails(Residual):
+        def __call__(self, u):
+            if len(self.calls) == 2:  # the third replay, the probe
+                self.calls.append(u.copy())
+                return None
+            return super().__call__(u)
+
+    failing = ProbeFails()
+    sol = solve_binding(failing, start, np.eye(2), max_iter=8, tolerances=[tol] * 2, probe=2)
+    assert sol.converged and failing.unprobed == 0 and sol.n == len(failing.calls) == 4
     # the directions stepped along: covered ones leave nothing to probe
     assert unexplored([np.array([1.0, 0.0]), np.array([0.0, 1.0])], 2) is None
     e = unexplored([np.array([3.0, 0.0, 5.0])], 2)
