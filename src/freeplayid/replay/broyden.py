@@ -97,7 +97,7 @@ def solve_binding(residual: Callable[[np.ndarray], np.ndarray | None], u0, J0, *
     tol = np.asarray(tolerances, dtype=float)
     prev, best, n, good, halvings = None, None, 0, 0, 0
     steps = []  # the steps between evaluated unknowns, in units of the tolerances
-    probes, allowed = 0, probe  # probes made and allowed (within max_iter)
+    probes, probing = 0, probe > 0  # at most one probe per direction (``probe``)
     for k in range(max_iter + (first is not None)):
         if n >= max_iter:
             break
@@ -127,7 +127,8 @@ def solve_binding(residual: Callable[[np.ndarray], np.ndarray | None], u0, J0, *
         if not bool(np.all(np.abs(step) < tol)):
             continue
         e = None
-        if probes < allowed and n < max_iter:  # stopped at the start: its slope unmeasured
+        if probing and probes < probe and n < max_iter:
+            # stopped at the start, no slope was measured: the first axis
             e = unexplored(steps, probe) if steps else np.eye(u.size)[0]
         if e is None:
             return BindingSolve(u, True, J, None, n)
@@ -136,7 +137,7 @@ def solve_binding(residual: Callable[[np.ndarray], np.ndarray | None], u0, J0, *
         Fp = residual(prev[0] + du)
         n, probes = n + 1, probes + 1
         if Fp is None:  # not measured: no more probes; the step is replayed, which clears it
-            allowed = probes
+            probing = False
         else:
             steps.append(du / tol)
             J = broyden_update(J, du, np.asarray(Fp, dtype=float) - prev[1])

@@ -713,6 +713,9 @@ def _replayed_test(dataset, system, plain: PlainEstimate, rule: str, extraction:
     return _Test(stat_ds, sweeps, levels, stat, extraction, fit, excitations)
 
 
+PROBED = 2  # the loop probes across its steps in (log kn, log delta) before it stops
+
+
 class _Binding:
     """The binding function's residual F(u), u = log(kn, delta[, zeta[, p]]): the statistics of
     the replay at u minus those of the test, log(kn_rep / kn_hat), log(delta_rep / delta_hat)[,
@@ -722,7 +725,7 @@ class _Binding:
     the point weights it fixed after the first, and why a replay failed."""
 
     def __init__(self, test: _Test, system, damping: tuple, opts: Replay, bar=None,
-                 label: str = "replay", probe: int = 2):
+                 label: str = "replay", probe: int = PROBED):
         self.test, self.system, self.opts, self.bar, self.label = test, system, opts, bar, label
         # the loop's probe across its steps before it stops (solve_binding's ``probe``): in
         # (log kn, log delta); none in a quick fit (answer_only), which a full one follows
@@ -882,8 +885,8 @@ class _Binding:
         """The loop's probe (:func:`.broyden.solve_binding`), its last replay, confirmed the
         answer of the replay before it: that one is made the last again (in the history, the
         replays and the replay the answer reports)."""
-        self.history[-2:] = self.history[-1:-3:-1]
-        self.replays[-2:] = self.replays[-1:-3:-1]
+        self.history[-2], self.history[-1] = self.history[-1], self.history[-2]
+        self.replays[-2], self.replays[-1] = self.replays[-1], self.replays[-2]
         self.rep, self.rep_ds = self.replays[-1]
         if self.source == "estimated":
             self.ratios = amplitude_ratios(self.stat.points.used(), self.rep.points.used())
@@ -1015,7 +1018,7 @@ def corrected_fit(dataset, system, plain: PlainEstimate, *, extraction: Extracti
     def unknowns(theta):  # log (kn, delta[, zeta]) of the loop's first replay
         return np.log(np.append(theta, zeta) if estimate else theta)
 
-    binding = _Binding(test, system, (source, zeta), opts, probe=0 if answer_only else 2)
+    binding = _Binding(test, system, (source, zeta), opts, probe=0 if answer_only else PROBED)
     hat = binding.hat
     binding, sol, began = _first_solution(binding, hat, _first_replay(hat, start, opts.start),
                                           unknowns, progress)
