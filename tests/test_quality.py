@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 from freeplayid.dataset import Dataset, Run
+from freeplayid.identification.records import record_checks
 from freeplayid.model import two_dof_system
 from freeplayid.quality import (
     ACTIONS,
@@ -26,7 +27,7 @@ from freeplayid.quality import (
     RecordReport,
     check_records,
 )
-from freeplayid.quality.asymmetry import even_share
+from freeplayid.quality.asymmetry import even_share, replayed_even_harmonics
 from freeplayid.quality.cabling import shape_at_frequency
 from freeplayid.quality.context import Records
 from freeplayid.sweep import Sweep
@@ -453,6 +454,30 @@ def test_an_even_harmonic_a_centred_gap_cannot_make_is_reported(clean):
     no_base = make_dataset([replace(r, base=None) for r in runs], base_channel=None)
     (f,) = check_records(no_base, SYSTEM, options=EVEN).findings
     assert f.run == "run1.csv" and "distortion cannot be told" in f.message
+
+
+def test_an_even_harmonic_the_answers_replay_makes_too_is_a_warning(clean):
+    """A 3 % second harmonic on run 1, judged again against the answer's replay (a centred gap
+    makes some near its contact threshold): where the replay makes 2.8 % the 0.2 % it does not
+    make is no finding, and the finding becomes a warning naming the replay's share; where the
+    replay makes 1 %, the 2 % left is, and it stays suspect, saying so. A replay without the
+    run, or none, leaves the report as it was."""
+    runs = list(clean.runs)
+    runs[1] = _with_second_harmonic(runs[1], 0.03)
+    report = check_records(make_dataset(runs), SYSTEM, options=EVEN)
+    replay = list(clean.runs)
+    replay[1] = _with_second_harmonic(clean.runs[1], 0.028)
+    (f,) = replayed_even_harmonics(report, make_dataset(replay)).findings
+    assert (f.run, f.action) == ("run1.csv", "warning")
+    assert "makes 2.8% there" in f.message and "not an asymmetric hinge" in f.message
+    assert record_checks(replayed_even_harmonics(report, make_dataset(replay)))[0].passed
+    replay[1] = _with_second_harmonic(clean.runs[1], 0.01)
+    (f,) = replayed_even_harmonics(report, make_dataset(replay)).findings
+    assert f.action == "suspect" and "rests on one stop" in f.message
+    assert "makes 1.0% there" in f.message
+    without = make_dataset([r for r in clean.runs if r.file != "run1.csv"])
+    assert replayed_even_harmonics(report, without).findings == report.findings
+    assert replayed_even_harmonics(report, None) is report
 
 
 def test_even_harmonics_of_a_stated_weight_are_not_reported(clean):

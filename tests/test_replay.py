@@ -1816,5 +1816,12 @@ def test_a_quick_fit_gives_the_same_answer_without_its_diagnostics(measured, sys
                           answer_only=True)
     assert (quick.kn, quick.delta) == (full.kn, full.delta)
     assert quick.replayed_points == full.replayed_points
+    # the answer's replay itself is kept (the records its points came from): extracted again
+    # with the statistic's rule, the same points
+    rule = dataclasses.replace(ext, jump_point=full.jump_point, use_sweep_hint=True)
+    again = plain_estimate(full.replayed_dataset, system, init=(full.kn, full.delta),
+                           extraction=rule, fit=fit).fitting_points()
+    assert np.array_equal(again.f_hz, full.replayed_points.f_hz)
+    assert np.array_equal(again.amplitude_m, full.replayed_points.amplitude_m)
     assert full.base_timing is not None and full.resonance and full.offsets
     assert quick.base_timing is None and not quick.resonance and not quick.offsets

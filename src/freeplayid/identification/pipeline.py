@@ -25,7 +25,7 @@ from ..estimate import PlainEstimate, plain_estimate
 from ..fit import FitOptions
 from ..io import read_dataset
 from ..model import FreeplaySystem, ModelOptions, load_system, validate_modes
-from ..quality import RecordCheckOptions
+from ..quality import RecordCheckOptions, replayed_even_harmonics
 from ..replay import Replay, corrected_fit
 from ..signal import Extraction
 from ..threads import one_blas_thread
@@ -1143,7 +1143,10 @@ def _corrected_result(dataset, system, plain: PlainEstimate, rep, mode: int, t0:
     reported kn. A replay that failed keeps the plain estimate, judged on its fit, and makes
     the verdict ``suspect``. ``common``: the one-gap answer (kn, delta) where the replays had
     unequal gaps (``rep.gap_shares``), ``common_t`` and ``common_p`` the t and p of the split
-    it left."""
+    it left. The record checks' even harmonics are judged again against the answer's replay
+    (:func:`freeplayid.quality.replayed_even_harmonics`: a centred gap makes some of its own)."""
+    if records is not None and not rep.failure:
+        records = replayed_even_harmonics(records, rep.replayed_dataset)
     result = _plain_result(dataset, system, plain, mode, t0, error, records)
     if rep.failure:
         verdict = make_verdict(result.verdict.checks + tuple(replay_checks(rep)))

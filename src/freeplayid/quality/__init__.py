@@ -12,13 +12,15 @@ tops), ``dropout`` (held values), ``spike``, ``offset`` (DC offset and drift), `
 lines), ``sample_rate`` / ``sweep_hint`` / ``foreign_record`` (each run's frequency track against
 its hint and the other runs), ``cabling`` (channel amplitude ratios against the model's mode
 shape), ``units`` (levels against ``level_g``) and ``even_harmonics`` (a second harmonic that
-a centred gap cannot make). Each finding carries an action:
+a centred gap does not make; after a replay, :func:`replayed_even_harmonics` judges it again
+against the answer's). Each finding carries an action:
 ``reject_run``, ``suspect``, ``warning`` or ``repaired``.
 """
 
+from .asymmetry import replayed_even_harmonics
 from .check import CHECKS, check_records
 from .options import CHECK_NAMES, RecordCheckOptions
 from .report import ACTIONS, Finding, RecordReport
 
 __all__ = ["check_records", "CHECKS", "CHECK_NAMES", "RecordCheckOptions", "RecordReport",
-           "Finding", "ACTIONS"]
+           "Finding", "ACTIONS", "replayed_even_harmonics"]

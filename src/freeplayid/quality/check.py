@@ -70,4 +70,5 @@ def check_records(dataset, system=None, *, options: RecordCheckOptions | None = 
     findings = []
     for name in options.checks:
         findings += CHECKS[name](records)
-    return RecordReport(tuple(findings), records.repaired_dataset(), dict(records.skipped))
+    return RecordReport(tuple(findings), records.repaired_dataset(), dict(records.skipped),
+                        options)

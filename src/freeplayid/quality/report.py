@@ -77,11 +77,14 @@ class RecordReport:
         when nothing was repaired). Rejected runs are still in it; ``rejected_runs`` names them.
     skipped : dict of str -> str
         Checks (or parts of them) that could not run, and why (no model, no hint, ...).
+    options : RecordCheckOptions or None
+        The checks' options (what a later look at a finding judges it by; None: the defaults).
     """
 
     findings: tuple = ()
     dataset: object = None
     skipped: dict = field(default_factory=dict)
+    options: object = None
 
     def _messages(self, action: str) -> tuple[str, ...]:
         return tuple(f.message for f in self.findings if f.action == action)

@@ -609,6 +609,9 @@ class ReplayResult:
     statistic_points, replayed_points : FittingPoints or None
         The test's statistic points and its replay's at the answer (what else the replay
         measures against the test, e.g. the hinges' split of the gaps). Not saved.
+    replayed_dataset : Dataset or None
+        The answer's replay itself (the records its points were extracted from): what the
+        record checks' findings are judged against again. Not saved.
     """
 
     kn: float
@@ -650,6 +653,7 @@ class ReplayResult:
                                                                 compare=False)
     replayed_points: FittingPoints | None = dataclasses.field(default=None, repr=False,
                                                                compare=False)
+    replayed_dataset: object = dataclasses.field(default=None, repr=False, compare=False)
 
 
 @dataclass(frozen=True)
@@ -1508,6 +1512,7 @@ def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts
         gap_shares=opts.gap_shares, wide_base=opts.wide_base,
         statistic_points=stat.fitting_points() if rep is not None else None,
         replayed_points=rep.fitting_points() if rep is not None else None,
+        replayed_dataset=b.rep_ds if rep is not None else None,
         sweeps={run: {"source": src, "law": sw.law, **sw.to_dict(),
                       **({} if res is None else {"residual_hz": float(res)})}
                 for run, (sw, src, res) in b.test.sweeps.items()})
