@@ -1831,6 +1831,118 @@ VARIANTS.update(dict((
     _modal_damped("var28_beam_two_hinges_equal", "var29_beam_two_hinges_equal_modal", 0.0186),
 )))
 
+
+def _fin_f():
+    """A sixth fin (the thirtieth set): an aluminium inboard plate (0.26 m chord, 0.06 m, 7 mm)
+    carrying a wide thin titanium outboard plate (0.24 m chord, 0.22 m span, 4 mm), the freeplay
+    hinges at x 0.04 / 0.15 m (the pure hinge at 0.23 m), the base driven off-centre (x 0.14 m);
+    its own model file (the project's plate FE of it) with less modal damping than any fin
+    before (1.5 %); closed mode 1 at 28.6 Hz at kn 400 N m/rad (lower than any structure
+    before), where the hinges carry 61 % of its stiffness and turn 0.91 : 1."""
+    import freeplayid.model as fm
+    from freeplayid.model.fin.config import PartProperties
+
+    cfg = fm.load_fin_config()
+    parts = {"inboard": PartProperties(E=70e9, rho=2700.0, nu=0.33, thickness=0.007),
+             "outboard": PartProperties(E=110e9, rho=4430.0, nu=0.34, thickness=0.004)}
+    return dataclasses.replace(cfg, root_chord=0.26, inboard_span=0.06, outboard_span=0.22,
+                               outboard_chord=0.24, parts=parts, hinge_x=(0.04, 0.15, 0.23),
+                               kn=FIN_F_KN, delta=FIN_F_DELTA, top_left=(0.0, 0.27),
+                               lower_right=(0.24, 0.12), exciting=(0.14, 0.0), zeta=0.015)
+
+
+FIN_F_KN, FIN_F_DELTA = 400.0, 0.0025
+FIN_F_F1 = 28.56  # [Hz] its closed mode 1 at FIN_F_KN
+FIN_F_ZETA = 0.015
+# the default fin's band start (0.6 of closed mode 1) at 0.06 Hz/s (bandwidth 2 zeta f1 0.86 Hz:
+# 14 s). Chosen after simulating the control, before any identification: at the default fin's
+# levels moved by the gap (``_fin_runs``), as on fins D and E, no run jumped in a band ending at
+# 0.93 of mode 1 (every one still rising at its end: its hinges turn 4.9 times the default fin's
+# per g at resonance, its lower mode and lighter damping); at those levels x 0.133 (its turn per g
+# per gap at 0.65 of the default fin's) three runs stayed in the gap and the top two jumped at
+# 0.61 and 0.84 of mode 1. So its window of levels is narrow: five levels from just above that
+# threshold (0.12 -> 0.26 g at its 2.5 mrad), the band to 0.96 of mode 1, and the noise x 0.2
+# (0.01 g: accelerometers sized to the lower levels; the base's level then reads about as noisy
+# as on the other fins)
+FIN_F_SWEEP = {"start_hz": round(0.6 * FIN_F_F1, 1), "stop_hz": round(0.96 * FIN_F_F1, 1),
+               "rate_hz_per_s": 0.06}
+FIN_F_LEVELS = (0.144, 0.18, 0.216, 0.264, 0.312)  # [g] at 3 mrad, as FIN_LEVELS
+FIN_F_DOWN_LEVELS = (0.312, 0.36, 0.42, 0.48)
+FIN_F_NOISE_G = 0.01
+
+
+def _fin_f_kw(**kw) -> dict:
+    return _another_fin_kw(_fin_f(), FIN_F_KN, FIN_F_DELTA, FIN_F_SWEEP, FIN_F_LEVELS, **kw)
+
+
+def _fin_f_damped(added: float) -> tuple:
+    """Fin F's levels scaled with an added damping ratio (as the other fins' dampers)."""
+    return tuple(round(lv * (1 + added / FIN_F_ZETA), 4) for lv in FIN_F_LEVELS)
+
+
+def _fin_f_case(make: Callable[..., CaseSpec], name: str, clean_from: str | None = None):
+    """A fin F condition at its own noise (``FIN_F_NOISE_G``)."""
+    def build(**kw) -> CaseSpec:
+        spec = make(**kw)
+        spec.noise_g = FIN_F_NOISE_G
+        return spec
+    return _variant(build, name, clean_from)
+
+
+# A thirtieth set (2026-12-06, session 67), chosen before any of its results: a sixth fin (fin
+# F: another planform, a titanium outboard plate, the lowest mode and the lightest damping of
+# any structure, a slow sweep) under every condition the held-out data name, at the magnitudes
+# they name (mode 1 +0.5 % and -1 %, each with and without sealed modes; a 30 % dip; a +-15 %
+# ramp; half-gaps 10 % either side of their mean). run.py --cases 'var30_*'
+VARIANTS.update({
+    "var30_finF_nominal": _fin_f_case(lambda **kw: _fin_case(
+        "x", "a sixth fin (fin F), its model exact (control)", **_fin_f_kw(**kw)),
+        "var30_finF_nominal"),
+    "var30_finF_rayleigh": _fin_f_case(lambda **kw: _rayleigh_no_c(
+        "fin F", FIN_F_ZETA, (0.6 * FIN_F_F1, 1.5 * FIN_F_F1), _fin_f_kw(**kw)),
+        "var30_finF_rayleigh"),
+    "var30_finF_damper": _fin_f_case(lambda **kw: _also(fin_hinge_damper(
+        added_zeta=0.01, **_fin_f_kw(levels=_fin_f_damped(0.01), **kw)), "fin F"),
+        "var30_finF_damper"),
+    "var30_finF_contact_damping": _fin_f_case(lambda **kw: _contact_damping_on(
+        "fin F", _fin_f_kw(**kw), 0.01, FIN_F_ZETA), "var30_finF_contact_damping"),
+    "var30_finF_stiff_in_p0.5": _fin_f_case(lambda **kw: _also(fin_stiffness(
+        shift=0.005, part="inboard", **_fin_f_kw(**kw)), "fin F"), "var30_finF_stiff_in_p0.5"),
+    "var30_finF_stiff_in_p0.5_ref": _fin_f_case(lambda **kw: _also(fin_stiffness(
+        shift=0.005, part="inboard", ref=True, **_fin_f_kw(**kw)), "fin F"),
+        "var30_finF_stiff_in_p0.5_ref", "var30_finF_stiff_in_p0.5"),
+    "var30_finF_stiff_out_m1": _fin_f_case(lambda **kw: _also(fin_stiffness(
+        shift=-0.01, part="outboard", **_fin_f_kw(**kw)), "fin F"), "var30_finF_stiff_out_m1"),
+    "var30_finF_stiff_out_m1_ref": _fin_f_case(lambda **kw: _also(fin_stiffness(
+        shift=-0.01, part="outboard", ref=True, **_fin_f_kw(**kw)), "fin F"),
+        "var30_finF_stiff_out_m1_ref", "var30_finF_stiff_out_m1"),
+    "var30_finF_dip": _fin_f_case(lambda **kw: _also(fin_level_dip(
+        depth=0.3, flat_hz=0.3, taper_hz=0.4, src="var30_finF_nominal", **_fin_f_kw(**kw)),
+        "fin F"), "var30_finF_dip"),
+    "var30_finF_ramp": _fin_f_case(lambda **kw: _also(fin_level_ramp(ramp=0.15, **_fin_f_kw(**kw)),
+                                                   "fin F"), "var30_finF_ramp"),
+    "var30_finF_unequal": _fin_f_case(lambda **kw: _also(fin_unequal_gaps(
+        **_fin_f_kw(deltas=(0.00225, 0.00275), **kw)), "fin F"), "var30_finF_unequal"),
+    "var30_finF_down": _fin_f_case(lambda **kw: _fin_case(
+        "x", "fin F, down-sweeps, jump-ups in band", **_fin_f_kw(
+            levels=FIN_F_DOWN_LEVELS,
+            sweep={"start_hz": FIN_F_SWEEP["stop_hz"], "stop_hz": FIN_F_SWEEP["start_hz"],
+                   "rate_hz_per_s": FIN_F_SWEEP["rate_hz_per_s"]}, **kw)), "var30_finF_down"),
+    "var30_finF_log": _fin_f_case(lambda **kw: _fin_case(
+        "x", "fin F, log sweep at 0.25 oct/min", **_fin_f_kw(
+            sweep={"start_hz": FIN_F_SWEEP["start_hz"], "stop_hz": FIN_F_SWEEP["stop_hz"],
+                   "octaves_per_min": 0.25}, **kw)), "var30_finF_log"),
+})
+VARIANTS.update(dict(_without_base(src) for src in ("var30_finF_nominal", "var30_finF_rayleigh")))
+# and, chosen after its down-sweeps were refused (each started at 0.96 of mode 1 already on the
+# upper branch, so no run jumps up in band: "peak at band edge"), the same levels swept down
+# from above the resonance (1.1 of mode 1), as a test of a lightly damped fin would be
+VARIANTS["var30_finF_down_above"] = _fin_f_case(lambda **kw: _fin_case(
+    "x", "fin F, down-sweeps from 1.1 x mode 1, jump-ups in band", **_fin_f_kw(
+        levels=FIN_F_DOWN_LEVELS,
+        sweep={"start_hz": round(1.1 * FIN_F_F1, 1), "stop_hz": FIN_F_SWEEP["start_hz"],
+               "rate_hz_per_s": FIN_F_SWEEP["rate_hz_per_s"]}, **kw)), "var30_finF_down_above")
+
 ALL_CASES = {**CONDITIONS, **VARIANTS}
 
 def set_profiles(spec: CaseSpec, out: Path) -> None:
