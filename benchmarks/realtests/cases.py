@@ -1937,6 +1937,11 @@ VARIANTS.update(dict(_without_base(src) for src in ("var30_finF_nominal", "var30
 # and, chosen after its down-sweeps were refused (each started at 0.96 of mode 1 already on the
 # upper branch, so no run jumps up in band: "peak at band edge"), the same levels swept down
 # from above the resonance (1.1 of mode 1), as a test of a lightly damped fin would be
+# and, chosen after the set's answers and before any of their own: its control at the other
+# fins' noise (0.05 g, 5 times its own: accelerometers not sized to its low levels) and shaken
+# vertically (its weight, 1 g, stated: 4-8 times its levels)
+VARIANTS.update(dict((_noisy_with_base("var30_finF_noisy", "var30_finF_nominal", 0.05),
+                      _vertical("var30_finF_vertical", "var30_finF_nominal", 1.0))))
 VARIANTS["var30_finF_down_above"] = _fin_f_case(lambda **kw: _fin_case(
     "x", "fin F, down-sweeps from 1.1 x mode 1, jump-ups in band", **_fin_f_kw(
         levels=FIN_F_DOWN_LEVELS,
