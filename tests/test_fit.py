@@ -358,3 +358,26 @@ def test_a_fit_that_ran_off_to_a_rigid_hinge_is_refused_with_its_cause(kn, delta
     with pytest.raises(IdentificationError, match=r"here: the fit ran off to kn = .*the points "
                        r"do not determine kn"):
         check_determined(kn, delta, two_dof_system(), 0, "here")
+
+
+def test_too_few_points_under_a_stated_weight_say_the_panel_rests_on_its_stop():
+    # every run without a jump: the advice is to shake harder; where the data set states the
+    # weight along the axis it also says why no run crossed the gap (the panel on its stop)
+    from freeplayid.errors import IdentificationError
+    from freeplayid.estimate import check_enough
+    from freeplayid.signal.jump import REASON_EDGE, REASON_NO_JUMP
+
+    class NoPoints:
+        def used(self):
+            return []
+
+    rejected = {"a.csv": REASON_NO_JUMP, "b.csv": REASON_EDGE}
+    with pytest.raises(IdentificationError) as info:
+        check_enough(NoPoints(), rejected, "here", gravity_g=1.0)
+    msg = str(info.value)
+    assert msg.startswith("here: 0 usable fitting point(s)")
+    assert "a.csv: " + REASON_NO_JUMP in msg
+    assert "under the stated weight (gravity_g 1) the panel rests on one stop" in msg
+    with pytest.raises(IdentificationError) as info:
+        check_enough(NoPoints(), rejected, "here")
+    assert str(info.value).endswith("add runs at higher levels that resonate in the band")

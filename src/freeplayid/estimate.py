@@ -168,14 +168,15 @@ def _run_extraction(dataset, run, extraction: Extraction) -> BackbonePoints:
     )
 
 
-def check_enough(points: BackbonePoints, rejected: dict, where) -> None:
-    """IdentificationError unless the used points span two resonances or more."""
+def check_enough(points: BackbonePoints, rejected: dict, where, gravity_g: float = 0.0) -> None:
+    """IdentificationError unless the used points span two resonances or more (``gravity_g``:
+    the data set's stated weight along the axis, which the advice then names)."""
     used = points.used()
     if len(used) < 2:
         why = "; ".join(f"{r}: {w}" for r, w in rejected.items()) or "none rejected"
         raise IdentificationError(
             f"{where}: {len(used)} usable fitting point(s), at least 2 are needed "
-            f"(rejected runs: {why}); {_advice(rejected)}", points=points)
+            f"(rejected runs: {why}); {_advice(rejected, gravity_g)}", points=points)
     if count_resonances([p.f_hz for p in used]) < 2:
         raise IdentificationError(
             f"{where}: the {len(used)} usable points lie at one resonance (within 0.5 %: "
@@ -227,13 +228,19 @@ def check_determined(kn: float, delta: float, system, mode: int, where, points=N
             "runs at other levels that resonate in the band", points=points)
 
 
-def _advice(rejected: dict) -> str:
-    """What to do when too few runs give points, from why they were rejected."""
+def _advice(rejected: dict, gravity_g: float = 0.0) -> str:
+    """What to do when too few runs give points, from why they were rejected (and the stated
+    weight along the axis, ``gravity_g``, under which a run that never leaves the stop it rests
+    on reads as one that stayed in the gap)."""
     reasons = list(rejected.values())
     if reasons and all("too short" in r for r in reasons):
         return ("record whole sweeps: the runs are too short to extract (a `simulate.py "
                 "debug=fast` data set is a smoke test of the simulator, not identifiable)")
     if reasons and all(REASON_NO_JUMP in r or REASON_EDGE in r for r in reasons):
+        if gravity_g:
+            return (f"add runs at higher levels that resonate in the band: under the stated "
+                    f"weight (gravity_g {gravity_g:g}) the panel rests on one stop, and a run "
+                    "too weak to lift it off never crosses the gap")
         return "add runs at higher levels that resonate in the band"
     return "see each rejected run's reason; add runs at higher levels that resonate in the band"
 
@@ -277,7 +284,7 @@ def plain_estimate(dataset, system, *, extraction: Extraction, fit: FitOptions, 
     """
     where = dataset.path or dataset.name or "data set"
     pts, rejected = extract_points(dataset, extraction=extraction, progress=progress, desc=desc)
-    check_enough(pts, rejected, where)
+    check_enough(pts, rejected, where, getattr(dataset, "gravity_g", 0.0) or 0.0)
     points = FittingPoints.from_extraction(pts, dofs=dataset.channels)
     # a network's start: its input may take each point's rate, its domain the runs' sweeps
     sweeps = run_sweeps(dataset, pts, extraction) if hasattr(init, "sweep_outside") else None
