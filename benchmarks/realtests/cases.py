@@ -1574,6 +1574,21 @@ VARIANTS.update(dict(_vertical(*a) for a in (
 
 
 
+# plate materials of the fins after the third: (E [Pa], rho [kg/m^3], nu)
+STEEL, ALUMINIUM, TITANIUM = (200e9, 7850.0, 0.3), (70e9, 2700.0, 0.33), (110e9, 4430.0, 0.34)
+
+
+def _plate_fin(inboard: tuple, outboard: tuple, **fields):
+    """The default fin's FinConfig with its plates, each ((E, rho, nu), thickness [m]), and
+    ``fields`` (its geometry, kn, delta, damping) replaced: fins D, E and F."""
+    import freeplayid.model as fm
+    from freeplayid.model.fin.config import PartProperties
+
+    parts = {name: PartProperties(*material, thickness=t)
+             for name, (material, t) in (("inboard", inboard), ("outboard", outboard))}
+    return dataclasses.replace(fm.load_fin_config(), parts=parts, **fields)
+
+
 def _fin_d():
     """A fourth fin (the twenty-fifth set): a steel inboard plate (0.24 m chord, 0.07 m, 5 mm)
     carrying a narrower aluminium outboard plate (0.18 m chord, 0.20 m span, 5 mm), so the
@@ -1581,16 +1596,10 @@ def _fin_d():
     0.16 m, the base driven off-centre (x 0.12 m); a stiffer hinge against the plates than any
     fin before (the hinges turn 0.46 x the default fin's per g at resonance); its own model file
     (the project's plate FE of it, modal 2.5 %); closed mode 1 at 54.0 Hz at kn 1500 N m/rad."""
-    import freeplayid.model as fm
-    from freeplayid.model.fin.config import PartProperties
-
-    cfg = fm.load_fin_config()
-    parts = {"inboard": PartProperties(E=200e9, rho=7850.0, nu=0.3, thickness=0.005),
-             "outboard": PartProperties(E=70e9, rho=2700.0, nu=0.33, thickness=0.005)}
-    return dataclasses.replace(cfg, root_chord=0.24, inboard_span=0.07, outboard_span=0.20,
-                               outboard_chord=0.18, parts=parts, hinge_x=(0.02, 0.07, 0.16),
-                               kn=FIN_D_KN, delta=FIN_D_DELTA, top_left=(0.0, 0.27),
-                               lower_right=(0.18, 0.10), exciting=(0.12, 0.0), zeta=0.025)
+    return _plate_fin((STEEL, 0.005), (ALUMINIUM, 0.005), root_chord=0.24, inboard_span=0.07,
+                      outboard_span=0.20, outboard_chord=0.18, hinge_x=(0.02, 0.07, 0.16),
+                      kn=FIN_D_KN, delta=FIN_D_DELTA, top_left=(0.0, 0.27),
+                      lower_right=(0.18, 0.10), exciting=(0.12, 0.0), zeta=0.025)
 
 
 FIN_D_KN, FIN_D_DELTA = 1500.0, 0.0012
@@ -1672,16 +1681,10 @@ def _fin_e():
     base driven off-centre (x 0.08 m); its own model file (the project's plate FE of it) with
     more modal damping than any fin before (4 %); closed mode 1 at 48.1 Hz at kn 600 N m/rad,
     where the hinges carry half its stiffness and turn 0.79 : 1."""
-    import freeplayid.model as fm
-    from freeplayid.model.fin.config import PartProperties
-
-    cfg = fm.load_fin_config()
-    parts = {"inboard": PartProperties(E=70e9, rho=2700.0, nu=0.33, thickness=0.010),
-             "outboard": PartProperties(E=200e9, rho=7850.0, nu=0.3, thickness=0.003)}
-    return dataclasses.replace(cfg, root_chord=0.22, inboard_span=0.10, outboard_span=0.16,
-                               outboard_chord=0.20, parts=parts, hinge_x=(0.02, 0.13, 0.20),
-                               kn=FIN_E_KN, delta=FIN_E_DELTA, top_left=(0.0, 0.26),
-                               lower_right=(0.20, 0.13), exciting=(0.08, 0.0), zeta=0.04)
+    return _plate_fin((ALUMINIUM, 0.010), (STEEL, 0.003), root_chord=0.22, inboard_span=0.10,
+                      outboard_span=0.16, outboard_chord=0.20, hinge_x=(0.02, 0.13, 0.20),
+                      kn=FIN_E_KN, delta=FIN_E_DELTA, top_left=(0.0, 0.26),
+                      lower_right=(0.20, 0.13), exciting=(0.08, 0.0), zeta=0.04)
 
 
 FIN_E_KN, FIN_E_DELTA = 600.0, 0.002
@@ -1839,16 +1842,10 @@ def _fin_f():
     its own model file (the project's plate FE of it) with less modal damping than any fin
     before (1.5 %); closed mode 1 at 28.6 Hz at kn 400 N m/rad (lower than any structure
     before), where the hinges carry 61 % of its stiffness and turn 0.91 : 1."""
-    import freeplayid.model as fm
-    from freeplayid.model.fin.config import PartProperties
-
-    cfg = fm.load_fin_config()
-    parts = {"inboard": PartProperties(E=70e9, rho=2700.0, nu=0.33, thickness=0.007),
-             "outboard": PartProperties(E=110e9, rho=4430.0, nu=0.34, thickness=0.004)}
-    return dataclasses.replace(cfg, root_chord=0.26, inboard_span=0.06, outboard_span=0.22,
-                               outboard_chord=0.24, parts=parts, hinge_x=(0.04, 0.15, 0.23),
-                               kn=FIN_F_KN, delta=FIN_F_DELTA, top_left=(0.0, 0.27),
-                               lower_right=(0.24, 0.12), exciting=(0.14, 0.0), zeta=0.015)
+    return _plate_fin((ALUMINIUM, 0.007), (TITANIUM, 0.004), root_chord=0.26, inboard_span=0.06,
+                      outboard_span=0.22, outboard_chord=0.24, hinge_x=(0.04, 0.15, 0.23),
+                      kn=FIN_F_KN, delta=FIN_F_DELTA, top_left=(0.0, 0.27),
+                      lower_right=(0.24, 0.12), exciting=(0.14, 0.0), zeta=0.015)
 
 
 FIN_F_KN, FIN_F_DELTA = 400.0, 0.0025
