@@ -151,14 +151,19 @@ def replayed_even_harmonics(report: RecordReport, replayed) -> RecordReport:
     if replayed is None or not found or report.dataset is None:
         return report
     opts = report.options or RecordCheckOptions()
-    measured, replay = Records(report.dataset, None, opts), Records(replayed, None, opts)
-    runs = {rec.file: rec for rec in measured.runs}
-    again = {rec.file: rec for rec in replay.runs}
+    files = {f.run for f in found}
+
+    def prepared(dataset) -> dict:  # only the runs found: each is read on its own
+        kept = dataclasses.replace(dataset, runs=tuple(r for r in dataset.runs if r.file in files))
+        records = Records(kept, None, opts)
+        return {rec.file: (records, rec) for rec in records.runs}
+
+    runs, again = prepared(report.dataset), prepared(replayed)
     judged = {}
     for f in found:
         if f.run not in runs or f.run not in again:
             continue
-        s, r = even_share(measured, runs[f.run]), even_share(replay, again[f.run])
+        s, r = even_share(*runs[f.run]), even_share(*again[f.run])
         if s is None or r is None:
             continue
         made = f"the answer's replay, a centred gap, makes {r['even']:.1%} there"
@@ -166,7 +171,7 @@ def replayed_even_harmonics(report: RecordReport, replayed) -> RecordReport:
             judged[f] = dataclasses.replace(f, message=f"{f.message} ({made})")
         else:
             judged[f] = dataclasses.replace(f, action="warning", message=(
-                f"{_measured(measured, runs[f.run], s)}, and {made}: the response of a gap "
+                f"{_measured(*runs[f.run], s)}, and {made}: the response of a gap "
                 "centred on the rest position where the run first meets the stops (the motion "
                 "favours one stop), not an asymmetric hinge"))
     if not judged:
