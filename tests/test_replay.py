@@ -18,7 +18,7 @@ from freeplayid import identify
 from freeplayid.errors import IdentificationError
 from freeplayid.io import Dataset, Run
 from freeplayid.model import sdof_system
-from freeplayid.replay import Replay, replay_dataset, replay_levels
+from freeplayid.replay import Replay, ReplayIteration, replay_dataset, replay_levels
 from freeplayid.simulate import design_decimator
 from freeplayid.sweep import Sweep
 
@@ -1825,3 +1825,33 @@ def test_a_quick_fit_gives_the_same_answer_without_its_diagnostics(measured, sys
     assert np.array_equal(again.amplitude_m, full.replayed_points.amplitude_m)
     assert full.base_timing is not None and full.resonance and full.offsets
     assert quick.base_timing is None and not quick.resonance and not quick.offsets
+
+
+def test_the_run_that_makes_a_binding_jump_is_the_one_without_which_the_fits_do_not_jump():
+    """:func:`freeplayid.replay.binding_jump.jump_run` on fits made by hand: replay 1's delta
+    fit drops 25 % where run r2's points are in it (r2 changed branch between the replays);
+    without r2 the two fits agree to 0.1 %, so r2 is named. Where two runs each take the jump
+    away, or none does, or fewer than three runs are shared, no run is named."""
+    from freeplayid.replay.binding_jump import BindingJump, jump_run, worst_jump
+
+    def it(kn, delta, kn_rep, delta_rep):
+        return ReplayIteration(kn, delta, kn_rep, delta_rep, n_evaluations=10)
+
+    history = [it(482.9, 3.043e-3, 485.2, 3.084e-3), it(480.0, 3.000e-3, 424.7, 2.313e-3)]
+    jump = worst_jump(history, {})
+    assert jump == BindingJump(after=1, parameter="delta", move=jump.move, cause=jump.cause)
+    assert jump.move == pytest.approx(np.log(3.084 / 2.313))
+
+    def fits_by(culprits):
+        def fits(i, keep):
+            off = i == 1 and any(c in keep for c in culprits)
+            return 480.0, 3.0e-3 * (0.75 if off else 1.0 + 1e-3 * i)
+        return fits
+
+    runs = ["r0", "r1", "r2", "r3"]
+    assert jump_run(jump, fits_by({"r2"}), runs) == "r2"
+    assert jump_run(jump, fits_by({"r1", "r2"}), runs) is None  # without either, still a jump
+    assert jump_run(jump, lambda i, keep: (480.0, 3e-3 * (0.75 if i else 1.0)), runs) is None
+    assert jump_run(jump, fits_by({"r2"}), ["r1", "r2"]) is None
+    # a smooth pair is no jump
+    assert worst_jump([history[0], it(480.0, 3.0e-3, 482.3, 3.041e-3)], {}) is None

@@ -210,6 +210,41 @@ def test_a_binding_that_jumps_is_suspect():
     assert {c.name: c for c in replay_checks(Rep())}["replay_binding"].passed
 
 
+@pytest.mark.parametrize("run, runs, without, passed", [
+    ("r0", 6, (-7e-4, -1.3e-3), True),   # the default fin at 0.47 g (realtests): set aside
+    ("r0", 6, (2e-3, -8e-3), False),     # without it delta moves 0.8 %: it rests on it
+    ("r0", 6, (1.5e-2, 0.0), False),     # kn 1.5 %
+    ("r0", 6, None, False),              # not measured
+    ("r0", 3, (-7e-4, -1.3e-3), False),  # three runs: none can be set aside
+    (None, 6, None, False),              # no one run makes the jump
+])
+def test_a_binding_jump_one_run_makes_is_set_aside_where_the_answer_does_not_rest_on_it(
+        run, runs, without, passed):
+    """The jump of the realtests' default fin at 0.47-1 g (its lowest run jumping near
+    contact): the replayed fit's delta -25 % for a 1.4 % move of delta. It passes where one
+    run makes it, of four or more, and the answer without that run moves by no more than half
+    the bounds (delta 0.5 %, kn 1 %), as a run off the backbone is set aside; the reason names
+    the run wherever it was found."""
+    from freeplayid.identification.replay_checks import replay_checks
+    from freeplayid.replay import BindingJump
+
+    class Rep:
+        failure, misfit, sweeps, damping, converged = "", {}, {}, None, True
+        iterations = [ReplayIteration(482.86, 3.0431e-3, 485.16, 3.0839e-3, 9),
+                      ReplayIteration(480.04, 2.9998e-3, 424.69, 2.3131e-3, 18)]
+        binding_jump = BindingJump(after=1, parameter="delta", move=0.2876, cause=0.0143,
+                                   run=run, runs=runs, without=without)
+
+    check = {c.name: c for c in replay_checks(Rep())}["replay_binding"]
+    assert check.passed is passed
+    assert "delta jumped by 29 % when the replayed delta moved by 1.4 %" in check.message
+    assert (f"run {run} changes branch" in check.message) is (run is not None)
+    assert ("does not rest on that run" in check.message) is passed
+    # without the run's attribution the check reads the iterations alone, as before
+    Rep.binding_jump = None
+    assert not {c.name: c for c in replay_checks(Rep())}["replay_binding"].passed
+
+
 def test_a_binding_across_a_move_of_the_damping_exponent_is_not_read_as_a_jump():
     # the exponent's probe: the same (kn, delta) replayed at p = 0.5 fits 3 % elsewhere, which
     # is the damping's doing, not a point changing branch

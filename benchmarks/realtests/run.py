@@ -93,14 +93,18 @@ def identify_case(path: str, corrected: bool, replay: dict | None = None,
                 # the replay's damping: its ratio, the form estimated (or why not), the one
                 # ratio's answer
                 "damping": None if rep.damping is None else rep.damping.to_dict(),
-                "branch": {run: float(m.branch) for run, m in (rep.resonance or {}).items()}},
+                "branch": {run: float(m.branch) for run, m in (rep.resonance or {}).items()},
+                # the loop's largest jump of the replayed fits, the run that makes it and the
+                # answer's move without that run
+                "binding_jump": None if getattr(rep, "binding_jump", None) is None
+                else rep.binding_jump.to_dict()},
             # the hinges' split read against the replay, and the one-gap answer where the test
             # was replayed with the split it showed
             "split": None if getattr(res.model_error, "split", None) is None
             else res.model_error.split.to_dict(),
             "checks_text": {c.name: str(c.message) for c in res.verdict.checks
                             if c.name in ("replay_misfit", "hinge_gaps", "base_reading",
-                                          "drop_window")}}
+                                          "drop_window", "replay_binding")}}
 
 
 def _task(case: str, draw: str, folder: str, fit: str, replay: dict | None = None,

@@ -104,8 +104,8 @@ import math
 import numpy as np
 import scipy.stats
 
-from ..replay.corrected import FORM_PARAMETERS
-from ..replay.damping_estimate import ZETA_RTOL
+from ..replay.binding_jump import worst_jump
+from ..replay.corrected import FORM_ATOL
 from .verdict import LIMITS, Check, within_binding_noise
 
 __all__ = ["replay_checks", "run_branches", "precision_check", "noise_outside_chance", "settled_sd",
@@ -489,7 +489,7 @@ def replay_checks(replay, *, down_runs=()) -> list[Check]:
               _level_check(replay), _form_check(replay), _reading_check(replay),
               _antialias_check(replay), _branch_check(replay), _timing_check(replay),
               _sweep_law_check(replay, misfit, LIMITS["replay_misfit"]),
-              _binding_check(replay.iterations), _converged_check(replay),
+              _binding_check(replay), _converged_check(replay),
               precision_check(getattr(replay, "precision", None),
                               getattr(replay, "excitation_noise", None))]
     damping = getattr(replay, "damping", None)
@@ -546,47 +546,37 @@ def _converged_check(replay) -> Check:
                  + (f"; the loop stopped: {stopped}" if stopped else ""), close)
 
 
-# [-] two replays whose damping form's parameter (p or q, :data:`replay.corrected.FORM_PARAMETERS`)
-# differs by more than twice its convergence tolerance are not compared by the binding check;
-# nor two replays of the loop with a form estimated (both carry p or q) whose estimated zeta
-# differs by more than this (log): there zeta and the form move together, and zeta alone moves
-# the replayed fit (a beam's step after q's probe: zeta 2.57 -> 2.11 %, the fit's delta 1.2 %
-# for a 0.2 % move of delta)
-ZETA_MOVE = 2 * ZETA_RTOL
-
-
-def _form_moved(a, b) -> bool:
-    """Whether the damping's form, or its zeta within the form's loop, moved between replays
-    ``a`` and ``b`` (they are then not compared by the binding check)."""
-    if any(abs((getattr(a, f.attr, None) or 0.0) - (getattr(b, f.attr, None) or 0.0))
-           > 2 * f.atol for f in FORM_PARAMETERS.values()):
-        return True
-    in_loop = all(any(getattr(it, f.attr, None) is not None for f in FORM_PARAMETERS.values())
-                  for it in (a, b))
-    za, zb = getattr(a, "zeta", None), getattr(b, "zeta", None)
-    return bool(in_loop and za and zb and abs(math.log(zb / za)) > ZETA_MOVE)
-
-
-def _binding_check(iterations) -> Check:
-    """``replay_binding``: no two replays whose fits differ by a jump (module docstring)."""
-    worst = None  # (move of the fit, move of the parameter, name)
-    for a, b in zip(iterations, iterations[1:]):
-        if _form_moved(a, b):
-            continue  # the damping's form moved between them too: not (kn, delta) alone
-        for name in ("kn", "delta"):
-            move = abs(math.log(getattr(b, f"{name}_rep") / getattr(a, f"{name}_rep")))
-            cause = abs(math.log(getattr(b, name) / getattr(a, name)))
-            if (move > LIMITS["binding_jump"] and move > LIMITS["binding_slope"] * cause
-                    and (worst is None or move > worst[0])):
-                worst = (move, cause, name)
-    if worst is None:
+def _binding_check(replay) -> Check:
+    """``replay_binding``: no two replays whose fits differ by a jump (module docstring), or
+    one whose jump one run makes (:class:`freeplayid.replay.BindingJump`) that the answer does
+    not rest on: of four runs or more, the answer without it moves by no more than
+    ``without_delta`` / ``without_kn`` (half the accuracy bounds), as ``replay_misfit`` sets a
+    run aside."""
+    jump = getattr(replay, "binding_jump", None)
+    if jump is None:
+        jump = worst_jump(replay.iterations, FORM_ATOL)
+    if jump is None:
         return Check("replay_binding", True, "the replayed fits move smoothly with (kn, delta)")
-    move, cause, name = worst
+    name, move, cause = jump.parameter, jump.move, jump.cause
+    said = (f"the replayed fit's {name} jumped by {100 * move:.2g} % when the replayed "
+            f"{name} moved by {100 * cause:.2g} %")
+    w = jump.without
+    if jump.run is not None:
+        said += f": run {jump.run} changes branch there (without it the fits do not jump)"
+        if w is not None:
+            said += (f"; without it the answer moves delta {100 * w[1]:+.2g} %, "
+                     f"kn {100 * w[0]:+.2g} %")
+        if (w is not None and jump.runs >= 4 and abs(w[1]) <= LIMITS["without_delta"]
+                and abs(w[0]) <= LIMITS["without_kn"]):
+            return Check("replay_binding", True,
+                         f"{said}, within half the accuracy bounds, so the answer does not rest "
+                         "on that run (a run at the edge of jumping)", move)
+        return Check("replay_binding", False,
+                     f"{said}: the answer rests on a run at the edge of jumping, and can lie "
+                     "anywhere across that jump", move)
     return Check("replay_binding", False,
-                 f"the replayed fit's {name} jumped by {100 * move:.2g} % when the replayed "
-                 f"{name} moved by {100 * cause:.2g} %: a replayed point changes branch near "
-                 "the estimate (a run at the edge of jumping?), which can lie anywhere across "
-                 "that jump", move)
+                 f"{said}: a replayed point changes branch near the estimate (a run at the "
+                 "edge of jumping?), which can lie anywhere across that jump", move)
 
 
 def _sweep_law_check(replay, misfit: dict, limit: float) -> Check:

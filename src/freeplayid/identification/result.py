@@ -327,6 +327,8 @@ class Identification:
             "records_filter": getattr(r, "records_filter", "unknown"),
             "base_timing": None if getattr(r, "base_timing", None) is None
             else r.base_timing.to_dict(),
+            "binding_jump": None if getattr(r, "binding_jump", None) is None
+            else r.binding_jump.to_dict(),
         }
 
     def backbone_overlay(self) -> dict:

@@ -102,6 +102,7 @@ import numpy as np
 from ..acquisition import GAIN_FLOOR, FilterResponse, unrestored_points
 from ..fit import MIN_GAP_RATIO, gap_ratios
 from ..quantity import G, check_quantity
+from ..replay.binding_jump import JUMP, JUMP_SLOPE
 from ..signal import window_amplitudes
 from ..sweep import Sweep
 
@@ -122,8 +123,8 @@ LIMITS = {
     "level_tolerance": 0.25,  # [-] base amplitude / level_g accepted within 1 -+ this
     "replay_misfit": 0.05,  # [-] measured vs replayed curves, median difference / peak
     "zeta_ci_ratio": 2.0,  # [-] an estimated damping ratio's 95 % interval, upper / lower
-    "binding_jump": 0.01,  # [-] a replayed fit's move (log) that counts as a jump ...
-    "binding_slope": 5.0,  # [-] ... when it is this many times its parameters' move
+    "binding_jump": JUMP,  # [-] a replayed fit's move (log) that counts as a jump ...
+    "binding_slope": JUMP_SLOPE,  # [-] ... when it is this many times its parameters' move
     # [-] an unconverged replay loop whose closest replay misses the test's statistics by at
     # most this many of their standard errors is as good as converged: the answer then lies
     # that far from the solution, which lowers a 95 % interval's coverage to 94.3 % at most

@@ -77,6 +77,7 @@ solve), ``bootstrap`` (the bootstrap by replay), ``misfit`` (the self-check's cu
 """
 
 from .base_timing import BaseTiming, base_timing
+from .binding_jump import BindingJump
 from .bootstrap import ReplayBootstrap, ReplayPrecision, precision_by_replay, windowed
 from .corrected import (
     AcquisitionFilter,
@@ -101,7 +102,7 @@ __all__ = ["Replay", "ReplayResult", "ReplayIteration", "PointOffset", "PointWei
            "ReplayBootstrap", "ReplayPrecision", "precision_by_replay", "windowed",
            "ReplayDamping", "CrossCheck", "LevelSensitivity", "ExcitationNoise", "BaseReading",
            "DampingSensitivity", "AcquisitionFilter", "BaseTiming", "base_timing", "replay_sweeps",
-           "replay_levels",
+           "replay_levels", "BindingJump",
            "replay_dataset", "corrected_fit", "curve_misfit", "damped_system", "noise_levels",
            "initial_zeta", "point_weights", "replayed_intervals", "WEIGHT_FLOOR", "ZETA_START",
            "ZETA_RTOL"]

@@ -19,6 +19,7 @@ from ..signal import Extraction
 from ..signal.jump import REASON_EDGE, REASON_NO_JUMP
 from ..signal.level import GAP_AROUND, GAP_Z_AROUND, reading_gap
 from .base_timing import BaseTiming, base_timing
+from .binding_jump import BindingJump, jump_run, worst_jump
 from .bootstrap import (
     PRECISION_MARGIN_HZ,
     ReplayBootstrap,
@@ -55,7 +56,7 @@ from .statistic import (
 from .weights import noise_levels, point_weights, record_noise
 
 __all__ = ["ReplayResult", "ReplayIteration", "PointOffset", "CrossCheck", "ExcitationNoise",
-           "corrected_fit", "FORM_PARAMETERS"]
+           "corrected_fit", "FORM_PARAMETERS", "FORM_ATOL"]
 
 log = logging.getLogger(__name__)
 
@@ -612,6 +613,10 @@ class ReplayResult:
     replayed_dataset : Dataset or None
         The answer's replay itself (the records its points were extracted from): what the
         record checks' findings are judged against again. Not saved.
+    binding_jump : BindingJump or None
+        The loop's largest jump of the replayed fits between two replays, the run that makes it
+        and the answer's move without that run (:mod:`.binding_jump`); None where they move
+        smoothly (or with ``answer_only``).
     """
 
     kn: float
@@ -654,6 +659,7 @@ class ReplayResult:
     replayed_points: FittingPoints | None = dataclasses.field(default=None, repr=False,
                                                                compare=False)
     replayed_dataset: object = dataclasses.field(default=None, repr=False, compare=False)
+    binding_jump: BindingJump | None = None
 
 
 @dataclass(frozen=True)
@@ -827,7 +833,6 @@ class _Binding:
         if self.weight_table is None:
             rep = self.fix_weights(rep)
         self.rep = rep
-        self.replays.append((rep, self.rep_ds))
         matched, hat = self.like_for_like(rep)
         F = np.log(np.array([matched.kn, matched.delta]) / (self.hat if hat is None else hat))
         # the replayed statistic as the test's with all its runs would read it (the matched
@@ -850,6 +855,9 @@ class _Binding:
             F = np.append(F, trend.slope)
         se = misfit_in_se(F, self.stat_ci95, self.stat.points.used(),
                           self.ratios if estimate else None)
+        # one entry of ``replays`` per entry of ``history`` (a replay that lost a run above
+        # returned no residual and has neither: ``settle`` reads ``replays`` by history index)
+        self.replays.append((rep, self.rep_ds))
         self.history.append(ReplayIteration(
             float(theta[0]), float(theta[1]), float(kn_rep), float(delta_rep),
             int(rep.fit.n_evaluations), zeta=None if self.source == "model" else float(zeta),
@@ -1117,6 +1125,9 @@ FORM_PARAMETERS = {
                       EXPONENT_PROBE, EXPONENT_ATOL),
     "hinge": _Form("hinge", "q", "the hinge damper's share", HINGE_BOUNDS, HINGE_PROBE,
                    HINGE_ATOL)}
+# each form parameter's attribute and the tolerance within which two replays hold the same
+# form (the binding's jumps are sought only between such replays, :mod:`.binding_jump`)
+FORM_ATOL = {f.attr: f.atol for f in FORM_PARAMETERS.values()}
 
 
 def _fit_form(b: _Binding, sol, progress: bool, form: _Form):
@@ -1445,7 +1456,9 @@ def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts
         it = b.history[sol.closest]
         miss = np.log([it.kn_rep, it.delta_rep]) - np.log(b.hat)
         offset = tuple(float(v) for v in (np.eye(2) if slope is None else slope) @ miss)
+    jump = None
     if rep is not None and not answer_only:
+        jump = None if b.failure else _binding_jump(b)
         replayed = {(p.run, p.channel): p for p in rep.points.used()}
         offsets = tuple(PointOffset(p.run, p.channel, q.f_hz / p.f_hz - 1,
                                     q.amplitude_m / p.amplitude_m - 1)
@@ -1513,6 +1526,7 @@ def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts
         statistic_points=stat.fitting_points() if rep is not None else None,
         replayed_points=rep.fitting_points() if rep is not None else None,
         replayed_dataset=b.rep_ds if rep is not None else None,
+        binding_jump=jump,
         sweeps={run: {"source": src, "law": sw.law, **sw.to_dict(),
                       **({} if res is None else {"residual_hz": float(res)})}
                 for run, (sw, src, res) in b.test.sweeps.items()})
@@ -1866,17 +1880,27 @@ def _offset_noise(b: _Binding, resonance: dict, noise, backbone_f,
 def _without_runs(b: _Binding, resonance: dict) -> dict:
     """``resonance`` with, for each run whose offset exceeds ``OFFSET_NOISE_FROM`` (four runs
     or more), the answer's relative move were that run left out of the statistic
-    (:attr:`.misfit.RunMisfit.without`): the test's statistic and the answer's replay refitted
-    (their weights) without the run's points; at the answer the two fits agree, so the move is
-    log(test / replay) without the run less the same with it (the binding's correction taken as
-    locally constant, as the bootstrap by replay does). A run the fit cannot do without (fewer
-    than two points left, a failed fit) keeps None."""
+    (:attr:`.misfit.RunMisfit.without`, :func:`_answer_without`). A run the fit cannot do
+    without (fewer than two points left, a failed fit) keeps None."""
     if len(resonance) < 4:
         return resonance
-    test, rep = b.stat.fitting_points(), b.rep.fitting_points()
+    out = dict(resonance)
+    for run, m in resonance.items():
+        if _matters(m) and (move := _answer_without(b, run)) is not None:
+            out[run] = dataclasses.replace(m, without=move)
+    return out
+
+
+def _answer_without(b: _Binding, leave: str) -> tuple | None:
+    """The answer's relative move (kn, delta) were run ``leave`` left out of the statistic:
+    the test's statistic and the answer's replay refitted (their weights) without its points;
+    at the answer the two fits agree, so the move is log(test / replay) without the run less
+    the same with it (the binding's correction taken as locally constant, as the bootstrap by
+    replay does). None where the fit cannot do without it (fewer than two points left, a
+    failed fit)."""
     t = b.test
 
-    def fitted(points, leave, init):  # log (kn, delta) of the points less run ``leave``
+    def fitted(points, init):  # log (kn, delta) of the points less run ``leave``
         try:
             sub = FittingPoints.from_records(r for r in points.to_records() if r["run"] != leave)
             res = fit_backbone(sub, b.system, init=init, backbone=t.fit.backbone,
@@ -1885,17 +1909,35 @@ def _without_runs(b: _Binding, resonance: dict) -> dict:
             return None
         return np.log([res.kn, res.delta]) if res.success else None
 
+    a = fitted(b.stat.fitting_points(), (b.stat.kn, b.stat.delta))
+    r = fitted(b.rep.fitting_points(), (b.rep.kn, b.rep.delta))
+    if a is None or r is None:
+        return None
     base = np.log([b.stat.kn, b.stat.delta]) - np.log([b.rep.kn, b.rep.delta])
-    out = dict(resonance)
-    for run, m in resonance.items():
-        if not _matters(m):
-            continue
-        a = fitted(test, run, (b.stat.kn, b.stat.delta))
-        r = fitted(rep, run, (b.rep.kn, b.rep.delta))
-        if a is not None and r is not None:
-            move = np.expm1(a - r - base)
-            out[run] = dataclasses.replace(m, without=(float(move[0]), float(move[1])))
-    return out
+    move = np.expm1(a - r - base)
+    return float(move[0]), float(move[1])
+
+
+def _binding_jump(b: _Binding) -> BindingJump | None:
+    """The loop's largest jump of the replayed fits (:func:`.binding_jump.worst_jump`), the
+    run that makes it (:func:`.binding_jump.jump_run`: both replays refitted without each run
+    the test and both share) and the answer's move without that run (:func:`_answer_without`);
+    None where the replayed fits move smoothly."""
+    jump = worst_jump(b.history, FORM_ATOL)
+    if jump is None or b.rep is None or len(b.replays) != len(b.history):
+        return jump
+    reps = [b.replays[jump.after - 1][0], b.replays[jump.after][0]]
+    test = {p.run for p in b.stat.points.used()}
+    shared = sorted(test.intersection(*({p.run for p in r.points.used()} for r in reps)))
+
+    def fits(i, keep):
+        rep = refit(reps[i - jump.after + 1], b.system, b.test.fit, point_weights=b.weights,
+                    runs=keep)
+        return (rep.kn, rep.delta) if rep.fit.success else None
+
+    run = jump_run(jump, fits, shared)
+    return dataclasses.replace(jump, run=run, runs=len(test),
+                               without=None if run is None else _answer_without(b, run))
 
 
 def _cross_check(b: _Binding, theta, rule: str, noise: dict,
