@@ -195,11 +195,16 @@ def _resonance_check(replay, down_runs=()) -> Check:
 def _one_run_aside(off: dict, misfits: dict) -> bool:
     """Whether the only run off (``off``, of four or more in ``misfits``) can be set aside: the
     answer without it moves by no more than ``without_delta`` / ``without_kn``."""
-    if len(off) != 1 or len(misfits) < 4:
-        return False
-    w = getattr(next(iter(off.values())), "without", None)
-    return (w is not None and abs(w[1]) <= LIMITS["without_delta"]
-            and abs(w[0]) <= LIMITS["without_kn"])
+    return len(off) == 1 and _set_aside(getattr(next(iter(off.values())), "without", None),
+                                       len(misfits))
+
+
+def _set_aside(without, runs: int) -> bool:
+    """Whether the answer does not rest on one run of ``runs``: four runs or more, and its move
+    were that run left out (``without``: relative kn, delta; None where not measured) no more
+    than ``without_delta`` / ``without_kn`` (half the accuracy bounds)."""
+    return (without is not None and runs >= 4 and abs(without[1]) <= LIMITS["without_delta"]
+            and abs(without[0]) <= LIMITS["without_kn"])
 
 
 def _noise_limit(se: float, dof: float) -> float:
@@ -566,8 +571,7 @@ def _binding_check(replay) -> Check:
         if w is not None:
             said += (f"; without it the answer moves delta {100 * w[1]:+.2g} %, "
                      f"kn {100 * w[0]:+.2g} %")
-        if (w is not None and jump.runs >= 4 and abs(w[1]) <= LIMITS["without_delta"]
-                and abs(w[0]) <= LIMITS["without_kn"]):
+        if _set_aside(w, jump.runs):
             return Check("replay_binding", True,
                          f"{said}, within half the accuracy bounds, so the answer does not rest "
                          "on that run (a run at the edge of jumping)", move)

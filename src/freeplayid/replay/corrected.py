@@ -1924,7 +1924,7 @@ def _binding_jump(b: _Binding) -> BindingJump | None:
     the test and both share) and the answer's move without that run (:func:`_answer_without`);
     None where the replayed fits move smoothly."""
     jump = worst_jump(b.history, FORM_ATOL)
-    if jump is None or b.rep is None or len(b.replays) != len(b.history):
+    if jump is None or b.rep is None:
         return jump
     reps = [b.replays[jump.after - 1][0], b.replays[jump.after][0]]
     test = {p.run for p in b.stat.points.used()}
