@@ -2,19 +2,20 @@
 against copies of the true noise-free records (a realtests case made by ``redraw.py --noise
 none``): the precision check measures the first; the test's own answer scatters as the second.
 
-    python benchmarks/realtests/copies_scatter.py CASE --data R --draw d4 --copies 10
+    python benchmarks/realtests/copies_scatter.py CASE --data R --draw d4 --copies 12
 
-Identifies the draw with the library's defaults, keeps the replay its precision copies are made
-of, then fits ``--copies`` noisy copies of that replay and of the noise-free records (``d_none``)
-with the test's statistic (its extraction options), the noise the copies get (each channel's
-measured level, the base's too) on both. Prints each run's and channel's point scatter and the
-fits' scatter in log kn and log delta.
+Identifies the draw with the library's defaults and keeps what its precision copies are made
+of: the answer's replay, the noise they get (each channel's measured level, the base's too),
+the statistic's extraction and fit options, the points' weights, the runs' points. Then fits
+``--copies`` noisy copies of that replay and of the noise-free records (``d_none``) as the
+precision does (``plain_estimate`` from the replayed answer), on whole records and cut to
+``PRECISION_MARGIN_HZ`` about the points, with and without the weights, each from the same
+noise seed. Prints the fits' scatter in log kn and log delta per variant.
 """
 
 from __future__ import annotations
 
 import argparse
-import collections
 import sys
 from pathlib import Path
 
@@ -23,21 +24,27 @@ import numpy as np
 import freeplayid.replay.bootstrap as bootstrap
 import freeplayid.replay.corrected as corrected
 from freeplayid import identify
+from freeplayid.errors import IdentificationError
+from freeplayid.estimate import plain_estimate
 from freeplayid.io import read_dataset
 
 
-def _scatter(dataset, system, noise, extraction, copies: int, rng):
-    """The points' (run, channel) -> frequencies [Hz] and the fits' log (kn, delta) over
-    ``copies`` noisy copies of ``dataset``."""
-    points, fits = collections.defaultdict(list), []
+def _scatter(dataset, kept: dict, copies: int, seed: int, weights: bool) -> np.ndarray:
+    """The fits' log (kn, delta) over ``copies`` noisy copies of ``dataset``, each fitted as
+    the precision's copies are (``kept``: what it was called with); a copy whose noise hides a
+    jump is left out."""
+    rng, fits = np.random.default_rng(seed), []
     for _ in range(copies):
-        copy = bootstrap.noisy_copy(dataset, noise, rng)
-        r = identify(copy, system=system, replay=None, records=None, extraction=extraction,
-                     progress=False)
-        fits.append(np.log([r.kn, r.delta]))
-        for p in r.points.used():
-            points[(p.run, p.channel)].append(p.f_hz)
-    return points, np.asarray(fits)
+        copy = bootstrap.noisy_copy(dataset, kept["noise"], rng)
+        try:
+            est = plain_estimate(copy, kept["system"], init=tuple(kept["theta_rep"]),
+                                 extraction=kept["extraction"], fit=kept["fit"],
+                                 point_weights=kept["point_weights"] if weights else None)
+        except IdentificationError:
+            continue
+        if est.fit.success:
+            fits.append(np.log([est.kn, est.delta]))
+    return np.asarray(fits)
 
 
 def main(argv=None) -> int:
@@ -45,7 +52,7 @@ def main(argv=None) -> int:
     ap.add_argument("case")
     ap.add_argument("--data", required=True, help="redraw.py's --out (with d_none)")
     ap.add_argument("--draw", default="d0")
-    ap.add_argument("--copies", type=int, default=10)
+    ap.add_argument("--copies", type=int, default=12)
     ap.add_argument("--seed", type=int, default=7)
     args = ap.parse_args(argv)
     folder = Path(args.data) / args.case
@@ -55,7 +62,7 @@ def main(argv=None) -> int:
     original = corrected.precision_by_replay
 
     def keep(replayed, system, noise, **kw):  # the replay the precision copies are made of
-        kept.update(replay=replayed, system=system, noise=noise, extraction=kw["extraction"])
+        kept.update(replay=replayed, system=system, noise=noise, **kw)
         return original(replayed, system, noise, **kw)
 
     corrected.precision_by_replay = keep
@@ -70,17 +77,22 @@ def main(argv=None) -> int:
     print(f"{args.case} {args.draw}: kn {answer.kn:.5g} (truth {truth.get('kn')}), "
           f"delta {answer.delta:.6g} (truth {truth.get('delta')}), "
           f"statistic {kept['extraction'].jump_point!r}")
-    rng = np.random.default_rng(args.seed)
-    for label, ds in (("copies of the answer's replay", kept["replay"]),
-                      ("copies of the noise-free records", read_dataset(folder / "d_none"))):
-        points, fits = _scatter(ds, kept["system"], kept["noise"], kept["extraction"],
-                                args.copies, rng)
-        sd = fits.std(axis=0, ddof=1)
-        print(f"{label}: {len(fits)} fits, sd log kn {sd[0]:.4f}, log delta {sd[1]:.4f}")
-        print("  | run | channel | mean [Hz] | sd [Hz] |")
-        print("  |---|---|---|---|")
-        for (run, channel), f in sorted(points.items()):
-            print(f"  | {run} | {channel} | {np.mean(f):.3f} | {np.std(f, ddof=1):.3f} |")
+    precision = getattr(answer.replay, "precision", None)
+    if precision is not None and precision.delta_halfwidth is not None:
+        print(f"the precision's own {precision.n_fitted} copies: sd log delta about "
+              f"{np.log1p(precision.delta_halfwidth) / 1.96:.4f} (its half-width / 1.96)")
+    centres = bootstrap.point_centres(kept["points"])
+    print("| records | cut to the points | weights | fits | sd log kn | sd log delta |")
+    print("|---|---|---|---|---|---|")
+    for label, ds in (("the answer's replay", kept["replay"]),
+                      ("the true noise-free records", read_dataset(folder / "d_none"))):
+        for cut in (False, True):
+            src = bootstrap.windowed(ds, centres, bootstrap.PRECISION_MARGIN_HZ) if cut else ds
+            for weights in (False, True):
+                fits = _scatter(src, kept, args.copies, args.seed, weights)
+                sd = fits.std(axis=0, ddof=1) if len(fits) > 1 else (np.nan, np.nan)
+                print(f"| {label} | {'yes' if cut else 'no'} | {'yes' if weights else 'no'} | "
+                      f"{len(fits)} | {sd[0]:.4f} | {sd[1]:.4f} |", flush=True)
     return 0
 
 
