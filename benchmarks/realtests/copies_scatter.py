@@ -24,27 +24,19 @@ import numpy as np
 import freeplayid.replay.bootstrap as bootstrap
 import freeplayid.replay.corrected as corrected
 from freeplayid import identify
-from freeplayid.errors import IdentificationError
-from freeplayid.estimate import plain_estimate
 from freeplayid.io import read_dataset
 
 
 def _scatter(dataset, kept: dict, copies: int, seed: int, weights: bool) -> np.ndarray:
-    """The fits' log (kn, delta) over ``copies`` noisy copies of ``dataset``, each fitted as
-    the precision's copies are (``kept``: what it was called with); a copy whose noise hides a
-    jump is left out."""
-    rng, fits = np.random.default_rng(seed), []
-    for _ in range(copies):
-        copy = bootstrap.noisy_copy(dataset, kept["noise"], rng)
-        try:
-            est = plain_estimate(copy, kept["system"], init=tuple(kept["theta_rep"]),
-                                 extraction=kept["extraction"], fit=kept["fit"],
-                                 point_weights=kept["point_weights"] if weights else None)
-        except IdentificationError:
-            continue
-        if est.fit.success:
-            fits.append(np.log([est.kn, est.delta]))
-    return np.asarray(fits)
+    """The fits' log (kn, delta) over ``copies`` noisy copies of ``dataset``, made and fitted
+    by the precision's own loop (``bootstrap._copy_estimates``, ``kept``: what the precision
+    was called with); a copy whose noise hides a jump, or whose fit fails, is left out."""
+    estimates = bootstrap._copy_estimates(
+        dataset, kept["system"], kept["noise"], np.random.default_rng(seed), n=copies,
+        theta_rep=kept["theta_rep"], extraction=kept["extraction"], fit=kept["fit"],
+        point_weights=kept["point_weights"] if weights else None, desc="", progress=False)
+    return np.asarray([np.log([e.kn, e.delta]) for e in estimates
+                       if e is not None and e.fit.success])
 
 
 def main(argv=None) -> int:
