@@ -10,7 +10,15 @@ the statistic's extraction and fit options, the points' weights, the runs' point
 ``--copies`` noisy copies of that replay and of the noise-free records (``d_none``) as the
 precision does (``plain_estimate`` from the replayed answer), on whole records and cut to
 ``PRECISION_MARGIN_HZ`` about the points, with and without the weights, each from the same
-noise seed. Prints the fits' scatter in log kn and log delta per variant.
+noise seed. Prints the fits' scatter in log kn and log delta per variant, and the copies' scatter
+carried through the answer's binding slope as the precision carries it (``answer_sd``).
+
+    python benchmarks/realtests/copies_scatter.py CASE --data R --draw d4 --copies 32 \
+        --stream precision --only-precision
+
+``--stream precision`` draws the noise from the precision's own seed stream (the answer's
+``Replay.seed``, stream 2), so its first ``precision_copies`` copies are the precision's to the
+digit; ``--only-precision`` fits only what the precision reads (cut, weighted).
 """
 
 from __future__ import annotations
@@ -27,7 +35,7 @@ from freeplayid import identify
 from freeplayid.io import read_dataset
 
 
-def _scatter(dataset, kept: dict, copies: int, seed: int, weights: bool) -> np.ndarray:
+def _scatter(dataset, kept: dict, copies: int, seed, weights: bool) -> np.ndarray:
     """The fits' log (kn, delta) over ``copies`` noisy copies of ``dataset``, made and fitted
     by the precision's own loop (``bootstrap._copy_estimates``, ``kept``: what the precision
     was called with); a copy whose noise hides a jump, or whose fit fails, is left out."""
@@ -46,6 +54,10 @@ def main(argv=None) -> int:
     ap.add_argument("--draw", default="d0")
     ap.add_argument("--copies", type=int, default=12)
     ap.add_argument("--seed", type=int, default=7)
+    ap.add_argument("--stream", choices=("own", "precision"), default="own",
+                    help="precision: the precision's seed stream ([Replay.seed, 2])")
+    ap.add_argument("--only-precision", action="store_true",
+                    help="only the copies the precision reads (cut, weighted)")
     args = ap.parse_args(argv)
     folder = Path(args.data) / args.case
     if not (folder / "d_none").is_dir() or not (folder / args.draw).is_dir():
@@ -74,17 +86,28 @@ def main(argv=None) -> int:
         print(f"the precision's own {precision.n_fitted} copies: sd log delta about "
               f"{np.log1p(precision.delta_halfwidth) / 1.96:.4f} (its half-width / 1.96)")
     centres = bootstrap.point_centres(kept["points"])
-    print("| records | cut to the points | weights | fits | sd log kn | sd log delta |")
-    print("|---|---|---|---|---|---|")
+    seed = [kept["seed"], 2] if args.stream == "precision" else args.seed
+    slope = kept.get("binding_slope")
+    print(f"noise seed {seed}; the answer's binding slope "
+          f"{'none' if slope is None else np.round(np.asarray(slope), 3).tolist()}")
+    print("| records | cut to the points | weights | fits | sd log kn | sd log delta "
+          "| through the slope: sd log kn | sd log delta |")
+    print("|---|---|---|---|---|---|---|---|")
     for label, ds in (("the answer's replay", kept["replay"]),
                       ("the true noise-free records", read_dataset(folder / "d_none"))):
         for cut in (False, True):
             src = bootstrap.windowed(ds, centres, bootstrap.PRECISION_MARGIN_HZ) if cut else ds
             for weights in (False, True):
-                fits = _scatter(src, kept, args.copies, args.seed, weights)
-                sd = fits.std(axis=0, ddof=1) if len(fits) > 1 else (np.nan, np.nan)
+                if args.only_precision and not (cut and weights):
+                    continue
+                fits = _scatter(src, kept, args.copies, seed, weights)
+                sd = carried = (np.nan, np.nan)
+                if len(fits) > 1:
+                    sd = fits.std(axis=0, ddof=1)
+                    carried = bootstrap.answer_sd(fits, slope)
                 print(f"| {label} | {'yes' if cut else 'no'} | {'yes' if weights else 'no'} | "
-                      f"{len(fits)} | {sd[0]:.4f} | {sd[1]:.4f} |", flush=True)
+                      f"{len(fits)} | {sd[0]:.4f} | {sd[1]:.4f} | {carried[0]:.4f} "
+                      f"| {carried[1]:.4f} |", flush=True)
     return 0
 
 
