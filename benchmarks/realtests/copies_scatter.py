@@ -14,11 +14,14 @@ noise seed. Prints the fits' scatter in log kn and log delta per variant, and th
 carried through the answer's binding slope as the precision carries it (``answer_sd``).
 
     python benchmarks/realtests/copies_scatter.py CASE --data R --draw d4 --copies 32 \
-        --stream precision --only-precision
+        --stream precision --seed 7 --seed 11 --only-precision
 
-``--stream precision`` draws the noise from the precision's own seed stream (the answer's
-``Replay.seed``, stream 2), so its first ``precision_copies`` copies are the precision's to the
-digit; ``--only-precision`` fits only what the precision reads (cut, weighted).
+``--stream precision`` adds the precision's own seed stream (the answer's ``Replay.seed``, stream
+2), whose first ``precision_copies`` copies are the precision's to the digit; ``--seed`` (repeat
+it) adds others; ``--only-precision`` fits only what the precision reads (cut, weighted). Last,
+per seed, the copies the precision reads paired: the same noise on the replay and on the true
+records, each one's sd of log delta, their ratio and correlation (a ratio below 1: the replay is
+moved less by the noise than the structure, so the precision reads the noise narrow).
 """
 
 from __future__ import annotations
@@ -36,15 +39,37 @@ from freeplayid.io import read_dataset
 
 
 def _scatter(dataset, kept: dict, copies: int, seed, weights: bool) -> np.ndarray:
-    """The fits' log (kn, delta) over ``copies`` noisy copies of ``dataset``, made and fitted
-    by the precision's own loop (``bootstrap._copy_estimates``, ``kept``: what the precision
-    was called with); a copy whose noise hides a jump, or whose fit fails, is left out."""
+    """The fits' log (kn, delta), (copies, 2), over ``copies`` noisy copies of ``dataset``,
+    made and fitted by the precision's own loop (``bootstrap._copy_estimates``, ``kept``: what
+    the precision was called with); NaN for a copy whose noise hides a jump or whose fit fails
+    (so two data sets' copies from one seed stay paired)."""
     estimates = bootstrap._copy_estimates(
         dataset, kept["system"], kept["noise"], np.random.default_rng(seed), n=copies,
         theta_rep=kept["theta_rep"], extraction=kept["extraction"], fit=kept["fit"],
         point_weights=kept["point_weights"] if weights else None, desc="", progress=False)
-    return np.asarray([np.log([e.kn, e.delta]) for e in estimates
-                       if e is not None and e.fit.success])
+    return np.asarray([np.log([e.kn, e.delta]) if e is not None and e.fit.success
+                       else [np.nan, np.nan] for e in estimates])
+
+
+def _sd(fits: np.ndarray, slope=None) -> np.ndarray:
+    """sd of log (kn, delta) over the fitted copies (rows without NaN), carried through
+    ``slope`` as the precision carries it (``answer_sd``; None: the identity)."""
+    fits = fits[~np.isnan(fits).any(axis=1)]
+    if len(fits) < 2:
+        return np.array([np.nan, np.nan])
+    return bootstrap.answer_sd(fits, slope)
+
+
+def paired(replay: np.ndarray, truth: np.ndarray) -> dict:
+    """The replay's copies against the true records' copies made with the same noise (the
+    same seed): the fitted pairs, each one's sd of log delta, their ratio, the correlation of
+    the pairs' log delta and the slope of the replay's on the truth's (1 where the replay
+    is moved by the noise as the structure is)."""
+    ok = ~(np.isnan(replay).any(axis=1) | np.isnan(truth).any(axis=1))
+    r, t = replay[ok, 1] - replay[ok, 1].mean(), truth[ok, 1] - truth[ok, 1].mean()
+    sd_r, sd_t = np.std(r, ddof=1), np.std(t, ddof=1)
+    return {"pairs": int(ok.sum()), "sd_replay": sd_r, "sd_truth": sd_t, "ratio": sd_r / sd_t,
+            "corr": float(np.corrcoef(r, t)[0, 1]), "slope": float(r @ t / (t @ t))}
 
 
 def main(argv=None) -> int:
@@ -53,9 +78,10 @@ def main(argv=None) -> int:
     ap.add_argument("--data", required=True, help="redraw.py's --out (with d_none)")
     ap.add_argument("--draw", default="d0")
     ap.add_argument("--copies", type=int, default=12)
-    ap.add_argument("--seed", type=int, default=7)
+    ap.add_argument("--seed", type=int, action="append",
+                    help="a noise seed (repeat for more; default 7)")
     ap.add_argument("--stream", choices=("own", "precision"), default="own",
-                    help="precision: the precision's seed stream ([Replay.seed, 2])")
+                    help="precision: the precision's own seed stream ([Replay.seed, 2]) first")
     ap.add_argument("--only-precision", action="store_true",
                     help="only the copies the precision reads (cut, weighted)")
     args = ap.parse_args(argv)
@@ -86,28 +112,48 @@ def main(argv=None) -> int:
         print(f"the precision's own {precision.n_fitted} copies: sd log delta about "
               f"{np.log1p(precision.delta_halfwidth) / 1.96:.4f} (its half-width / 1.96)")
     centres = bootstrap.point_centres(kept["points"])
-    seed = [kept["seed"], 2] if args.stream == "precision" else args.seed
+    seeds = ([[kept["seed"], 2]] if args.stream == "precision" else []) + (
+        args.seed or ([] if args.stream == "precision" else [7]))
     slope = kept.get("binding_slope")
-    print(f"noise seed {seed}; the answer's binding slope "
+    print(f"the answer's binding slope "
           f"{'none' if slope is None else np.round(np.asarray(slope), 3).tolist()}")
-    print("| records | cut to the points | weights | fits | sd log kn | sd log delta "
+    print("| records | cut to the points | weights | noise seed | fits | sd log kn | sd log delta "
           "| through the slope: sd log kn | sd log delta |")
-    print("|---|---|---|---|---|---|---|---|")
-    for label, ds in (("the answer's replay", kept["replay"]),
-                      ("the true noise-free records", read_dataset(folder / "d_none"))):
+    print("|---|---|---|---|---|---|---|---|---|")
+    records = {"the answer's replay": kept["replay"],
+               "the true noise-free records": read_dataset(folder / "d_none")}
+    read = {}  # (records, seed) -> fits, of the variant the precision reads
+    for label, ds in records.items():
         for cut in (False, True):
             src = bootstrap.windowed(ds, centres, bootstrap.PRECISION_MARGIN_HZ) if cut else ds
             for weights in (False, True):
                 if args.only_precision and not (cut and weights):
                     continue
-                fits = _scatter(src, kept, args.copies, seed, weights)
-                sd = carried = (np.nan, np.nan)
-                if len(fits) > 1:
-                    sd = fits.std(axis=0, ddof=1)
-                    carried = bootstrap.answer_sd(fits, slope)
-                print(f"| {label} | {'yes' if cut else 'no'} | {'yes' if weights else 'no'} | "
-                      f"{len(fits)} | {sd[0]:.4f} | {sd[1]:.4f} | {carried[0]:.4f} "
-                      f"| {carried[1]:.4f} |", flush=True)
+                for seed in seeds:
+                    fits = _scatter(src, kept, args.copies, seed, weights)
+                    if cut and weights:
+                        read[label, str(seed)] = fits
+                    sd, carried = _sd(fits), _sd(fits, slope)
+                    print(f"| {label} | {'yes' if cut else 'no'} | {'yes' if weights else 'no'} "
+                          f"| {seed} | {int((~np.isnan(fits).any(axis=1)).sum())} "
+                          f"| {sd[0]:.4f} | {sd[1]:.4f} | {carried[0]:.4f} | {carried[1]:.4f} |",
+                          flush=True)
+    print("\nThe precision's copies (cut, weighted), the replay's against the true records' "
+          "with the same noise:\n")
+    print("| noise seed | pairs | sd log delta: replay | truth | ratio | correlation "
+          "| slope replay on truth |")
+    print("|---|---|---|---|---|---|---|")
+    rows = []
+    for seed in seeds:
+        rows.append(paired(*(read[label, str(seed)] for label in records)))
+        r = rows[-1]
+        print(f"| {seed} | {r['pairs']} | {r['sd_replay']:.4f} | {r['sd_truth']:.4f} "
+              f"| {r['ratio']:.2f} | {r['corr']:.2f} | {r['slope']:.2f} |")
+    if len(rows) > 1:  # root mean square over the seeds
+        sd_r = np.sqrt(np.mean([r["sd_replay"] ** 2 for r in rows]))
+        sd_t = np.sqrt(np.mean([r["sd_truth"] ** 2 for r in rows]))
+        print(f"| all | {sum(r['pairs'] for r in rows)} | {sd_r:.4f} | {sd_t:.4f} "
+              f"| {sd_r / sd_t:.2f} | | |")
     return 0
 
 
