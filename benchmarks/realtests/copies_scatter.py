@@ -22,6 +22,8 @@ it) adds others; ``--only-precision`` fits only what the precision reads (cut, w
 per seed, the copies the precision reads paired: the same noise on the replay and on the true
 records, each one's sd of log delta, their ratio and correlation (a ratio below 1: the replay is
 moved less by the noise than the structure, so the precision reads the noise narrow).
+``--measured`` adds copies of the draw's own records (already noisy: noise on noise), paired the
+same way: how far the noise moves the fit at the tested structure rather than at its replay.
 """
 
 from __future__ import annotations
@@ -72,6 +74,23 @@ def paired(replay: np.ndarray, truth: np.ndarray) -> dict:
             "corr": float(np.corrcoef(r, t)[0, 1]), "slope": float(r @ t / (t @ t))}
 
 
+def _paired_table(label: str, rows: list) -> None:
+    """Print :func:`paired` per seed (``rows``: (seed, its dict)) and over all seeds."""
+    print(f"\nThe precision's copies (cut, weighted): {label} against the true records, the "
+          "same noise on each:\n")
+    print("| noise seed | pairs | sd log delta: these | truth | ratio | correlation "
+          "| slope on truth's |")
+    print("|---|---|---|---|---|---|---|")
+    for seed, r in rows:
+        print(f"| {seed} | {r['pairs']} | {r['sd_replay']:.4f} | {r['sd_truth']:.4f} "
+              f"| {r['ratio']:.2f} | {r['corr']:.2f} | {r['slope']:.2f} |")
+    if len(rows) > 1:  # root mean square over the seeds
+        sd_r = np.sqrt(np.mean([r["sd_replay"] ** 2 for _, r in rows]))
+        sd_t = np.sqrt(np.mean([r["sd_truth"] ** 2 for _, r in rows]))
+        print(f"| all | {sum(r['pairs'] for _, r in rows)} | {sd_r:.4f} | {sd_t:.4f} "
+              f"| {sd_r / sd_t:.2f} | | |")
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("case")
@@ -84,6 +103,8 @@ def main(argv=None) -> int:
                     help="precision: the precision's own seed stream ([Replay.seed, 2]) first")
     ap.add_argument("--only-precision", action="store_true",
                     help="only the copies the precision reads (cut, weighted)")
+    ap.add_argument("--measured", action="store_true",
+                    help="also copies of the draw's own (noisy) records: noise on noise")
     args = ap.parse_args(argv)
     folder = Path(args.data) / args.case
     if not (folder / "d_none").is_dir() or not (folder / args.draw).is_dir():
@@ -120,8 +141,10 @@ def main(argv=None) -> int:
     print("| records | cut to the points | weights | noise seed | fits | sd log kn | sd log delta "
           "| through the slope: sd log kn | sd log delta |")
     print("|---|---|---|---|---|---|---|---|---|")
-    records = {"the answer's replay": kept["replay"],
-               "the true noise-free records": read_dataset(folder / "d_none")}
+    truth_label = "the true noise-free records"
+    records = {"the answer's replay": kept["replay"], truth_label: read_dataset(folder / "d_none")}
+    if args.measured:  # the draw's own records, already noisy: noise on noise
+        records["the measured records"] = read_dataset(folder / args.draw)
     read = {}  # (records, seed) -> fits, of the variant the precision reads
     for label, ds in records.items():
         for cut in (False, True):
@@ -138,22 +161,11 @@ def main(argv=None) -> int:
                           f"| {seed} | {int((~np.isnan(fits).any(axis=1)).sum())} "
                           f"| {sd[0]:.4f} | {sd[1]:.4f} | {carried[0]:.4f} | {carried[1]:.4f} |",
                           flush=True)
-    print("\nThe precision's copies (cut, weighted), the replay's against the true records' "
-          "with the same noise:\n")
-    print("| noise seed | pairs | sd log delta: replay | truth | ratio | correlation "
-          "| slope replay on truth |")
-    print("|---|---|---|---|---|---|---|")
-    rows = []
-    for seed in seeds:
-        rows.append(paired(*(read[label, str(seed)] for label in records)))
-        r = rows[-1]
-        print(f"| {seed} | {r['pairs']} | {r['sd_replay']:.4f} | {r['sd_truth']:.4f} "
-              f"| {r['ratio']:.2f} | {r['corr']:.2f} | {r['slope']:.2f} |")
-    if len(rows) > 1:  # root mean square over the seeds
-        sd_r = np.sqrt(np.mean([r["sd_replay"] ** 2 for r in rows]))
-        sd_t = np.sqrt(np.mean([r["sd_truth"] ** 2 for r in rows]))
-        print(f"| all | {sum(r['pairs'] for r in rows)} | {sd_r:.4f} | {sd_t:.4f} "
-              f"| {sd_r / sd_t:.2f} | | |")
+    for label in records:
+        if label != truth_label:
+            _paired_table(label, [(seed, paired(read[label, str(seed)],
+                                                read[truth_label, str(seed)]))
+                                  for seed in seeds])
     return 0
 
 
