@@ -1454,3 +1454,36 @@ def test_the_splits_quick_fits_start_from_the_last_zeta_and_hold_the_damping_for
     assert seen[0][0].damping_exponent == 0.0
     assert seen[0][0].start == "network" and seen[0][0].damping is None  # zeta estimated again
     assert seen[0][1] == 0.02  # from the one-gap answer's
+
+
+def test_copies_scatter_pairs_the_replays_copies_with_the_truths():
+    """benchmarks/realtests/copies_scatter.py's paired: copies whose log delta moves half as far
+    as the true records' under the same noise give the ratio 0.5, correlation 1 and slope 0.5;
+    moves orthogonal to the truth's (by hand: +-1, +-1 in other orders) give ratio 1,
+    correlation 0 and slope 0; a copy not fitted (NaN) on either side drops the pair."""
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "benchmarks" / "realtests" / "copies_scatter.py"
+    spec = importlib.util.spec_from_file_location("realtests_copies_scatter", path)
+    cs = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(cs)
+
+    t = np.log(3e-3) + 0.01 * np.array([1.0, -1.0, 1.0, -1.0, 5.0, 0.0])
+    truth = np.column_stack([np.zeros(6), t])
+    half = truth.copy()
+    half[:, 1] = np.log(3e-3) + 0.5 * (t - np.log(3e-3))
+    half[5] = np.nan  # not fitted: the sixth pair drops
+    truth[4] = np.nan  # nor the fifth
+    r = cs.paired(half, truth)
+    assert r["pairs"] == 4
+    assert r["ratio"] == pytest.approx(0.5) and r["slope"] == pytest.approx(0.5)
+    assert r["corr"] == pytest.approx(1.0)
+    assert r["sd_truth"] == pytest.approx(np.std([0.01, -0.01, 0.01, -0.01], ddof=1))
+    other = truth.copy()
+    other[:4, 1] = np.log(3e-3) + 0.01 * np.array([1.0, 1.0, -1.0, -1.0])
+    other[5] = np.nan
+    r = cs.paired(other, truth)
+    assert r["pairs"] == 4 and r["ratio"] == pytest.approx(1.0)
+    assert r["corr"] == pytest.approx(0.0, abs=1e-12)
+    assert r["slope"] == pytest.approx(0.0, abs=1e-12)
