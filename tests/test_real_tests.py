@@ -1284,17 +1284,23 @@ def test_identify_replays_the_split_the_test_shows_and_says_how_far_the_mean_lie
                             progress=False)
 
 
+def _realtests_script(name: str):
+    """The module of ``benchmarks/realtests/<name>.py`` (a script, not a package), loaded."""
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "benchmarks" / "realtests" / f"{name}.py"
+    spec = importlib.util.spec_from_file_location(f"realtests_{name}", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
 def test_draw_pairs_puts_two_draws_difference_in_units_of_their_precisions():
     """benchmarks/realtests/run.py's draw_pairs: two draws whose log difference is 0.018 with
     log standard deviations 0.006 and 0.008 give z = 0.018 / 0.01 = 1.8 (by hand); a pair whose
     copies stopped early is counted apart, and so is a down-sweep."""
-    import importlib.util
-    from pathlib import Path
-
-    path = Path(__file__).resolve().parents[1] / "benchmarks" / "realtests" / "run.py"
-    spec = importlib.util.spec_from_file_location("realtests_run", path)
-    run = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(run)
+    run = _realtests_script("run")
 
     def rec(case, draw, delta, sd, settled=False):
         hw = math.expm1(1.96 * sd)
@@ -1319,13 +1325,7 @@ def test_draw_spread_sets_the_draws_scatter_beside_what_their_copies_predicted()
     errors 0.01, 0.02 and 0.03 (mean 2 %, sd 1 %, by hand) whose copies predicted log sds
     0.005, 0.01 and 0.02 (median 1 %: ratio 1.00); the one ``ok`` beyond delta's 1 % bound
     counts, the two ``suspect`` do not; a condition with two draws is left out."""
-    import importlib.util
-    from pathlib import Path
-
-    path = Path(__file__).resolve().parents[1] / "benchmarks" / "realtests" / "run.py"
-    spec = importlib.util.spec_from_file_location("realtests_run", path)
-    run = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(run)
+    run = _realtests_script("run")
     d, kn = 3e-3, 480.0
 
     def rec(case, draw, err, sd, status):
@@ -1345,13 +1345,7 @@ def test_draw_spread_sets_the_draws_scatter_beside_what_their_copies_predicted()
 
 
 def test_the_benchmarks_replay_options_are_read_as_yaml_and_checked_before_any_work():
-    import importlib.util
-    from pathlib import Path
-
-    path = Path(__file__).resolve().parents[1] / "benchmarks" / "realtests" / "run.py"
-    spec = importlib.util.spec_from_file_location("realtests_run", path)
-    run = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(run)
+    run = _realtests_script("run")
     assert run.replay_options(["damping_exponent=estimate", "precision_copies=4",
                                "damping=0.02"]) == {"damping_exponent": "estimate",
                                                     "precision_copies": 4, "damping": 0.02}
@@ -1461,13 +1455,7 @@ def test_copies_scatter_pairs_the_replays_copies_with_the_truths():
     as the true records' under the same noise give the ratio 0.5, correlation 1 and slope 0.5;
     moves orthogonal to the truth's (by hand: +-1, +-1 in other orders) give ratio 1,
     correlation 0 and slope 0; a copy not fitted (NaN) on either side drops the pair."""
-    import importlib.util
-    from pathlib import Path
-
-    path = Path(__file__).resolve().parents[1] / "benchmarks" / "realtests" / "copies_scatter.py"
-    spec = importlib.util.spec_from_file_location("realtests_copies_scatter", path)
-    cs = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(cs)
+    cs = _realtests_script("copies_scatter")
 
     t = np.log(3e-3) + 0.01 * np.array([1.0, -1.0, 1.0, -1.0, 5.0, 0.0])
     truth = np.column_stack([np.zeros(6), t])

@@ -62,16 +62,16 @@ def _sd(fits: np.ndarray, slope=None) -> np.ndarray:
     return bootstrap.answer_sd(fits, slope)
 
 
-def paired(replay: np.ndarray, truth: np.ndarray) -> dict:
-    """The replay's copies against the true records' copies made with the same noise (the
-    same seed): the fitted pairs, each one's sd of log delta, their ratio, the correlation of
-    the pairs' log delta and the slope of the replay's on the truth's (1 where the replay
-    is moved by the noise as the structure is)."""
-    ok = ~(np.isnan(replay).any(axis=1) | np.isnan(truth).any(axis=1))
-    r, t = replay[ok, 1] - replay[ok, 1].mean(), truth[ok, 1] - truth[ok, 1].mean()
-    sd_r, sd_t = np.std(r, ddof=1), np.std(t, ddof=1)
-    return {"pairs": int(ok.sum()), "sd_replay": sd_r, "sd_truth": sd_t, "ratio": sd_r / sd_t,
-            "corr": float(np.corrcoef(r, t)[0, 1]), "slope": float(r @ t / (t @ t))}
+def paired(copies: np.ndarray, truth: np.ndarray) -> dict:
+    """Copies (of the replay, or of the measured records) against the true records' copies
+    made with the same noise (the same seed): the fitted pairs, each side's sd of log delta,
+    their ratio, the correlation of the pairs' log delta and the slope of the copies' on the
+    truth's (1 where the copies are moved by the noise as the structure is)."""
+    ok = ~(np.isnan(copies).any(axis=1) | np.isnan(truth).any(axis=1))
+    c, t = copies[ok, 1] - copies[ok, 1].mean(), truth[ok, 1] - truth[ok, 1].mean()
+    sd_c, sd_t = np.std(c, ddof=1), np.std(t, ddof=1)
+    return {"pairs": int(ok.sum()), "sd_copies": sd_c, "sd_truth": sd_t, "ratio": sd_c / sd_t,
+            "corr": float(np.corrcoef(c, t)[0, 1]), "slope": float(c @ t / (t @ t))}
 
 
 def _paired_table(label: str, rows: list) -> None:
@@ -82,10 +82,10 @@ def _paired_table(label: str, rows: list) -> None:
           "| slope on truth's |")
     print("|---|---|---|---|---|---|---|")
     for seed, r in rows:
-        print(f"| {seed} | {r['pairs']} | {r['sd_replay']:.4f} | {r['sd_truth']:.4f} "
+        print(f"| {seed} | {r['pairs']} | {r['sd_copies']:.4f} | {r['sd_truth']:.4f} "
               f"| {r['ratio']:.2f} | {r['corr']:.2f} | {r['slope']:.2f} |")
     if len(rows) > 1:  # root mean square over the seeds
-        sd_r = np.sqrt(np.mean([r["sd_replay"] ** 2 for _, r in rows]))
+        sd_r = np.sqrt(np.mean([r["sd_copies"] ** 2 for _, r in rows]))
         sd_t = np.sqrt(np.mean([r["sd_truth"] ** 2 for _, r in rows]))
         print(f"| all | {sum(r['pairs'] for _, r in rows)} | {sd_r:.4f} | {sd_t:.4f} "
               f"| {sd_r / sd_t:.2f} | | |")
@@ -145,17 +145,17 @@ def main(argv=None) -> int:
     records = {"the answer's replay": kept["replay"], truth_label: read_dataset(folder / "d_none")}
     if args.measured:  # the draw's own records, already noisy: noise on noise
         records["the measured records"] = read_dataset(folder / args.draw)
-    read = {}  # (records, seed) -> fits, of the variant the precision reads
+    read = {}  # (records, the seed's place) -> fits, of the variant the precision reads
     for label, ds in records.items():
         for cut in (False, True):
             src = bootstrap.windowed(ds, centres, bootstrap.PRECISION_MARGIN_HZ) if cut else ds
             for weights in (False, True):
                 if args.only_precision and not (cut and weights):
                     continue
-                for seed in seeds:
+                for k, seed in enumerate(seeds):
                     fits = _scatter(src, kept, args.copies, seed, weights)
                     if cut and weights:
-                        read[label, str(seed)] = fits
+                        read[label, k] = fits
                     sd, carried = _sd(fits), _sd(fits, slope)
                     print(f"| {label} | {'yes' if cut else 'no'} | {'yes' if weights else 'no'} "
                           f"| {seed} | {int((~np.isnan(fits).any(axis=1)).sum())} "
@@ -163,9 +163,8 @@ def main(argv=None) -> int:
                           flush=True)
     for label in records:
         if label != truth_label:
-            _paired_table(label, [(seed, paired(read[label, str(seed)],
-                                                read[truth_label, str(seed)]))
-                                  for seed in seeds])
+            _paired_table(label, [(seed, paired(read[label, k], read[truth_label, k]))
+                                  for k, seed in enumerate(seeds)])
     return 0
 
 
