@@ -12,6 +12,9 @@ in the same run, per row:
   of the answer's replay that measure its precision);
 - ``corrected, no precision copies``: ``replay.precision_copies=0`` (the default before the
   verdict's ``noise_precision``);
+- ``corrected, eight copies of the records pooled``: ``replay.precision_record_copies=8`` (an
+  option, not the default: noisy copies of the test's own records pooled with the replay's;
+  none are made where the replay's copies stop early, as on the bundled example);
 - ``corrected, no excitation copies``: ``replay.excitation_copies=0`` (the default before the
   base channel's noise entered the intervals, 2026-11-30);
 - ``…, one thread``: the same with a replay's runs simulated one after another (the code
@@ -188,6 +191,8 @@ def main() -> None:
             ("corrected (default)", run_row(dataset, True, args.repeat)),
             ("corrected, no precision copies",
              run_row(dataset, True, args.repeat, options={"precision_copies": 0})),
+            ("corrected, eight copies of the records pooled",
+             run_row(dataset, True, args.repeat, options={"precision_record_copies": 8})),
             ("corrected, no excitation copies",
              run_row(dataset, True, args.repeat, options={"excitation_copies": 0})),
             ("corrected, one thread", run_row(dataset, True, args.repeat, single=True)),

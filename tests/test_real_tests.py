@@ -1318,6 +1318,30 @@ def test_draw_pairs_puts_two_draws_difference_in_units_of_their_precisions():
     row = next(r for r in table if r.startswith("| up-sweeps, a copy set stopped early | delta"))
     assert "| 1 | 1.00 |" in row and "-1.0 (b)" in row
     assert any(r.startswith("| down-sweeps | delta | 1 | 0.00 |") for r in table)
+    assert not any("alone" in r for r in table)  # no records' copies pooled
+
+
+def test_draw_pairs_reads_pooled_copies_again_with_the_replays_alone():
+    """Answers whose precision pooled copies of the records (``replay_halfwidths`` kept): the
+    pair is read with the pooled half-widths (log sds 0.006 and 0.008: z = 1.8) and again with
+    the replay's alone (0.003 and 0.004: z = 0.018 / 0.005 = 3.6, by hand), in its own row."""
+    run = _realtests_script("run")
+
+    def rec(draw, delta, sd, alone):
+        hw, own = math.expm1(1.96 * sd), math.expm1(1.96 * alone)
+        return {"case": "a", "draw": draw, "fit": "corrected", "kn": 480.0, "delta": delta,
+                "replay": {"precision": {"delta_halfwidth": hw, "kn_halfwidth": hw, "n": 8,
+                                         "n_fitted": 8, "settled": False, "n_measured": 8,
+                                         "replay_halfwidths": [own, own]}}}
+
+    d = 3e-3
+    table = run.draw_pairs([rec("d0", d * math.exp(0.018), 0.006, 0.003),
+                            rec("d1", d, 0.008, 0.004)]).splitlines()
+    row = next(r for r in table if r.startswith("| up-sweeps, all copies | delta"))
+    assert "| 1 | 1.80 |" in row
+    row = next(r for r in table
+               if r.startswith("| up-sweeps, all copies, the replay's copies alone | delta"))
+    assert "| 1 | 3.60 | 1 (100.0 %) | +3.6 (a) |" in row
 
 
 def test_draw_spread_sets_the_draws_scatter_beside_what_their_copies_predicted():

@@ -1155,6 +1155,67 @@ def test_the_answers_precision_measures_the_mean_move_the_noise_gives_the_statis
     assert doubled.to_dict()["noise_bias"] == list(doubled.noise_bias)
 
 
+def test_pooled_sd_is_the_spread_of_two_sets_each_about_its_own_mean():
+    """Two sets with their own means: the pooled standard deviation is that of their moves
+    from their own means over k_a + k_b - 2 degrees of freedom, computed here by hand."""
+    from freeplayid.replay.bootstrap import pooled_sd
+
+    a = np.array([[1.0, 10.0], [2.0, 14.0], [4.0, 9.0]])
+    b = np.array([[7.0, 0.0], [5.0, 2.0], [9.0, 1.0], [8.0, 5.0], [6.0, 2.0]])
+    moves = np.vstack([a - a.mean(axis=0), b - b.mean(axis=0)])
+    by_hand = np.sqrt((moves ** 2).sum(axis=0) / (3 + 5 - 2))
+    np.testing.assert_allclose(
+        pooled_sd(a.std(axis=0, ddof=1), 3, b.std(axis=0, ddof=1), 5), by_hand, rtol=1e-12)
+
+
+def test_the_precision_pools_copies_of_the_measured_records_with_the_replays(measured,
+                                                                             system):
+    """``measured`` (``Replay.precision_record_copies``): copies of the test's own records
+    read as the replay's and pooled with them. The replay's copies are the same copies as
+    without it (the same seed stream, reported apart); the records' copies are another stream,
+    so with the reference records as both replay and records (0.05 g added) they scatter as far
+    but for sampling (within a factor of three: two spreads of eight normal copies differ by
+    more one time in a thousand); the half-widths reported are the pooled spread of the two,
+    by hand from each set's own; no record copy is made where the replay's copies stopped
+    early (``settled_sd``)."""
+    from freeplayid.estimate import plain_estimate
+    from freeplayid.fit import FitOptions
+    from freeplayid.replay import MeasuredRecords, precision_by_replay
+    from freeplayid.signal import Extraction
+
+    ext = Extraction(jump_point="quadrature")
+    est = plain_estimate(measured, system, extraction=ext, fit=FitOptions(),
+                         init=(WN * WN, ref.DELTA))
+    noise = {r.file: [0.05 * 9.80665, 0.05 * 9.80665] for r in measured.runs}
+    theta = np.array([est.kn, est.delta])
+    records = MeasuredRecords(measured, tuple(est.points.used()), theta, 8)
+
+    def run(with_records, settled=None, n=8):
+        return precision_by_replay(measured, system, noise, points=est.points.used(),
+                                   theta_rep=theta, n=n, seed=3, extraction=ext,
+                                   fit=FitOptions(), point_weights=None, settled_sd=settled,
+                                   measured=records if with_records else None)
+
+    alone, both = run(False), run(True)
+    assert alone.n_measured == 0 and alone.replay_halfwidths is None
+    assert both.n_measured == 8 and both.n_fitted == 8
+    np.testing.assert_allclose(both.replay_halfwidths,
+                               [alone.kn_halfwidth, alone.delta_halfwidth], rtol=1e-12)
+    sd_r = np.log1p(both.replay_halfwidths) / 1.96
+    sd_m = np.log1p(both.measured_halfwidths) / 1.96
+    assert not np.allclose(sd_r, sd_m)  # another noise stream
+    assert np.all((sd_m / sd_r > 1 / 3) & (sd_m / sd_r < 3)), (sd_m, sd_r)
+    np.testing.assert_allclose(np.log1p([both.kn_halfwidth, both.delta_halfwidth]) / 1.96,
+                               np.sqrt((7 * sd_r ** 2 + 7 * sd_m ** 2) / 14), rtol=1e-9)
+    assert both.noise_bias == alone.noise_bias  # the mean move stays the replay's
+    assert "8 of the test's own records, pooled" in both.describe()
+    assert both.to_dict()["n_measured"] == 8
+    settled = run(True, settled=(1.0, 1.0))  # any spread is "far below what matters"
+    assert settled.settled and settled.n == 4 and settled.n_measured == 0
+    with pytest.raises(ValueError, match="precision_record_copies"):
+        Replay(precision_record_copies=-1)
+
+
 def test_a_cut_that_reads_other_curves_than_the_whole_records_is_not_used(measured, system,
                                                                           monkeypatch):
     """The copies' cut must read the statistic the whole records give: where the noise-free

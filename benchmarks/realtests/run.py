@@ -199,11 +199,17 @@ def summary(results: list[dict]) -> str:
     return "\n".join(out)
 
 
-def _log_sd(r: dict, par: str) -> float | None:
+def _log_sd(r: dict, par: str, replay_alone: bool = False) -> float | None:
     """The standard deviation of log ``par`` that the answer's precision (its noisy copies)
-    gives: its 95 % half-width over 1.96 (an upper bound where the copies stopped early)."""
+    gives: its 95 % half-width over 1.96 (an upper bound where the copies stopped early);
+    with ``replay_alone``, that of the replay's copies alone where the records' copies were
+    pooled with them (``replay_halfwidths``; None where they were not)."""
     p = (r.get("replay") or {}).get("precision") or {}
-    hw = p.get(f"{par}_halfwidth")
+    if replay_alone:
+        alone = p.get("replay_halfwidths")
+        hw = None if not alone else alone[0 if par == "kn" else 1]
+    else:
+        hw = p.get(f"{par}_halfwidth")
     return None if hw is None else math.log1p(hw) / 1.96
 
 
@@ -222,7 +228,9 @@ def draw_pairs(results: list[dict]) -> str:
     logs over the two precisions combined is a standard normal where the precision is right
     (RMS 1, |z| > 2 in 4.6 %). Split by whether either answer's copies stopped early (their
     half-widths then 95 % upper bounds: RMS below 1). Down-sweeps apart (their answers move
-    with the loop's path, not only the noise)."""
+    with the loop's path, not only the noise). Pairs whose answers pooled copies of the records
+    with the replay's (``Replay.precision_record_copies``) are read again with the replay's
+    copies alone, in a row of their own."""
     by = {}
     for r in results:
         if r["fit"] == "corrected" and "kn" in r and _log_sd(r, "delta") is not None:
@@ -235,9 +243,15 @@ def draw_pairs(results: list[dict]) -> str:
         early = _stopped_early(a) or _stopped_early(b)
         kind = "down-sweeps" if "down" in case else (
             "up-sweeps, a copy set stopped early" if early else "up-sweeps, all copies")
+        alone = all(_log_sd(r, "delta", True) is not None for r in (a, b))
         for par in ("delta", "kn"):
             z = math.log(a[par] / b[par]) / math.hypot(_log_sd(a, par), _log_sd(b, par))
             groups.setdefault((kind, par), []).append((z, case))
+            if alone:
+                z = math.log(a[par] / b[par]) / math.hypot(_log_sd(a, par, True),
+                                                           _log_sd(b, par, True))
+                groups.setdefault((kind + ", the replay's copies alone", par), []).append(
+                    (z, case))
     head = ["pairs", "parameter", "conditions", "RMS z", "abs z > 2", "largest"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for (kind, par), zs in sorted(groups.items()):

@@ -78,7 +78,13 @@ solve), ``bootstrap`` (the bootstrap by replay), ``misfit`` (the self-check's cu
 
 from .base_timing import BaseTiming, base_timing
 from .binding_jump import BindingJump
-from .bootstrap import ReplayBootstrap, ReplayPrecision, precision_by_replay, windowed
+from .bootstrap import (
+    MeasuredRecords,
+    ReplayBootstrap,
+    ReplayPrecision,
+    precision_by_replay,
+    windowed,
+)
 from .corrected import (
     AcquisitionFilter,
     BaseReading,
@@ -99,7 +105,8 @@ from .statistic import replayed_intervals
 from .weights import WEIGHT_FLOOR, PointWeight, noise_levels, point_weights
 
 __all__ = ["Replay", "ReplayResult", "ReplayIteration", "PointOffset", "PointWeight",
-           "ReplayBootstrap", "ReplayPrecision", "precision_by_replay", "windowed",
+           "ReplayBootstrap", "ReplayPrecision", "MeasuredRecords", "precision_by_replay",
+           "windowed",
            "ReplayDamping", "CrossCheck", "LevelSensitivity", "ExcitationNoise", "BaseReading",
            "DampingSensitivity", "AcquisitionFilter", "BaseTiming", "base_timing", "replay_sweeps",
            "replay_levels", "BindingJump",

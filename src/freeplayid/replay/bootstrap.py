@@ -34,7 +34,8 @@ from ..errors import IdentificationError
 from ..estimate import plain_estimate
 from ..sweep import Sweep
 
-__all__ = ["ReplayBootstrap", "ReplayPrecision", "bootstrap_by_replay", "noisy_copy",
+__all__ = ["ReplayBootstrap", "ReplayPrecision", "MeasuredRecords", "bootstrap_by_replay",
+           "noisy_copy",
            "answer_sd", "point_centres",
            "precision_by_replay", "windowed", "sd_upper", "answer_slope", "history_jacobian",
            "PRECISION_MARGIN_HZ", "PRECISION_MIN_COPIES", "MAX_SLOPE", "MIN_SPREAD"]
@@ -142,6 +143,31 @@ def noisy_copy(replayed, noise: dict, rng):
 
 
 @dataclass(frozen=True)
+class MeasuredRecords:
+    """The test's own records, for a second set of the precision's copies
+    (:func:`precision_by_replay`'s ``measured``): noise added to records that already carry
+    it, read as the test was.
+
+    Attributes
+    ----------
+    dataset : Dataset
+        The records the statistic was read from.
+    points : sequence of BackbonePoint
+        The statistic's used points (where the copies are cut, and which curves they must
+        read).
+    theta : (2,) array [N m/rad], [rad]
+        The statistic's (kn, delta): where each copy's fit starts.
+    n : int
+        Copies to make.
+    """
+
+    dataset: object
+    points: tuple
+    theta: np.ndarray
+    n: int
+
+
+@dataclass(frozen=True)
 class ReplayPrecision:
     """How far the test's noise alone moves the answer (:func:`precision_by_replay`).
 
@@ -181,6 +207,13 @@ class ReplayPrecision:
         read where it first came out small understates the true one (12 realtests answers
         that stopped at four to six copies, run to eight: the eight spread 0.8-4.4 times as
         far, median 1.4 over kn and delta; the bound fell short of them in 2 of 24).
+    n_measured : int
+        Fitted noisy copies of the test's own records pooled with the replay's
+        (:class:`MeasuredRecords`, ``Replay.precision_record_copies``); 0: none were made.
+    replay_halfwidths, measured_halfwidths : (float, float) or None [-]
+        Where records' copies were pooled: the half-widths (kn, delta) of the replay's copies
+        alone and of the records' copies alone (each carried through ``slope``); the pooled ones
+        are ``kn_halfwidth`` and ``delta_halfwidth``.
     """
 
     kn_halfwidth: float | None
@@ -194,6 +227,9 @@ class ReplayPrecision:
     settled: bool = False
     noise_bias: tuple | None = None
     noise_bias_se: tuple | None = None
+    n_measured: int = 0
+    replay_halfwidths: tuple | None = None
+    measured_halfwidths: tuple | None = None
 
     def to_dict(self) -> dict:
         return {"kn_halfwidth": self.kn_halfwidth, "delta_halfwidth": self.delta_halfwidth,
@@ -204,7 +240,12 @@ class ReplayPrecision:
                 "slope": None if self.slope is None else [list(r) for r in self.slope],
                 "noise_bias": None if self.noise_bias is None else list(self.noise_bias),
                 "noise_bias_se": None if self.noise_bias_se is None
-                else list(self.noise_bias_se)}
+                else list(self.noise_bias_se),
+                "n_measured": self.n_measured,
+                "replay_halfwidths": None if self.replay_halfwidths is None
+                else list(self.replay_halfwidths),
+                "measured_halfwidths": None if self.measured_halfwidths is None
+                else list(self.measured_halfwidths)}
 
     def describe(self) -> str:
         if self.kn_halfwidth is None:
@@ -227,9 +268,13 @@ class ReplayPrecision:
                     f"±{100 * self.kn_halfwidth:.2g} % (the upper 95 % bounds from "
                     f"{self.n_fitted} noisy copies of the answer's replay, which stopped there: "
                     f"far below what matters{via})")
+        copies = f"{self.n_fitted} noisy copies of the answer's replay"
+        if self.n_measured and self.replay_halfwidths and self.measured_halfwidths:
+            copies += (f" and {self.n_measured} of the test's own records, pooled: delta "
+                       f"±{100 * self.replay_halfwidths[1]:.2g} % on the replay's alone, "
+                       f"±{100 * self.measured_halfwidths[1]:.2g} % on the records'")
         return (f"the data's noise alone moves delta by ±{100 * self.delta_halfwidth:.2g} % and "
-                f"kn by ±{100 * self.kn_halfwidth:.2g} % (95 %, {self.n_fitted} noisy copies of "
-                f"the answer's replay{via})")
+                f"kn by ±{100 * self.kn_halfwidth:.2g} % (95 %, {copies}{via})")
 
 
 def windowed(replayed, centres: dict, margin_hz: float):
@@ -263,7 +308,8 @@ def precision_by_replay(replayed, system, noise: dict, *, points, theta_rep, n: 
                         extraction, fit, point_weights,
                         margin_hz: float | None = PRECISION_MARGIN_HZ,
                         settled_sd: tuple[float, float] | None = None,
-                        binding_slope=None, progress: bool = False) -> ReplayPrecision:
+                        binding_slope=None, measured: MeasuredRecords | None = None,
+                        progress: bool = False) -> ReplayPrecision:
     """How far the noise alone moves the answer (module docstring): ``n`` noisy copies of the
     answer's replay ``replayed`` (a Dataset; each run cut to ``margin_hz`` either side of its
     statistic point in ``points``, the replay's used points; None keeps the whole records, as
@@ -289,7 +335,16 @@ def precision_by_replay(replayed, system, noise: dict, *, points, theta_rep, n: 
     only confirm that the noise is far below what matters (the verdict passes
     ``identification.replay_checks.settled_sd``, a 1 % chance of leaving the accuracy bounds).
     Those bounds are then the half-widths returned (``settled``): copies that stop where their
-    spread first comes out small have, by that choice, a spread below the true one."""
+    spread first comes out small have, by that choice, a spread below the true one.
+
+    ``measured`` (:class:`MeasuredRecords`), optional: that many noisy copies of the test's own
+    records as well (noise on records that carry it already: their own noise is common to
+    every copy, so the copies scatter by the added noise alone, at the tested structure rather
+    than at its replay), read the same way; their spread, carried through the slope, is pooled
+    with the replay's copies' (each about its own mean), so that where the replay is moved by
+    the noise less than the structure (a fin whose responses are weak against the noise: its
+    replay's copies read the noise 7-21 % narrow) the records' copies count too. Not made where
+    the replay's copies settled early. The mean move (``noise_bias``) stays the replay's."""
     def read(ds):  # the copies' centre: ``ds`` read without noise (None: not fitted)
         try:
             est = plain_estimate(ds, system, init=tuple(theta_rep), extraction=extraction,
@@ -325,7 +380,8 @@ def precision_by_replay(replayed, system, noise: dict, *, points, theta_rep, n: 
                 <= np.asarray(settled_sd)):
             settled = made < n
             break
-    kn_hw = delta_hw = own = bias = bias_se = None
+    kn_hw = delta_hw = own = bias = bias_se = alone = others = None
+    n_measured = 0
     if len(logs) >= 3:
         if clean is not None:  # the copies' mean move from the replay read without noise
             moved = (np.asarray(logs) - clean) @ slope.T
@@ -335,13 +391,58 @@ def precision_by_replay(replayed, system, noise: dict, *, points, theta_rep, n: 
         # below the copies' own (a slope learnt from a few replays is not trusted to narrow it);
         # where the copies stopped early, the upper bounds that stopped them (``settled``)
         bound = (lambda sd: sd_upper(sd, len(logs))) if settled else (lambda sd: sd)
-        own = _halfwidths(bound(np.std(np.asarray(logs), axis=0, ddof=1)))
-        kn_hw, delta_hw = _halfwidths(bound(answer_sd(np.asarray(logs), slope)))
+        raw = bound(np.std(np.asarray(logs), axis=0, ddof=1))
+        carried = bound(answer_sd(np.asarray(logs), slope))
+        m_logs = None if settled or measured is None or measured.n <= 0 else _measured_logs(
+            measured, system, noise, seed=seed, extraction=extraction, fit=fit,
+            point_weights=point_weights, margin_hz=margin_hz, progress=progress)
+        if m_logs is not None:  # pooled with the records' copies, each about its own mean
+            m_carried = answer_sd(m_logs, slope)
+            alone, others = _halfwidths(carried), _halfwidths(m_carried)
+            n_measured = len(m_logs)
+            raw = pooled_sd(raw, len(logs), np.std(m_logs, axis=0, ddof=1), n_measured)
+            carried = pooled_sd(carried, len(logs), m_carried, n_measured)
+        own = _halfwidths(raw)
+        kn_hw, delta_hw = _halfwidths(carried)
     return ReplayPrecision(
         kn_halfwidth=kn_hw, delta_halfwidth=delta_hw, n=made, n_fitted=len(logs),
         margin_hz=margin_hz, statistic_halfwidths=None if binding_slope is None else own,
         slope=None if binding_slope is None else tuple(tuple(float(v) for v in r) for r in slope),
-        copy_points=tuple(points), settled=settled, noise_bias=bias, noise_bias_se=bias_se)
+        copy_points=tuple(points), settled=settled, noise_bias=bias, noise_bias_se=bias_se,
+        n_measured=n_measured, replay_halfwidths=alone, measured_halfwidths=others)
+
+
+def pooled_sd(sd_a, k_a: int, sd_b, k_b: int) -> np.ndarray:
+    """The pooled standard deviation of two sets of ``k_a`` and ``k_b`` samples whose own
+    (``ddof=1``) standard deviations are ``sd_a`` and ``sd_b``, each about its own mean."""
+    a, b = np.asarray(sd_a, float), np.asarray(sd_b, float)
+    return np.sqrt(((k_a - 1) * a ** 2 + (k_b - 1) * b ** 2) / (k_a + k_b - 2))
+
+
+def _measured_logs(measured: MeasuredRecords, system, noise: dict, *, seed: int, extraction,
+                   fit, point_weights, margin_hz, progress: bool) -> np.ndarray | None:
+    """Log (kn, delta) of the fitted noisy copies of the test's own records (``measured``),
+    cut as the replay's copies were (``margin_hz``; the whole records where the cut reads
+    other curves than the statistic's points), each fitted from the statistic's estimate;
+    None with fewer than three fitted."""
+    records = measured.dataset
+    if margin_hz is not None:
+        cut = windowed(records, point_centres(measured.points), margin_hz)
+        try:
+            est = plain_estimate(cut, system, init=tuple(measured.theta), extraction=extraction,
+                                 fit=fit, point_weights=point_weights)
+        except IdentificationError:
+            est = None
+        if est is not None and est.fit.success and \
+                _pairs(est.points.used()) == _pairs(measured.points):
+            records = cut
+    rng = np.random.default_rng([seed, 6])  # not the replay's copies' or any other's
+    logs = [np.log([e.kn, e.delta]) for e in _copy_estimates(
+        records, system, noise, rng, n=measured.n, theta_rep=measured.theta,
+        extraction=extraction, fit=fit, point_weights=point_weights,
+        desc="the answer's precision: noisy copies of the records", progress=progress)
+        if e is not None and e.fit.success]
+    return np.asarray(logs) if len(logs) >= 3 else None
 
 
 def _pairs(points) -> frozenset:

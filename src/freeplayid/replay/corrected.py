@@ -22,6 +22,7 @@ from .base_timing import BaseTiming, base_timing
 from .binding_jump import BindingJump, jump_run, worst_jump
 from .bootstrap import (
     PRECISION_MARGIN_HZ,
+    MeasuredRecords,
     ReplayBootstrap,
     ReplayPrecision,
     answer_sd,
@@ -1503,7 +1504,11 @@ def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts
                 theta_rep=np.array([rep.kn, rep.delta]), n=opts.precision_copies,
                 seed=opts.seed, extraction=b.test.extraction, fit=b.test.fit,
                 point_weights=b.weights, settled_sd=settled,
-                binding_slope=slope, progress=progress)
+                binding_slope=slope, progress=progress,
+                measured=MeasuredRecords(b.test.dataset, tuple(stat.points.used()),
+                                         np.array([stat.kn, stat.delta]),
+                                         opts.precision_record_copies)
+                if opts.precision_record_copies > 0 else None)
     return ReplayResult(
         kn=float(theta[0]), delta=float(theta[1]), jump_point=rule,
         kn_statistic=float(stat.kn), delta_statistic=float(stat.delta),
