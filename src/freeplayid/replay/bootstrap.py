@@ -346,21 +346,15 @@ def precision_by_replay(replayed, system, noise: dict, *, points, theta_rep, n: 
     replay's copies read the noise 7-21 % narrow) the records' copies count too. Not made where
     the replay's copies settled early. The mean move (``noise_bias``) stays the replay's."""
     def read(ds):  # the copies' centre: ``ds`` read without noise (None: not fitted)
-        try:
-            est = plain_estimate(ds, system, init=tuple(theta_rep), extraction=extraction,
-                                 fit=fit, point_weights=point_weights)
-        except IdentificationError:
-            return None
-        return est if est.fit.success else None
+        return _read_clean(ds, system, theta_rep, extraction, fit, point_weights)
 
     clean = None
     if margin_hz is not None:
-        cut = windowed(replayed, point_centres(points), margin_hz)
-        clean = read(cut)
-        if clean is not None and _pairs(clean.points.used()) == _pairs(points):
+        cut, clean = _cut_reading(replayed, points, margin_hz, read)
+        if cut is not None:
             replayed = cut
         else:  # the cut reads other points than the whole records: the whole records
-            clean, margin_hz = None, None
+            margin_hz = None
     if clean is None:
         clean = read(replayed)
     clean = None if clean is None else np.log([clean.kn, clean.delta])
@@ -427,15 +421,9 @@ def _measured_logs(measured: MeasuredRecords, system, noise: dict, *, seed: int,
     None with fewer than three fitted."""
     records = measured.dataset
     if margin_hz is not None:
-        cut = windowed(records, point_centres(measured.points), margin_hz)
-        try:
-            est = plain_estimate(cut, system, init=tuple(measured.theta), extraction=extraction,
-                                 fit=fit, point_weights=point_weights)
-        except IdentificationError:
-            est = None
-        if est is not None and est.fit.success and \
-                _pairs(est.points.used()) == _pairs(measured.points):
-            records = cut
+        cut, _ = _cut_reading(records, measured.points, margin_hz, lambda ds: _read_clean(
+            ds, system, measured.theta, extraction, fit, point_weights))
+        records = records if cut is None else cut
     rng = np.random.default_rng([seed, 6])  # not the replay's copies' or any other's
     logs = [np.log([e.kn, e.delta]) for e in _copy_estimates(
         records, system, noise, rng, n=measured.n, theta_rep=measured.theta,
@@ -443,6 +431,28 @@ def _measured_logs(measured: MeasuredRecords, system, noise: dict, *, seed: int,
         desc="the answer's precision: noisy copies of the records", progress=progress)
         if e is not None and e.fit.success]
     return np.asarray(logs) if len(logs) >= 3 else None
+
+
+def _read_clean(ds, system, theta, extraction, fit, point_weights):
+    """``ds`` read as the test was (its statistic's points fitted from ``theta``), without
+    adding noise; None where it cannot be identified or its fit fails."""
+    try:
+        est = plain_estimate(ds, system, init=tuple(theta), extraction=extraction, fit=fit,
+                             point_weights=point_weights)
+    except IdentificationError:
+        return None
+    return est if est.fit.success else None
+
+
+def _cut_reading(records, points, margin_hz: float, read) -> tuple:
+    """``records`` cut to ``margin_hz`` about ``points`` (:func:`windowed`) and the cut's
+    reading (``read(cut)``), where that reading takes its points from the same curves as
+    ``points``; (None, None) where it does not or cannot be read."""
+    cut = windowed(records, point_centres(points), margin_hz)
+    est = read(cut)
+    if est is None or _pairs(est.points.used()) != _pairs(points):
+        return None, None
+    return cut, est
 
 
 def _pairs(points) -> frozenset:
