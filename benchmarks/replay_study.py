@@ -145,6 +145,9 @@ def run_case(args) -> dict:
         # the levels' sensitivity (no base channel: the levels come from `level_g`)
         level=None if getattr(r, "level", None) is None else r.level.to_dict(),
         failed_checks=[c.name for c in res.verdict.checks if not c.passed],
+        # the answer's moves under other damping forms (no base channel: the form unread)
+        form=None if getattr(r, "form_sensitivity", None) is None
+        else r.form_sensitivity.to_dict(),
         n_points=len(res.points.used()),
         theta_ratio_min=_min_ratio(res),
         closest_misfit_se=r.closest_misfit_se,

@@ -82,6 +82,9 @@ def identify_case(path: str, corrected: bool, replay: dict | None = None,
                 # the answer's move for a damping the down-sweeps do not measure
                 "damping_sensitivity": None if getattr(rep, "damping_sensitivity", None) is None
                 else rep.damping_sensitivity.to_dict(),
+                # the answer's moves under other damping forms (no base channel)
+                "form_sensitivity": None if getattr(rep, "form_sensitivity", None) is None
+                else rep.form_sensitivity.to_dict(),
                 # the answer's move for levels taken from level_g, and the levels the upper
                 # branches imply
                 "level": None if getattr(rep, "level", None) is None else rep.level.to_dict(),
@@ -104,7 +107,8 @@ def identify_case(path: str, corrected: bool, replay: dict | None = None,
             else res.model_error.split.to_dict(),
             "checks_text": {c.name: str(c.message) for c in res.verdict.checks
                             if c.name in ("replay_misfit", "hinge_gaps", "base_reading",
-                                          "drop_window", "replay_binding")}}
+                                          "drop_window", "replay_binding",
+                                          "damping_form")}}
 
 
 def _task(case: str, draw: str, folder: str, fit: str, replay: dict | None = None,

@@ -1125,6 +1125,12 @@ def _corrected_intervals(rep) -> tuple[tuple, tuple, str]:
         delta_ci = widen(delta_ci, rep.delta, damped.delta_shift)
         source += (f", with the damping's {100 * damped.uncertainty:g} % uncertainty "
                    "(down-sweeps do not measure it)")
+    formed = getattr(rep, "form_sensitivity", None)
+    if formed is not None and (formed.kn_shift > 0 or formed.delta_shift > 0):
+        kn_ci = widen(kn_ci, rep.kn, formed.kn_shift)  # a damping form the test cannot read
+        delta_ci = widen(delta_ci, rep.delta, formed.delta_shift)
+        source += (", with the answer's move under other forms of the estimated damping (no "
+                   "base channel to read the form)")
     damping = rep.damping
     if damping is not None and damping.kn_shift is not None:  # an estimated zeta is uncertain
         kn_ci = widen(kn_ci, rep.kn, damping.kn_shift)

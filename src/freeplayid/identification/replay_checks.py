@@ -62,7 +62,12 @@
   (``form_move``) the check fails: the answer then rests on a one-parameter form, which has
   left up to half its move on independent beams. It is estimated only with a base channel to
   replay: without one a level that drifts during the runs drifts the replayed peaks with the
-  level as damping that rises with the mode does.
+  level as damping that rises with the mode does. There (``replay.damping_forms``, default on)
+  the binding is solved again under two other forms, damping rising with the mode (p = 1) and a
+  damper across each hinge (q = 0.5); a form whose replay meets the measured curves at least as
+  near as the answer's is not ruled out by them, and the check fails where such a form moves
+  the answer beyond the accuracy bounds (``damping_delta``, ``damping_kn``); its move is in the
+  intervals (:class:`freeplayid.replay.FormSensitivity`).
 - ``antialias`` (points above 0.3 of the sample rate, where the simulator's default
   anti-alias filter attenuates: -0.8 % at 0.336; the replays are then decimated flat): the
   answer's move were the records' own filter that default instead
@@ -244,6 +249,9 @@ def _form_check(replay) -> Check | None:
     """``damping_form``: with the damping's exponent (or its hinge damper's share) estimated, how
     far it moved the answer from the one ratio's (reported; the move is in the intervals through
     its own uncertainty). None where neither was estimated."""
+    formed = getattr(replay, "form_sensitivity", None)
+    if formed is not None:
+        return _unread_form_check(formed)
     d = getattr(replay, "damping", None)
     form = getattr(d, "form_estimated", None)
     if form is None or getattr(d, "single_ratio_answer", None) is None:
@@ -267,6 +275,30 @@ def _form_check(replay) -> Check | None:
                  "damping or a damper elsewhere than the hinges), and half such a move would "
                  "reach the bounds; the structure's damping matrix in the model file (the "
                  "replay then uses it) or its measured modal ratios would settle it", value)
+
+
+def _unread_form_check(formed) -> Check:
+    """``damping_form`` where the test cannot read the damping's form from the peaks' trend (no
+    base channel): the answer's largest move under the other forms whose replays meet the
+    measured curves at least as near as the answer's (:meth:`freeplayid.replay.FormSensitivity.
+    counted`) over the accuracy bounds; beyond them (as a down-sweep's unmeasured damping,
+    ``damping_delta`` / ``damping_kn``) the check fails: a form the data do not rule out would
+    put the answer outside."""
+    said = ("the damping's form, which a test without a base channel does not measure, "
+            "replayed otherwise moves the answer: " + formed.describe())
+    value = max(formed.delta_shift / LIMITS["damping_delta"],
+                formed.kn_shift / LIMITS["damping_kn"])
+    if value <= 1.0:
+        return Check("damping_form", True, said + " (where the curves do not rule a form out, "
+                     "within the accuracy bounds; in the intervals)", value)
+    return Check("damping_form", False,
+                 "the answer rests on a damping form the data cannot tell: "
+                 + said + "; a form the curves do not rule out moves it beyond the accuracy "
+                 f"bounds (delta {100 * LIMITS['damping_delta']:g} %, kn "
+                 f"{100 * LIMITS['damping_kn']:g} %). A base channel to replay (the form "
+                 "is then estimated from the peaks' trend with the level), the structure's "
+                 "damping matrix in the model file, or its measured modal ratios would settle it",
+                 value)
 
 
 def _level_check(replay) -> Check | None:

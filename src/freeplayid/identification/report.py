@@ -310,6 +310,11 @@ def _replay(r) -> list[str]:
                   f"measure: {100 * damped.uncertainty:g} % more of it moves kn by "
                   f"{100 * damped.kn_shift:.2g} % and delta by {100 * damped.delta_shift:.2g} % "
                   "(in the intervals)" + _settled(damped)]
+    formed = getattr(rep, "form_sensitivity", None)
+    if formed is not None:
+        lines += ["Damping form, which no base channel lets the replay read: the answer replayed "
+                  "with " + formed.describe()
+                  + " (the larger move in the intervals)."]
     if rep.failure:
         lines += ["", f"**Replay failed:** {rep.failure}; the estimate above is the plain fit's."]
     elif getattr(rep, "stopped", ""):

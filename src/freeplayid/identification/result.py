@@ -316,6 +316,8 @@ class Identification:
             "level": None if getattr(r, "level", None) is None else r.level.to_dict(),
             "damping_sensitivity": None if getattr(r, "damping_sensitivity", None) is None
             else r.damping_sensitivity.to_dict(),
+            "form_sensitivity": None if getattr(r, "form_sensitivity", None) is None
+            else r.form_sensitivity.to_dict(),
             "precision": None if getattr(r, "precision", None) is None
             else r.precision.to_dict(),
             "excitation_noise": None if getattr(r, "excitation_noise", None) is None

@@ -57,7 +57,8 @@ from .statistic import (
 from .weights import noise_levels, point_weights, record_noise
 
 __all__ = ["ReplayResult", "ReplayIteration", "PointOffset", "CrossCheck", "ExcitationNoise",
-           "corrected_fit", "FORM_PARAMETERS", "FORM_ATOL"]
+           "corrected_fit", "FORM_PARAMETERS", "FORM_ATOL", "FORM_ALTERNATIVES",
+           "FormAlternative", "FormSensitivity"]
 
 log = logging.getLogger(__name__)
 
@@ -445,6 +446,130 @@ class DampingSensitivity(_Sensitivity):
     closest_misfit_se: float | None = None
 
 
+# the damping forms that a test without a base channel cannot tell from one ratio in every mode
+# (the form estimated where a base channel is replayed, ``_fit_form``): (the binding's
+# attribute, its value). p = 1: damping that rises with the mode as Rayleigh damping does above
+# its lower anchor; q = 0.5: a damper across each hinge carrying half the lowest closed mode's
+# ratio (:data:`HINGE_BOUNDS` reach 0.95). Neither is fitted: each is one the data cannot rule out
+FORM_ALTERNATIVES = (("exponent", 1.0), ("hinge", 0.5))
+
+
+@dataclass(frozen=True)
+class FormAlternative:
+    """The answer under one other damping form (:data:`FORM_ALTERNATIVES`).
+
+    Attributes
+    ----------
+    form : str
+        "exponent" (p: mode i damped ``zeta (w_i / w_1)^p``) or "hinge" (q: a damper across
+        each hinge with that share of the lowest closed mode's ratio).
+    value : float [-]
+        p or q.
+    kn_move, delta_move : float or None [-]
+        Signed log move of the answer from the one ratio's to the binding solved under this
+        form (from the answer, with its loop's Jacobian; its closest replay where it does not
+        converge); None where a replay under it could not be fitted.
+    converged : bool
+        Whether that solve converged.
+    failure : str
+        Why a replay under this form could not be fitted, or "".
+    fit : (float, float, float) or None [-]
+        How its last replay meets the measured curves (:func:`_curve_fit`): the median over
+        the runs of the curve misfit, of the peak's |offset| and of the upper branch's misfit.
+    """
+
+    form: str
+    value: float
+    kn_move: float | None
+    delta_move: float | None
+    converged: bool
+    failure: str = ""
+    fit: tuple | None = None
+
+    def describe(self) -> str:
+        what = (f"damping rising with the mode (p = {self.value:g})" if self.form == "exponent"
+                else f"a damper across each hinge (q = {self.value:g})")
+        if self.delta_move is None:  # the failure's first clause: where the replay failed
+            return f"{what}: not measured, {self.failure.split(' (')[0] or 'a replay failed'}"
+        return (f"{what}: delta {100 * math.expm1(self.delta_move):+.2g} %, kn "
+                f"{100 * math.expm1(self.kn_move):+.2g} %"
+                + ("" if self.converged else " (its loop did not converge: its closest replay)"))
+
+
+@dataclass(frozen=True)
+class FormSensitivity:
+    """How far the damping's form, which a test without a base channel does not measure, moves
+    an answer whose damping ratio was estimated with one ratio in every mode
+    (``Replay.damping_forms``): the binding solved again under each of
+    :data:`FORM_ALTERNATIVES`, with the ratio estimated again.
+
+    Attributes
+    ----------
+    alternatives : tuple of FormAlternative
+        One per form tried.
+    answer_fit : (float, float, float) or None [-]
+        The answer's replay against the measured curves, as ``FormAlternative.fit``.
+    kn_shift, delta_shift : float [-]
+        The largest |log| move over the forms the curves do not rule out (:meth:`counted`; 0
+        where none is left): added to the intervals' log half-widths in quadrature.
+
+    Where the damping is estimated, a form other than the test's leaves its mark on the
+    replayed peaks' trend with the level; without a base channel a level that drifts during the
+    runs leaves the same mark, so the form is not estimated there (``_fit_form``) and an answer
+    that moves with it rests on a form the test does not measure. The whole curves still tell
+    forms apart where the trend cannot: a form counts only where its replay meets the measured
+    curves at least as near as the answer's (a curve misfit ratio of at most 1). On the held-out
+    study (modal damping, one ratio the truth's form) p = 1 moved accurate answers by up to 5 %
+    with its replays' curves 1.6-4.4 times as far off; on the realtests records of an exact
+    integrator the Rayleigh-damped fin D without a base channel, 2-4 % off with one ratio, has
+    p = 1's replay 0.8-0.9 times as far off and moving it by +2.6 % in delta (docs/results.md,
+    "The damping's form without a base channel").
+    """
+
+    alternatives: tuple
+    answer_fit: tuple | None = None
+
+    def counted(self) -> tuple:
+        """The forms whose move counts: measured, and whose replay meets the measured curves at
+        least as near as the answer's (:meth:`curve_ratio` at most 1, or not measured)."""
+        return tuple(a for a in self.alternatives if a.delta_move is not None
+                     and ((r := self.curve_ratio(a)) is None or r <= 1.0))
+
+    @property
+    def kn_shift(self) -> float:
+        return max((abs(a.kn_move) for a in self.counted()), default=0.0)
+
+    @property
+    def delta_shift(self) -> float:
+        return max((abs(a.delta_move) for a in self.counted()), default=0.0)
+
+    def to_dict(self) -> dict:
+        return {"alternatives": [dataclasses.asdict(a) for a in self.alternatives],
+                "answer_fit": self.answer_fit,
+                "kn_shift": self.kn_shift, "delta_shift": self.delta_shift}
+
+    def curve_ratio(self, alt: FormAlternative) -> float | None:
+        """``alt``'s replay's curve misfit over the answer's (below 1: the measured curves lie
+        nearer that form's replay); None where either was not measured."""
+        a, f = self.answer_fit, alt.fit
+        if a is None or f is None or not (a[0] > 0 and math.isfinite(f[0])):
+            return None
+        return float(f[0] / a[0])
+
+    def describe(self) -> str:
+        """The answer's move under each form, e.g. "damping rising with the mode (p = 1):
+        delta +2.7 %, kn +5.4 %, its replay's curves 0.3 times as far from the measured ones
+        as the answer's; a damper across each hinge (q = 0.5): ..."."""
+        out = []
+        for a in self.alternatives:
+            r = self.curve_ratio(a)
+            out.append(a.describe() + ("" if r is None else
+                                       f", its replay's curves {r:.2g} times as far from the "
+                                       "measured ones as the answer's"
+                                       + (" (ruled out by them)" if r > 1.0 else "")))
+        return "; ".join(out)
+
+
 # the replay's filter gain at the points below which the records' own anti-alias filter is
 # measured: 1e-4 of amplitude moves delta by about 2e-4 (fin C: 1.6 x the amplitude's move)
 FILTER_GAIN_TOL = 1e-4
@@ -577,6 +702,9 @@ class ReplayResult:
         The answer's move for an error of the levels taken from ``level_g``.
     damping_sensitivity : DampingSensitivity or None
         The answer's move for an error of a damping the test does not measure (down-sweeps).
+    form_sensitivity : FormSensitivity or None
+        The answer's move under other forms of an estimated damping, where the test cannot
+        read the form (no base channel; ``Replay.damping_forms``).
     excitation_noise : ExcitationNoise or None
         The answer's move for the base channel's noise in the excitation the replays are
         driven by; None without a measured excitation, a noise-free reading or copies.
@@ -645,6 +773,7 @@ class ReplayResult:
     resonance: dict = dataclasses.field(default_factory=dict)
     level: LevelSensitivity | None = None
     damping_sensitivity: DampingSensitivity | None = None
+    form_sensitivity: FormSensitivity | None = None
     excitation_noise: ExcitationNoise | None = None
     base_reading: BaseReading | None = None
     antialias: AcquisitionFilter | None = None
@@ -1444,7 +1573,7 @@ def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts
     ``answer_only`` none of the diagnostics that replay the test again (:func:`corrected_fit`)."""
     rep, stat = b.rep, b.stat
     offsets, misfit, boot, resonance, cross, level, damped = (), {}, None, {}, None, None, None
-    excited = reading = acquisition = timing = None
+    excited = reading = acquisition = timing = formed = None
     precision = None
     # how the answer moves with the statistic: the binding's slope regressed on the replays
     # (not where the damping moved between them: the regression does not separate it)
@@ -1479,6 +1608,8 @@ def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts
                                                           progress)
         damped = None if b.failure else _damping_sensitivity(b, sol, opts.damping_uncertainty,
                                                              progress)
+        formed = None if b.failure or not opts.damping_forms else _form_sensitivity(
+            b, sol, progress)
         # the answer's replay fitted around its points: what the excitation copies move from
         answer_fit = functools.cache(lambda: _fit_around(
             b, point_centres(b.rep.points.used()), b.rep_ds))
@@ -1523,6 +1654,7 @@ def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts
         precision=precision,
         weights=b.weight_table or None,
         resonance=resonance, cross=cross, level=level, damping_sensitivity=damped,
+        form_sensitivity=formed,
         excitation_noise=excited, base_reading=reading, antialias=acquisition,
         base_timing=timing,
         records_filter=opts.antialias,
@@ -1674,6 +1806,46 @@ def _damping_sensitivity(b: _Binding, sol, u: float,
     close = None if moved.closest is None else up.history[moved.closest].misfit_se
     return DampingSensitivity(float(u), float(shift[0]), float(shift[1]), runs,
                               bool(moved.converged), close)
+
+
+def _form_sensitivity(b: _Binding, sol, progress: bool = False) -> FormSensitivity | None:
+    """:class:`FormSensitivity` of an answer whose damping ratio was estimated in one form that
+    the test cannot read: no measured excitation (``_fit_form`` does not estimate the form
+    there) and neither p nor q given or estimated. Each of :data:`FORM_ALTERNATIVES` solved
+    from the answer with the loop's Jacobian (as the levels' move, :func:`_moved`). None
+    otherwise."""
+    if b.source != "estimated" or b.test.excitations or not b.history or sol.u.size != 3:
+        return None
+    if b.exponent != 0.0 or b.hinge != 0.0:
+        return None
+    out = []
+    for attr, value in FORM_ALTERNATIVES:
+        label = f"replay, {FORM_PARAMETERS[attr].symbol} = {value:g}"
+        other = b.sibling(b.test, (b.source, b.zeta), label)
+        setattr(other, attr, value)
+        moved = _moved(b, other, sol, progress, signed=True)
+        if moved is None:
+            out.append(FormAlternative(attr, value, None, None, False, other.failure))
+        else:
+            out.append(FormAlternative(attr, value, *moved, fit=_curve_fit(b, other.rep)))
+    return FormSensitivity(tuple(out), _curve_fit(b, b.rep))
+
+
+def _curve_fit(b: _Binding, rep) -> tuple | None:
+    """(median over the runs of :func:`.misfit.run_misfits`, of the peak's |offset| and of the
+    upper branch's misfit, :func:`.misfit.resonance_misfits`) of the replay ``rep`` against
+    the test's curves; None without a replay."""
+    if rep is None:
+        return None
+    stat = b.stat.points
+    curve = run_misfits(stat.curves, rep.points.curves, b.test.levels)
+    res = resonance_misfits(stat.used(), rep.points.used(), stat.curves, rep.points.curves)
+
+    def med(v):
+        v = [x for x in v if math.isfinite(x)]
+        return float(np.median(v)) if v else math.nan
+    return (med(curve.values()), med(abs(m.peak_offset) for m in res.values()),
+            med(m.branch for m in res.values()))
 
 
 def _excitation_noise(b: _Binding, sol, theta, slope, n: int, answer_fit,
@@ -1842,17 +2014,20 @@ def _base_reading(b: _Binding, sol, theta, slope, answer_fit,
                        len(copies), lost)
 
 
-def _moved(b: _Binding, up: _Binding, sol, progress: bool) -> tuple[float, float, bool] | None:
+def _moved(b: _Binding, up: _Binding, sol, progress: bool,
+           signed: bool = False) -> tuple[float, float, bool] | None:
     """|log| move of (kn, delta) of the binding ``up`` (``b``'s statistic under another
-    replay) solved from ``b``'s answer with its Jacobian, and whether that solve converged (else
-    its closest replay's move); None when a replay fails."""
+    replay) solved from ``b``'s answer with its Jacobian (``signed``: the log move itself), and
+    whether that solve converged (else its closest replay's move); None when a replay fails."""
     tol = [np.log1p(b.opts.rtol)] * 2 + ([np.log1p(ZETA_RTOL)] if sol.u.size == 3 else [])
     with _replay_bar(b.opts.max_iter, up.label, progress) as up.bar:
         moved = solve_binding(up, sol.u, sol.jacobian, max_iter=b.opts.max_iter,
                               tolerances=tol)
     if up.failure:
         return None
-    shift = np.abs(moved.u[:2] - sol.u[:2])
+    shift = moved.u[:2] - sol.u[:2]
+    if not signed:
+        shift = np.abs(shift)
     return float(shift[0]), float(shift[1]), bool(moved.converged)
 
 

@@ -111,6 +111,17 @@ class Replay:
         given). On the real-tests records q takes the drift out of the Rayleigh-damped beams
         (every δ within 0.45 %, one ratio's up to 1.02 %) and leaves fins within 0.05 % of one
         ratio's mean error (docs/identify.md §3c). Not used with the model file's C.
+    damping_forms : bool
+        Where the damping is estimated and its form cannot be (no base channel to replay: the
+        form is then one ratio in every mode), the binding solved again under two other forms
+        that the data cannot tell from it, from the answer with its loop's Jacobian: a damping
+        that rises with the mode (exponent p = 1, as Rayleigh damping does above its lower
+        anchor) and a damper across each hinge carrying half the lowest closed mode's ratio
+        (q = 0.5) (:class:`freeplayid.replay.FormSensitivity`). A form counts where its replay
+        meets the measured curves at least as near as the answer's: its move is added to the
+        intervals, and the verdict's ``damping_form`` fails where it exceeds the accuracy
+        bounds (the answer then rests on a form the test does not measure). Two more solves
+        (a few replays each) on such tests only. False: not measured.
     precision_copies : int
         Noisy copies of the answer's replay that measure how far the test's noise alone moves
         the answer (:func:`freeplayid.replay.precision_by_replay`; each run only around its
@@ -202,6 +213,7 @@ class Replay:
     damping_uncertainty: float = 0.25
     damping_exponent: float | str = 0.0
     damping_hinge: float | str = "estimate"
+    damping_forms: bool = True
     precision_copies: int = 8
     precision_record_copies: int = 0
     excitation_copies: int = 2
@@ -228,6 +240,7 @@ class Replay:
                              f"None, got {self.jump_point!r}")
         check_bool("weighted", self.weighted)
         check_bool("cross_check", self.cross_check)
+        check_bool("damping_forms", self.damping_forms)
         check_number("rtol", self.rtol, 0.0, 1.0, open_lo=True, open_hi=True)
         check_int("max_iter", self.max_iter, 1)
         check_choice("excitation", self.excitation, EXCITATIONS)
