@@ -1687,7 +1687,7 @@ def test_a_form_the_data_cannot_tell_fails_the_check_beyond_the_bounds():
     assert "no jump" not in within.message
     # a form whose replay meets the curves farther off than the answer's is ruled out by them
     farther = check(FormAlternative("exponent", 1.0, math.log(1.06), math.log(1.05), True,
-                                    fit=(0.02, 0.03, 0.01)), answer_fit=(0.01, 0.02, 0.005))
+                                    fit=0.02), answer_fit=0.01)
     assert farther.passed and farther.value == 0
     assert "2 times as far from the measured ones as the answer's (ruled out by them)" in \
         farther.message
@@ -1699,7 +1699,7 @@ def test_a_form_the_data_cannot_tell_fails_the_check_beyond_the_bounds():
     assert "did not converge" in beyond.message
     # how near each form's replay meets the measured curves, against the answer's: told
     nearer = check(FormAlternative("hinge", 0.5, math.log(1.036), math.log(1.037), True,
-                                   fit=(0.003, 0.01, 0.002)), answer_fit=(0.01, 0.02, 0.005))
+                                   fit=0.003), answer_fit=0.01)
     assert not nearer.passed
     assert "its replay's curves 0.3 times as far from the measured ones" in nearer.message
 

@@ -473,9 +473,8 @@ class FormAlternative:
         Whether that solve converged.
     failure : str
         Why a replay under this form could not be fitted, or "".
-    fit : (float, float, float) or None [-]
-        How its last replay meets the measured curves (:func:`_curve_fit`): the median over
-        the runs of the curve misfit, of the peak's |offset| and of the upper branch's misfit.
+    fit : float or None [-]
+        How far its last replay lies from the measured curves (:func:`_curve_fit`).
     """
 
     form: str
@@ -484,7 +483,7 @@ class FormAlternative:
     delta_move: float | None
     converged: bool
     failure: str = ""
-    fit: tuple | None = None
+    fit: float | None = None
 
     def describe(self) -> str:
         what = (f"damping rising with the mode (p = {self.value:g})" if self.form == "exponent"
@@ -507,8 +506,8 @@ class FormSensitivity:
     ----------
     alternatives : tuple of FormAlternative
         One per form tried.
-    answer_fit : (float, float, float) or None [-]
-        The answer's replay against the measured curves, as ``FormAlternative.fit``.
+    answer_fit : float or None [-]
+        How far the answer's replay lies from the measured curves, as ``FormAlternative.fit``.
     kn_shift, delta_shift : float [-]
         The largest |log| move over the forms the curves do not rule out (:meth:`counted`; 0
         where none is left): added to the intervals' log half-widths in quadrature.
@@ -527,7 +526,7 @@ class FormSensitivity:
     """
 
     alternatives: tuple
-    answer_fit: tuple | None = None
+    answer_fit: float | None = None
 
     def counted(self) -> tuple:
         """The forms whose move counts: measured, and whose replay meets the measured curves at
@@ -552,9 +551,9 @@ class FormSensitivity:
         """``alt``'s replay's curve misfit over the answer's (below 1: the measured curves lie
         nearer that form's replay); None where either was not measured."""
         a, f = self.answer_fit, alt.fit
-        if a is None or f is None or not (a[0] > 0 and math.isfinite(f[0])):
+        if a is None or f is None or not (a > 0 and math.isfinite(f)):
             return None
-        return float(f[0] / a[0])
+        return float(f / a)
 
     def describe(self) -> str:
         """The answer's move under each form, e.g. "damping rising with the mode (p = 1):
@@ -1831,21 +1830,13 @@ def _form_sensitivity(b: _Binding, sol, progress: bool = False) -> FormSensitivi
     return FormSensitivity(tuple(out), _curve_fit(b, b.rep))
 
 
-def _curve_fit(b: _Binding, rep) -> tuple | None:
-    """(median over the runs of :func:`.misfit.run_misfits`, of the peak's |offset| and of the
-    upper branch's misfit, :func:`.misfit.resonance_misfits`) of the replay ``rep`` against
-    the test's curves; None without a replay."""
+def _curve_fit(b: _Binding, rep) -> float | None:
+    """The median over the runs of :func:`.misfit.run_misfits` of the replay ``rep`` against
+    the test's curves; None without a replay (or a run in common)."""
     if rep is None:
         return None
-    stat = b.stat.points
-    curve = run_misfits(stat.curves, rep.points.curves, b.test.levels)
-    res = resonance_misfits(stat.used(), rep.points.used(), stat.curves, rep.points.curves)
-
-    def med(v):
-        v = [x for x in v if math.isfinite(x)]
-        return float(np.median(v)) if v else math.nan
-    return (med(curve.values()), med(abs(m.peak_offset) for m in res.values()),
-            med(m.branch for m in res.values()))
+    curve = run_misfits(b.stat.points.curves, rep.points.curves, b.test.levels)
+    return float(np.median(list(curve.values()))) if curve else None
 
 
 def _excitation_noise(b: _Binding, sol, theta, slope, n: int, answer_fit,
