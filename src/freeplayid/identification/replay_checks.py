@@ -64,8 +64,9 @@
   replay: without one a level that drifts during the runs drifts the replayed peaks with the
   level as damping that rises with the mode does. There (``replay.damping_forms``, default on)
   the binding is solved again under two other forms, damping rising with the mode (p = 1) and a
-  damper across each hinge (q = 0.5); a form whose replay meets the measured curves at least as
-  near as the answer's is not ruled out by them, and the check fails where such a form moves
+  damper across each hinge (q = 0.5); the form whose replay meets the measured curves more
+  than 10 % nearer than one ratio's is reported, a form whose replay meets them within 10 % of
+  the reported answer's is not ruled out by them, and the check fails where such a form moves
   the answer beyond the accuracy bounds (``damping_delta``, ``damping_kn``); its move is in the
   intervals (:class:`freeplayid.replay.FormSensitivity`).
 - ``antialias`` (points above 0.3 of the sample rate, where the simulator's default
@@ -280,10 +281,10 @@ def _form_check(replay) -> Check | None:
 def _unread_form_check(formed) -> Check:
     """``damping_form`` where the test cannot read the damping's form from the peaks' trend (no
     base channel): the answer's largest move under the other forms whose replays meet the
-    measured curves at least as near as the answer's (:meth:`freeplayid.replay.FormSensitivity.
-    counted`) over the accuracy bounds; beyond them (as a down-sweep's unmeasured damping,
-    ``damping_delta`` / ``damping_kn``) the check fails: a form the data do not rule out would
-    put the answer outside."""
+    measured curves about as near as the answer's or nearer (:meth:`freeplayid.replay.
+    FormSensitivity.counted`) over the accuracy bounds; beyond them (as a down-sweep's
+    unmeasured damping, ``damping_delta`` / ``damping_kn``) the check fails: a form the data do
+    not rule out would put the answer outside."""
     said = ("the damping's form, which a test without a base channel does not measure, "
             "replayed otherwise moves the answer: " + formed.describe())
     value = max(formed.delta_shift / LIMITS["damping_delta"],

@@ -312,9 +312,11 @@ def _replay(r) -> list[str]:
                   "(in the intervals)" + _settled(damped)]
     formed = getattr(rep, "form_sensitivity", None)
     if formed is not None:
-        lines += ["Damping form, which no base channel lets the replay read: the answer replayed "
-                  "with " + formed.describe()
-                  + " (the larger move in the intervals)."]
+        chose = formed.chose()
+        lines += ["Damping form, which no base channel lets the replay read"
+                  + (f"; {chose}" if chose else "") + ": the answer replayed with "
+                  + formed.describe() + " (the larger move of those the curves do not rule "
+                  "out in the intervals)."]
     if rep.failure:
         lines += ["", f"**Replay failed:** {rep.failure}; the estimate above is the plain fit's."]
     elif getattr(rep, "stopped", ""):

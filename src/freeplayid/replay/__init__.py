@@ -86,6 +86,7 @@ from .bootstrap import (
     windowed,
 )
 from .corrected import (
+    FORM_FIT_NOISE,
     AcquisitionFilter,
     BaseReading,
     CrossCheck,
@@ -110,7 +111,7 @@ __all__ = ["Replay", "ReplayResult", "ReplayIteration", "PointOffset", "PointWei
            "ReplayBootstrap", "ReplayPrecision", "MeasuredRecords", "precision_by_replay",
            "windowed",
            "ReplayDamping", "CrossCheck", "LevelSensitivity", "ExcitationNoise", "BaseReading",
-           "DampingSensitivity", "FormSensitivity", "FormAlternative",
+           "DampingSensitivity", "FormSensitivity", "FormAlternative", "FORM_FIT_NOISE",
            "AcquisitionFilter", "BaseTiming", "base_timing", "replay_sweeps",
            "replay_levels", "BindingJump",
            "replay_dataset", "corrected_fit", "curve_misfit", "damped_system", "noise_levels",

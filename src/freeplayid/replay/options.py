@@ -117,11 +117,13 @@ class Replay:
         that the data cannot tell from it, from the answer with its loop's Jacobian: a damping
         that rises with the mode (exponent p = 1, as Rayleigh damping does above its lower
         anchor) and a damper across each hinge carrying half the lowest closed mode's ratio
-        (q = 0.5) (:class:`freeplayid.replay.FormSensitivity`). A form counts where its replay
-        meets the measured curves at least as near as the answer's: its move is added to the
-        intervals, and the verdict's ``damping_form`` fails where it exceeds the accuracy
-        bounds (the answer then rests on a form the test does not measure). Two more solves
-        (a few replays each) on such tests only. False: not measured.
+        (q = 0.5) (:class:`freeplayid.replay.FormSensitivity`). The form whose replay meets
+        the measured curves nearest is reported where it does so more than 10 % nearer than
+        one ratio's (``FORM_FIT_NOISE``); a form whose replay meets them within 10 % of the
+        reported answer's counts: its move is added to the intervals, and the verdict's
+        ``damping_form`` fails where it exceeds the accuracy bounds (the answer then rests on
+        a form the test does not measure). Two more solves (a few replays each) on such tests
+        only. False: one ratio, not measured.
     precision_copies : int
         Noisy copies of the answer's replay that measure how far the test's noise alone moves
         the answer (:func:`freeplayid.replay.precision_by_replay`; each run only around its
