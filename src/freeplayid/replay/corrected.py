@@ -492,10 +492,15 @@ class FormAlternative:
     failure: str = ""
     fit: float | None = None
 
-    def describe(self) -> str:
-        what = (f"damping rising with the mode (p = {self.value:g})" if self.form == "exponent"
+    @property
+    def label(self) -> str:
+        """The form in words, e.g. "damping rising with the mode (p = 1)"."""
+        return (f"damping rising with the mode (p = {self.value:g})" if self.form == "exponent"
                 else f"a damper across each hinge (q = {self.value:g})" if self.form == "hinge"
                 else "one ratio in every mode")
+
+    def describe(self) -> str:
+        what = self.label
         if self.delta_move is None:  # the failure's first clause: where the replay failed
             return f"{what}: not measured, {self.failure.split(' (')[0] or 'a replay failed'}"
         return (f"{what}: delta {100 * math.expm1(self.delta_move):+.2g} %, kn "
@@ -596,9 +601,8 @@ class FormSensitivity:
         one = next((a for a in self.alternatives if a.form == "ratio"), None)
         ratio = "" if one is None or (r := self.curve_ratio(one)) is None else \
             f" {1 / r:.2g} times as far"
-        what = c.describe().split(":")[0]
-        return (f"the damping's form taken from the measured curves: {what}, whose replay met "
-                f"them{ratio} as one ratio's in every mode did")
+        return (f"the damping's form taken from the measured curves: {c.label}, whose replay "
+                f"met them{ratio} as one ratio's in every mode did")
 
 
 # the replay's filter gain at the points below which the records' own anti-alias filter is
@@ -1617,12 +1621,11 @@ def _result(b: _Binding, theta, rule, sol, closest, damping, plain, system, opts
     """The :class:`ReplayResult` of a finished loop (started at ``start``): offsets, curve
     misfits and the bootstrap at the answer's replay (:meth:`_Binding.settle`); with
     ``answer_only`` none of the diagnostics that replay the test again (:func:`corrected_fit`).
-    ``formed``: the damping's forms (:func:`_form_choice`), reported where the diagnostics are."""
+    ``formed``: the damping's forms (:func:`_form_choice`; None with ``answer_only`` or a
+    failed loop, where :func:`corrected_fit` does not try them)."""
     rep, stat = b.rep, b.stat
     offsets, misfit, boot, resonance, cross, level, damped = (), {}, None, {}, None, None, None
     excited = reading = acquisition = timing = None
-    if rep is None or answer_only:
-        formed = None
     precision = None
     # how the answer moves with the statistic: the binding's slope regressed on the replays
     # (not where the damping moved between them: the regression does not separate it)
@@ -1890,7 +1893,7 @@ def _form_choice(b: _Binding, sol, progress: bool = False):
     best, (other, moved) = min(nearer, key=lambda t: t[0].fit)
     other.settle(moved)
     k0, d0 = best.kn_move, best.delta_move
-    rest = [FormAlternative("ratio", 0.0, -k0, -d0, True, fit=one.answer_fit)]
+    rest = [FormAlternative("ratio", 0.0, -k0, -d0, bool(sol.converged), fit=one.answer_fit)]
     rest += [a if a.delta_move is None else
              dataclasses.replace(a, kn_move=a.kn_move - k0, delta_move=a.delta_move - d0)
              for a, _ in tried if a is not best]
