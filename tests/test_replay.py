@@ -1656,6 +1656,12 @@ def test_the_form_the_curves_lie_nearest_is_reported_where_the_test_cannot_read_
     one = formed.alternatives[0]
     assert (one.kn_move, one.delta_move) == (-p1.kn_move, -p1.delta_move)
     assert formed.curve_ratio(one) > 5 and formed.answer_fit == p1.fit
+    # each replayed run's misfit is kept (the fit is their median); p = 1's is nearer in each
+    assert set(p1.fit_runs) == set(one.fit_runs) and len(p1.fit_runs) >= 3
+    assert set(p1.fit_runs) <= {r.file for r in bare.runs}
+    assert p1.fit == pytest.approx(float(np.median(list(p1.fit_runs.values()))), rel=1e-12)
+    assert formed.answer_fit_runs == p1.fit_runs
+    assert all(p1.fit_runs[r] < one.fit_runs[r] for r in p1.fit_runs)
     assert all(formed.curve_ratio(a) > 1 + FORM_FIT_NOISE for a in formed.alternatives)
     assert formed.counted() == () and formed.kn_shift == 0 == formed.delta_shift
     assert "other forms" not in res.interval_source
@@ -1671,6 +1677,7 @@ def test_the_form_the_curves_lie_nearest_is_reported_where_the_test_cannot_read_
     saved = res.to_dict()["replay"]
     assert saved["form_sensitivity"]["chosen"]["form"] == "exponent"
     assert saved["form_sensitivity"]["alternatives"][0]["form"] == "ratio"
+    assert saved["form_sensitivity"]["answer_fit_runs"] == p1.fit_runs
     assert saved["damping"]["exponent"] == 1.0
 
 

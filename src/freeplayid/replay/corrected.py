@@ -481,7 +481,11 @@ class FormAlternative:
     failure : str
         Why a replay under this form could not be fitted, or "".
     fit : float or None [-]
-        How far its last replay lies from the measured curves (:func:`_curve_fit`).
+        How far its last replay lies from the measured curves: the median over the runs of
+        ``fit_runs``.
+    fit_runs : dict or None
+        That misfit of each run ({run: misfit}, :func:`.misfit.run_misfits`), whose median is
+        ``fit``.
     """
 
     form: str
@@ -491,6 +495,7 @@ class FormAlternative:
     converged: bool
     failure: str = ""
     fit: float | None = None
+    fit_runs: dict | None = None
 
     @property
     def label(self) -> str:
@@ -523,6 +528,8 @@ class FormSensitivity:
     answer_fit : float or None [-]
         How far the reported answer's replay lies from the measured curves, as
         ``FormAlternative.fit``.
+    answer_fit_runs : dict or None
+        Each run's, as ``FormAlternative.fit_runs``.
     chosen : FormAlternative or None
         The form reported where its replay met the measured curves clearly nearer than one
         ratio's (:func:`_form_choice`), with its move from the one ratio's answer; None where
@@ -549,6 +556,7 @@ class FormSensitivity:
     alternatives: tuple
     answer_fit: float | None = None
     chosen: FormAlternative | None = None
+    answer_fit_runs: dict | None = None
 
     def counted(self) -> tuple:
         """The forms whose move counts: measured, and whose replay meets the measured curves
@@ -567,7 +575,7 @@ class FormSensitivity:
 
     def to_dict(self) -> dict:
         return {"alternatives": [dataclasses.asdict(a) for a in self.alternatives],
-                "answer_fit": self.answer_fit,
+                "answer_fit": self.answer_fit, "answer_fit_runs": self.answer_fit_runs,
                 "chosen": None if self.chosen is None else dataclasses.asdict(self.chosen),
                 "kn_shift": self.kn_shift, "delta_shift": self.delta_shift}
 
@@ -1882,10 +1890,12 @@ def _form_choice(b: _Binding, sol, progress: bool = False):
                           None))
             continue
         shift = moved.u[:2] - sol.u[:2]
+        fits = _curve_fits(b, other.rep)
         tried.append((FormAlternative(attr, value, float(shift[0]), float(shift[1]),
-                                      bool(moved.converged), fit=_curve_fit(b, other.rep)),
-                      (other, moved)))
-    one = FormSensitivity(tuple(a for a, _ in tried), _curve_fit(b, b.rep))
+                                      bool(moved.converged), fit=_median(fits),
+                                      fit_runs=fits), (other, moved)))
+    fits = _curve_fits(b, b.rep)
+    one = FormSensitivity(tuple(a for a, _ in tried), _median(fits), answer_fit_runs=fits)
     nearer = [(a, solved) for a, solved in tried if a.converged
               and (r := one.curve_ratio(a)) is not None and r < 1.0 / (1.0 + FORM_FIT_NOISE)]
     if not nearer:
@@ -1893,20 +1903,27 @@ def _form_choice(b: _Binding, sol, progress: bool = False):
     best, (other, moved) = min(nearer, key=lambda t: t[0].fit)
     other.settle(moved)
     k0, d0 = best.kn_move, best.delta_move
-    rest = [FormAlternative("ratio", 0.0, -k0, -d0, bool(sol.converged), fit=one.answer_fit)]
+    rest = [FormAlternative("ratio", 0.0, -k0, -d0, bool(sol.converged), fit=one.answer_fit,
+                            fit_runs=one.answer_fit_runs)]
     rest += [a if a.delta_move is None else
              dataclasses.replace(a, kn_move=a.kn_move - k0, delta_move=a.delta_move - d0)
              for a, _ in tried if a is not best]
-    return FormSensitivity(tuple(rest), best.fit, chosen=best), (other, moved)
+    return (FormSensitivity(tuple(rest), best.fit, chosen=best, answer_fit_runs=best.fit_runs),
+            (other, moved))
 
 
-def _curve_fit(b: _Binding, rep) -> float | None:
-    """The median over the runs of :func:`.misfit.run_misfits` of the replay ``rep`` against
-    the test's curves; None without a replay (or a run in common)."""
+def _curve_fits(b: _Binding, rep) -> dict | None:
+    """:func:`.misfit.run_misfits` of the replay ``rep`` against the test's curves ({run:
+    misfit}); None without a replay (or a run in common)."""
     if rep is None:
         return None
     curve = run_misfits(b.stat.points.curves, rep.points.curves, b.test.levels)
-    return float(np.median(list(curve.values()))) if curve else None
+    return {run: float(v) for run, v in curve.items()} or None
+
+
+def _median(fits: dict | None) -> float | None:
+    """The median of ``fits``' values (:func:`_curve_fits`); None for None."""
+    return None if not fits else float(np.median(list(fits.values())))
 
 
 def _excitation_noise(b: _Binding, sol, theta, slope, n: int, answer_fit,
