@@ -1944,6 +1944,16 @@ VARIANTS["var30_finF_down_above"] = _fin_f_case(lambda **kw: _fin_case(
         levels=FIN_F_DOWN_LEVELS,
         sweep={"start_hz": round(1.1 * FIN_F_F1, 1), "stop_hz": FIN_F_SWEEP["start_hz"],
                "rate_hz_per_s": FIN_F_SWEEP["rate_hz_per_s"]}, **kw)), "var30_finF_down_above")
+# the thirty-first set (session 74), chosen before any of their answers: the damping forms of
+# the variant sets that had a base channel, without it, so that the damping is estimated with
+# one ratio and its form is taken from the curves (``replay.damping_forms``) on fins and a beam
+# it was not measured on: more damping in contact, a damper at each hinge, Rayleigh damping.
+# Each reuses its source's clean records (no simulation); named after its source, as the other
+# sets' (fin B's damper without a base channel is the tenth set's var10_finB_damper_no_base)
+VARIANTS.update(dict(_without_base(src) for src in (
+    "var25_finD_contact_damping", "var25_finD_damper", "var26_finE_contact_damping",
+    "var26_finE_rayleigh", "var30_finF_contact_damping", "var30_finF_damper",
+    "var5_finB_rayleigh", "beam_rayleigh")))
 
 ALL_CASES = {**CONDITIONS, **VARIANTS}
 
