@@ -1681,6 +1681,32 @@ def test_the_form_the_curves_lie_nearest_is_reported_where_the_test_cannot_read_
     assert saved["damping"]["exponent"] == 1.0
 
 
+def test_a_form_is_taken_only_where_the_curves_tell_it_from_every_other():
+    """The form taken instead of one ratio (``FormSensitivity.nearest``): the nearest converged
+    form whose replay meets the curves more than FORM_FIT_NOISE nearer than one ratio's and
+    than every other form's. Two forms about as near (fin B with a damper at each hinge without
+    a base channel: p = 1 0.61, q = 0.5 0.66 times one ratio's misfit) cannot be told apart:
+    none is taken. A form whose loop did not converge is not taken, but its replay, as near,
+    still stands in the way; a form whose replay could not be fitted does not."""
+    from freeplayid.replay import FORM_FIT_NOISE, FormAlternative, FormSensitivity
+
+    def near(p_fit, q_fit, p_conv=True, q_conv=True):
+        alts = (FormAlternative("exponent", 1.0, 0.03, 0.03, p_conv, fit=p_fit),
+                FormAlternative("hinge", 0.5, 0.02, 0.02, q_conv, fit=q_fit) if q_fit is not None
+                else FormAlternative("hinge", 0.5, None, None, False, "its runs stay in the gap"))
+        got = FormSensitivity(alts, answer_fit=1.0).nearest()
+        return None if got is None else got.form
+
+    assert near(0.28, 0.43) == "exponent"  # the default fin's damper: p clearly nearest
+    assert near(0.61, 0.66) is None and near(0.66, 0.61) is None  # fin B's: both about as near
+    assert near(0.77, None) == "exponent"  # q not fitted: p against one ratio alone
+    assert near(0.93, 1.2) is None  # within the noise of one ratio's
+    assert near(0.5, 0.8, p_conv=False) is None  # p did not converge, and lies as near as q
+    assert near(0.5, 0.3, p_conv=False) == "hinge"
+    edge = 1.0 / (1.0 + FORM_FIT_NOISE)
+    assert near(0.99 * edge, 2.0) == "exponent" and near(1.01 * edge, 2.0) is None
+
+
 def test_a_form_the_data_cannot_tell_fails_the_check_beyond_the_bounds():
     """The check on the answer's moves under the other forms: beyond the accuracy bounds (delta
     1 %, kn 2 %) in either it fails and says that the answer rests on the form; a replay that

@@ -65,10 +65,11 @@
   level as damping that rises with the mode does. There (``replay.damping_forms``, default on)
   the binding is solved again under two other forms, damping rising with the mode (p = 1) and a
   damper across each hinge (q = 0.5); the form whose replay meets the measured curves more
-  than 10 % nearer than one ratio's is reported, a form whose replay meets them within 10 % of
-  the reported answer's is not ruled out by them, and the check fails where such a form moves
-  the answer beyond the accuracy bounds (``damping_delta``, ``damping_kn``); its move is in the
-  intervals (:class:`freeplayid.replay.FormSensitivity`).
+  than 10 % nearer than one ratio's and than the other form's is reported, a form whose
+  replay meets them within 10 % of the reported answer's is not ruled out by them (so where
+  two forms meet them about as near, neither is taken and both count), and the check fails
+  where such a form moves the answer beyond the accuracy bounds (``damping_delta``,
+  ``damping_kn``); its move is in the intervals (:class:`freeplayid.replay.FormSensitivity`).
 - ``antialias`` (points above 0.3 of the sample rate, where the simulator's default
   anti-alias filter attenuates: -0.8 % at 0.336; the replays are then decimated flat): the
   answer's move were the records' own filter that default instead
