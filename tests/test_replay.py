@@ -1705,6 +1705,22 @@ def test_a_form_is_taken_only_where_the_curves_tell_it_from_every_other():
     assert near(0.5, 0.3, p_conv=False) == "hinge"
     edge = 1.0 / (1.0 + FORM_FIT_NOISE)
     assert near(0.99 * edge, 2.0) == "exponent" and near(1.01 * edge, 2.0) is None
+    # the check says why none was taken where two forms tie, and only there
+    from freeplayid.identification.replay_checks import _form_check
+
+    def check(p_fit, q_fit, p_conv=True):
+        alts = (FormAlternative("exponent", 1.0, math.log(1.029), math.log(1.027), p_conv,
+                                fit=p_fit),
+                FormAlternative("hinge", 0.5, math.log(1.027), math.log(1.026), True, fit=q_fit))
+        return _form_check(types.SimpleNamespace(
+            form_sensitivity=FormSensitivity(alts, answer_fit=1.0)))
+
+    tie = check(0.61, 0.66)
+    assert not tie.passed and tie.value == pytest.approx(2.7, rel=0.02)
+    assert ("the curves rule out one ratio in every mode but cannot tell damping rising with "
+            "the mode (p = 1) from a damper across each hinge (q = 0.5)") in tie.message
+    assert "cannot tell damping" not in check(0.5, 0.8, p_conv=False).message
+    assert "cannot tell damping" not in check(0.95, 0.97).message  # neither clearly nearer
 
 
 def test_a_form_the_data_cannot_tell_fails_the_check_beyond_the_bounds():

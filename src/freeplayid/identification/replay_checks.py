@@ -112,7 +112,7 @@ import numpy as np
 import scipy.stats
 
 from ..replay.binding_jump import worst_jump
-from ..replay.corrected import FORM_ATOL
+from ..replay.corrected import FORM_ATOL, FORM_FIT_NOISE
 from .verdict import LIMITS, Check, within_binding_noise
 
 __all__ = ["replay_checks", "run_branches", "precision_check", "noise_outside_chance", "settled_sd",
@@ -288,6 +288,11 @@ def _unread_form_check(formed) -> Check:
     not rule out would put the answer outside."""
     said = ("the damping's form, which a test without a base channel does not measure, "
             "replayed otherwise moves the answer: " + formed.describe())
+    tied = formed.tied()
+    if tied:
+        said += ("; the curves rule out one ratio in every mode but cannot tell "
+                 + " from ".join(a.label for a in tied) + " (their replays meet them within "
+                 f"{100 * FORM_FIT_NOISE:g} % of each other), so neither was taken")
     value = max(formed.delta_shift / LIMITS["damping_delta"],
                 formed.kn_shift / LIMITS["damping_kn"])
     if value <= 1.0:

@@ -533,8 +533,8 @@ class FormSensitivity:
         Each run's, as ``FormAlternative.fit_runs``.
     chosen : FormAlternative or None
         The form reported where its replay met the measured curves clearly nearer than one
-        ratio's (:func:`_form_choice`), with its move from the one ratio's answer; None where
-        the answer is one ratio's.
+        ratio's and the other form's (:meth:`nearest`, :func:`_form_choice`), with its move
+        from the one ratio's answer; None where the answer is one ratio's.
     kn_shift, delta_shift : float [-]
         The largest |log| move over the forms the curves do not rule out (:meth:`counted`; 0
         where none is left): added to the intervals' log half-widths in quadrature.
@@ -602,6 +602,21 @@ class FormSensitivity:
                for a in self.alternatives if a is not best):
             return None
         return best
+
+    def tied(self) -> tuple:
+        """Where no form was chosen: the forms whose replays meet the measured curves more than
+        :data:`FORM_FIT_NOISE` nearer than the answer's (one ratio's) and within it of the
+        nearest of them, if more than one: the curves rule out one ratio but cannot tell them
+        apart (:meth:`nearest`); () otherwise."""
+        if self.chosen is not None:
+            return ()
+        near = [a for a in self.alternatives if a.delta_move is not None
+                and (r := self.curve_ratio(a)) is not None and r < 1.0 / (1.0 + FORM_FIT_NOISE)]
+        if not near:
+            return ()
+        best = min(a.fit for a in near)
+        near = tuple(a for a in near if a.fit <= best * (1.0 + FORM_FIT_NOISE))
+        return near if len(near) > 1 else ()
 
     def curve_ratio(self, alt: FormAlternative) -> float | None:
         """``alt``'s replay's curve misfit over the answer's (below 1: the measured curves lie
