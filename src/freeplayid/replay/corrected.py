@@ -590,15 +590,11 @@ class FormSensitivity:
         B with a damper at each hinge, no base channel: p = 1 0.56-0.61 times as far as one
         ratio, q = 0.5 1.05-1.08 times as far as p = 1; taking p = 1 left delta +1.0 / +1.5 %
         with the verdict `ok`; docs/results.md, session 74)."""
-        def fit(a):
-            return a.fit if a.fit is not None and math.isfinite(a.fit) else None
-
-        near = [a for a in self.alternatives if a.converged and fit(a) is not None
-                and (r := self.curve_ratio(a)) is not None and r < 1.0 / (1.0 + FORM_FIT_NOISE)]
+        near = [a for a in self._clearly_nearer() if a.converged]
         if not near:
             return None
-        best = min(near, key=fit)
-        if any(fit(a) is not None and fit(a) <= best.fit * (1.0 + FORM_FIT_NOISE)
+        best = min(near, key=lambda a: a.fit)
+        if any(self.curve_ratio(a) is not None and a.fit <= best.fit * (1.0 + FORM_FIT_NOISE)
                for a in self.alternatives if a is not best):
             return None
         return best
@@ -608,15 +604,17 @@ class FormSensitivity:
         :data:`FORM_FIT_NOISE` nearer than the answer's (one ratio's) and within it of the
         nearest of them, if more than one: the curves rule out one ratio but cannot tell them
         apart (:meth:`nearest`); () otherwise."""
-        if self.chosen is not None:
-            return ()
-        near = [a for a in self.alternatives if a.delta_move is not None
-                and (r := self.curve_ratio(a)) is not None and r < 1.0 / (1.0 + FORM_FIT_NOISE)]
-        if not near:
-            return ()
-        best = min(a.fit for a in near)
-        near = tuple(a for a in near if a.fit <= best * (1.0 + FORM_FIT_NOISE))
-        return near if len(near) > 1 else ()
+        near = [] if self.chosen is not None else self._clearly_nearer()
+        best = min((a.fit for a in near), default=None)
+        near = [a for a in near if a.fit <= best * (1.0 + FORM_FIT_NOISE)]
+        return tuple(near) if len(near) > 1 else ()
+
+    def _clearly_nearer(self) -> list:
+        """The alternatives whose replays meet the measured curves more than
+        :data:`FORM_FIT_NOISE` nearer than the answer's (a finite misfit, :meth:`curve_ratio`
+        below 1 / (1 + it))."""
+        return [a for a in self.alternatives if (r := self.curve_ratio(a)) is not None
+                and r < 1.0 / (1.0 + FORM_FIT_NOISE)]
 
     def curve_ratio(self, alt: FormAlternative) -> float | None:
         """``alt``'s replay's curve misfit over the answer's (below 1: the measured curves lie

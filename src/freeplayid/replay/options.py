@@ -119,7 +119,8 @@ class Replay:
         anchor) and a damper across each hinge carrying half the lowest closed mode's ratio
         (q = 0.5) (:class:`freeplayid.replay.FormSensitivity`). The form whose replay meets
         the measured curves nearest is reported where it does so more than 10 % nearer than
-        one ratio's (``FORM_FIT_NOISE``); a form whose replay meets them within 10 % of the
+        one ratio's and than the other form's (``FORM_FIT_NOISE``; two forms about as near:
+        neither is taken, both count); a form whose replay meets them within 10 % of the
         reported answer's counts: its move is added to the intervals, and the verdict's
         ``damping_form`` fails where it exceeds the accuracy bounds (the answer then rests on
         a form the test does not measure). Two more solves (a few replays each) on such tests
