@@ -1652,7 +1652,8 @@ def test_the_form_the_curves_lie_nearest_is_reported_where_the_test_cannot_read_
     for name in ("kn", "delta"):
         assert abs(res.truth_error[name]) < 2.5e-3, name
         assert abs(res.truth_error[name]) < 0.5 * abs(off.truth_error[name]), name
-    assert [(a.form, a.value) for a in formed.alternatives] == [("ratio", 0.0), ("hinge", 0.5)]
+    assert [(a.form, a.value, a.probe) for a in formed.alternatives] == [
+        ("ratio", 0.0, False), ("hinge", 0.5, False), ("exponent", 0.5, True)]
     one = formed.alternatives[0]
     assert (one.kn_move, one.delta_move) == (-p1.kn_move, -p1.delta_move)
     assert formed.curve_ratio(one) > 5 and formed.answer_fit == p1.fit
@@ -1721,6 +1722,48 @@ def test_a_form_is_taken_only_where_the_curves_tell_it_from_every_other():
             "the mode (p = 1) from a damper across each hinge (q = 0.5)") in tie.message
     assert "cannot tell damping" not in check(0.5, 0.8, p_conv=False).message
     assert "cannot tell damping" not in check(0.95, 0.97).message  # neither clearly nearer
+
+
+def test_a_form_between_counts_where_its_loop_converged_and_is_never_taken():
+    """p = 0.5 (``FORM_PROBES``), between one ratio and p = 1: the curves do not locate it
+    (fin E with Rayleigh damping: p = 0.5's and p = 1's replays 0.79x one ratio's each, answers
+    3.4 points of delta apart), so it is never taken, never ties or blocks the forms that are,
+    and its move counts as theirs do (curves within FORM_FIT_NOISE of the answer's or nearer)
+    but only where its own loop converged: its closest replay otherwise moved an accurate beam
+    answer by 1.8 % (docs/results.md)."""
+    from freeplayid.identification.replay_checks import _form_check
+    from freeplayid.replay import FORM_PROBES, FormAlternative, FormSensitivity
+
+    assert FORM_PROBES == (("exponent", 0.5),)
+
+    half_move = math.log(0.975)
+
+    def formed(p_fit, half_fit, half_conv=True):
+        alts = (FormAlternative("exponent", 1.0, math.log(1.004), math.log(1.004), True,
+                                fit=p_fit),
+                FormAlternative("hinge", 0.5, None, None, False, "its runs stay in the gap"),
+                FormAlternative("exponent", 0.5, half_move, half_move, half_conv, fit=half_fit,
+                                probe=True))
+        return FormSensitivity(alts, answer_fit=1.0)
+
+    # nearest of all, still not taken; p = 1 is not blocked by it either
+    assert formed(0.7, 0.5).nearest().value == 1.0
+    assert formed(1.2, 0.5).nearest() is None and formed(1.2, 0.5).tied() == ()
+    # counted where converged and not ruled out: a move of 2.5 % in delta fails the check
+    got = formed(1.0, 0.9)
+    assert [a.value for a in got.counted()] == [1.0, 0.5]
+    assert got.delta_shift == pytest.approx(-math.log(0.975))
+    check = _form_check(types.SimpleNamespace(form_sensitivity=got))
+    assert not check.passed and check.value == pytest.approx(2.53, rel=0.01)
+    assert "damping rising with the mode (p = 0.5): delta -2.5 %" in check.message
+    # its loop not converged: listed, said, not counted
+    lone = formed(1.0, 0.55, half_conv=False)
+    assert [a.value for a in lone.counted()] == [1.0]
+    check = _form_check(types.SimpleNamespace(form_sensitivity=lone))
+    assert check.passed and check.value == pytest.approx(0.4, rel=0.02)
+    assert "(not counted: a form between, whose loop did not converge)" in check.message
+    # ruled out by the curves: not counted either
+    assert [a.value for a in formed(1.0, 1.5).counted()] == [1.0]
 
 
 def test_a_form_the_data_cannot_tell_fails_the_check_beyond_the_bounds():

@@ -87,6 +87,7 @@ from .bootstrap import (
 )
 from .corrected import (
     FORM_FIT_NOISE,
+    FORM_PROBES,
     AcquisitionFilter,
     BaseReading,
     CrossCheck,
@@ -112,6 +113,7 @@ __all__ = ["Replay", "ReplayResult", "ReplayIteration", "PointOffset", "PointWei
            "windowed",
            "ReplayDamping", "CrossCheck", "LevelSensitivity", "ExcitationNoise", "BaseReading",
            "DampingSensitivity", "FormSensitivity", "FormAlternative", "FORM_FIT_NOISE",
+           "FORM_PROBES",
            "AcquisitionFilter", "BaseTiming", "base_timing", "replay_sweeps",
            "replay_levels", "BindingJump",
            "replay_dataset", "corrected_fit", "curve_misfit", "damped_system", "noise_levels",

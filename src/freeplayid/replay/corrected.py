@@ -57,8 +57,8 @@ from .statistic import (
 from .weights import noise_levels, point_weights, record_noise
 
 __all__ = ["ReplayResult", "ReplayIteration", "PointOffset", "CrossCheck", "ExcitationNoise",
-           "corrected_fit", "FORM_PARAMETERS", "FORM_ATOL", "FORM_ALTERNATIVES", "FORM_FIT_NOISE",
-           "FormAlternative", "FormSensitivity"]
+           "corrected_fit", "FORM_PARAMETERS", "FORM_ATOL", "FORM_ALTERNATIVES", "FORM_PROBES",
+           "FORM_FIT_NOISE", "FormAlternative", "FormSensitivity"]
 
 log = logging.getLogger(__name__)
 
@@ -452,6 +452,13 @@ class DampingSensitivity(_Sensitivity):
 # its lower anchor; q = 0.5: a damper across each hinge carrying half the lowest closed mode's
 # ratio (:data:`HINGE_BOUNDS` reach 0.95). Neither is fitted: each is one the data cannot rule out
 FORM_ALTERNATIVES = (("exponent", 1.0), ("hinge", 0.5))
+# forms between one ratio and those (the binding's attribute, its value) whose move counts but
+# which are never taken (``FormAlternative.probe``): on fin E with Rayleigh damping the curves
+# met p = 0.5's replay and p = 1's about equally near (0.79x / 0.79x one ratio's) with answers
+# 3.4 points of delta apart, the truth between them, so a p = 1 the curves chose did not settle
+# the form; p = 0.5 counts only where its own loop converged (its closest replay otherwise
+# moved an accurate one-ratio beam answer by 1.8 % with curves 0.55x as far; docs/results.md)
+FORM_PROBES = (("exponent", 0.5),)
 # [-] how much nearer or farther a form's replay may meet the measured curves than another's
 # and the curves still not tell them apart (a ratio of curve misfits within 1 / (1 + this) ...
 # 1 + this): on the held-out study's 2 %-damped cases, replays of forms that moved the answer
@@ -487,6 +494,8 @@ class FormAlternative:
     fit_runs : dict or None
         That misfit of each run ({run: misfit}, :func:`.misfit.run_misfits`), whose median is
         ``fit``.
+    probe : bool
+        A form of :data:`FORM_PROBES`: never taken, counted only where its loop converged.
     """
 
     form: str
@@ -497,6 +506,7 @@ class FormAlternative:
     failure: str = ""
     fit: float | None = None
     fit_runs: dict | None = None
+    probe: bool = False
 
     @property
     def label(self) -> str:
@@ -565,6 +575,7 @@ class FormSensitivity:
         about as near as the reported answer's or nearer (:meth:`curve_ratio` at most 1 +
         :data:`FORM_FIT_NOISE`, or not measured)."""
         return tuple(a for a in self.alternatives if a.delta_move is not None
+                     and (a.converged or not a.probe)
                      and ((r := self.curve_ratio(a)) is None or r <= 1.0 + FORM_FIT_NOISE))
 
     @property
@@ -595,7 +606,7 @@ class FormSensitivity:
             return None
         best = min(near, key=lambda a: a.fit)
         if any(self.curve_ratio(a) is not None and a.fit <= best.fit * (1.0 + FORM_FIT_NOISE)
-               for a in self.alternatives if a is not best):
+               for a in self.alternatives if a is not best and not a.probe):
             return None
         return best
 
@@ -613,8 +624,8 @@ class FormSensitivity:
         """The alternatives whose replays meet the measured curves more than
         :data:`FORM_FIT_NOISE` nearer than the answer's (a finite misfit, :meth:`curve_ratio`
         below 1 / (1 + it))."""
-        return [a for a in self.alternatives if (r := self.curve_ratio(a)) is not None
-                and r < 1.0 / (1.0 + FORM_FIT_NOISE)]
+        return [a for a in self.alternatives if not a.probe
+                and (r := self.curve_ratio(a)) is not None and r < 1.0 / (1.0 + FORM_FIT_NOISE)]
 
     def curve_ratio(self, alt: FormAlternative) -> float | None:
         """``alt``'s replay's curve misfit over the answer's (below 1: the measured curves lie
@@ -636,6 +647,8 @@ class FormSensitivity:
                                        "measured ones as the answer's"
                                        + (" (ruled out by them)" if r > 1.0 + FORM_FIT_NOISE
                                           else "")))
+            if a.probe and not a.converged and a.delta_move is not None:
+                out[-1] += " (not counted: a form between, whose loop did not converge)"
         return "; ".join(out)
 
     def chose(self) -> str:
@@ -1919,20 +1932,21 @@ def _form_choice(b: _Binding, sol, progress: bool = False):
     if b.exponent != 0.0 or b.hinge != 0.0:
         return None, None
     tried = []
-    for attr, value in FORM_ALTERNATIVES:
+    forms = [(attr, value, False) for attr, value in FORM_ALTERNATIVES]
+    for attr, value, probe in forms + [(attr, value, True) for attr, value in FORM_PROBES]:
         label = f"replay, {FORM_PARAMETERS[attr].symbol} = {value:g}"
         other = b.sibling(b.test, (b.source, b.zeta), label)
         setattr(other, attr, value)
         moved = _moved_solution(b, other, sol, progress)
         if moved is None:
-            tried.append((FormAlternative(attr, value, None, None, False, other.failure),
-                          None))
+            tried.append((FormAlternative(attr, value, None, None, False, other.failure,
+                                          probe=probe), None))
             continue
         shift = moved.u[:2] - sol.u[:2]
         fits = _curve_fits(b, other.rep)
         tried.append((FormAlternative(attr, value, float(shift[0]), float(shift[1]),
                                       bool(moved.converged), fit=_median(fits),
-                                      fit_runs=fits), (other, moved)))
+                                      fit_runs=fits, probe=probe), (other, moved)))
     fits = _curve_fits(b, b.rep)
     one = FormSensitivity(tuple(a for a, _ in tried), _median(fits), answer_fit_runs=fits)
     best = one.nearest()
