@@ -1998,8 +1998,6 @@ VARIANTS.update({
         "fin D", 0.02, (0.7 * FIN_D_F1, 1.4 * FIN_D_F1), _fin_d_kw(
             levels=tuple(round(lv * 0.75, 3) for lv in FIN_D_LEVELS), **kw)),
         "var32_finD_rayleigh_no_base"),
-    "var32_finE_damper_no_base": lambda **kw: fin_no_base(name="var32_finE_damper_no_base",
-                                                          src="var26_finE_damper"),
 })
 VARIANTS.update(dict((_no_base_no_c("var30_finF_nominal", "var32_finF_noC_no_base"),
                       _no_base_no_c("var6_finC_nominal", "var32_finC_noC_no_base"))))
