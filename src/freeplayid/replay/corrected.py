@@ -529,13 +529,15 @@ class FormSensitivity:
     """How far the damping's form, which a test without a base channel does not measure, moves
     an answer whose damping ratio was estimated with one ratio in every mode
     (``Replay.damping_forms``): the binding solved again under each of
-    :data:`FORM_ALTERNATIVES`, with the ratio estimated again.
+    :data:`FORM_ALTERNATIVES` and :data:`FORM_PROBES`, with the ratio estimated again.
 
     Attributes
     ----------
     alternatives : tuple of FormAlternative
         The forms not reported: those tried and, where another was chosen, one ratio in every
-        mode (form "ratio"); each with its move from the reported answer.
+        mode (form "ratio"); each with its move from the reported answer. A form of
+        :data:`FORM_PROBES` (``probe``) counts only where its loop converged and is never
+        taken, tied or in another's way.
     answer_fit : float or None [-]
         How far the reported answer's replay lies from the measured curves, as
         ``FormAlternative.fit``.
@@ -1926,7 +1928,8 @@ def _form_choice(b: _Binding, sol, progress: bool = False):
     than one ratio's by more than :data:`FORM_FIT_NOISE` (its binding settled at its
     solution), and the moves are then from its answer; where another form's replay meets them
     within :data:`FORM_FIT_NOISE` of the nearest (the curves cannot tell which form), none is
-    chosen. (None, None) where not asked."""
+    chosen. Each of :data:`FORM_PROBES` is solved too, listed and counted (where converged) but
+    never chosen. (None, None) where not asked."""
     if b.source != "estimated" or b.test.excitations or not b.history or sol.u.size != 3:
         return None, None
     if b.exponent != 0.0 or b.hinge != 0.0:
