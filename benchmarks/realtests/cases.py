@@ -1972,32 +1972,29 @@ def _no_base_no_c(src: str, name: str):
     return name, build
 
 
-def _with_new_source(src_name: str, make: Callable[..., CaseSpec], name: str):
-    """A new condition ``src_name`` (with its base channel) and ``name``, its records without."""
-    return {src_name: _variant(make, src_name),
-            name: lambda **kw: fin_no_base(name=name, src=src_name)}
+def _with_new_source(src_name: str, make: Callable[..., CaseSpec]):
+    """A new condition ``src_name`` (with its base channel) and its records without it
+    (:func:`_without_base`: ``<src_name>_no_base``)."""
+    name, without = _without_base(src_name)
+    return {src_name: _variant(make, src_name), name: without}
 
 
 VARIANTS.update({
     **_with_new_source("var32_fin_rayleigh", lambda **kw: fin_rayleigh(
         zeta=0.025, f_hz=(20.0, 80.0), levels=tuple(round(lv * 0.67, 3) for lv in FIN_LEVELS),
-        **kw), "var32_fin_rayleigh_no_base"),
+        **kw)),
     **_with_new_source("var32_beam_rayleigh", lambda **kw: beam_rayleigh(
         zeta=0.03, rayleigh_hz=(20.0, 60.0),
-        levels=tuple(round(lv * 1.37, 3) for lv in (1.1, 1.5, 2.0, 2.6, 3.3)), **kw),
-        "var32_beam_rayleigh_no_base"),
+        levels=tuple(round(lv * 1.37, 3) for lv in (1.1, 1.5, 2.0, 2.6, 3.3)), **kw)),
     **_with_new_source("var32_finB_damper", lambda **kw: _also(fin_hinge_damper(
         added_zeta=0.01, **_fin_b_kw(levels=tuple(round(lv * (1 + 0.01 / 0.03), 3)
-                                                  for lv in FIN_B_LEVELS), **kw)), "fin B"),
-        "var32_finB_damper_no_base"),
+                                                  for lv in FIN_B_LEVELS), **kw)), "fin B")),
     **_with_new_source("var32_finC_damper", lambda **kw: _also(fin_hinge_damper(
         added_zeta=0.01, **_fin_c_kw(levels=tuple(round(lv * (1 + 0.01 / 0.02), 3)
-                                                  for lv in FIN_C_LEVELS), **kw)), "fin C"),
-        "var32_finC_damper_no_base"),
+                                                  for lv in FIN_C_LEVELS), **kw)), "fin C")),
     **_with_new_source("var32_finD_rayleigh", lambda **kw: _rayleigh_no_c(
         "fin D", 0.02, (0.7 * FIN_D_F1, 1.4 * FIN_D_F1), _fin_d_kw(
-            levels=tuple(round(lv * 0.75, 3) for lv in FIN_D_LEVELS), **kw)),
-        "var32_finD_rayleigh_no_base"),
+            levels=tuple(round(lv * 0.75, 3) for lv in FIN_D_LEVELS), **kw))),
 })
 VARIANTS.update(dict((_no_base_no_c("var30_finF_nominal", "var32_finF_noC_no_base"),
                       _no_base_no_c("var6_finC_nominal", "var32_finC_noC_no_base"))))

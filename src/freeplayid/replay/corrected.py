@@ -1935,8 +1935,9 @@ def _form_choice(b: _Binding, sol, progress: bool = False):
     if b.exponent != 0.0 or b.hinge != 0.0:
         return None, None
     tried = []
-    forms = [(attr, value, False) for attr, value in FORM_ALTERNATIVES]
-    for attr, value, probe in forms + [(attr, value, True) for attr, value in FORM_PROBES]:
+    forms = ([(attr, value, False) for attr, value in FORM_ALTERNATIVES]
+             + [(attr, value, True) for attr, value in FORM_PROBES])
+    for attr, value, probe in forms:
         label = f"replay, {FORM_PARAMETERS[attr].symbol} = {value:g}"
         other = b.sibling(b.test, (b.source, b.zeta), label)
         setattr(other, attr, value)
