@@ -1999,6 +1999,38 @@ VARIANTS.update({
 VARIANTS.update(dict((_no_base_no_c("var30_finF_nominal", "var32_finF_noC_no_base"),
                       _no_base_no_c("var6_finC_nominal", "var32_finC_noC_no_base"))))
 
+# the thirty-third set (session 77), chosen before any of their answers: damping of other forms
+# than one ratio without the base channel, at anchors, magnitudes and on structures the forms
+# were not measured on, so that a rule about an unconverged form's replay (whether its curves
+# may rule that form out) is judged on data it was not chosen on. Levels scaled with each
+# condition's damping at mode 1 (as the sets before). run.py --cases 'var33_*_no_base'
+VARIANTS.update({
+    **_with_new_source("var33_finE_rayleigh", lambda **kw: _rayleigh_no_c(
+        "fin E", 0.03, (0.5 * FIN_E_F1, 1.8 * FIN_E_F1), _fin_e_kw(
+            levels=tuple(round(lv * 0.03 / 0.04, 3) for lv in FIN_E_LEVELS), **kw))),
+    **_with_new_source("var33_finB_rayleigh", lambda **kw: _rayleigh_no_c(
+        "fin B", 0.02, (0.8 * FIN_B_F1, 1.2 * FIN_B_F1), _fin_b_kw(
+            levels=tuple(round(lv * 0.02 / 0.03, 3) for lv in FIN_B_LEVELS), **kw))),
+    **_with_new_source("var33_beam_rayleigh", lambda **kw: beam_rayleigh(
+        zeta=0.025, rayleigh_hz=(25.0, 45.0),
+        levels=tuple(round(lv * 1.25, 3) for lv in (1.1, 1.5, 2.0, 2.6, 3.3)), **kw)),
+    **_with_new_source("var33_finD_damper", lambda **kw: _also(fin_hinge_damper(
+        added_zeta=0.015, **_fin_d_kw(levels=tuple(round(lv * (1 + 0.015 / 0.025), 3)
+                                                   for lv in FIN_D_LEVELS), **kw)), "fin D")),
+})
+_name, _without = _without_base("var33_finF_rayleigh")
+VARIANTS.update({
+    "var33_finF_rayleigh": _fin_f_case(lambda **kw: _rayleigh_no_c(
+        "fin F", 0.025, (0.8 * FIN_F_F1, 2.0 * FIN_F_F1), _fin_f_kw(
+            levels=_fin_f_damped(0.01), **kw)), "var33_finF_rayleigh"),
+    _name: _without})
+_name, _without = _without_base("var33_finF_contact_damping")
+VARIANTS.update({
+    "var33_finF_contact_damping": _fin_f_case(lambda **kw: _contact_damping_on(
+        "fin F", _fin_f_kw(**kw), 0.015, FIN_F_ZETA),
+        "var33_finF_contact_damping"),
+    _name: _without})
+
 ALL_CASES = {**CONDITIONS, **VARIANTS}
 
 def set_profiles(spec: CaseSpec, out: Path) -> None:

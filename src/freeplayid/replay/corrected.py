@@ -575,10 +575,13 @@ class FormSensitivity:
     def counted(self) -> tuple:
         """The forms whose move counts: measured, and whose replay meets the measured curves
         about as near as the reported answer's or nearer (:meth:`curve_ratio` at most 1 +
-        :data:`FORM_FIT_NOISE`, or not measured)."""
+        :data:`FORM_FIT_NOISE`, or not measured), or whose loop did not converge (its closest
+        replay, which still misses the test's statistics, is not the form's answer, so its
+        curves do not rule the form out; a form of :data:`FORM_PROBES` then does not count)."""
         return tuple(a for a in self.alternatives if a.delta_move is not None
                      and (a.converged or not a.probe)
-                     and ((r := self.curve_ratio(a)) is None or r <= 1.0 + FORM_FIT_NOISE))
+                     and (not a.converged or (r := self.curve_ratio(a)) is None
+                          or r <= 1.0 + FORM_FIT_NOISE))
 
     @property
     def kn_shift(self) -> float:
@@ -647,8 +650,11 @@ class FormSensitivity:
             out.append(a.describe() + ("" if r is None else
                                        f", its replay's curves {r:.2g} times as far from the "
                                        "measured ones as the answer's"
-                                       + (" (ruled out by them)" if r > 1.0 + FORM_FIT_NOISE
-                                          else "")))
+                                       + ("" if r <= 1.0 + FORM_FIT_NOISE or
+                                          (a.probe and not a.converged) else
+                                          " (ruled out by them)" if a.converged else
+                                          " (not ruled out by them: its loop did not converge,"
+                                          " so that replay is not the form's answer)")))
             if a.probe and not a.converged and a.delta_move is not None:
                 out[-1] += " (not counted: a form between, whose loop did not converge)"
         return "; ".join(out)
