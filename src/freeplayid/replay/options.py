@@ -121,12 +121,14 @@ class Replay:
         the measured curves nearest is reported where it does so more than 10 % nearer than
         one ratio's and than the other form's (``FORM_FIT_NOISE``; two forms about as near:
         neither is taken, both count); a form whose replay meets them within 10 % of the
-        reported answer's counts: its move is added to the intervals, and the verdict's
-        ``damping_form`` fails where it exceeds the accuracy bounds (the answer then rests on
-        a form the test does not measure). A form between, p = 0.5 (``FORM_PROBES``), is
-        solved too and counts the same way where its loop converged, but is never taken (the
-        curves do not locate a form between one ratio and p = 1). Three more solves (a few
-        replays each) on such tests only. False: one ratio, not measured.
+        reported answer's, or whose loop did not converge (its closest replay is not the
+        form's answer, so its curves do not rule the form out), counts: its move is added to
+        the intervals, and the verdict's ``damping_form`` fails where it exceeds the accuracy
+        bounds (the answer then rests on a form the test does not measure). A form between,
+        p = 0.5 (``FORM_PROBES``), is solved too and counts the same way where its loop
+        converged, but is never taken (the curves do not locate a form between one ratio and
+        p = 1). Three more solves (a few replays each) on such tests only. False: one ratio,
+        not measured.
     precision_copies : int
         Noisy copies of the answer's replay that measure how far the test's noise alone moves
         the answer (:func:`freeplayid.replay.precision_by_replay`; each run only around its
