@@ -650,13 +650,13 @@ class FormSensitivity:
         for a in self.alternatives:
             r = self.curve_ratio(a)
             out.append(a.describe() + ("" if r is None else
-                                       f", its replay's curves {r:.2g} times as far from the "
+                                       f", its replay's curves {r:.3g} times as far from the "
                                        "measured ones as the answer's"
                                        + ("" if r <= 1.0 + FORM_FIT_NOISE or
                                           (a.probe and not a.converged) else
                                           " (ruled out by them)" if a.converged else
-                                          " (not ruled out by them: its loop did not converge,"
-                                          " so that replay is not the form's answer)")))
+                                          " (not ruled out by them: that replay is not the"
+                                          " form's answer)")))
             if a.probe and not a.converged and a.delta_move is not None:
                 out[-1] += " (not counted: a form between, whose loop did not converge)"
         return "; ".join(out)
