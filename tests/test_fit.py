@@ -381,3 +381,15 @@ def test_too_few_points_under_a_stated_weight_say_the_panel_rests_on_its_stop():
     with pytest.raises(IdentificationError) as info:
         check_enough(NoPoints(), rejected, "here")
     assert str(info.value).endswith("add runs at higher levels that resonate in the band")
+    # a run already on its upper branch where the band starts: start lower, not shake harder
+    from freeplayid.signal.jump import REASON_START
+
+    with pytest.raises(IdentificationError) as info:
+        check_enough(NoPoints(), {"a.csv": REASON_NO_JUMP, "c.csv": REASON_START}, "here")
+    assert str(info.value).endswith(
+        "start the sweeps lower: 1 run was already on its upper branch at the band's start, "
+        "and add runs at levels that resonate in the band")
+    with pytest.raises(IdentificationError) as info:
+        check_enough(NoPoints(), {"c.csv": REASON_START, "d.csv": REASON_START}, "here")
+    assert str(info.value).endswith("start the sweeps lower: 2 runs were already on their "
+                                    "upper branches at the band's start")

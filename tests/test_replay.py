@@ -471,6 +471,11 @@ def test_a_failed_replay_names_its_cause_by_the_tests_runs():
     assert said.endswith("its linear model or its levels are not the test's")
     only = replay_failure((820.0, 2.3e-3), IdentificationError(f"x: {REASON_NO_JUMP}"), 3)
     assert "the replayed 1 stays in the gap" in only and "band's edge" not in only
+    from freeplayid.signal.jump import REASON_START
+
+    began = replay_failure((820.0, 2.3e-3), IdentificationError(f"x: {REASON_START}"), 3)
+    assert "the replayed 1 starts on the upper branch (a replay less damped, or more excited" \
+        in began and "stays in the gap" not in began and "band's edge" not in began
 
 
 def test_damping_sensitivity_follows_the_bindings_slope():

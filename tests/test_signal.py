@@ -640,6 +640,30 @@ def test_find_jump_peak_down_sweep_mirrors_up_sweep():
     assert reason == REASON_NO_JUMP  # sharp rise then slow fall is not an up-sweep jump
 
 
+def test_a_run_already_on_its_upper_branch_at_the_start_is_told_from_one_in_the_gap():
+    """An up-sweep whose displacement is largest where the band starts and that drops later
+    (by half within the jump's 2 Hz: a damped run in contact from the start, which climbs no
+    branch in band) is rejected as starting on its upper branch, not as staying in the gap; a
+    response in the gap (falling as 1 / f^2 across the band) and the same curve swept down
+    keep their reasons."""
+    from freeplayid.signal import REASON_START
+
+    rate = 0.15  # [Hz/s] the curves' sweep: 32 -> 50 Hz
+    t = np.arange(0.0, 120.0, 1 / 64)
+    f = 32.0 + rate * t
+    upper = np.where(f < 38.3, 1.0 - 0.02 * (f - 32.0), 0.12)  # drops within one sample
+    k, reason = find_jump_peak(t, f, upper, sweep_rate=rate, band=(32.0, 50.0))
+    assert k == 0 and reason == REASON_START
+    in_gap = (32.0 / f) ** 2  # to 0.41 across the band, no half within 2 Hz
+    assert find_jump_peak(t, f, in_gap, sweep_rate=rate, band=(32.0, 50.0))[1] == REASON_NO_JUMP
+    # a fall too slow for a jump (by half every 3 Hz) is no upper branch's either
+    slow = np.where(f < 38.0, 1.0 - 0.1 * (f - 32.0) / 6.0, 0.9 * 2.0 ** (-(f - 38.0) / 3.0))
+    assert find_jump_peak(t, f, slow, sweep_rate=rate, band=(32.0, 50.0))[1] == REASON_NO_JUMP
+    # swept down, the same shape is judged as before
+    assert find_jump_peak(t, f[::-1], upper, sweep_rate=-rate,
+                          band=(50.0, 32.0))[1] == REASON_NO_JUMP
+
+
 def test_channels_are_handled_independently(sdof_runs):
     """Channel 1 = half of channel 0 (a second measure point): same f, half the amplitude."""
     d = sdof_runs["displacement"][1:]

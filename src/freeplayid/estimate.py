@@ -35,6 +35,7 @@ from .progress import progress_bar
 from .signal import (
     REASON_EDGE,
     REASON_NO_JUMP,
+    REASON_START,
     BackbonePoints,
     Extraction,
     estimate_sweep,
@@ -229,14 +230,23 @@ def check_determined(kn: float, delta: float, system, mode: int, where, points=N
 
 
 def _advice(rejected: dict, gravity_g: float = 0.0) -> str:
-    """What to do when too few runs give points, from why they were rejected (and the stated
-    weight along the axis, ``gravity_g``, under which a run that never leaves the stop it rests
-    on reads as one that stayed in the gap)."""
+    """What to do when too few runs give points, from why they were rejected (a run already on
+    its upper branch at the band's start needs the sweep started lower, not a higher level) and
+    the stated weight along the axis, ``gravity_g``, under which a run that never leaves the
+    stop it rests on reads as one that stayed in the gap."""
     reasons = list(rejected.values())
     if reasons and all("too short" in r for r in reasons):
         return ("record whole sweeps: the runs are too short to extract (a `simulate.py "
                 "debug=fast` data set is a smoke test of the simulator, not identifiable)")
-    if reasons and all(REASON_NO_JUMP in r or REASON_EDGE in r for r in reasons):
+    started = sum(REASON_START in r for r in reasons)
+    if reasons and all(REASON_NO_JUMP in r or REASON_EDGE in r or REASON_START in r
+                       for r in reasons):
+        if started:  # higher levels would start higher on their upper branch still
+            return (f"start the sweeps lower: {started} run"
+                    + ("s were already on their upper branches" if started > 1 else
+                       " was already on its upper branch") + " at the band's start"
+                    + ("" if started == len(reasons) else
+                       ", and add runs at levels that resonate in the band"))
         if gravity_g:
             return (f"add runs at higher levels that resonate in the band: under the stated "
                     f"weight (gravity_g {gravity_g:g}) the panel rests on one stop, and a run "

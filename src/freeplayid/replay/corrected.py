@@ -16,7 +16,7 @@ from ..estimate import PlainEstimate, extract_points, plain_estimate, refit, wei
 from ..fit import BackboneModel, FitOptions, FittingPoints, fit_backbone
 from ..progress import progress_bar
 from ..signal import Extraction
-from ..signal.jump import REASON_EDGE, REASON_NO_JUMP
+from ..signal.jump import REASON_EDGE, REASON_NO_JUMP, REASON_START
 from ..signal.level import GAP_AROUND, GAP_Z_AROUND, reading_gap
 from .base_timing import BaseTiming, base_timing
 from .binding_jump import BindingJump, jump_run, worst_jump
@@ -1174,10 +1174,14 @@ def _lost_jumps(said: str) -> str:
     """Which way a replay's runs lost the test's jumps, from the extraction's rejections in
     ``said`` (a run may be counted under both); '' where none was rejected so."""
     past, stayed = said.count(REASON_EDGE), said.count(REASON_NO_JUMP)
+    started = said.count(REASON_START)
     parts = []
     if past:
         parts.append(f"{past} resonate{'s' if past == 1 else ''} at the band's edge or past it "
                      "(a replay less damped, or stiffer, than the test)")
+    if started:
+        parts.append(f"{started} start{'s' if started == 1 else ''} on the upper branch (a "
+                     "replay less damped, or more excited, than the test)")
     if stayed:
         parts.append(f"{stayed} stay{'s' if stayed == 1 else ''} in the gap (a replay more "
                      "damped, or less excited, than the test)")

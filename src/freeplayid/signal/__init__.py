@@ -21,6 +21,7 @@ from .jump import (
     REASON_FAILED,
     REASON_NO_JUMP,
     REASON_NOISY,
+    REASON_START,
     find_jump_peak,
     reason_dead,
 )
@@ -55,6 +56,7 @@ __all__ = [
     "AmplitudeCurve",
     "REASON_NO_JUMP",
     "REASON_EDGE",
+    "REASON_START",
     "REASON_NOISY",
     "REASON_FAILED",
     "reason_dead",

@@ -15,6 +15,11 @@ Rejections, checked in this order (the reason string is stored with the point):
 - ``too noisy``: the extracted mode's SNR over the record (mode vs residual) < ``min_snr_db``;
 - no jump and the maximum sits at the end of the sweep: ``peak at band edge`` (the resonance may
   lie beyond the band);
+- no jump, an up-sweep whose maximum sits at the start of the band and whose curve still drops
+  later by the jump's ratio within ``jump_width_hz``: ``peak at the band's start`` (the response
+  was already on its upper branch when the analysed band began, as on a damped fin whose lowest
+  run in contact climbs no branch in band; the run is not used, and sweeping from lower would
+  give it a point);
 - no jump otherwise: ``no jump in band (response stayed in the gap)``;
 - a jump whose peak is within ``edge_hz`` of either end of the analysed band: ``peak at band edge``.
 
@@ -29,12 +34,15 @@ reported as ``extraction failed: <why>`` with NaN values instead of stopping the
 from __future__ import annotations
 
 import numpy as np
+import scipy.ndimage
 
-__all__ = ["find_jump_peak", "reason_dead", "REASON_NO_JUMP", "REASON_EDGE", "REASON_NOISY",
-           "REASON_FAILED"]
+__all__ = ["find_jump_peak", "reason_dead", "REASON_NO_JUMP", "REASON_EDGE", "REASON_START",
+           "REASON_NOISY", "REASON_FAILED"]
 
 REASON_NO_JUMP = "no jump in band (response stayed in the gap)"
 REASON_EDGE = "peak at band edge"
+REASON_START = ("peak at the band's start (already on its upper branch there, it dropped later: "
+                "start the sweep lower)")
 REASON_NOISY = "too noisy"
 REASON_FAILED = "extraction failed"  # followed by ": <why>" (no sweep found, a failed solve)
 
@@ -87,4 +95,26 @@ def find_jump_peak(
     at_end = abs(f[k] - band[1]) <= edge_hz
     if jump or not require_jump:
         return k, (REASON_EDGE if at_edge else "")
-    return k, (REASON_EDGE if at_end else REASON_NO_JUMP)
+    if at_end:
+        return k, REASON_EDGE
+    if (sweep_rate > 0 and abs(f[k] - band[0]) <= edge_hz
+            and _drops_later(t[k:], x[k:], jump_ratio, jump_width_hz / sweep_rate)):
+        return k, REASON_START
+    return k, REASON_NO_JUMP
+
+
+def _drops_later(t, x, ratio: float, window_s: float) -> bool:
+    """Whether the curve ``x`` (from its maximum, at ``x[0]``) falls anywhere, from at least
+    ``ratio`` of that maximum, to ``ratio`` of where it fell from within ``window_s``: a drop
+    off an upper branch, which a response in the gap (falling as 1 / f^2 over the band) has
+    not."""
+    if x.size < 2:
+        return False
+    dt = float(np.median(np.diff(t)))
+    n = max(1, int(round(window_s / dt))) if dt > 0 else 1
+    # the least value over [i, i + n] (forward window; past the end, the last value)
+    ahead = np.concatenate([x, np.full(n, x[-1])])
+    least = scipy.ndimage.minimum_filter1d(ahead, size=n + 1, origin=-(n // 2) - (n % 2),
+                                           mode="nearest")[:x.size]
+    high = x >= ratio * x[0]
+    return bool(np.any(high & (least <= ratio * x)))
