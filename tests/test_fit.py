@@ -1,5 +1,6 @@
 import math
 import re
+import types
 
 import numpy as np
 import pytest
@@ -389,6 +390,15 @@ def test_too_few_points_under_a_stated_weight_say_the_panel_rests_on_its_stop():
     assert str(info.value).endswith(
         "start the sweeps lower: 1 run was already on its upper branch at the band's start, "
         "and add runs at levels that resonate in the band")
+    # a run one of whose channels drops later did not stay in the gap, whatever the other read
+    from freeplayid.estimate import run_reason
+
+    def said(*reasons):
+        return run_reason([types.SimpleNamespace(reason=r) for r in reasons])
+
+    assert said(REASON_START, REASON_NO_JUMP, REASON_START) == REASON_START
+    assert said(REASON_NO_JUMP, REASON_EDGE, REASON_NO_JUMP) == \
+        f"{REASON_NO_JUMP}; {REASON_EDGE}"
     with pytest.raises(IdentificationError) as info:
         check_enough(NoPoints(), {"c.csv": REASON_START, "d.csv": REASON_START}, "here")
     assert str(info.value).endswith("start the sweeps lower: 2 runs were already on their "
