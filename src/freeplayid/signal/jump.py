@@ -18,8 +18,8 @@ Rejections, checked in this order (the reason string is stored with the point):
 - no jump, an up-sweep whose maximum sits at the start of the band and whose curve still drops
   later by the jump's ratio within ``jump_width_hz``: ``peak at the band's start`` (the response
   was already on its upper branch when the analysed band began, as on a damped fin whose lowest
-  run in contact climbs no branch in band; the run is not used, and sweeping from lower would
-  give it a point);
+  run in contact climbs no branch in band; the run is not used: a sweep started lower would
+  let it climb its branch in band);
 - no jump otherwise: ``no jump in band (response stayed in the gap)``;
 - a jump whose peak is within ``edge_hz`` of either end of the analysed band: ``peak at band edge``.
 
