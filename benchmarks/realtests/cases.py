@@ -1972,11 +1972,12 @@ def _no_base_no_c(src: str, name: str):
     return name, build
 
 
-def _with_new_source(src_name: str, make: Callable[..., CaseSpec]):
-    """A new condition ``src_name`` (with its base channel) and its records without it
+def _with_new_source(src_name: str, make: Callable[..., CaseSpec], case=_variant):
+    """A new condition ``src_name`` (with its base channel; ``case``: how a condition is made of
+    ``make``, e.g. :func:`_fin_f_case` for fin F's noise) and its records without it
     (:func:`_without_base`: ``<src_name>_no_base``)."""
     name, without = _without_base(src_name)
-    return {src_name: _variant(make, src_name), name: without}
+    return {src_name: case(make, src_name), name: without}
 
 
 VARIANTS.update({
@@ -2017,19 +2018,12 @@ VARIANTS.update({
     **_with_new_source("var33_finD_damper", lambda **kw: _also(fin_hinge_damper(
         added_zeta=0.015, **_fin_d_kw(levels=tuple(round(lv * (1 + 0.015 / 0.025), 3)
                                                    for lv in FIN_D_LEVELS), **kw)), "fin D")),
-})
-_name, _without = _without_base("var33_finF_rayleigh")
-VARIANTS.update({
-    "var33_finF_rayleigh": _fin_f_case(lambda **kw: _rayleigh_no_c(
+    **_with_new_source("var33_finF_rayleigh", lambda **kw: _rayleigh_no_c(
         "fin F", 0.025, (0.8 * FIN_F_F1, 2.0 * FIN_F_F1), _fin_f_kw(
-            levels=_fin_f_damped(0.01), **kw)), "var33_finF_rayleigh"),
-    _name: _without})
-_name, _without = _without_base("var33_finF_contact_damping")
-VARIANTS.update({
-    "var33_finF_contact_damping": _fin_f_case(lambda **kw: _contact_damping_on(
-        "fin F", _fin_f_kw(**kw), 0.015, FIN_F_ZETA),
-        "var33_finF_contact_damping"),
-    _name: _without})
+            levels=_fin_f_damped(0.01), **kw)), case=_fin_f_case),
+    **_with_new_source("var33_finF_contact_damping", lambda **kw: _contact_damping_on(
+        "fin F", _fin_f_kw(**kw), 0.015, FIN_F_ZETA), case=_fin_f_case),
+})
 
 ALL_CASES = {**CONDITIONS, **VARIANTS}
 

@@ -648,17 +648,18 @@ class FormSensitivity:
         as the answer's; a damper across each hinge (q = 0.5): ..."."""
         out = []
         for a in self.alternatives:
+            said = a.describe()
             r = self.curve_ratio(a)
-            out.append(a.describe() + ("" if r is None else
-                                       f", its replay's curves {r:.3g} times as far from the "
-                                       "measured ones as the answer's"
-                                       + ("" if r <= 1.0 + FORM_FIT_NOISE or
-                                          (a.probe and not a.converged) else
-                                          " (ruled out by them)" if a.converged else
-                                          " (not ruled out by them: that replay is not the"
-                                          " form's answer)")))
+            if r is not None:
+                said += (f", its replay's curves {r:.3g} times as far from the measured ones as "
+                         "the answer's")
+                if r > 1.0 + FORM_FIT_NOISE and a.converged:
+                    said += " (ruled out by them)"
+                elif r > 1.0 + FORM_FIT_NOISE and not a.probe:
+                    said += " (not ruled out by them: that replay is not the form's answer)"
             if a.probe and not a.converged and a.delta_move is not None:
-                out[-1] += " (not counted: a form between, whose loop did not converge)"
+                said += " (not counted: a form between, whose loop did not converge)"
+            out.append(said)
         return "; ".join(out)
 
     def chose(self) -> str:
