@@ -64,6 +64,8 @@ class SweepResult:
         Unequal gaps: hinge j's half-gap was ``delta * gap_shares[j]``; None: one common gap.
     static_g : float [g]
         The constant acceleration of the frame along the base axis (gravity) that was added.
+    contact_damping : tuple of float or None [N m s/rad]
+        Each hinge's damper acting only in contact; None: none.
     """
 
     time: np.ndarray
@@ -85,6 +87,7 @@ class SweepResult:
     quasi_static: QuasiStatic | None = None
     gap_shares: tuple | None = None
     static_g: float = 0.0
+    contact_damping: tuple | None = None
 
     @property
     def steps_per_sample(self) -> int:
@@ -131,6 +134,7 @@ def simulate_sweeps(
     gap_shares=None,
     antialias_passband: float = PASSBAND,
     static_g: float = 0.0,
+    contact_damping=None,
 ) -> SweepResult:
     """Simulate sine sweeps of a freeplay system for a batch of (kn, delta, level).
 
@@ -206,6 +210,11 @@ def simulate_sweeps(
         accelerometers and the base motion leave it out); the members start at rest in its
         static equilibrium (:func:`.formulation.static_equilibrium`). Engine "expo" (the choice
         of "auto" here) and the relative method; default 0.
+    contact_damping : sequence of float, shape (n_hinges,), optional [N m s/rad]
+        A viscous damper across hinge j acting only while it is in contact (moment
+        ``c_j theta_j'``, on top of C): damping that the closed hinge adds. Engine "expo" (the
+        choice of "auto" here), with at most ``expo.steps.MAX_STATE_SETS`` distinct kn in the
+        batch; default none.
 
     Returns
     -------
@@ -213,9 +222,10 @@ def simulate_sweeps(
     """
     _check_types(system, sweep, dtype)
     static_g = _static_g(static_g, method)
-    if (engine == "auto" and (gap_shares is not None or static_g)
+    dampers = _contact_damping(system, contact_damping)
+    if (engine == "auto" and (gap_shares is not None or static_g or dampers is not None)
             and ENGINES["expo"].available()):
-        engine = "expo"  # unequal gaps, a static load: the engines of AUTO do not take them
+        engine = "expo"  # unequal gaps, a static load, damping in contact: AUTO's do not
     device = torch.device(_default_device(engine, quasi_static_hz) if device is None else device)
     # the engine's name (unknown: the valid ones listed), and whether it does device and options
     engine, engine_cls = resolve_engine(engine, device=device,
@@ -223,6 +233,10 @@ def simulate_sweeps(
     channels = _check_request(system, method=method, sample_rate=sample_rate, channels=channels)
     kn_a, dl_a, lv_a = _members(kn, delta, level_g)
     shares = _gap_shares(system, gap_shares, engine, engine_cls)
+    if dampers is not None and not engine_cls.contact_damping:
+        able = [n for n, c in ENGINES.items() if c.contact_damping]
+        raise NotImplementedError(f"`contact_damping` (damping in contact) is implemented in "
+                                  f"the engines {able} only, got engine={engine!r}")
     if static_g and not engine_cls.static_load:
         able = [n for n, c in ENGINES.items() if c.static_load]
         raise NotImplementedError(f"`static_g` (a static load) is implemented in the engines "
@@ -237,7 +251,8 @@ def simulate_sweeps(
     base_state = np.array(sweep.unit_start(), dtype=float)  # unit (u_b, v_b)(0)
     eng = engine_cls(_engine_setup(plan, kn_a, dl_a, lv_a, base_state, quantity=quantity,
                                    dtype=dtype, device=device, cuda_graphs=cuda_graphs,
-                                   gap_shares=shares, static_g=static_g))
+                                   gap_shares=shares, static_g=static_g,
+                                   contact_damping=dampers))
     shape = (len(kn_a), len(channels), plan.n_out)
     y = integrate_chunks(eng, plan, sweep=sweep, quantity=quantity, level_g=lv_a, shape=shape,
                          base_state=base_state, dtype=dtype, device=device, progress=progress,
@@ -253,7 +268,21 @@ def simulate_sweeps(
         quasi_static=None if plan.qs is None else plan.qs.info,
         gap_shares=None if shares is None else tuple(float(v) for v in shares),
         static_g=static_g,
+        contact_damping=None if dampers is None else tuple(float(v) for v in dampers),
     )
+
+
+def _contact_damping(system, contact_damping) -> np.ndarray | None:
+    """``contact_damping`` checked: None where not given or all 0, else a float array of one
+    value >= 0 per hinge [N m s/rad]."""
+    if contact_damping is None:
+        return None
+    a = np.asarray(contact_damping, dtype=float)
+    H = system.n_hinges
+    if a.shape != (H,) or not np.all(np.isfinite(a)) or np.any(a < 0):
+        raise ValueError(f"`contact_damping` must be {H} finite values >= 0 [N m s/rad] (one "
+                         f"per hinge), got {contact_damping!r}")
+    return None if not np.any(a) else a
 
 
 def _static_g(static_g, method: str) -> float:
@@ -351,7 +380,8 @@ def _members(kn, delta, level_g) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def _engine_setup(plan: StepPlan, kn, delta, level_g, base_state, *, quantity, dtype, device,
-                  cuda_graphs, gap_shares=None, static_g: float = 0.0) -> EngineSetup:
+                  cuda_graphs, gap_shares=None, static_g: float = 0.0,
+                  contact_damping=None) -> EngineSetup:
     """The engine's setup: the plan's equations, step and filters, and the members at rest
     relative to the base (the large-mass form starts on the base motion ``base_state``), in
     the static equilibrium under ``static_g``."""
@@ -365,5 +395,5 @@ def _engine_setup(plan: StepPlan, kn, delta, level_g, base_state, *, quantity, d
         form=form, quasi_static=plan.qs, kn=kn, delta=delta, level_g=level_g, eta0=eta0, v0=v0,
         h=plan.h, quantity=quantity, dtype=dtype, device=device, taps=plan.taps,
         taps_d=plan.taps_d, factor=plan.m, cuda_graphs=cuda_graphs, gap_shares=gap_shares,
-        static_g=static_g,
+        static_g=static_g, contact_damping=contact_damping,
     )

@@ -54,6 +54,9 @@ class EngineSetup:
         A constant acceleration of the frame along the base axis (gravity on a vertical shaker),
         added to every member's excitation (only for engines with ``Engine.static_load``; the
         members then start in its static equilibrium, ``eta0``); 0: none.
+    contact_damping : ndarray, shape (H,) or None [N m s/rad]
+        A viscous damper across hinge j that acts only while it is in contact (its moment
+        ``c_j theta_j'``; only for engines with ``Engine.contact_damping``); None: none.
     """
 
     form: ModalForm
@@ -73,6 +76,7 @@ class EngineSetup:
     cuda_graphs: bool | None = None
     gap_shares: np.ndarray | None = None
     static_g: float = 0.0
+    contact_damping: np.ndarray | None = None
 
 
 class Engine(Protocol):
@@ -101,6 +105,8 @@ class Engine(Protocol):
         Whether it takes unequal gaps (``EngineSetup.gap_shares``).
     static_load : bool
         Whether it takes a constant acceleration of the frame (``EngineSetup.static_g``).
+    contact_damping : bool
+        Whether it takes damping that acts only in contact (``EngineSetup.contact_damping``).
     record_width : int
         Values held per member and step of a chunk (bounds the steps per chunk in memory).
     """
@@ -111,6 +117,7 @@ class Engine(Protocol):
     differentiates: ClassVar[bool] = False
     gap_shares: ClassVar[bool] = False
     static_load: ClassVar[bool] = False
+    contact_damping: ClassVar[bool] = False
     record_width: int
 
     def __init__(self, setup: EngineSetup) -> None: ...

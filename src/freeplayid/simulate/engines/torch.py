@@ -26,6 +26,7 @@ class TorchEngine:
     differentiates = False
     gap_shares = True
     static_load = False
+    contact_damping = False  # damping in contact: the exponential engine only
     max_step = staticmethod(rk4_max_step)
 
     def __init__(self, setup: EngineSetup):

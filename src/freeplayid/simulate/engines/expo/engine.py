@@ -29,6 +29,7 @@ class ExpoEngine(NumbaEngine):
     differentiates = True
     gap_shares = True
     static_load = True
+    contact_damping = True
     name = "expo"
 
     def __init__(self, setup: EngineSetup):
@@ -42,7 +43,7 @@ class ExpoEngine(NumbaEngine):
                                 quantity="displacement" if derived else s.quantity,
                                 dtype=s.dtype, taps=s.taps_d if derived else s.taps,
                                 factor=s.factor, gap_shares=s.gap_shares,
-                                static_g=s.static_g)
+                                static_g=s.static_g, contact_damping=s.contact_damping)
         self.record_width = self.kernel.width
 
     @staticmethod

@@ -430,10 +430,13 @@ class NumbaExpo:
         Hinge j's half-gap is ``delta * gap_shares[j]`` (default all 1: one common gap).
     static_g : float [g]
         A constant acceleration of the frame added to every member's excitation (default 0).
+    contact_damping : ndarray, shape (H,), optional [N m s/rad]
+        A damper across hinge j acting only in contact (:func:`.steps.discretize_states`):
+        the per-state scheme and a recorded displacement only.
     """
 
     def __init__(self, form: ModalForm, kn, delta, level_g, eta0, v0, *, h, quantity, dtype,
-                 taps, factor, gap_shares=None, static_g: float = 0.0):
+                 taps, factor, gap_shares=None, static_g: float = 0.0, contact_damping=None):
         nd = float_dtype(dtype)
         a = lambda x: np.ascontiguousarray(np.asarray(x, dtype=nd))  # noqa: E731
         self.nd = nd
@@ -445,6 +448,14 @@ class NumbaExpo:
         # the scheme depends on the batch's distinct kn only, each set on its kn only: a
         # member's result is the same in every batch that takes the same scheme
         self.per_state = per_state_scheme(len(kn_u))
+        if contact_damping is not None and not self.per_state:
+            raise NotImplementedError(
+                f"damping in contact is simulated with at most {MAX_STATE_SETS} distinct kn in "
+                f"a batch (the exact per-state scheme), got {len(kn_u)}")
+        if contact_damping is not None and MODES[quantity] != 0:
+            raise NotImplementedError("damping in contact is simulated recording displacement "
+                                      f"(its derivatives by the FIR), got {quantity!r}")
+        self.contact_damping = contact_damping
         if self.per_state:
             self._state_sets(form, h, kn_u, kset, shares)
         st = discretize(form, h)
@@ -484,8 +495,8 @@ class NumbaExpo:
         # the per-state step matrices (steps.discretize_states) of each distinct kn, stacked
         a = lambda x: np.ascontiguousarray(np.asarray(x, dtype=self.nd))  # noqa: E731
         self.levels = max(switch_levels(form, h, k) for k in kn_u)
-        sets = [discretize_states(form, h, float(k), levels=self.levels, gap_shares=shares)
-                for k in kn_u]
+        sets = [discretize_states(form, h, float(k), levels=self.levels, gap_shares=shares,
+                                  contact_damping=self.contact_damping) for k in kn_u]
         self.sets = sets
         self.kset = np.ascontiguousarray(kset, dtype=np.int64)
         self.kns = a(kn_u)

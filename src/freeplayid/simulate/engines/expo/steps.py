@@ -268,12 +268,17 @@ class StateSteps:
 
 
 def discretize_states(form: ModalForm, h: float, kn: float, *, levels: int = 0,
-                      gap_shares=None) -> StateSteps:
+                      gap_shares=None, contact_damping=None) -> StateSteps:
     """The per-state step matrices (block comment above) for ``form``, step ``h`` [s], contact
     stiffness ``kn`` [N m/rad] and ``levels`` halvings, by Van Loan exponentials in float64.
     ``gap_shares`` (H,): hinge j's half-gap is ``delta * gap_shares[j]`` (default: all 1, one
     common gap); folded into ``c`` and ``e``, which are then per unit delta of the hinges'
-    common scale (``kn D (s * shares)`` in place of ``kn D s``; with shares of 1 the same bits)."""
+    common scale (``kn D (s * shares)`` in place of ``kn D s``; with shares of 1 the same bits).
+    ``contact_damping`` (H,) [N m s/rad]: a damper across hinge j acting only in contact, inside
+    each state's A as its stiffness is (``-D diag(c |s|) D^T`` in the velocity block; default
+    none). Within the finest sub-step that holds a switch it acts in the state of the sub-step's
+    start (the residual held linear is the spring's moment only): an error of the order of that
+    sub-step's share of the contact."""
     if not (math.isfinite(h) and h > 0):
         raise ValueError(f"`h` must be > 0, got {h!r}")
     if not (math.isfinite(kn) and kn >= 0):
@@ -282,6 +287,8 @@ def discretize_states(form: ModalForm, h: float, kn: float, *, levels: int = 0,
         raise ValueError(f"`levels` must be an int >= 0, got {levels!r}")
     N, H = form.D.shape
     shares = np.ones(H) if gap_shares is None else np.asarray(gap_shares, float).reshape(H)
+    damper = np.zeros(H) if contact_damping is None else \
+        np.asarray(contact_damping, float).reshape(H)
     n2, p = 2 * N, 2 + H
     states = contact_states(H)
     S = len(states)
@@ -297,6 +304,7 @@ def discretize_states(form: ModalForm, h: float, kn: float, *, levels: int = 0,
         Ps = np.diag(np.abs(s))
         As = A.copy()
         As[N:, :N] -= kn * form.D @ Ps @ form.D.T
+        As[N:, N:] -= form.D @ (Ps * damper) @ form.D.T
         B = np.zeros((n2, p))
         B[N:, 0] = form.g
         B[N:, 1] = kn * form.D @ (s * shares)

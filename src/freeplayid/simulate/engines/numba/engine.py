@@ -33,6 +33,7 @@ class NumbaEngine:
     differentiates = False
     gap_shares = False  # one common gap (the RK4 kernels take delta per member only)
     static_load = False
+    contact_damping = False  # damping in contact: the exponential engine only
     max_step = staticmethod(rk4_max_step)
     name = "numba"
 
