@@ -1453,6 +1453,38 @@ def test_a_hinge_dampers_share_keeps_mode_1s_ratio_and_damps_the_modes_that_turn
     assert Replay(damping_exponent="estimate").damping_hinge == "estimate"  # p instead of q
 
 
+def test_a_contact_dampers_share_keeps_closed_mode_1s_ratio_and_leaves_the_gap_less_damped():
+    """``damped_system`` with ``contact`` qc: the modes keep (1 - qc) zeta and each hinge gets a
+    damper acting only in contact (``contact_dampers``, for the simulator) whose c adds qc zeta
+    to closed mode 1 (built here from scipy's modes): with the hinges closed mode 1's ratio,
+    read off the state matrix's eigenvalues, is zeta; open, the modes' (1 - qc) zeta."""
+    from freeplayid.model import default_fin, modal_damping
+    from freeplayid.replay.damping_estimate import contact_dampers, damped_system
+
+    fin, kn, zeta, q = default_fin(), 480.0, 0.02, 0.5
+    got = damped_system(fin, zeta, kn, contact=q).C
+    want = modal_damping(fin.M, fin.closed_stiffness(kn), zeta * (1 - q))
+    np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-14 * np.abs(want).max())
+    c = contact_dampers(fin, zeta, kn, q)
+    B = fin.hinge_matrix()
+    assert c.shape == (fin.n_hinges,) and np.all(c == c[0])
+    np.testing.assert_allclose(c[0] * (B @ B.T), _hinge_damper(fin, kn, q * zeta), rtol=1e-9)
+    assert contact_dampers(fin, zeta, kn, 0.0) is None
+    n = fin.M.shape[0]
+    Minv = np.linalg.inv(fin.M)
+
+    def first_ratio(K, C):
+        A = np.block([[np.zeros((n, n)), np.eye(n)], [-Minv @ K, -Minv @ C]])
+        lam = np.linalg.eigvals(A)
+        lam = lam[lam.imag > 1e-6]
+        first = lam[np.argmin(np.abs(lam))]
+        return -first.real / abs(first)
+
+    assert first_ratio(fin.closed_stiffness(kn), got + c[0] * (B @ B.T)) == \
+        pytest.approx(zeta, rel=0.02)
+    assert first_ratio(fin.closed_stiffness(kn), got) == pytest.approx((1 - q) * zeta, rel=1e-6)
+
+
 def test_gap_shares_are_one_positive_number_per_hinge_scaled_to_a_mean_of_one():
     from freeplayid.replay import Replay
 
@@ -1633,12 +1665,12 @@ def test_the_form_the_curves_lie_nearest_is_reported_where_the_test_cannot_read_
     """The p = 1 fin without its base channel (levels from `level_g`): the form is not
     estimated from the peaks' trend there, so the loop answers with one ratio (delta -0.5 %, kn
     -0.2 % here; the option off gives that answer to the bit) and the binding is solved again
-    under p = 1 and q = 0.5. p = 1 is the data's own form: its replay meets the measured curves
-    ten times nearer than one ratio's (noise-free), so it is reported: within 0.25 % of the
-    truth, nearer than one ratio's answer in both by at least half, its move from it the
-    listed one's, and the diagnostics (the verdict, the report, the damping) are of its replay.
-    One ratio's and q = 0.5's replays lie more than 1 + FORM_FIT_NOISE times as far: ruled out,
-    no move in the intervals, the check passes."""
+    under p = 1, q = 0.5 and qc = 0.5 (in contact only). p = 1 is the data's own form: its
+    replay meets the measured curves ten times nearer than one ratio's (noise-free), so it is
+    reported: within 0.25 % of the truth, nearer than one ratio's answer in both by at least
+    half, its move from it the listed one's, and the diagnostics (the verdict, the report, the
+    damping) are of its replay. One ratio's, q = 0.5's and qc = 0.5's replays lie more than
+    1 + FORM_FIT_NOISE times as far: ruled out, no move in the intervals, the check passes."""
     from freeplayid.replay import FORM_FIT_NOISE
 
     ds, model = fin_damped_higher
@@ -1658,7 +1690,8 @@ def test_the_form_the_curves_lie_nearest_is_reported_where_the_test_cannot_read_
         assert abs(res.truth_error[name]) < 2.5e-3, name
         assert abs(res.truth_error[name]) < 0.5 * abs(off.truth_error[name]), name
     assert [(a.form, a.value, a.probe) for a in formed.alternatives] == [
-        ("ratio", 0.0, False), ("hinge", 0.5, False), ("exponent", 0.5, True)]
+        ("ratio", 0.0, False), ("hinge", 0.5, False), ("contact", 0.5, False),
+        ("exponent", 0.5, True)]
     one = formed.alternatives[0]
     assert (one.kn_move, one.delta_move) == (-p1.kn_move, -p1.delta_move)
     assert formed.curve_ratio(one) > 5 and formed.answer_fit == p1.fit
@@ -1685,6 +1718,47 @@ def test_the_form_the_curves_lie_nearest_is_reported_where_the_test_cannot_read_
     assert saved["form_sensitivity"]["alternatives"][0]["form"] == "ratio"
     assert saved["form_sensitivity"]["answer_fit_runs"] == p1.fit_runs
     assert saved["damping"]["exponent"] == 1.0
+
+
+def test_damping_in_contact_is_a_form_the_curves_can_take_without_a_base_channel():
+    """The default fin with 2 % modal damping and a damper across each hinge acting only in
+    contact (+1.5 % in closed mode 1: a share 0.43 of its 3.5 %), simulated with
+    ``contact_damping``, no base channel. One ratio answers delta +0.8 %; qc = 0.5's replay
+    meets the measured curves 6.7 times nearer (p = 1 and q = 0.5 13-15 times farther), so it
+    is taken: within 0.3 % of the truth, the report saying what was replayed."""
+    import torch
+
+    from freeplayid.model import default_fin, modal_damping
+    from freeplayid.replay.damping_estimate import hinge_damper
+    from freeplayid.simulate import simulate_sweeps, sweep_dataset
+
+    fin = default_fin()
+    truth = fin.replace(C=modal_damping(fin.M, fin.closed_stiffness(480.0), 0.02))
+    c = hinge_damper(fin, 0.015, 480.0, 1.0)
+    res = simulate_sweeps(truth, kn=480.0, delta=3e-3, level_g=[0.6, 0.9, 1.2, 1.5, 1.8],
+                          sweep=Sweep(30.0, 50.0, 0.5),
+                          channels=["uz_top_left", "uz_lower_right"], sample_rate=256.0,
+                          dtype=torch.float64, progress=False, contact_damping=[c, c])
+    ds = sweep_dataset(res, units="g")
+    bare = dataclasses.replace(ds, base_channel=None, runs=tuple(
+        dataclasses.replace(r, base=None) for r in ds.runs))
+    res = identify(bare, system=fin.replace(C=None), progress=False, replay=QUICK)
+    formed = res.replay.form_sensitivity
+    qc = formed.chosen
+    assert (qc.form, qc.value) == ("contact", 0.5) and qc.converged
+    assert res.replay.damping.contact == 0.5 and res.replay.damping.hinge == 0.0
+    one = formed.alternatives[0]
+    assert one.form == "ratio" and formed.curve_ratio(one) > 3
+    assert all(formed.curve_ratio(a) > 1.5 for a in formed.alternatives)
+    for name, move in (("kn", one.kn_move), ("delta", one.delta_move)):
+        err = res.truth_error[name]
+        assert abs(err) < 3e-3, name
+        assert abs(err) < 0.5 * abs(math.expm1(move) + err), name  # one ratio's is farther
+    assert res.verdict.status == "ok"
+    said = "a damper across each hinge in contact only (qc = 0.5)"
+    assert said in res.report()
+    assert "acting only in contact" in res.replay.damping.describe()
+    assert res.to_dict()["replay"]["damping"]["contact"] == 0.5
 
 
 def test_a_form_is_taken_only_where_the_curves_tell_it_from_every_other():
@@ -1811,6 +1885,65 @@ def test_an_unconverged_form_is_not_ruled_out_by_its_closest_replay():
     assert probe.counted() == ()
     said = probe.describe()
     assert "not counted: a form between" in said and "ruled out" not in said
+    # an unconverged loop whose closest replay came within the statistics' noise of them
+    # (BINDING_NOISE_SE, the verdict's binding_noise) is as good as converged: its curves
+    # judge it (the realtests fin with a damper at each hinge: qc = 0.5's loop 0.08 standard
+    # errors off, its curves 8.4x as far, moving delta -10 %); farther off it counts as before
+    from freeplayid.replay.statistic import BINDING_NOISE_SE
+
+    def near(se, ratio):
+        return FormSensitivity((FormAlternative("contact", 0.5, math.log(0.91), math.log(0.9),
+                                                False, fit=ratio, closest_misfit_se=se),),
+                               answer_fit=1.0)
+
+    assert near(0.08, 8.4).counted() == () and near(BINDING_NOISE_SE, 8.4).counted() == ()
+    assert "(ruled out by them)" in near(0.08, 8.4).describe()
+    assert "0.08 of the statistics' standard error off" in near(0.08, 8.4).describe()
+    assert len(near(0.08, 1.05).counted()) == 1  # as near as the answer's: counts
+    assert len(near(0.3, 8.4).counted()) == 1 and len(near(None, 8.4).counted()) == 1
+    assert near(0.08, 0.5).nearest() is None  # never taken unless converged
+
+
+def test_the_share_of_damping_in_contact_is_searched_along_the_curves(monkeypatch):
+    """Where qc = 0.5's replay meets the curves clearly nearer than one ratio's, the share is
+    bracketed (0.25, then 0.75 and 0.95 where the curves fall that way) and the bracket about
+    the nearest share halved twice; the nearest converged share is the form, every other share
+    a form between (``probe``). Solves stubbed: a misfit |q - share| + 0.1 (V-shaped, as
+    measured on the realtests fins) and the answer moving 10 % per unit share."""
+    from freeplayid.replay import corrected
+
+    solved = []
+
+    def fake(b, sol, attr, value, probe, progress):
+        solved.append(value)
+        return corrected.FormAlternative(attr, value, -0.1 * value, -0.1 * value, True,
+                                         fit=abs(value - truth) + 0.1, probe=probe), "solved"
+
+    monkeypatch.setattr(corrected, "_solve_form", fake)
+    monkeypatch.setattr(corrected, "_curve_fits", lambda b, rep: {"run": one_ratio})
+    # the last: the bound nearer than 0.75, then halved towards it
+    for truth, want in ((0.4, [0.25, 0.75, 0.375, 0.625, 0.312, 0.438]),
+                        (0.3, [0.25, 0.125, 0.375, 0.188, 0.312]),
+                        (0.9, [0.25, 0.75, 0.95, 0.85, 0.9])):
+        one_ratio = truth + 0.1
+        tried = [fake(None, None, "exponent", 1.0, False, False),
+                 fake(None, None, "contact", 0.5, False, False)]
+        solved.clear()
+        out = corrected._contact_share(types.SimpleNamespace(rep=None), None, tried, False)
+        assert solved == want, truth
+        shares = [a for a, _ in out if a.form == "contact"]
+        best = min(shares, key=lambda a: a.fit)
+        assert abs(best.value - truth) <= 0.03, truth
+        assert [a.probe for a in shares] == [a is not best for a in shares]
+        assert [a for a, _ in out if a.form == "exponent"][0].probe is False
+    # qc = 0.5 not clearly nearer than one ratio's (a share of 0.15: 0.45 against 0.25):
+    # nothing searched
+    truth = 0.15
+    one_ratio = truth + 0.1
+    tried = [fake(None, None, "contact", 0.5, False, False)]
+    solved.clear()
+    assert corrected._contact_share(types.SimpleNamespace(rep=None), None, tried, False) == tried
+    assert solved == []
 
 
 def test_a_form_the_data_cannot_tell_fails_the_check_beyond_the_bounds():

@@ -2025,6 +2025,24 @@ VARIANTS.update({
         "fin F", _fin_f_kw(**kw), 0.015, FIN_F_ZETA), case=_fin_f_case),
 })
 
+# the thirty-fourth set (session 78), chosen before any of their answers: damping only in
+# contact without the base channel, at shares of the closed mode 1's ratio (0.29-0.63) and on
+# fins the contact form's share search was not made on (it was made on the default fin at 0.4
+# and fin F at 0.5), so that it is judged on data it was not chosen on. run.py --cases
+# 'var34_*_no_base'
+VARIANTS.update({
+    **_with_new_source("var34_fin_contact_small", lambda **kw: fin_contact_damping(
+        added_zeta=0.012, **kw)),
+    **_with_new_source("var34_finB_contact", lambda **kw: _contact_damping_on(
+        "fin B", _fin_b_kw(**kw), 0.04, 0.03)),
+    **_with_new_source("var34_finD_contact", lambda **kw: _contact_damping_on(
+        "fin D", _fin_d_kw(**kw), 0.01, 0.025)),
+    **_with_new_source("var34_finE_contact", lambda **kw: _contact_damping_on(
+        "fin E", _fin_e_kw(**kw), 0.05, 0.04)),
+    **_with_new_source("var34_finF_contact", lambda **kw: _contact_damping_on(
+        "fin F", _fin_f_kw(**kw), 0.025, FIN_F_ZETA), case=_fin_f_case),
+})
+
 ALL_CASES = {**CONDITIONS, **VARIANTS}
 
 def set_profiles(spec: CaseSpec, out: Path) -> None:

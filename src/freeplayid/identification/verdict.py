@@ -103,6 +103,7 @@ from ..acquisition import GAIN_FLOOR, FilterResponse, unrestored_points
 from ..fit import MIN_GAP_RATIO, gap_ratios
 from ..quantity import G, check_quantity
 from ..replay.binding_jump import JUMP, JUMP_SLOPE
+from ..replay.statistic import BINDING_NOISE_SE
 from ..signal import window_amplitudes
 from ..sweep import Sweep
 
@@ -126,9 +127,9 @@ LIMITS = {
     "binding_jump": JUMP,  # [-] a replayed fit's move (log) that counts as a jump ...
     "binding_slope": JUMP_SLOPE,  # [-] ... when it is this many times its parameters' move
     # [-] an unconverged replay loop whose closest replay misses the test's statistics by at
-    # most this many of their standard errors is as good as converged: the answer then lies
-    # that far from the solution, which lowers a 95 % interval's coverage to 94.3 % at most
-    "binding_noise": 0.25,
+    # most this many of their standard errors is as good as converged (the replay's
+    # BINDING_NOISE_SE: its forms' loops are judged alike)
+    "binding_noise": BINDING_NOISE_SE,
     # [-] ... and one that misses them by at most this many passes too where its intervals reach
     # to where the binding's slope puts the solution (``ReplayResult.unconverged_offset``): the
     # step is then a fraction of the statistic's noise, over which the binding is straight

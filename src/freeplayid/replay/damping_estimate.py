@@ -9,8 +9,8 @@ import numpy as np
 from ..model import modal_analysis, modal_damping
 from ..quantity import G
 
-__all__ = ["ReplayDamping", "damped_system", "damping_mode", "initial_zeta", "ZETA_START",
-           "ZETA_RTOL"]
+__all__ = ["ReplayDamping", "damped_system", "hinge_damper", "contact_dampers", "damping_mode",
+           "initial_zeta", "ZETA_START", "ZETA_RTOL"]
 
 ZETA_START = 0.02  # [-] first guess of an estimated damping ratio (the loop moves it)
 
@@ -69,6 +69,10 @@ class ReplayDamping:
         95 % interval of an estimated share (as ``exponent_ci95``).
     hinge_note : str
         Why a share asked to be estimated was not (it stayed 0), or where it stopped.
+    contact : float [-]
+        The share of the lowest closed mode's ratio that a damper across each hinge carries
+        while it is in contact only (:func:`damped_system`'s ``contact``): 0 but where that form
+        was taken from the measured curves (``Replay.damping_forms``).
     """
 
     source: str
@@ -89,6 +93,7 @@ class ReplayDamping:
     hinge_estimated: bool = False
     hinge_ci95: tuple | None = None
     hinge_note: str = ""
+    contact: float = 0.0
 
     def to_dict(self) -> dict:
         return {"source": self.source, "zeta": self.zeta,
@@ -103,7 +108,7 @@ class ReplayDamping:
                 list(self.single_ratio_answer),
                 "hinge": self.hinge, "hinge_estimated": self.hinge_estimated,
                 "hinge_ci95": None if self.hinge_ci95 is None else list(self.hinge_ci95),
-                "hinge_note": self.hinge_note}
+                "hinge_note": self.hinge_note, "contact": self.contact}
 
     @property
     def form_estimated(self) -> str | None:
@@ -121,6 +126,11 @@ class ReplayDamping:
             text = (f"zeta = {self.zeta:.4g} in the lowest closed-hinge mode: "
                     f"{100 * self.hinge:.2g} % of it from a damper across each hinge, the rest "
                     f"({self.zeta * (1 - self.hinge):.4g}) a modal ratio of every mode")
+        if self.contact:
+            text = (f"zeta = {self.zeta:.4g} in the lowest closed-hinge mode: "
+                    f"{100 * self.contact:.2g} % of it from a damper across each hinge acting "
+                    f"only in contact, the rest ({self.zeta * (1 - self.contact):.4g}) a modal "
+                    "ratio of every mode")
         if self.source == "given":
             return text + " (given)"
         ci = "" if self.zeta_ci95 is None else \
@@ -164,7 +174,8 @@ class ReplayDamping:
             np.isfinite(self.trend_se) and abs(self.trend) > TREND_SE * self.trend_se
 
 
-def damped_system(system, zeta: float, kn: float, exponent: float = 0.0, hinge: float = 0.0):
+def damped_system(system, zeta: float, kn: float, exponent: float = 0.0, hinge: float = 0.0,
+                  contact: float = 0.0):
     """``system`` with modal damping ratio ``zeta`` in every mode of its closed-hinge stiffness
     at ``kn`` (``model.modal_damping``), replacing its C; with ``exponent`` p, the ratio
     ``zeta (w_i / w_1)^p`` in mode i (w_1 the lowest closed mode's circular frequency).
@@ -173,18 +184,38 @@ def damped_system(system, zeta: float, kn: float, exponent: float = 0.0, hinge: 
     share q of the lowest closed mode's ratio and the modes keep ``(1 - q)`` of theirs: ``c =
     2 q zeta w_1 / sum_j (b_j^T phi_1)^2`` (phi_1 mass-normalised). The lowest closed mode's
     modal ratio (the diagonal of ``Phi^T C Phi``) stays ``zeta``; the damper damps each mode by
-    how far it turns the hinges, and acts with the hinges open too."""
+    how far it turns the hinges, and acts with the hinges open too.
+
+    With ``contact`` (a share in [0, 1) as q's): the modes keep ``(1 - contact)`` of their ratio
+    and the rest is a damper across each hinge that acts only while it is in contact
+    (:func:`contact_dampers`, which the replay passes to the simulator): the lowest closed
+    mode's ratio is ``zeta`` with the hinges closed, ``(1 - contact) zeta`` in the gap."""
     Kc = system.closed_stiffness(kn)
-    C = modal_damping(system.M, Kc, zeta * (1.0 - hinge), exponent=exponent)
+    C = modal_damping(system.M, Kc, zeta * (1.0 - hinge - contact), exponent=exponent)
     if not hinge:
         return system.replace(C=C)
-    modes = modal_analysis(system.M, Kc)
+    B = system.hinge_matrix()
+    C = C + hinge_damper(system, zeta, kn, hinge) * (B @ B.T)
+    return system.replace(C=0.5 * (C + C.T))
+
+
+def hinge_damper(system, zeta: float, kn: float, share: float) -> float:
+    """The damper across each hinge [N m s/rad] that carries the share ``share`` of the lowest
+    closed mode's ratio ``zeta`` at ``kn``: ``2 share zeta w_1 / sum_j (b_j^T phi_1)^2``
+    (:func:`damped_system`)."""
+    modes = modal_analysis(system.M, system.closed_stiffness(kn))
     w = 2 * np.pi * modes.frequencies_hz
     first = int(np.flatnonzero(w ** 2 > 1e-9 * float(np.max(w ** 2)))[0])  # mechanisms apart
-    B = system.hinge_matrix()
-    turn = float(np.sum((B.T @ modes.shapes[:, first]) ** 2))
-    C = C + (2 * hinge * zeta * w[first] / turn) * (B @ B.T)
-    return system.replace(C=0.5 * (C + C.T))
+    turn = float(np.sum((system.hinge_matrix().T @ modes.shapes[:, first]) ** 2))
+    return 2 * share * zeta * w[first] / turn
+
+
+def contact_dampers(system, zeta: float, kn: float, contact: float):
+    """Each hinge's damper acting only in contact [N m s/rad] (``simulate_sweeps``'s
+    ``contact_damping``) of :func:`damped_system`'s ``contact`` share; None at 0."""
+    if not contact:
+        return None
+    return np.full(system.n_hinges, hinge_damper(system, zeta, kn, contact))
 
 
 def damping_mode(system, damping) -> tuple[str, float | None]:

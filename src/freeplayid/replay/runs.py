@@ -91,7 +91,8 @@ def replay_excitations(dataset, sweeps: dict, wide=()) -> tuple[dict, dict]:
 
 def replay_dataset(dataset, system, kn: float, delta: float, *, levels: dict | None = None,
                    sweeps: dict | None = None, excitations: dict | None = None, dtype=None,
-                   engine: str | None = None, gap_shares=None, passband: float | None = None):
+                   engine: str | None = None, gap_shares=None, passband: float | None = None,
+                   contact_damping=None):
     """The data set's usable runs simulated at (kn, delta): a data set of the same layout.
 
     Runs sharing a sweep law are simulated in one batch; a run with a measured excitation
@@ -107,7 +108,8 @@ def replay_dataset(dataset, system, kn: float, delta: float, *, levels: dict | N
     decimating filter's flat band over the sample rate (``simulate_sweeps``'s
     ``antialias_passband``; None: the simulator's default, 0.3). The data set's ``gravity_g``
     (a vertical shaker) is replayed as the constant load it is (``simulate_sweeps``'s
-    ``static_g``).
+    ``static_g``). ``contact_damping``: each hinge's damper acting only in contact [N m s/rad]
+    (``simulate_sweeps``'s; None: none).
     """
     # the simulator (torch) only when a replay runs: `import freeplayid.identification` stays
     # light for a notebook that reads results
@@ -139,7 +141,7 @@ def replay_dataset(dataset, system, kn: float, delta: float, *, levels: dict | N
                               sample_rate=dataset.sample_rate,
                               dtype=torch.float64 if dtype is None else dtype, progress=False,
                               engine=engine, gap_shares=gap_shares,
-                              static_g=gravity,
+                              static_g=gravity, contact_damping=contact_damping,
                               **({} if passband is None else {"antialias_passband": passband}))
         ds = sweep_dataset(res, columns=dataset.channels, units=dataset.units, run_names=files)
         return [dataclasses.replace(r, sweep=hints[r.file],
