@@ -63,8 +63,9 @@
   left up to half its move on independent beams. It is estimated only with a base channel to
   replay: without one a level that drifts during the runs drifts the replayed peaks with the
   level as damping that rises with the mode does. There (``replay.damping_forms``, default on)
-  the binding is solved again under two other forms, damping rising with the mode (p = 1) and a
-  damper across each hinge (q = 0.5); the form whose replay meets the measured curves more
+  the binding is solved again under three other forms, damping rising with the mode (p = 1), a
+  damper across each hinge (q = 0.5) and one acting only in contact (qc, its share searched
+  along the curves); the form whose replay meets the measured curves more
   than 10 % nearer than one ratio's and than the other form's is reported, a form whose
   replay meets them within 10 % of the reported answer's is not ruled out by them (so where
   two forms meet them about as near, neither is taken and both count), and the check fails

@@ -635,14 +635,15 @@ class FormSensitivity:
 
     def nearest(self) -> FormAlternative | None:
         """The alternative to take instead of one ratio (this answer's form), or None: the one
-        whose replay meets the measured curves nearest, where its loop converged and its replay
+        whose replay meets the measured curves nearest, where its loop converged (or came as
+        near: ``FormAlternative.settled``) and its replay
         meets them more than :data:`FORM_FIT_NOISE` nearer than one ratio's *and* than every
         other alternative's. Where another form's replay meets them within that of the nearest,
         the curves cannot tell which form the damping has, so none is taken and both count (fin
         B with a damper at each hinge, no base channel: p = 1 0.56-0.61 times as far as one
         ratio, q = 0.5 1.05-1.08 times as far as p = 1; taking p = 1 left delta +1.0 / +1.5 %
         with the verdict `ok`; docs/results.md, session 74)."""
-        near = [a for a in self._clearly_nearer() if a.converged]
+        near = [a for a in self._clearly_nearer() if a.settled]
         if not near:
             return None
         best = min(near, key=lambda a: a.fit)
@@ -1975,12 +1976,14 @@ def _form_choice(b: _Binding, sol, progress: bool = False):
     excitation (``_fit_form`` does not estimate the form there) and neither p nor q given or
     estimated. Each of :data:`FORM_ALTERNATIVES` is solved from the answer with the loop's
     Jacobian (as the levels' move, :func:`_moved`, with zeta estimated again); the one whose
-    replay meets the measured curves nearest is chosen where it converged and met them nearer
-    than one ratio's by more than :data:`FORM_FIT_NOISE` (its binding settled at its
-    solution), and the moves are then from its answer; where another form's replay meets them
-    within :data:`FORM_FIT_NOISE` of the nearest (the curves cannot tell which form), none is
-    chosen. Each of :data:`FORM_PROBES` is solved too, listed and counted (where converged) but
-    never chosen. (None, None) where not asked."""
+    replay meets the measured curves nearest is chosen where it converged (or came within the
+    statistics' noise, ``FormAlternative.settled``) and met them nearer than one ratio's by
+    more than :data:`FORM_FIT_NOISE` (its binding settled at its solution), and the moves are
+    then from its answer; where another form's replay meets them within
+    :data:`FORM_FIT_NOISE` of the nearest (the curves cannot tell which form), none is chosen.
+    Each of :data:`FORM_PROBES` is solved too, listed and counted (where settled) but never
+    chosen; damping in contact's share is searched where it is indicated
+    (:func:`_contact_share`). (None, None) where not asked."""
     if b.source != "estimated" or b.test.excitations or not b.history or sol.u.size != 3:
         return None, None
     if b.exponent != 0.0 or b.hinge != 0.0 or b.contact != 0.0:
@@ -2038,21 +2041,22 @@ CONTACT_SHARE_TOL = 0.02
 
 def _contact_share(b: _Binding, sol, tried: list, progress: bool) -> list:
     """``tried`` with damping in contact's share qc searched along the curves, where qc = 0.5's
-    replay converged and met the measured curves more than :data:`FORM_FIT_NOISE` nearer than
-    one ratio's (the answer's, qc = 0): its share need not be the data's, and the answer moves
+    replay converged (or came as near, ``FormAlternative.settled``) and met the measured curves
+    more than :data:`FORM_FIT_NOISE` nearer than one ratio's (the answer's, qc = 0): its share
+    need not be the data's, and the answer moves
     with it (the realtests default fin with +2 % in contact on 3 %, a share of 0.4, no base
     channel: one ratio delta +2.3 %, qc = 0.5 -0.9 %, 0.35 -0.7 %, 0.65 -3.4 %, their replays'
     curves 4.8, 1.7, 1.0 and 2.5 times the nearest's). The curve misfit is bracketed at 0.25
     and, where 0.5 lies nearer than 0.25, 0.75 (then 0.95 where 0.75 is nearer still); the
     bracket about the nearest share is then halved :data:`CONTACT_HALVINGS` times (the shares
-    halfway to its neighbours solved). The nearest converged share stays a form (taken or
+    halfway to its neighbours solved). The nearest settled share stays a form (taken or
     counted as any other); every other share tried is a form between
     (``FormAlternative.probe``): counted where converged and its curves lie within
     :data:`FORM_FIT_NOISE` of the answer's (so where the curves cannot tell shares apart, their
     moves are in the intervals and ``damping_form``), never taken nor in another form's way."""
     half = next((a for a, _ in tried if a.form == "contact" and not a.probe), None)
     answer = _median(_curve_fits(b, b.rep))
-    if (half is None or not half.converged or half.fit is None or answer is None
+    if (half is None or not half.settled or half.fit is None or answer is None
             or not answer > 0 or half.fit * (1.0 + FORM_FIT_NOISE) >= answer):
         return tried
     curve = {0.0: answer, half.value: half.fit}
@@ -2065,7 +2069,7 @@ def _contact_share(b: _Binding, sol, tried: list, progress: bool) -> list:
         asked.add(q)
         alt, solved = _solve_form(b, sol, "contact", q, True, progress)
         tried.append((alt, solved))
-        if alt.converged and alt.fit is not None:
+        if alt.settled and alt.fit is not None:
             curve[q] = alt.fit
 
     low, high = CONTACT_SHARES
@@ -2081,7 +2085,7 @@ def _contact_share(b: _Binding, sol, tried: list, progress: bool) -> list:
             if 0 <= j < len(q):
                 solve(0.5 * (q[i] + q[j]))
     # the nearest converged share is the form; the others are forms between
-    shares = [a for a, _ in tried if a.form == "contact" and a.converged and a.fit is not None]
+    shares = [a for a, _ in tried if a.form == "contact" and a.settled and a.fit is not None]
     if not shares:
         return tried
     nearest = min(shares, key=lambda a: a.fit)
