@@ -1665,11 +1665,11 @@ def test_the_form_the_curves_lie_nearest_is_reported_where_the_test_cannot_read_
     """The p = 1 fin without its base channel (levels from `level_g`): the form is not
     estimated from the peaks' trend there, so the loop answers with one ratio (delta -0.5 %, kn
     -0.2 % here; the option off gives that answer to the bit) and the binding is solved again
-    under p = 1, q = 0.5 and qc = 0.5 (in contact only). p = 1 is the data's own form: its
+    under p = 1, q = 0.5 and qc = 0.5 and 0.25 (in contact only). p = 1 is the data's own form: its
     replay meets the measured curves ten times nearer than one ratio's (noise-free), so it is
     reported: within 0.25 % of the truth, nearer than one ratio's answer in both by at least
     half, its move from it the listed one's, and the diagnostics (the verdict, the report, the
-    damping) are of its replay. One ratio's, q = 0.5's and qc = 0.5's replays lie more than
+    damping) are of its replay. One ratio's, q = 0.5's and qc's replays lie more than
     1 + FORM_FIT_NOISE times as far: ruled out, no move in the intervals, the check passes."""
     from freeplayid.replay import FORM_FIT_NOISE
 
@@ -1691,7 +1691,7 @@ def test_the_form_the_curves_lie_nearest_is_reported_where_the_test_cannot_read_
         assert abs(res.truth_error[name]) < 0.5 * abs(off.truth_error[name]), name
     assert [(a.form, a.value, a.probe) for a in formed.alternatives] == [
         ("ratio", 0.0, False), ("hinge", 0.5, False), ("contact", 0.5, False),
-        ("exponent", 0.5, True)]
+        ("exponent", 0.5, True), ("contact", 0.25, True)]
     one = formed.alternatives[0]
     assert (one.kn_move, one.delta_move) == (-p1.kn_move, -p1.delta_move)
     assert formed.curve_ratio(one) > 5 and formed.answer_fit == p1.fit
@@ -1867,9 +1867,9 @@ def test_an_unconverged_form_is_not_ruled_out_by_its_closest_replay():
 
 
 def test_the_share_of_damping_in_contact_is_searched_along_the_curves(monkeypatch):
-    """Where qc = 0.5's replay meets the curves clearly nearer than one ratio's, the share is
-    bracketed (0.25, then 0.75 and 0.95 where the curves fall that way) and the bracket about
-    the nearest share halved twice; the nearest converged share is the form, every other share
+    """qc = 0.25 is tried beside 0.5; where either's replay meets the curves clearly nearer than
+    one ratio's, the share is bracketed (then 0.75 and 0.95 where the curves fall that way) and
+    the bracket about the nearest share halved twice; the nearest converged share is the form, every other share
     a form between (``probe``). Solves stubbed: a misfit |q - share| + 0.1 (V-shaped, as
     measured on the realtests fins) and the answer moving 10 % per unit share."""
     from freeplayid.replay import corrected
@@ -1898,14 +1898,25 @@ def test_the_share_of_damping_in_contact_is_searched_along_the_curves(monkeypatc
         assert abs(best.value - truth) <= 0.03, truth
         assert [a.probe for a in shares] == [a is not best for a in shares]
         assert [a for a, _ in out if a.form == "exponent"][0].probe is False
-    # qc = 0.5 not clearly nearer than one ratio's (a share of 0.15: 0.45 against 0.25):
-    # nothing searched
+    # a share between one ratio and 0.5 (0.15): 0.25 is always tried, and clearly nearer than
+    # one ratio, so the search goes on from it
     truth = 0.15
     one_ratio = truth + 0.1
     tried = [fake(None, None, "contact", 0.5, False, False)]
     solved.clear()
-    assert corrected._contact_share(types.SimpleNamespace(rep=None), None, tried, False) == tried
-    assert solved == []
+    out = corrected._contact_share(types.SimpleNamespace(rep=None), None, tried, False)
+    assert solved[0] == 0.25 and 0.75 not in solved
+    best = min((a for a, _ in out), key=lambda a: a.fit)
+    assert abs(best.value - truth) <= 0.03 and not best.probe
+    # one ratio the data's form: 0.25 tried, neither share clearly nearer, nothing searched;
+    # 0.25 a form between, 0.5 the form FORM_ALTERNATIVES lists
+    truth = 0.0
+    one_ratio = 0.1
+    tried = [fake(None, None, "contact", 0.5, False, False)]
+    solved.clear()
+    out = corrected._contact_share(types.SimpleNamespace(rep=None), None, tried, False)
+    assert solved == [0.25]
+    assert [(a.value, a.probe) for a, _ in out] == [(0.5, False), (0.25, True)]
 
 
 def test_a_form_the_data_cannot_tell_fails_the_check_beyond_the_bounds():

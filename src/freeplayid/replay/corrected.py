@@ -2040,27 +2040,31 @@ CONTACT_SHARE_TOL = 0.02
 
 
 def _contact_share(b: _Binding, sol, tried: list, progress: bool) -> list:
-    """``tried`` with damping in contact's share qc searched along the curves, where qc = 0.5's
-    replay converged (or came as near, ``FormAlternative.settled``) and met the measured curves
-    more than :data:`FORM_FIT_NOISE` nearer than one ratio's (the answer's, qc = 0): its share
-    need not be the data's, and the answer moves
-    with it (the realtests default fin with +2 % in contact on 3 %, a share of 0.4, no base
-    channel: one ratio delta +2.3 %, qc = 0.5 -0.9 %, 0.35 -0.7 %, 0.65 -3.4 %, their replays'
-    curves 4.8, 1.7, 1.0 and 2.5 times the nearest's). The curve misfit is bracketed at 0.25
-    and, where 0.5 lies nearer than 0.25, 0.75 (then 0.95 where 0.75 is nearer still); the
-    bracket about the nearest share is then halved :data:`CONTACT_HALVINGS` times (the shares
-    halfway to its neighbours solved). The nearest settled share stays a form (taken or
-    counted as any other); every other share tried is a form between
-    (``FormAlternative.probe``): counted where converged and its curves lie within
-    :data:`FORM_FIT_NOISE` of the answer's (so where the curves cannot tell shares apart, their
-    moves are in the intervals and ``damping_form``), never taken nor in another form's way."""
+    """``tried`` with damping in contact's share qc bracketed at 0.25 beside
+    :data:`FORM_ALTERNATIVES`' 0.5, and searched along the curves where either's replay
+    converged (or came as near, ``FormAlternative.settled``) and met the measured curves more
+    than :data:`FORM_FIT_NOISE` nearer than one ratio's (the answer's, qc = 0). The share need
+    not be the data's, and the answer moves with it: on the realtests default fin with +2 % in
+    contact on 3 % (a share of 0.4, no base channel) one ratio gave delta +2.3 %, qc = 0.5
+    -0.9 %, 0.35 -0.7 %, 0.65 -3.4 %, their replays' curves 4.8, 1.7, 1.0 and 2.5 times the
+    nearest's; with +1.2 % (a share of 0.29) qc = 0.5 met them 1.02 and 1.38 times as far as one
+    ratio's, whose answer was delta +0.9 / +1.2 %, so a share between must be tried too. Where
+    0.5 lies nearer than 0.25 the bracket goes on to 0.75 (then 0.95 where 0.75 is nearer
+    still); the bracket about the nearest share is then halved :data:`CONTACT_HALVINGS` times
+    (the shares halfway to its neighbours solved). The nearest settled share stays a form
+    (taken or counted as any other); every other share tried, 0.25 where nothing is searched,
+    is a form between (``FormAlternative.probe``): counted where settled and its curves lie
+    within :data:`FORM_FIT_NOISE` of the answer's (so where the curves cannot tell shares
+    apart, their moves are in the intervals and ``damping_form``), never taken nor in another
+    form's way."""
     half = next((a for a, _ in tried if a.form == "contact" and not a.probe), None)
     answer = _median(_curve_fits(b, b.rep))
-    if (half is None or not half.settled or half.fit is None or answer is None
-            or not answer > 0 or half.fit * (1.0 + FORM_FIT_NOISE) >= answer):
+    if half is None or answer is None or not answer > 0:
         return tried
-    curve = {0.0: answer, half.value: half.fit}
+    curve = {0.0: answer}
     asked = {0.0, half.value}
+    if half.settled and half.fit is not None:
+        curve[half.value] = half.fit
 
     def solve(q):
         q = round(float(q), 3)
@@ -2073,10 +2077,13 @@ def _contact_share(b: _Binding, sol, tried: list, progress: bool) -> list:
             curve[q] = alt.fit
 
     low, high = CONTACT_SHARES
-    solve(low)
-    if curve.get(low, math.inf) >= curve[half.value]:
+    solve(low)  # the bracket's other point: a share between may lie nearer than both ends
+    nearest = min(curve, key=curve.get)
+    if nearest == 0.0 or curve[nearest] * (1.0 + FORM_FIT_NOISE) >= answer:
+        return tried  # neither share is clearly nearer than one ratio: no share is searched
+    if curve.get(low, math.inf) >= curve.get(half.value, math.inf):
         solve(high)
-        if curve.get(high, math.inf) < curve[half.value]:
+        if curve.get(high, math.inf) < curve.get(half.value, math.inf):
             solve(CONTACT_SHARE_MAX)
     for _ in range(CONTACT_HALVINGS):
         q = sorted(curve)
