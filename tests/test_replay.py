@@ -1665,10 +1665,10 @@ def test_the_form_the_curves_lie_nearest_is_reported_where_the_test_cannot_read_
     """The p = 1 fin without its base channel (levels from `level_g`): the form is not
     estimated from the peaks' trend there, so the loop answers with one ratio (delta -0.5 %, kn
     -0.2 % here; the option off gives that answer to the bit) and the binding is solved again
-    under p = 1, q = 0.5 and qc = 0.5 and 0.25 (in contact only). p = 1 is the data's own form: its
-    replay meets the measured curves ten times nearer than one ratio's (noise-free), so it is
-    reported: within 0.25 % of the truth, nearer than one ratio's answer in both by at least
-    half, its move from it the listed one's, and the diagnostics (the verdict, the report, the
+    under p = 1, q = 0.5 and qc = 0.5 and 0.25 (in contact only). p = 1 is the data's own
+    form: its replay meets the measured curves ten times nearer than one ratio's (noise-free),
+    so it is reported: within 0.25 % of the truth, nearer than one ratio's answer in both by at
+    least half, its move from it the listed one's, and the diagnostics (the verdict, the report, the
     damping) are of its replay. One ratio's, q = 0.5's and qc's replays lie more than
     1 + FORM_FIT_NOISE times as far: ruled out, no move in the intervals, the check passes."""
     from freeplayid.replay import FORM_FIT_NOISE
@@ -1869,9 +1869,9 @@ def test_an_unconverged_form_is_not_ruled_out_by_its_closest_replay():
 def test_the_share_of_damping_in_contact_is_searched_along_the_curves(monkeypatch):
     """qc = 0.25 is tried beside 0.5; where either's replay meets the curves clearly nearer than
     one ratio's, the share is bracketed (then 0.75 and 0.95 where the curves fall that way) and
-    the bracket about the nearest share halved twice; the nearest converged share is the form, every other share
-    a form between (``probe``). Solves stubbed: a misfit |q - share| + 0.1 (V-shaped, as
-    measured on the realtests fins) and the answer moving 10 % per unit share."""
+    the bracket about the nearest share halved twice; the nearest converged share is the form,
+    every other share a form between (``probe``). Solves stubbed: a misfit |q - share| + 0.1
+    (V-shaped, as measured on the realtests fins) and the answer moving 10 % per unit share."""
     from freeplayid.replay import corrected
 
     solved = []
