@@ -117,9 +117,9 @@ class Replay:
         that the data cannot tell from it, from the answer with its loop's Jacobian: a damping
         that rises with the mode (exponent p = 1, as Rayleigh damping does above its lower
         anchor), a damper across each hinge carrying half the lowest closed mode's ratio
-        (q = 0.5), and such a damper acting only while the hinge is in contact (qc = 0.5, its
-        share then searched along the curves where they lie clearly nearer it than one
-        ratio's, the other shares tried counted as forms between)
+        (q = 0.5), and such a damper acting only while the hinge is in contact (qc = 0.5 and
+        0.25, the share then searched along the curves where they lie clearly nearer one of
+        them than one ratio's, the other shares tried counted as forms between)
         (:class:`freeplayid.replay.FormSensitivity`). The form whose replay meets
         the measured curves nearest is reported where it does so more than 10 % nearer than
         one ratio's and than the other form's (``FORM_FIT_NOISE``; two forms about as near:
@@ -131,7 +131,7 @@ class Replay:
         bounds (the answer then rests on a form the test does not measure). A form between,
         p = 0.5 (``FORM_PROBES``), is solved too and counts the same way where its loop
         converged, but is never taken (the curves do not locate a form between one ratio and
-        p = 1). Four more solves (a few replays each) on such tests only, up to ten where
+        p = 1). Five more solves (a few replays each) on such tests only, up to eleven where
         damping in contact is indicated. False: one ratio, not measured.
     precision_copies : int
         Noisy copies of the answer's replay that measure how far the test's noise alone moves
