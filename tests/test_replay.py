@@ -1882,7 +1882,6 @@ def test_the_share_of_damping_in_contact_is_searched_along_the_curves(monkeypatc
                                          fit=abs(value - truth) + 0.1, probe=probe), "solved"
 
     monkeypatch.setattr(corrected, "_solve_form", fake)
-    monkeypatch.setattr(corrected, "_curve_fits", lambda b, rep: {"run": one_ratio})
     # the last: the bound nearer than 0.75, then halved towards it
     for truth, want in ((0.4, [0.25, 0.75, 0.375, 0.625, 0.312, 0.438]),
                         (0.3, [0.25, 0.125, 0.375, 0.188, 0.312]),
@@ -1891,7 +1890,7 @@ def test_the_share_of_damping_in_contact_is_searched_along_the_curves(monkeypatc
         tried = [fake(None, None, "exponent", 1.0, False, False),
                  fake(None, None, "contact", 0.5, False, False)]
         solved.clear()
-        out = corrected._contact_share(types.SimpleNamespace(rep=None), None, tried, False)
+        out = corrected._contact_share(None, None, tried, one_ratio, False)
         assert solved == want, truth
         shares = [a for a, _ in out if a.form == "contact"]
         best = min(shares, key=lambda a: a.fit)
@@ -1904,7 +1903,7 @@ def test_the_share_of_damping_in_contact_is_searched_along_the_curves(monkeypatc
     one_ratio = truth + 0.1
     tried = [fake(None, None, "contact", 0.5, False, False)]
     solved.clear()
-    out = corrected._contact_share(types.SimpleNamespace(rep=None), None, tried, False)
+    out = corrected._contact_share(None, None, tried, one_ratio, False)
     assert solved[0] == 0.25 and 0.75 not in solved
     best = min((a for a, _ in out), key=lambda a: a.fit)
     assert abs(best.value - truth) <= 0.03 and not best.probe
@@ -1914,7 +1913,7 @@ def test_the_share_of_damping_in_contact_is_searched_along_the_curves(monkeypatc
     one_ratio = 0.1
     tried = [fake(None, None, "contact", 0.5, False, False)]
     solved.clear()
-    out = corrected._contact_share(types.SimpleNamespace(rep=None), None, tried, False)
+    out = corrected._contact_share(None, None, tried, one_ratio, False)
     assert solved == [0.25]
     assert [(a.value, a.probe) for a, _ in out] == [(0.5, False), (0.25, True)]
 

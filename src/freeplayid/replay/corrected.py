@@ -464,8 +464,6 @@ class DampingSensitivity(_Sensitivity):
 # the other half; ``damped_system``'s ``contact``, simulated by the exponential engine). None is
 # fitted: each is one the data cannot rule out
 FORM_ALTERNATIVES = (("exponent", 1.0), ("hinge", 0.5), ("contact", 0.5))
-# each form's symbol in the report (p and q are also estimated, FORM_PARAMETERS; qc is not)
-FORM_SYMBOLS = {"exponent": "p", "hinge": "q", "contact": "qc"}
 # forms between one ratio and those (the binding's attribute, its value) whose move counts but
 # which are never taken (``FormAlternative.probe``): on fin E with Rayleigh damping the curves
 # met p = 0.5's replay and p = 1's about equally near (0.79x / 0.79x one ratio's) with answers
@@ -1420,6 +1418,9 @@ FORM_PARAMETERS = {
 # each form parameter's attribute and the tolerance within which two replays hold the same
 # form (the binding's jumps are sought only between such replays, :mod:`.binding_jump`)
 FORM_ATOL = {f.attr: f.atol for f in FORM_PARAMETERS.values()}
+# each form's symbol in the report: the estimated ones' (p, q) and damping in contact's share,
+# which is searched, not estimated (``_contact_share``)
+FORM_SYMBOLS = {**{f.attr: f.symbol for f in FORM_PARAMETERS.values()}, "contact": "qc"}
 
 
 def _fit_form(b: _Binding, sol, progress: bool, form: _Form):
@@ -1993,8 +1994,8 @@ def _form_choice(b: _Binding, sol, progress: bool = False):
              + [(attr, value, True) for attr, value in FORM_PROBES])
     for attr, value, probe in forms:
         tried.append(_solve_form(b, sol, attr, value, probe, progress))
-    tried = _contact_share(b, sol, tried, progress)
     fits = _curve_fits(b, b.rep)
+    tried = _contact_share(b, sol, tried, _median(fits), progress)
     one = FormSensitivity(tuple(a for a, _ in tried), _median(fits), answer_fit_runs=fits)
     best = one.nearest()
     if best is None:
@@ -2039,11 +2040,13 @@ CONTACT_HALVINGS = 2
 CONTACT_SHARE_TOL = 0.02
 
 
-def _contact_share(b: _Binding, sol, tried: list, progress: bool) -> list:
+def _contact_share(b: _Binding, sol, tried: list, answer: float | None,
+                   progress: bool) -> list:
     """``tried`` with damping in contact's share qc bracketed at 0.25 beside
     :data:`FORM_ALTERNATIVES`' 0.5, and searched along the curves where either's replay
     converged (or came as near, ``FormAlternative.settled``) and met the measured curves more
-    than :data:`FORM_FIT_NOISE` nearer than one ratio's (the answer's, qc = 0). The share need
+    than :data:`FORM_FIT_NOISE` nearer than one ratio's (the answer's, qc = 0: its curve
+    misfit ``answer``, :func:`_curve_fits`' median). The share need
     not be the data's, and the answer moves with it: on the realtests default fin with +2 % in
     contact on 3 % (a share of 0.4, no base channel) one ratio gave delta +2.3 %, qc = 0.5
     -0.9 %, 0.35 -0.7 %, 0.65 -3.4 %, their replays' curves 4.8, 1.7, 1.0 and 2.5 times the
@@ -2058,7 +2061,6 @@ def _contact_share(b: _Binding, sol, tried: list, progress: bool) -> list:
     apart, their moves are in the intervals and ``damping_form``), never taken nor in another
     form's way."""
     half = next((a for a, _ in tried if a.form == "contact" and not a.probe), None)
-    answer = _median(_curve_fits(b, b.rep))
     if half is None or answer is None or not answer > 0:
         return tried
     curve = {0.0: answer}
@@ -2091,7 +2093,7 @@ def _contact_share(b: _Binding, sol, tried: list, progress: bool) -> list:
         for j in (i - 1, i + 1):
             if 0 <= j < len(q):
                 solve(0.5 * (q[i] + q[j]))
-    # the nearest converged share is the form; the others are forms between
+    # the nearest settled share is the form; the others are forms between
     shares = [a for a, _ in tried if a.form == "contact" and a.settled and a.fit is not None]
     if not shares:
         return tried
